@@ -1,0 +1,46 @@
+"""The `rsmbench` command line."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+
+def _demo() -> int:
+    """Until the runner lands: build a demo motion and print its identity checks."""
+    from scipy.interpolate import make_interp_spline
+
+    import motions
+
+    rng = np.random.default_rng(0)
+    t = np.arange(8.0)
+    q = motions.sign_continuity(rng.normal(size=(8, 4)))
+    sq = make_interp_spline(t, q, k=3)
+    sp = make_interp_spline(t, rng.normal(size=(8, 3)), k=3)
+    m = motions.RationalMotion.from_preimage(3, sq.t, sq.c, (3, sp.t, sp.c))
+    x = np.linspace(*m.domain, 10001)
+    r, _ = m.pose(x)
+    ortho = np.abs(r @ np.swapaxes(r, 1, 2) - np.eye(3)).max()
+    print(
+        f"demo motion: degree {m.degree}, preimage degree {m.preimage_degree}, {m.segments} segments"
+    )
+    print(
+        f"max |R R^T - I| over 10001 times: {ortho:.2e}; weights positive: {m.weights_positive().tolist()}"
+    )
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="rsmbench", description=__doc__)
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("run", help="run a benchmark suite (for now: a demo motion's identity checks)")
+    args = parser.parse_args(argv)
+    if args.command == "run":
+        return _demo()
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,125 @@
+"""Validation of public arguments (STYLE rule 2: validate once at the boundary).
+
+Messages name the argument in backticks, say what was expected and what was got.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "as_array",
+    "as_points",
+    "as_quaternions",
+    "as_rotations",
+    "as_times",
+    "check_choice",
+    "short",
+]
+
+
+def short(x: Any, limit: int = 6) -> str:
+    """A compact repr of an argument for error messages."""
+    try:
+        a = np.asarray(x)
+    except Exception:  # pragma: no cover - exotic objects
+        return repr(x)[:80]
+    if a.dtype == object or a.ndim == 0:
+        return repr(x)[:80]
+    flat = a.ravel()
+    body = np.array2string(flat[:limit], precision=6, separator=" ")
+    if flat.size > limit:
+        body = body[:-1] + " ...]"
+    return f"{body} (shape {a.shape})" if a.ndim > 1 else body
+
+
+def as_array(
+    x: Any, name: str, *, ndim: int | None = None, shape: tuple | None = None
+) -> np.ndarray:
+    """A finite float64 array; `shape` entries of -1 match any length."""
+    if isinstance(x, str | bytes) or x is None:
+        raise TypeError(f"Expected `{name}` to be an array of numbers, got {type(x).__name__}.")
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected `{name}` to be an array of numbers, got {short(x)}.") from None
+    if ndim is not None and a.ndim != ndim:
+        raise ValueError(f"Expected `{name}` to have {ndim} dimension(s), got shape {a.shape}.")
+    if shape is not None:
+        ok = a.ndim == len(shape) and all(s in (-1, n) for s, n in zip(shape, a.shape, strict=True))
+        if not ok:
+            want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
+            raise ValueError(f"Expected `{name}` to have shape {want}, got {a.shape}.")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"Expected `{name}` to be finite, got {short(a)}.")
+    return a
+
+
+def as_quaternions(x: Any, name: str = "quaternions") -> np.ndarray:
+    """Finite, non-zero quaternions, scalar first, shape (..., 4)."""
+    q = as_array(x, name)
+    if q.ndim == 0 or q.shape[-1] != 4:
+        raise ValueError(f"Expected `{name}` to have shape (..., 4) (w, x, y, z), got {q.shape}.")
+    norms = np.linalg.norm(q, axis=-1)
+    if np.any(norms <= 1e-300):
+        bad = np.argwhere(np.atleast_1d(norms) <= 1e-300)[0]
+        raise ValueError(
+            f"Expected `{name}` to be non-zero quaternions, got a zero one at index {tuple(bad.tolist())}."
+        )
+    return q
+
+
+ROTATION_TOL = 1e-6  # |R^T R - I| allowed in user-given rotation matrices
+
+
+def as_rotations(x: Any, name: str = "rotations") -> np.ndarray:
+    """Unit quaternions (N, 4), scalar first, from quaternions (N, 4) or matrices (N, 3, 3)."""
+    from .quaternion import quat_from_matrix
+
+    a = as_array(x, name)
+    if a.ndim == 2 and a.shape[1] == 4:
+        q = as_quaternions(a, name)
+        return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    if a.ndim == 3 and a.shape[1:] == (3, 3):
+        err = np.abs(np.einsum("nji,njk->nik", a, a) - np.eye(3)).max(axis=(1, 2))
+        det = np.linalg.det(a)
+        bad = np.flatnonzero((err > ROTATION_TOL) | (det <= 0))
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(
+                f"Expected `{name}` to be rotation matrices (R^T R = I within {ROTATION_TOL:g},"
+                f" det 1), got |R^T R - I| = {err[i]:.3g}, det = {det[i]:.6g} at index {i}."
+            )
+        return quat_from_matrix(a)
+    raise ValueError(
+        f"Expected `{name}` to have shape (N, 4) (quaternions w, x, y, z) or (N, 3, 3)"
+        f" (rotation matrices), got {a.shape}."
+    )
+
+
+def as_points(x: Any, name: str, n: int | None = None) -> np.ndarray:
+    """Finite points of shape (N, 3); `n` fixes N."""
+    p = as_array(x, name)
+    if p.ndim != 2 or p.shape[1] != 3 or (n is not None and p.shape[0] != n):
+        want = f"({n}, 3)" if n is not None else "(N, 3)"
+        raise ValueError(f"Expected `{name}` to have shape {want}, got {p.shape}.")
+    return p
+
+
+def as_times(x: Any, name: str = "times", n: int | None = None) -> np.ndarray:
+    """Strictly increasing finite times of shape (N,)."""
+    t = as_array(x, name, ndim=1)
+    if n is not None and t.size != n:
+        raise ValueError(f"Expected `{name}` to have {n} entries (one per keyframe), got {t.size}.")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError(f"Expected `{name}` to be strictly increasing, got {short(t, 8)}.")
+    return t
+
+
+def check_choice(value: Any, name: str, choices) -> str:
+    """`value` must be one of `choices` (strings)."""
+    if not isinstance(value, str) or value not in choices:
+        raise ValueError(f"Unknown `{name}` {value!r}; expected one of {sorted(choices)}.")
+    return value

@@ -1,0 +1,168 @@
+"""Quaternions and the kinematical mapping (seed §2–3).
+
+Quaternions are numpy arrays with the quaternion on the last axis, **scalar first**
+``(q0, q1, q2, q3) = (w, x, y, z)``, as in MuJoCo and the seed. The product is Hamilton's
+(seed eq. (11)).
+
+The kinematical image is seed eq. (19): ``U(Q) p = vec(Q * [0, p] * conj(Q))`` with
+``u0(Q) = |Q|^2`` and no division, so ``U(Q1 * Q2) = U(Q1) U(Q2)``. The seed's eqs. (14)
+and (17) put the conjugate on the left, which yields the transpose; we follow (19)
+(DESIGN §1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "U_TENSOR",
+    "U",
+    "qconj",
+    "qexp",
+    "qlog",
+    "qmul",
+    "qnorm",
+    "quat_from_matrix",
+    "rotation_matrix",
+    "sign_continuity",
+    "u0",
+]
+
+
+def qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton product ``p * q`` of quaternion stacks (..., 4), seed eq. (11)."""
+    p0, p1, p2, p3 = np.moveaxis(np.asarray(p), -1, 0)
+    q0, q1, q2, q3 = np.moveaxis(np.asarray(q), -1, 0)
+    return np.stack(
+        [
+            p0 * q0 - p1 * q1 - p2 * q2 - p3 * q3,
+            p0 * q1 + p1 * q0 + p2 * q3 - p3 * q2,
+            p0 * q2 - p1 * q3 + p2 * q0 + p3 * q1,
+            p0 * q3 + p1 * q2 - p2 * q1 + p3 * q0,
+        ],
+        axis=-1,
+    )
+
+
+def qconj(q: np.ndarray) -> np.ndarray:
+    """Conjugate ``[q0, -vec(q)]`` of a quaternion stack (..., 4)."""
+    q = np.asarray(q)
+    return np.concatenate([q[..., :1], -q[..., 1:]], axis=-1)
+
+
+def qnorm(q: np.ndarray) -> np.ndarray:
+    """Euclidean norm ``|Q| = sqrt(Q * conj(Q))``, shape (...)."""
+    return np.linalg.norm(q, axis=-1)
+
+
+def u0(q: np.ndarray) -> np.ndarray:
+    """Weight ``u0(Q) = |Q|^2`` of the kinematical image, seed eq. (19); shape (...)."""
+    q = np.asarray(q)
+    return np.einsum("...i,...i->...", q, q)
+
+
+def _u_tensor() -> np.ndarray:
+    """T with ``U(Q)[j, k] = sum_ab T[j, k, a, b] q_a q_b`` (symmetric in a, b)."""
+    t = np.zeros((3, 3, 4, 4))
+    e = np.eye(4)
+    for a in range(4):
+        for b in range(4):
+            # Polarisation of the quadratic map: U(e_a + e_b) - U(e_a) - U(e_b) = 2 T_ab.
+            t[:, :, a, b] = 0.5 * (_u_direct(e[a] + e[b]) - _u_direct(e[a]) - _u_direct(e[b]))
+    return t
+
+
+def _u_direct(q: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
+    """U(Q) entry by entry into a preallocated array (10 products, no nested stacks)."""
+    q = np.asarray(q, dtype=float)
+    c = np.moveaxis(q, -1, 0)
+    if c.ndim > 1 and not c[0].flags.c_contiguous:
+        c = np.ascontiguousarray(c)  # contiguous component planes are much faster
+    q0, q1, q2, q3 = c
+    if scale is not None:
+        q0, q1, q2, q3 = q0 * scale, q1 * scale, q2 * scale, q3 * scale
+    out = np.empty(q.shape[:-1] + (3, 3))
+    a00, a11, a22, a33 = q0 * q0, q1 * q1, q2 * q2, q3 * q3
+    a01, a02, a03 = q0 * q1, q0 * q2, q0 * q3
+    a12, a13, a23 = q1 * q2, q1 * q3, q2 * q3
+    out[..., 0, 0] = a00 + a11 - a22 - a33
+    out[..., 1, 1] = a00 - a11 + a22 - a33
+    out[..., 2, 2] = a00 - a11 - a22 + a33
+    out[..., 0, 1] = 2 * (a12 - a03)
+    out[..., 1, 0] = 2 * (a12 + a03)
+    out[..., 0, 2] = 2 * (a13 + a02)
+    out[..., 2, 0] = 2 * (a13 - a02)
+    out[..., 1, 2] = 2 * (a23 - a01)
+    out[..., 2, 1] = 2 * (a23 + a01)
+    return out
+
+
+def U(q: np.ndarray) -> np.ndarray:
+    """Homogeneous rotation ``U(Q)`` of seed eq. (19), shape (..., 3, 3), degree 2 in Q.
+
+    ``U(Q) / u0(Q)`` is the rotation matrix; ``U(Q) p = vec(Q * [0, p] * conj(Q))``.
+    """
+    return _u_direct(q)
+
+
+U_TENSOR = _u_tensor()
+"""(3, 3, 4, 4): ``U(Q)[j, k] = einsum('jkab,a,b', U_TENSOR, Q, Q)``; polarises U."""
+
+
+def rotation_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix ``U(Q) / u0(Q)`` of quaternions (..., 4) of any non-zero norm."""
+    q = np.asarray(q, dtype=float)
+    return _u_direct(q, 1.0 / np.sqrt(u0(q)))
+
+
+def quat_from_matrix(r: np.ndarray) -> np.ndarray:
+    """Unit quaternions (..., 4), scalar first, of rotation matrices (..., 3, 3).
+
+    Seed eq. (9) in 0-based indices (DESIGN §1): the four rows
+    ``(1+R00+R11+R22, R21-R12, R02-R20, R10-R01)`` etc. are all proportional to q; the
+    row of largest norm is the best conditioned. The sign has ``q0 >= 0`` only when the
+    first row wins; use :func:`sign_continuity` for sequences.
+    """
+    r = np.asarray(r, dtype=float)
+    r00, r01, r02 = r[..., 0, 0], r[..., 0, 1], r[..., 0, 2]
+    r10, r11, r12 = r[..., 1, 0], r[..., 1, 1], r[..., 1, 2]
+    r20, r21, r22 = r[..., 2, 0], r[..., 2, 1], r[..., 2, 2]
+    rows = np.stack(
+        [
+            np.stack([1 + r00 + r11 + r22, r21 - r12, r02 - r20, r10 - r01], -1),
+            np.stack([r21 - r12, 1 + r00 - r11 - r22, r10 + r01, r02 + r20], -1),
+            np.stack([r02 - r20, r10 + r01, 1 - r00 + r11 - r22, r21 + r12], -1),
+            np.stack([r10 - r01, r02 + r20, r21 + r12, 1 - r00 - r11 + r22], -1),
+        ],
+        axis=-2,
+    )
+    norms = np.linalg.norm(rows, axis=-1)
+    best = np.argmax(norms, axis=-1)
+    q = np.take_along_axis(rows, best[..., None, None], axis=-2)[..., 0, :]
+    return q / np.take_along_axis(norms, best[..., None], axis=-1)
+
+
+def sign_continuity(q: np.ndarray) -> np.ndarray:
+    """Flip signs along a sequence (N, 4) so that ``<Q_i, Q_{i+1}> >= 0`` (seed eq. (30))."""
+    q = np.array(q, dtype=float, copy=True)
+    if q.shape[0] < 2:
+        return q
+    dots = np.einsum("ij,ij->i", q[1:], q[:-1])
+    flips = np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])
+    return q * flips[:, None]
+
+
+def qexp(v: np.ndarray) -> np.ndarray:
+    """Unit quaternion ``exp([0, v]) = [cos|v|, sin|v| v/|v|]`` for vectors (..., 3)."""
+    v = np.asarray(v, dtype=float)
+    a = np.linalg.norm(v, axis=-1)
+    return np.concatenate([np.cos(a)[..., None], np.sinc(a / np.pi)[..., None] * v], axis=-1)
+
+
+def qlog(q: np.ndarray) -> np.ndarray:
+    """Vector part (..., 3) of the logarithm of unit quaternions, angle in [0, pi]."""
+    q = np.asarray(q, dtype=float)
+    vn = np.linalg.norm(q[..., 1:], axis=-1)
+    a = np.arctan2(vn, q[..., 0])
+    # a / sin(a) written through sinc for a stable limit at a = 0.
+    return q[..., 1:] / np.sinc(a / np.pi)[..., None]

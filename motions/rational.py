@@ -1,0 +1,719 @@
+"""Spatial rational spline motions (seed §5, §6.1–6.4).
+
+A :class:`RationalMotion` holds its **piecewise Bézier** form on the true breakpoints:
+either the generating parts (preimage quaternion pieces ``Q``, plus origin pieces ``p``
+with ``v = u0 p``, or numerator pieces ``v``) or, when rebuilt from control matrices, the
+homogeneous control matrices alone. Poses are evaluated through the preimage when it is
+known (cheaper than the degree-n matrices, DESIGN §9).
+
+Matrix layout is weight last (DESIGN §1): ``M_h = [[U, v], [0, 0, 0, u0]]``. Seed index
+translation: seed ``m_{0,0}`` -> ``M[3, 3]``; ``m_{i,0}`` -> ``M[i-1, 3]``; ``m_{i,j}`` ->
+``M[i-1, j-1]``.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+from scipy.interpolate import BPoly, PPoly
+
+from ._checks import as_array, as_quaternions, short
+from .bernstein import (
+    bezier_derivative,
+    bezier_eval,
+    bezier_product,
+    bezier_product_weights,
+    bspline_bezier_pieces,
+    de_casteljau_split,
+    elevate,
+)
+from .errors import DegenerateMotionError, MotionError
+from .motion import Motion, skew, vee
+from .quaternion import U_TENSOR, qconj, qmul, rotation_matrix
+
+__all__ = ["WEIGHT_REL_TOL", "RationalMotion", "bezier_minimum"]
+
+WEIGHT_REL_TOL = 1e-12
+"""Bézier weights must exceed this fraction of the largest weight (DESIGN §2.4)."""
+MAX_WEIGHT_SPLIT_DEPTH = 30
+_CHUNK = 32768  # times per evaluation chunk: temporaries stay in cache
+FROM_BEZIER_TOL = 1e-10  # relative orthogonality / continuity check of from_bezier
+
+
+def _ppoly(pieces: np.ndarray, breaks: np.ndarray) -> PPoly:
+    """PPoly (local power basis, fast Horner evaluation) of Bézier pieces (S, k+1, ...)."""
+    return PPoly.from_bernstein_basis(BPoly(np.moveaxis(pieces, 1, 0), breaks))
+
+
+def bezier_minimum(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Minimum value and its parameter of scalar Bézier polynomials c (S, n+1) on [0, 1].
+
+    Candidates are the ends and the real roots of the derivative in (0, 1) (companion
+    eigenvalues), so the minimum is exact up to round-off.
+    """
+    c = np.asarray(c, dtype=float)
+    s_count, n1 = c.shape
+    cand = [np.zeros((s_count, 1)), np.ones((s_count, 1))]
+    if n1 > 2:
+        # Power coefficients of the derivative (degree n-1), highest first, via sampling.
+        dc = bezier_derivative(c, axis=1)
+        m = dc.shape[1] - 1
+        if m >= 1:
+            u = np.linspace(0.0, 1.0, m + 1)
+            vals = bezier_eval(dc, u, axis=1).T if dc.ndim == 2 else None  # (S, m+1)
+            vander = np.vander(u, m + 1)
+            coef = np.linalg.solve(vander, vals.T).T  # (S, m+1) highest power first
+            lead = coef[:, 0]
+            ok = np.abs(lead) > 1e-14 * np.abs(coef).max(axis=1).clip(1e-300)
+            roots = np.full((s_count, m), 0.0)
+            if np.any(ok):
+                comp = np.zeros((int(ok.sum()), m, m))
+                comp[:, 0, :] = -coef[ok, 1:] / lead[ok, None]
+                if m > 1:
+                    comp[:, np.arange(1, m), np.arange(m - 1)] = 1.0
+                ev = np.linalg.eigvals(comp)
+                real = np.abs(ev.imag) < 1e-9
+                r = np.where(real, ev.real, 0.0)
+                roots[ok] = np.clip(r, 0.0, 1.0)
+            if np.any(~ok):
+                # Degenerate leading coefficient: fall back to a dense sample.
+                dense = np.linspace(0.0, 1.0, m + 1)
+                roots[~ok] = np.resize(dense, m)
+            cand.append(roots)
+    u = np.concatenate(cand, axis=1)  # (S, C)
+    vals = np.einsum("sck,sk->sc", _basis(n1 - 1, u), c)
+    i = np.argmin(vals, axis=1)
+    return vals[np.arange(s_count), i], u[np.arange(s_count), i]
+
+
+def _basis(n: int, u: np.ndarray) -> np.ndarray:
+    from .bernstein import bernstein_basis
+
+    return bernstein_basis(n, u)
+
+
+def _restrict(c: np.ndarray, u0: np.ndarray, u1: np.ndarray, axis: int = 1) -> np.ndarray:
+    """Bézier pieces (B, ..., n+1 on `axis`, ...) restricted to [u0, u1] per batch entry."""
+    left, _ = de_casteljau_split(c, u1, axis=axis)
+    frac = np.where(u1 > 0, u0 / np.where(u1 > 0, u1, 1.0), 0.0)
+    _, right = de_casteljau_split(left, frac, axis=axis)
+    return right
+
+
+class RationalMotion(Motion):
+    """A rational spline motion in piecewise Bézier form (seed §6.1, eq. (25)).
+
+    Build it with :meth:`from_preimage` or :meth:`from_bezier` (or the interpolation
+    functions); the constructor is internal.
+
+    Attributes:
+        breaks: (S+1,) true breakpoints.
+        degree: n, polynomial degree of the entries of ``M_h``.
+        preimage_degree: d, the degree of the quaternion preimage (None when rebuilt from
+            control matrices); the spherical part has degree 2d.
+    """
+
+    scheme = "rational"
+
+    def __init__(
+        self,
+        breaks: np.ndarray,
+        *,
+        preimage: np.ndarray | None = None,
+        origin: np.ndarray | None = None,
+        numerator: np.ndarray | None = None,
+        ctrl: np.ndarray | None = None,
+        keyframe_times: np.ndarray | None = None,
+    ):
+        breaks = np.asarray(breaks, dtype=float)
+        kt = np.empty(0) if keyframe_times is None else np.asarray(keyframe_times, dtype=float)
+        super().__init__((breaks[0], breaks[-1]), kt)
+        self._breaks = breaks
+        self._q = preimage
+        self._p = origin
+        self._v = numerator
+        self._ctrl = ctrl
+        self._pp = None
+        if preimage is None and ctrl is None:
+            raise MotionError("A RationalMotion needs preimage pieces or control matrices.")
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_preimage(
+        cls,
+        degree: int,
+        knots: Any,
+        quaternions: Any,
+        origin: tuple | None = None,
+        *,
+        numerator: tuple | None = None,
+        keyframe_times: Any = None,
+    ) -> RationalMotion:
+        """Rational motion of a quaternion B-spline preimage (seed §5, eq. (25)).
+
+        Args:
+            degree: d, degree of the preimage B-spline ``Q(t)``.
+            knots: full clamped knot vector (K,), non-decreasing.
+            quaternions: (K - d - 1, 4) control quaternions, scalar first, any norm.
+            origin: None (origin stays at 0) or ``(degree_o, knots_o, points_o (m, 3))``: a
+                B-spline ``p(t)`` on the same domain, combined as ``v = u0 p``.
+            numerator: ``(degree_v, knots_v, coeffs (m, 3))``: ``v(t)`` directly, so that
+                the origin is ``v / u0``. Exclusive with `origin`.
+            keyframe_times: optional (N,) times reported by :attr:`keyframe_times`.
+
+        Returns:
+            The motion; degree 2d + degree_o (origin), max(2d, degree_v) (numerator) or 2d.
+        """
+        d, t = _check_bspline(degree, knots, "degree", "knots")
+        q = as_quaternions(quaternions, "quaternions")
+        if q.ndim != 2 or q.shape[0] != t.size - d - 1:
+            raise ValueError(
+                f"Expected `quaternions` to have shape ({t.size - d - 1}, 4) for degree {d} and"
+                f" {t.size} knots, got {q.shape}."
+            )
+        if origin is not None and numerator is not None:
+            raise ValueError("`origin` and `numerator` are mutually exclusive; got both.")
+        trans = None
+        for name, spec in (("origin", origin), ("numerator", numerator)):
+            if spec is None:
+                continue
+            if not isinstance(spec, tuple | list) or len(spec) != 3:
+                raise TypeError(
+                    f"Expected `{name}` to be a tuple (degree, knots, points), got {short(spec)}."
+                )
+            dk, tk = _check_bspline(spec[0], spec[1], f"{name}[0]", f"{name}[1]")
+            pts = as_array(spec[2], f"{name}[2]")
+            if pts.ndim != 2 or pts.shape != (tk.size - dk - 1, 3):
+                raise ValueError(
+                    f"Expected `{name}[2]` to have shape ({tk.size - dk - 1}, 3) for degree {dk} and"
+                    f" {tk.size} knots, got {pts.shape}."
+                )
+            if tk[0] != t[0] or tk[-1] != t[-1]:
+                raise ValueError(
+                    f"Expected `{name}` on the preimage's domain [{t[0]!r}, {t[-1]!r}],"
+                    f" got [{tk[0]!r}, {tk[-1]!r}]."
+                )
+            trans = (name, dk, tk, pts)
+        breaks = np.unique(t)
+        if trans is not None:
+            breaks = np.unique(np.concatenate([breaks, trans[2]]))
+        qb = bspline_bezier_pieces(t, q, d, breaks)
+        kwargs: dict[str, np.ndarray] = {}
+        if trans is not None:
+            kwargs[trans[0]] = bspline_bezier_pieces(trans[2], trans[3], trans[1], breaks)
+        kt = None if keyframe_times is None else as_array(keyframe_times, "keyframe_times", ndim=1)
+        return cls(breaks, preimage=qb, keyframe_times=kt, **kwargs)
+
+    @classmethod
+    def from_bezier(cls, breaks: Any, ctrl: Any, *, keyframe_times: Any = None) -> RationalMotion:
+        """Rebuild a motion from homogeneous control matrices (output of :meth:`bezier_form`).
+
+        Args:
+            breaks: (S+1,) strictly increasing breakpoints.
+            ctrl: (S, n+1, 4, 4) control matrices ``[[A, b], [0, 0, 0, w]]``.
+
+        Raises:
+            ValueError: if the last row is not ``(0, 0, 0, w)``, if ``A A^T != w^2 I`` at
+                sample points (relative 1e-10), or if the motion is not continuous.
+        """
+        br = as_array(breaks, "breaks", ndim=1)
+        if br.size < 2 or np.any(np.diff(br) <= 0):
+            raise ValueError(
+                f"Expected `breaks` to be strictly increasing with >= 2 entries, got {short(br, 8)}."
+            )
+        c = as_array(ctrl, "ctrl")
+        if c.ndim != 4 or c.shape[0] != br.size - 1 or c.shape[2:] != (4, 4) or c.shape[1] < 1:
+            raise ValueError(
+                f"Expected `ctrl` to have shape ({br.size - 1}, n+1, 4, 4), got {c.shape}."
+            )
+        scale = np.abs(c).max()
+        if scale == 0:
+            raise ValueError("Expected `ctrl` to be non-zero, got all zeros.")
+        if np.abs(c[:, :, 3, :3]).max() > FROM_BEZIER_TOL * scale:
+            raise ValueError(
+                "Expected the last row of every control matrix in `ctrl` to be (0, 0, 0, w),"
+                f" got off-diagonal entries up to {np.abs(c[:, :, 3, :3]).max():.3g}."
+            )
+        u = np.linspace(0.0, 1.0, 2 * c.shape[1] + 1)
+        m = np.moveaxis(bezier_eval(c, u, axis=1), 0, 1)  # (S, U, 4, 4)
+        w = m[..., 3, 3]
+        if np.any(np.abs(w) <= 1e-300):
+            raise ValueError(
+                "Expected the weights of `ctrl` to be non-zero at sample points, got 0."
+            )
+        a = m[..., :3, :3]
+        err = np.abs(a @ np.swapaxes(a, -1, -2) / (w**2)[..., None, None] - np.eye(3)).max()
+        if err > FROM_BEZIER_TOL:
+            raise ValueError(
+                f"Expected `ctrl` to describe rigid motions (A A^T = w^2 I within {FROM_BEZIER_TOL:g}"
+                f" relative), got an error of {err:.3g}."
+            )
+        cart = m[..., :3, :] / w[..., None, None]
+        if c.shape[0] > 1:
+            jump = np.abs(cart[1:, 0] - cart[:-1, -1]).max()
+            if jump > FROM_BEZIER_TOL * (1 + np.abs(cart).max()):
+                raise ValueError(
+                    f"Expected `ctrl` to be continuous across `breaks`, got a jump of {jump:.3g}."
+                )
+        kt = None if keyframe_times is None else as_array(keyframe_times, "keyframe_times", ndim=1)
+        return cls(br, ctrl=c.copy(), keyframe_times=kt)
+
+    # ------------------------------------------------------------------ descriptors
+    @property
+    def breaks(self) -> np.ndarray:
+        """(S+1,) breakpoints of the Bézier form."""
+        return self._breaks.copy()
+
+    @property
+    def breakpoints(self) -> np.ndarray:
+        return self._breaks
+
+    @property
+    def segments(self) -> int:
+        """S, the number of Bézier segments."""
+        return self._breaks.size - 1
+
+    @property
+    def preimage_degree(self) -> int | None:
+        """d, degree of the quaternion preimage (None if built from control matrices)."""
+        return None if self._q is None else self._q.shape[1] - 1
+
+    @property
+    def degree(self) -> int:
+        """n, the polynomial degree of the entries of ``M_h`` (DESIGN §2.3)."""
+        if self._ctrl is not None:
+            return self._ctrl.shape[1] - 1
+        d2 = 2 * (self._q.shape[1] - 1)
+        if self._p is not None:
+            return d2 + self._p.shape[1] - 1
+        if self._v is not None:
+            return max(d2, self._v.shape[1] - 1)
+        return d2
+
+    @property
+    def preimage_pieces(self) -> np.ndarray | None:
+        """(S, d+1, 4) Bézier control quaternions of the preimage per segment, or None."""
+        return None if self._q is None else self._q.copy()
+
+    @property
+    def ctrl(self) -> np.ndarray:
+        """(S, n+1, 4, 4) homogeneous control matrices (computed once, read-only)."""
+        if self._ctrl is None:
+            self._ctrl = _control_matrices(self._q, self._p, self._v)
+            self._ctrl.setflags(write=False)
+        return self._ctrl
+
+    def bezier_form(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(breaks (S+1,), ctrl (S, n+1, 4, 4))``, exact control matrices (eq. (27)–(28)).
+
+        On segment s with ``u = (t - breaks[s]) / (breaks[s+1] - breaks[s])``,
+        ``M_h(t) = sum_i B_i^n(u) ctrl[s, i]`` and ``matrix(t) = M_h / M_h[3, 3]``.
+        """
+        return self._breaks.copy(), np.array(self.ctrl)
+
+    # ------------------------------------------------------------------ evaluation
+    def _evaluator(self) -> PPoly:
+        if self._pp is None:
+            if self._q is not None:
+                parts = [self._q]
+                trans = self._p if self._p is not None else self._v
+                if trans is not None:
+                    k = max(self._q.shape[1], trans.shape[1]) - 1
+                    parts = [
+                        elevate(self._q, k - self._q.shape[1] + 1, axis=1),
+                        elevate(trans, k - trans.shape[1] + 1, axis=1),
+                    ]
+                self._pp = _ppoly(np.concatenate(parts, axis=2), self._breaks)
+            else:
+                c = self.ctrl
+                flat = np.concatenate(
+                    [c[:, :, :3, :].reshape(c.shape[0], c.shape[1], 12), c[:, :, 3:, 3]], axis=2
+                )
+                self._pp = _ppoly(flat, self._breaks)
+        return self._pp
+
+    def _kinematics(self, t: np.ndarray, order: int) -> tuple[np.ndarray, ...]:
+        if self._q is not None:
+            return self._kin_preimage(t, order)
+        return self._kin_matrix(t, order)
+
+    def pose(self, t: Any, *, threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """Rotation (..., 3, 3) and origin (..., 3) at `t`, through the preimage.
+
+        Large batches are evaluated in cache-sized chunks; ``threads > 1`` spreads the
+        chunks over Python threads (numpy and scipy release the GIL).
+        """
+        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+            raise ValueError(f"Expected `threads` to be a positive integer, got {threads!r}.")
+        tt, shape = self._check_t(t)
+        r = np.empty((tt.size, 3, 3))
+        p = np.empty((tt.size, 3))
+        starts = range(0, tt.size, _CHUNK)
+
+        def work(first: int) -> None:
+            for i in starts[first::threads]:
+                r[i : i + _CHUNK], p[i : i + _CHUNK] = self._kinematics(tt[i : i + _CHUNK], 0)
+
+        if threads == 1 or tt.size <= _CHUNK:
+            work(0)
+        else:
+            with ThreadPoolExecutor(threads) as pool:
+                list(pool.map(work, range(threads)))
+        return r.reshape(shape + (3, 3)), p.reshape(shape + (3,))
+
+    def _kin_preimage(self, t: np.ndarray, order: int):
+        pp = self._evaluator()
+        f = pp(t)
+        q = f[:, :4]
+        n2 = np.einsum("ti,ti->t", q, q)
+        r = rotation_matrix(q)
+        mode = "p" if self._p is not None else ("v" if self._v is not None else None)
+        p = (
+            f[:, 4:7]
+            if mode == "p"
+            else (f[:, 4:7] / n2[:, None] if mode == "v" else np.zeros((t.size, 3)))
+        )
+        if order == 0:
+            return r, p
+        f1 = pp(t, 1)
+        q1 = f1[:, :4]
+        dn2 = 2.0 * np.einsum("ti,ti->t", q, q1)
+        w = 2.0 * qmul(q1, qconj(q))[:, 1:] / n2[:, None]
+        if mode == "p":
+            v = f1[:, 4:7]
+        elif mode == "v":
+            v = (f1[:, 4:7] - p * dn2[:, None]) / n2[:, None]
+        else:
+            v = np.zeros_like(p)
+        if order == 1:
+            return r, p, w, v
+        f2 = pp(t, 2)
+        q2 = f2[:, :4]
+        wd = 2.0 * qmul(q2, qconj(q))[:, 1:] / n2[:, None] - w * (dn2 / n2)[:, None]
+        if mode == "p":
+            a = f2[:, 4:7]
+        elif mode == "v":
+            ddn2 = 2.0 * (np.einsum("ti,ti->t", q1, q1) + np.einsum("ti,ti->t", q, q2))
+            a = (f2[:, 4:7] - 2.0 * v * dn2[:, None] - p * ddn2[:, None]) / n2[:, None]
+        else:
+            a = np.zeros_like(p)
+        return r, p, w, v, wd, a
+
+    def _kin_matrix(self, t: np.ndarray, order: int):
+        pp = self._evaluator()
+
+        def split(f):
+            m = f[:, :12].reshape(-1, 3, 4)
+            return m[:, :, :3], m[:, :, 3], f[:, 12]
+
+        a0, b0, w0 = split(pp(t))
+        r = a0 / w0[:, None, None]
+        p = b0 / w0[:, None]
+        if order == 0:
+            return r, p
+        a1, b1, w1 = split(pp(t, 1))
+        r1 = (a1 - r * w1[:, None, None]) / w0[:, None, None]
+        p1 = (b1 - p * w1[:, None]) / w0[:, None]
+        rt = np.swapaxes(r, 1, 2)
+        w = vee(r1 @ rt)
+        if order == 1:
+            return r, p, w, p1
+        a2, b2, w2 = split(pp(t, 2))
+        r2 = (a2 - 2.0 * r1 * w1[:, None, None] - r * w2[:, None, None]) / w0[:, None, None]
+        p2 = (b2 - 2.0 * p1 * w1[:, None] - p * w2[:, None]) / w0[:, None]
+        wd = vee((r2 - skew(w) @ r1) @ rt)
+        return r, p, w, p1, wd, p2
+
+    # ------------------------------------------------------------------ subdivision
+    def _locate(self, t: float) -> tuple[int, float]:
+        s = int(np.clip(np.searchsorted(self._breaks, t, side="right") - 1, 0, self.segments - 1))
+        h = self._breaks[s + 1] - self._breaks[s]
+        return s, (t - self._breaks[s]) / h
+
+    def split(self, t: Any) -> tuple[RationalMotion, RationalMotion]:
+        """Split at `t` (seed §6.4) into two motions that evaluate like this one.
+
+        De Casteljau on the homogeneous pieces (linear, exact up to round-off).
+        """
+        tt, shape = self._check_t(t)
+        if tt.size != 1:
+            raise ValueError(f"Expected a scalar `t`, got shape {shape}.")
+        tv = float(tt[0])
+        t0, t1 = self._domain
+        if not t0 < tv < t1:
+            raise ValueError(
+                f"Expected `t` strictly inside the domain ({t0!r}, {t1!r}), got {tv!r}."
+            )
+        s, u = self._locate(tv)
+        at_break = u == 0.0
+        kt = self._keyframe_times
+
+        def cut(pieces):
+            if pieces is None:
+                return None, None
+            if at_break:
+                return pieces[:s], pieces[s:]
+            left, right = de_casteljau_split(pieces[s], u, axis=0)
+            return (
+                np.concatenate([pieces[:s], left[None]], axis=0),
+                np.concatenate([right[None], pieces[s + 1 :]], axis=0),
+            )
+
+        if at_break:
+            bl, brr = self._breaks[: s + 1], self._breaks[s:]
+        else:
+            bl = np.concatenate([self._breaks[: s + 1], [tv]])
+            brr = np.concatenate([[tv], self._breaks[s + 1 :]])
+        out = []
+        parts = {
+            k: cut(v)
+            for k, v in (("preimage", self._q), ("origin", self._p), ("numerator", self._v))
+        }
+        ctrl = cut(self._ctrl)
+        for side, br in ((0, bl), (1, brr)):
+            kw = {k: v[side] for k, v in parts.items()}
+            keep = kt[(kt >= br[0]) & (kt <= br[-1])]
+            out.append(type(self)(br, ctrl=ctrl[side], keyframe_times=keep, **kw))
+        return out[0], out[1]
+
+    # ------------------------------------------------------------------ control structures
+    def weights(self) -> np.ndarray:
+        """(S, n+1) Bézier weights ``ctrl[s, i, 3, 3]``."""
+        return np.array(self.ctrl[:, :, 3, 3])
+
+    def weights_positive(self, rel_tol: float = WEIGHT_REL_TOL) -> np.ndarray:
+        """(S,) True where every Bézier weight exceeds ``rel_tol * max |w|`` (seed §6.3)."""
+        w = self.weights()
+        return np.all(w > rel_tol * np.abs(w).max(), axis=1)
+
+    def weight_minimum(self) -> tuple[np.ndarray, np.ndarray]:
+        """Exact minimum of the weight ``M_h[3, 3]`` per segment: (values (S,), times (S,))."""
+        vals, u = bezier_minimum(self.ctrl[:, :, 3, 3])
+        h = np.diff(self._breaks)
+        return vals, self._breaks[:-1] + u * h
+
+    def split_positive(
+        self, rel_tol: float = WEIGHT_REL_TOL, max_depth: int = MAX_WEIGHT_SPLIT_DEPTH
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Split segments until every Bézier weight is positive (seed §6.3).
+
+        Returns:
+            intervals (P, 2) time intervals, ctrl (P, n+1, 4, 4) control matrices on them,
+            and source (P,) the segment each piece came from. Pieces are in time order.
+
+        Raises:
+            DegenerateMotionError: if the weight vanishes (u0 has a root) on a segment, or
+                positivity is not reached within `max_depth` halvings.
+        """
+        ctrl = np.array(self.ctrl)
+        wmax = np.abs(ctrl[:, :, 3, 3]).max()
+        thr = rel_tol * wmax
+        lo = self._breaks[:-1].copy()
+        hi = self._breaks[1:].copy()
+        src = np.arange(self.segments)
+        done_i, done_c, done_s = [], [], []
+        for _depth in range(max_depth + 1):
+            w = ctrl[:, :, 3, 3]
+            good = np.all(w > thr, axis=1)
+            done_i.append(np.stack([lo[good], hi[good]], 1))
+            done_c.append(ctrl[good])
+            done_s.append(src[good])
+            bad = ~good
+            if not np.any(bad):
+                break
+            ctrl, lo, hi, src = ctrl[bad], lo[bad], hi[bad], src[bad]
+            ends = np.minimum(ctrl[:, 0, 3, 3], ctrl[:, -1, 3, 3])
+            if np.any(ends <= thr):
+                i = int(np.argmin(ends))
+                tbad = lo[i] if ctrl[i, 0, 3, 3] <= thr else hi[i]
+                raise DegenerateMotionError(
+                    f"The motion's weight u0 vanishes (u0 <= {rel_tol:g} * max) at t = {tbad!r}"
+                    f" on segment {int(src[i])}; its control structure is unbounded there."
+                )
+            left, right = de_casteljau_split(ctrl, 0.5, axis=1)
+            mid = 0.5 * (lo + hi)
+            ctrl = np.concatenate([left, right])
+            lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
+            src = np.concatenate([src, src])
+        else:
+            raise DegenerateMotionError(
+                f"Bézier weights of segment(s) {sorted(set(src.tolist()))} stay non-positive after"
+                f" {max_depth} halvings; u0 has a root or a near-root there."
+            )
+        iv = np.concatenate(done_i)
+        order = np.argsort(iv[:, 0], kind="stable")
+        return iv[order], np.concatenate(done_c)[order], np.concatenate(done_s)[order]
+
+    def affine_control_structure(self) -> tuple[np.ndarray, np.ndarray]:
+        """Affine control and Farin positions (seed §6.3) as (S, n+1, 3, 4) and (S, n, 3, 4).
+
+        Each is the affine map ``x -> (A x + b) / w`` of a control matrix ``C_i`` (resp.
+        ``C_i + C_{i+1}``). Requires non-zero weights.
+        """
+        c = self.ctrl
+        f = c[:, :-1] + c[:, 1:]
+        return c[..., :3, :] / c[..., 3:, 3:], f[..., :3, :] / f[..., 3:, 3:]
+
+    def intrinsic_control_structure(self) -> tuple[np.ndarray, np.ndarray]:
+        """Control and Farin positions of the spherical part (seed §5, eq. (22)).
+
+        Returns rotation matrices ``U(B_i)/u0(B_i)`` (S, d+1, 3, 3) and
+        ``U(B_i + B_{i+1})/u0(...)`` (S, d, 3, 3).
+        """
+        if self._q is None:
+            raise MotionError(
+                "This motion was built from control matrices; its preimage is unknown."
+            )
+        b = self._q
+        f = b[:, :-1] + b[:, 1:]
+        return rotation_matrix(b), rotation_matrix(f)
+
+    def point_trajectory(self, point: Any) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+        """NURBS trajectory of a body point (seed eq. (29)).
+
+        Returns:
+            (degree n, knots, control points (S n + 1, 3), weights (S n + 1,)); interior
+            knots have multiplicity n (the piecewise Bézier form as a B-spline).
+        """
+        x = as_array(point, "point", shape=(3,))
+        c = self.ctrl
+        h = c[..., :3, :3] @ x + c[..., :3, 3]  # (S, n+1, 3)
+        w = c[..., 3, 3]
+        # Segments may be scaled differently; rescale so that joints share weights.
+        scale = np.ones(self.segments)
+        for s in range(1, self.segments):
+            scale[s] = scale[s - 1] * w[s - 1, -1] / w[s, 0]
+        h = h * scale[:, None, None]
+        w = w * scale[:, None]
+        n = c.shape[1] - 1
+        pts = np.concatenate([h[0], *[hh[1:] for hh in h[1:]]])
+        ws = np.concatenate([w[0], *[ww[1:] for ww in w[1:]]])
+        knots = np.concatenate(
+            [
+                [self._breaks[0]] * (n + 1),
+                np.repeat(self._breaks[1:-1], n),
+                [self._breaks[-1]] * (n + 1),
+            ]
+        )
+        return n, knots, pts / ws[:, None], ws
+
+    # ------------------------------------------------------------------ bounds
+    def speed_bound(self, t0: float, t1: float, radius: float) -> float:
+        """Proven bound on the speed of every point within `radius` of the body origin.
+
+        From Bernstein coefficients: the velocity of body point x is
+        ``((A' w - A w') x + (b' w - b w')) / w^2``; the norm of a Bézier polynomial is at
+        most the largest coefficient norm, and ``w^2`` at least its smallest coefficient
+        (pieces are halved until that is positive).
+        """
+        a, b, r = self._check_interval(t0, t1, radius)
+        br = self._breaks
+        if b == a:
+            b = min(a + 1e-12 * (br[-1] - br[0]), br[-1])
+            a = b - 1e-12 * (br[-1] - br[0])
+        s0 = int(np.clip(np.searchsorted(br, a, side="right") - 1, 0, self.segments - 1))
+        s1 = int(np.clip(np.searchsorted(br, b, side="left") - 1, 0, self.segments - 1))
+        segs = np.arange(s0, s1 + 1)
+        h = br[segs + 1] - br[segs]
+        u0 = np.clip((a - br[segs]) / h, 0.0, 1.0)
+        u1 = np.clip((b - br[segs]) / h, 0.0, 1.0)
+        keep = u1 > u0
+        segs, h, u0, u1 = segs[keep], h[keep], u0[keep], u1[keep]
+        c = _restrict(np.array(self.ctrl[segs]), u0, u1)
+        dt = h * (u1 - u0)
+        best = 0.0
+        for _ in range(40):
+            m = c[..., :3, :]  # (B, n+1, 3, 4)
+            w = c[..., 3, 3]
+            dm = bezier_derivative(m, axis=1)
+            dw = bezier_derivative(w, axis=1)
+            num = bezier_product(dm, w[..., None, None], axis=1) - bezier_product(
+                m, dw[..., None, None], axis=1
+            )
+            w2 = bezier_product(w, w, axis=1)
+            w2min = w2.min(axis=1)
+            ok = w2min > 0
+            if np.any(ok):
+                g = num[ok]
+                gn = np.linalg.norm(g[..., :3], ord=2, axis=(-2, -1)) * r + np.linalg.norm(
+                    g[..., 3], axis=-1
+                )
+                bound = gn.max(axis=1) / w2min[ok] / dt[ok]
+                best = max(best, float(bound.max()))
+            if np.all(ok):
+                return best * (1.0 + 1e-9) + 1e-300
+            c, dt = c[~ok], dt[~ok]
+            left, right = de_casteljau_split(c, 0.5, axis=1)
+            c = np.concatenate([left, right])
+            dt = np.concatenate([dt, dt]) * 0.5
+        raise DegenerateMotionError(
+            f"The weight of the motion vanishes on [{t0!r}, {t1!r}]; no finite speed bound."
+        )
+
+
+def _control_matrices(q: np.ndarray, p: np.ndarray | None, v: np.ndarray | None) -> np.ndarray:
+    """Exact control matrices (S, n+1, 4, 4) from preimage and translation pieces.
+
+    ``U`` and ``u0`` are quadratic in Q, so their Bernstein coefficients of degree 2d are
+    ``sum_{i+j=k} C(d,i) C(d,j) / C(2d,k) T(B_i, B_j)`` with T the polarised map.
+    """
+    d = q.shape[1] - 1
+    w = bezier_product_weights(d, d)
+    outer = np.einsum("ijk,sia,sjb->skab", w, q, q)  # (S, 2d+1, 4, 4)
+    uc = np.einsum("jkab,snab->snjk", U_TENSOR, outer)  # (S, 2d+1, 3, 3)
+    u0c = np.einsum("snaa->sn", outer)  # (S, 2d+1)
+    if p is not None:
+        k = p.shape[1] - 1
+        vc = bezier_product(u0c[..., None], p, axis=1)
+        uc = elevate(uc, k, axis=1)
+        u0c = elevate(u0c, k, axis=1)
+    elif v is not None:
+        n = max(2 * d, v.shape[1] - 1)
+        vc = elevate(v, n - v.shape[1] + 1, axis=1)
+        uc = elevate(uc, n - 2 * d, axis=1)
+        u0c = elevate(u0c, n - 2 * d, axis=1)
+    else:
+        vc = np.zeros(uc.shape[:2] + (3,))
+    out = np.zeros(uc.shape[:2] + (4, 4))
+    out[..., :3, :3] = uc
+    out[..., :3, 3] = vc
+    out[..., 3, 3] = u0c
+    return out
+
+
+def _check_bspline(degree: Any, knots: Any, dname: str, kname: str) -> tuple[int, np.ndarray]:
+    if isinstance(degree, bool) or not isinstance(degree, int | np.integer):
+        raise TypeError(f"Expected `{dname}` to be an integer, got {degree!r}.")
+    d = int(degree)
+    if d < 0:
+        raise ValueError(f"Expected `{dname}` >= 0, got {d}.")
+    t = as_array(knots, kname, ndim=1)
+    if t.size < 2 * (d + 1):
+        raise ValueError(
+            f"Expected `{kname}` to have at least {2 * (d + 1)} entries for degree {d}, got {t.size}."
+        )
+    if np.any(np.diff(t) < 0):
+        raise ValueError(f"Expected `{kname}` to be non-decreasing, got {short(t, 10)}.")
+    if not (np.all(t[: d + 1] == t[0]) and np.all(t[-d - 1 :] == t[-1])):
+        raise ValueError(
+            f"Expected `{kname}` to be clamped (first and last knot repeated {d + 1} times), got {short(t, 10)}."
+        )
+    if t[-1] <= t[0]:
+        raise ValueError(
+            f"Expected `{kname}` to span a non-empty domain, got [{t[0]!r}, {t[-1]!r}]."
+        )
+    inner = t[d + 1 : t.size - d - 1]
+    if inner.size:
+        _, counts = np.unique(inner, return_counts=True)
+        if counts.max() > d:
+            raise ValueError(
+                f"Expected interior knots of `{kname}` with multiplicity <= {d} (a continuous motion),"
+                f" got multiplicity {counts.max()}."
+            )
+        if inner.min() <= t[0] or inner.max() >= t[-1]:
+            raise ValueError(
+                f"Expected `{kname}` to be clamped: interior knots strictly inside the domain, got {short(t, 10)}."
+            )
+    return d, t

@@ -1,0 +1,327 @@
+"""RationalMotion: exact Bézier form, evaluation, subdivision, control structures."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.interpolate import BSpline, make_interp_spline
+from scipy.spatial import ConvexHull
+
+from motions import DegenerateMotionError, RationalMotion, U, rotation_matrix, sign_continuity, u0
+from motions.bernstein import bernstein_basis
+from motions.motion import vee
+
+from .helpers import random_unit_quaternions
+
+REL = 1e-12  # DESIGN: bezier_form equals the independent route to 1e-12 relative
+ORTHO = 1e-12  # R^T R = I, det R = 1 for a product of O(1) numbers
+FD_H = 1e-6  # central difference step; truncation ~ h^2 |f'''| ~ 1e-10
+FD_TOL = 1e-6
+
+
+def random_spline_parts(rng, n=9, k=3, ko=3):
+    t = np.cumsum(rng.random(n) + 0.2)
+    q = sign_continuity(random_unit_quaternions(rng, n))
+    sq = make_interp_spline(t, q, k=k)
+    so = make_interp_spline(t, rng.normal(size=(n, 3)) * 2, k=ko)
+    return sq, so
+
+
+def build(rng, mode="origin", n=9):
+    sq, so = random_spline_parts(rng, n)
+    if mode == "origin":
+        return RationalMotion.from_preimage(3, sq.t, sq.c, (3, so.t, so.c)), sq, so
+    if mode == "numerator":
+        return RationalMotion.from_preimage(3, sq.t, sq.c, numerator=(3, so.t, so.c)), sq, so
+    return RationalMotion.from_preimage(3, sq.t, sq.c), sq, so
+
+
+def independent_matrix(sq: BSpline, so: BSpline | None, mode: str, x: np.ndarray) -> np.ndarray:
+    """M_h(t) from scipy's BSpline of preimage and translation, then U(Q)."""
+    q = sq(x)
+    m = np.zeros((x.size, 4, 4))
+    m[:, :3, :3] = U(q)
+    m[:, 3, 3] = u0(q)
+    if mode == "origin":
+        m[:, :3, 3] = u0(q)[:, None] * so(x)
+    elif mode == "numerator":
+        m[:, :3, 3] = so(x)
+    return m
+
+
+def bernstein_sum(breaks, ctrl, x):
+    s = np.clip(np.searchsorted(breaks, x, side="right") - 1, 0, breaks.size - 2)
+    u = (x - breaks[s]) / (breaks[s + 1] - breaks[s])
+    return np.einsum("tk,tkij->tij", bernstein_basis(ctrl.shape[1] - 1, u), ctrl[s])
+
+
+@pytest.mark.parametrize("mode", ["origin", "numerator", "none"])
+def test_bezier_form_equals_independent_route(mode, rng):
+    m, sq, so = build(rng, mode)
+    breaks, ctrl = m.bezier_form()
+    assert ctrl.shape == (m.segments, m.degree + 1, 4, 4)
+    assert m.degree == {"origin": 9, "numerator": 6, "none": 6}[mode]
+    assert m.preimage_degree == 3
+    x = np.linspace(*m.domain, 4001)
+    ref = independent_matrix(sq, so, mode, x)
+    got = bernstein_sum(breaks, ctrl, x)
+    np.testing.assert_allclose(got, ref, atol=REL * np.abs(ref).max())
+    # The Cartesian matrix agrees with the normalised homogeneous one.
+    np.testing.assert_allclose(
+        m.matrix(x), ref / ref[:, 3:, 3:], atol=1e-12 * np.abs(ref / ref[:, 3:, 3:]).max()
+    )
+    # Seed eq. (28): the weight row holds no translation.
+    assert np.all(ctrl[:, :, 3, :3] == 0)
+
+
+def test_breaks_are_true_breakpoints(rng):
+    m, sq, _ = build(rng, n=10)
+    # not-a-knot cubic through 10 points: 10 - 3 segments
+    assert m.segments == 7
+    np.testing.assert_array_equal(m.breaks, np.unique(sq.t))
+
+
+def test_rotations_orthonormal_and_equal_kinematic_image(rng):
+    m, sq, so = build(rng)
+    x = np.linspace(*m.domain, 5000)
+    r, p = m.pose(x)
+    np.testing.assert_allclose(
+        r @ np.swapaxes(r, 1, 2), np.broadcast_to(np.eye(3), r.shape), atol=ORTHO
+    )
+    np.testing.assert_allclose(np.linalg.det(r), 1.0, atol=ORTHO)
+    np.testing.assert_allclose(r, rotation_matrix(sq(x)), atol=ORTHO)
+    np.testing.assert_allclose(p, so(x), atol=1e-12 * np.abs(so(x)).max())
+
+
+@pytest.mark.parametrize("mode", ["origin", "numerator", "none"])
+def test_derivatives_match_finite_differences(mode, rng):
+    m, *_ = build(rng, mode)
+    x = np.linspace(*m.domain, 301)[1:-1]
+    x = x[np.min(np.abs(x[:, None] - m.breaks[None, :]), axis=1) > 10 * FD_H]
+    mb = RationalMotion.from_bezier(*m.bezier_form())
+    for motion in (m, mb):
+        rp, pp = motion.pose(x + FD_H)
+        rm, pm = motion.pose(x - FD_H)
+        r0, _ = motion.pose(x)
+        w_fd = vee((rp - rm) / (2 * FD_H) @ np.swapaxes(r0, 1, 2))
+        np.testing.assert_allclose(motion.angular_velocity(x), w_fd, atol=FD_TOL)
+        np.testing.assert_allclose(motion.velocity(x), (pp - pm) / (2 * FD_H), atol=FD_TOL)
+        wd_fd = (motion.angular_velocity(x + FD_H) - motion.angular_velocity(x - FD_H)) / (2 * FD_H)
+        a_fd = (motion.velocity(x + FD_H) - motion.velocity(x - FD_H)) / (2 * FD_H)
+        np.testing.assert_allclose(motion.angular_acceleration(x), wd_fd, atol=FD_TOL * 10)
+        np.testing.assert_allclose(motion.acceleration(x), a_fd, atol=FD_TOL * 10)
+
+
+def test_from_bezier_round_trip(rng):
+    m, *_ = build(rng, "numerator")
+    mb = RationalMotion.from_bezier(*m.bezier_form())
+    x = np.linspace(*m.domain, 2001)
+    np.testing.assert_allclose(mb.matrix(x), m.matrix(x), atol=1e-11)
+    _b2, c2 = mb.bezier_form()
+    np.testing.assert_array_equal(c2, m.bezier_form()[1])
+    assert mb.degree == m.degree and mb.preimage_degree is None
+
+
+@pytest.mark.parametrize("frac", [0.5, 0.13, 0.0])
+def test_split_children_equal_parent(frac, rng):
+    m, *_ = build(rng)
+    t = m.breaks[2] + frac * (m.breaks[3] - m.breaks[2])
+    left, right = m.split(t)
+    assert left.domain == (m.domain[0], t) and right.domain == (t, m.domain[1])
+    for child in (left, right):
+        x = np.linspace(*child.domain, 777)
+        np.testing.assert_allclose(child.matrix(x), m.matrix(x), atol=1e-12)
+        np.testing.assert_allclose(child.acceleration(x), m.acceleration(x), atol=1e-9)
+        # child control matrices equal de Casteljau on the parent's: evaluate both routes
+        np.testing.assert_allclose(
+            bernstein_sum(*child.bezier_form(), x), bernstein_sum(*m.bezier_form(), x), atol=1e-10
+        )
+    # splitting a from_bezier motion works on the control matrices
+    mb = RationalMotion.from_bezier(*m.bezier_form())
+    lb, _ = mb.split(t)
+    x = np.linspace(*lb.domain, 101)
+    np.testing.assert_allclose(lb.matrix(x), m.matrix(x), atol=1e-10)
+
+
+def test_box_stays_in_hull_of_affine_control_positions(rng):
+    m, *_ = build(rng)
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * [
+        0.5,
+        0.3,
+        0.2,
+    ] + [0.1, -0.2, 0.3]
+    homog = np.concatenate([corners, np.ones((8, 1))], axis=1)
+    assert np.all(m.weights_positive()), "this seed was chosen with positive weights"
+    breaks, ctrl = m.bezier_form()
+    for s in range(m.segments):
+        cp = np.einsum("kij,vj->kvi", ctrl[s], homog)
+        cp = (cp[..., :3] / cp[..., 3:]).reshape(-1, 3)
+        hull = ConvexHull(cp)
+        x = np.linspace(breaks[s], breaks[s + 1], 200)
+        pts = m.transform(corners, x).reshape(-1, 3)
+        dist = pts @ hull.equations[:, :3].T + hull.equations[:, 3]
+        assert dist.max() <= 1e-9, (
+            f"segment {s}: a sampled vertex lies {dist.max():.3g} outside the hull"
+        )
+
+
+def test_split_positive_makes_weights_positive():
+    # A preimage that passes close to Q = 0 needs splitting; every piece ends positive.
+    t = np.array([0.0, 0, 0, 0, 1, 1, 1, 1])
+    q = np.array([[1.0, 0, 0, 0], [-0.2, 0.9, 0, 0], [-0.9, -0.3, 0.4, 0], [0.1, -1, 0, 0.2]])
+    m = RationalMotion.from_preimage(3, t, q)
+    assert not np.all(m.weights_positive())
+    iv, ctrl, src = m.split_positive()
+    assert np.all(ctrl[:, :, 3, 3] > 0)
+    assert np.all(src == 0)
+    np.testing.assert_allclose(iv[1:, 0], iv[:-1, 1])
+    for (a, b), c in zip(iv, ctrl, strict=True):
+        x = np.linspace(a, b, 9)
+        got = bernstein_sum(np.array([a, b]), c[None], x)
+        np.testing.assert_allclose(
+            got[:, :3, :] / got[:, 3:, 3:], m.matrix(x)[:, :3, :], atol=1e-11
+        )
+
+
+def test_degenerate_weight_raises():
+    # Q(t) = (1 - 2t, 0, 0, 0) vanishes at t = 1/2.
+    m = RationalMotion.from_preimage(1, [0.0, 0.0, 1.0, 1.0], [[1.0, 0, 0, 0], [-1.0, 0, 0, 0]])
+    with pytest.raises(DegenerateMotionError, match="vanishes"):
+        m.split_positive()
+    vals, times = m.weight_minimum()
+    np.testing.assert_allclose(vals, 0.0, atol=1e-15)
+    np.testing.assert_allclose(times, 0.5)
+
+
+def test_point_trajectory_is_the_nurbs_of_eq29(rng):
+    m, *_ = build(rng)
+    x0 = np.array([0.4, -0.7, 1.1])
+    n, knots, pts, w = m.point_trajectory(x0)
+    assert n == m.degree and pts.shape[0] == knots.size - n - 1
+    num = BSpline(knots, pts * w[:, None], n)
+    den = BSpline(knots, w, n)
+    x = np.linspace(*m.domain, 999)
+    np.testing.assert_allclose(num(x) / den(x)[:, None], m.transform(x0[None], x)[:, 0], atol=1e-11)
+
+
+def test_control_structures(rng):
+    m, *_ = build(rng)
+    pos, farin = m.intrinsic_control_structure()
+    d = m.preimage_degree
+    assert pos.shape == (m.segments, d + 1, 3, 3) and farin.shape == (m.segments, d, 3, 3)
+    # End control positions of each segment are the poses there (Bézier end interpolation).
+    r, _ = m.pose(m.breaks)
+    np.testing.assert_allclose(pos[:, 0], r[:-1], atol=1e-12)
+    np.testing.assert_allclose(pos[:, -1], r[1:], atol=1e-12)
+    aff, af = m.affine_control_structure()
+    assert aff.shape == (m.segments, m.degree + 1, 3, 4) and af.shape == (
+        m.segments,
+        m.degree,
+        3,
+        4,
+    )
+    np.testing.assert_allclose(aff[:, 0], m.matrix(m.breaks[:-1])[:, :3, :], atol=1e-12)
+
+
+def test_speed_bound_is_an_upper_bound(rng):
+    m, *_ = build(rng)
+    radius = 1.5
+    for a, b in [
+        (m.domain[0], m.domain[1]),
+        (m.breaks[1] - 0.1, m.breaks[1] + 0.05),
+        (m.breaks[2], m.breaks[2] + 1e-3),
+    ]:
+        x = np.linspace(a, b, 2001)
+        # Sampled speeds of points on the sphere of `radius`: |v| + |w| r is attained in some direction.
+        sampled = np.linalg.norm(m.velocity(x), axis=1) + radius * np.linalg.norm(
+            m.angular_velocity(x), axis=1
+        )
+        bound = m.speed_bound(a, b, radius)
+        assert bound >= sampled.max() * 0.999999 - 1e-12
+        # speeds of actual points never exceed it either
+        pts = rng.normal(size=(20, 3))
+        pts *= radius / np.linalg.norm(pts, axis=1, keepdims=True)
+        r, _ = m.pose(x)
+        vel = m.velocity(x)[:, None] + np.cross(
+            m.angular_velocity(x)[:, None], np.einsum("tij,vj->tvi", r, pts)
+        )
+        assert np.linalg.norm(vel, axis=-1).max() <= bound
+
+
+BAD_T = np.array([0.0, 0, 0, 0, 1, 2, 2, 2, 2])
+GOOD_Q = np.tile([1.0, 0, 0, 0], (5, 1))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "match"),
+    [
+        ({"quaternions": np.vstack([GOOD_Q[:4], np.zeros(4)])}, ValueError, "non-zero"),
+        ({"quaternions": np.vstack([GOOD_Q[:4], [np.nan, 0, 0, 1]])}, ValueError, "finite"),
+        ({"quaternions": GOOD_Q[:4]}, ValueError, r"shape \(5, 4\)"),
+        ({"quaternions": GOOD_Q[:, :3]}, ValueError, r"\(\.\.\., 4\)"),
+        ({"knots": [0.0, 0, 0, 0, 1, 0.5, 2, 2, 2]}, ValueError, "non-decreasing"),
+        ({"knots": [0.0, 0, 0, 0.5, 1, 2, 2, 2, 2]}, ValueError, "clamped"),
+        ({"degree": 2.5}, TypeError, "integer"),
+        ({"knots": "abc"}, TypeError, "array of numbers"),
+        ({"origin": (3, [0.0, 0, 0, 0, 3, 3, 3, 3], np.zeros((4, 3)))}, ValueError, "domain"),
+        ({"origin": (3, BAD_T, np.zeros((4, 3)))}, ValueError, r"shape \(5, 3\)"),
+        (
+            {"origin": (3, BAD_T, np.zeros((5, 3))), "numerator": (3, BAD_T, np.zeros((5, 3)))},
+            ValueError,
+            "exclusive",
+        ),
+    ],
+)
+def test_from_preimage_bad_input(kwargs, exc, match):
+    args = {"degree": 3, "knots": BAD_T, "quaternions": GOOD_Q} | kwargs
+    with pytest.raises(exc, match=match):
+        RationalMotion.from_preimage(**args)
+
+
+def test_from_bezier_bad_input(rng):
+    m, *_ = build(rng)
+    breaks, ctrl = m.bezier_form()
+    bad = ctrl.copy()
+    bad[0, 2, 3, 1] = 0.5
+    with pytest.raises(ValueError, match=r"last row"):
+        RationalMotion.from_bezier(breaks, bad)
+    bad = ctrl.copy()
+    bad[:, :, 0, 0] *= 1.5
+    with pytest.raises(ValueError, match="rigid"):
+        RationalMotion.from_bezier(breaks, bad)
+    with pytest.raises(ValueError, match="strictly increasing"):
+        RationalMotion.from_bezier(breaks[::-1], ctrl)
+    with pytest.raises(ValueError, match="shape"):
+        RationalMotion.from_bezier(breaks, ctrl[:, :, :3])
+    bad = ctrl.copy()
+    bad[1] = ctrl[2]
+    with pytest.raises(ValueError, match="continuous"):
+        RationalMotion.from_bezier(breaks, bad)
+
+
+def test_times_outside_domain(rng):
+    m, *_ = build(rng)
+    t0, t1 = m.domain
+    # round-off from linspace is clamped
+    r, _ = m.pose(t1 + 1e-13 * (t1 - t0))
+    np.testing.assert_allclose(r, m.pose(t1)[0])
+    with pytest.raises(ValueError, match="domain"):
+        m.pose(t1 + 1e-6)
+    with pytest.raises(ValueError, match="domain"):
+        m.velocity(np.array([t0, t0 - 1.0]))
+    with pytest.raises(ValueError, match="finite"):
+        m.pose(np.nan)
+    with pytest.raises(TypeError, match="`t`"):
+        m.pose("now")
+    with pytest.raises(ValueError, match="strictly inside"):
+        m.split(t0)
+
+
+def test_vectorised_shapes(rng):
+    m, *_ = build(rng)
+    t = np.linspace(*m.domain, 12).reshape(3, 4)
+    r, p = m.pose(t)
+    assert r.shape == (3, 4, 3, 3) and p.shape == (3, 4, 3)
+    assert m.matrix(t[0, 0]).shape == (4, 4)
+    assert m.transform(np.zeros((5, 3)), t).shape == (3, 4, 5, 3)
+    assert m.angular_acceleration(t).shape == (3, 4, 3)
