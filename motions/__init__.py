@@ -5,6 +5,7 @@ Quaternions are scalar first ``(w, x, y, z)`` everywhere (DESIGN §1).
 
 from . import bernstein, quaternion
 from .errors import DegenerateMotionError, MotionError
+from .interpolation import FitResult, fit, hermite, interpolate, parameter_times
 from .motion import Motion, Recipe
 from .quaternion import (
     U,
@@ -19,15 +20,38 @@ from .quaternion import (
     u0,
 )
 from .rational import RationalMotion
+from .schemes import build
+from .smoothness import smoothness
+from .special import darboux, elliptic, planar
+
+
+def __getattr__(name: str):
+    # SCHEMES grows as modules register schemes; read it live.
+    if name == "SCHEMES":
+        from . import schemes
+
+        return schemes.SCHEMES
+    raise AttributeError(name)
+
 
 __all__ = [
+    "SCHEMES",
     "DegenerateMotionError",
+    "FitResult",
     "Motion",
     "MotionError",
     "RationalMotion",
     "Recipe",
     "U",
     "bernstein",
+    "build",
+    "darboux",
+    "elliptic",
+    "fit",
+    "hermite",
+    "interpolate",
+    "parameter_times",
+    "planar",
     "qconj",
     "qexp",
     "qlog",
@@ -37,5 +61,6 @@ __all__ = [
     "quaternion",
     "rotation_matrix",
     "sign_continuity",
+    "smoothness",
     "u0",
 ]

@@ -1,0 +1,466 @@
+"""Motion design through keyframes (seed §6.5): C² interpolation, kinematic cubic
+Hermite, least-squares fitting with fairing.
+
+Keyframes are rotations (quaternions (N, 4) scalar first, any norm and sign, or rotation
+matrices (N, 3, 3)) and origins (N, 3). Rotations are sign-fixed by seed eq. (30) and
+parametrised by the generalised chordal rule (31) unless times are given.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.interpolate import BSpline, make_interp_spline
+from scipy.sparse.linalg import spsolve
+
+from ._checks import as_points, as_rotations, as_times, check_choice, short
+from .errors import DegenerateMotionError, MotionError
+from .motion import Recipe
+from .quaternion import qconj, qmul, sign_continuity
+from .rational import RationalMotion
+
+__all__ = [
+    "PARAMETRIZATIONS",
+    "TRANSLATIONS",
+    "FitResult",
+    "fit",
+    "hermite",
+    "interpolate",
+    "keyframes",
+    "parameter_times",
+]
+
+PARAMETRIZATIONS = ("chordal", "centripetal", "uniform")
+TRANSLATIONS = ("cubic", "minimal")
+MIN_WEIGHT_RATIO = 1e-8
+"""`interpolate` refuses a preimage with ``min u0 / max u0`` below this (DESIGN §2.4)."""
+
+
+# ---------------------------------------------------------------------- keyframes
+def parameter_times(
+    quaternions: np.ndarray, positions: np.ndarray, scheme: str = "chordal", omega: float = 1.0
+) -> np.ndarray:
+    """Keyframe times by the generalised chordal rule, seed eq. (31) (DESIGN §2.7).
+
+    ``t_1 = 0`` and ``t_{i+1} - t_i = |w_{i+1} - w_i| + omega * alpha_i`` with
+    ``alpha_i = 2 atan2(|R_{i+1} - R_i|, |R_{i+1} + R_i|)``, the angle between the
+    sign-fixed unit quaternions (half the rotation angle). ``"centripetal"`` takes the
+    square root of each increment, ``"uniform"`` uses 1.
+
+    Args:
+        quaternions: (N, 4) unit quaternions, already sign-fixed.
+        positions: (N, 3) origins.
+        scheme: one of :data:`PARAMETRIZATIONS`.
+        omega: length per radian weighting the rotational part.
+
+    Raises:
+        ValueError: on a zero increment (a duplicate keyframe).
+    """
+    check_choice(scheme, "times", PARAMETRIZATIONS)
+    dq = np.linalg.norm(quaternions[1:] - quaternions[:-1], axis=1)
+    sq = np.linalg.norm(quaternions[1:] + quaternions[:-1], axis=1)
+    alpha = 2.0 * np.arctan2(dq, sq)
+    inc = np.linalg.norm(np.diff(positions, axis=0), axis=1) + omega * alpha
+    if scheme == "uniform":
+        inc = np.ones_like(inc)
+    elif scheme == "centripetal":
+        inc = np.sqrt(inc)
+    zero = np.flatnonzero(~(inc > 0))
+    if zero.size:
+        i = int(zero[0])
+        raise ValueError(
+            f"Keyframes {i} and {i + 1} are identical (zero {scheme} parameter increment);"
+            " remove the duplicate or pass `times`."
+        )
+    return np.concatenate([[0.0], np.cumsum(inc)])
+
+
+def keyframes(
+    rotations: Any, positions: Any, times: Any = None, *, omega: float = 1.0, min_count: int = 2
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Validated keyframes: sign-fixed unit quaternions (N, 4), origins (N, 3), times (N,).
+
+    `times` is an increasing (N,) array or a parametrisation name (None means chordal).
+    """
+    q = as_rotations(rotations, "rotations")
+    n = q.shape[0]
+    p = as_points(positions, "positions")
+    if p.shape[0] != n:
+        raise ValueError(
+            f"Expected `positions` to have {n} rows (one per rotation), got {p.shape[0]}."
+        )
+    if n < min_count:
+        raise ValueError(f"Expected at least {min_count} keyframes, got {n}.")
+    try:
+        om = float(omega)
+    except (TypeError, ValueError):
+        raise TypeError(f"Expected `omega` to be a number, got {omega!r}.") from None
+    if not np.isfinite(om) or om < 0:
+        raise ValueError(
+            f"Expected `omega` to be finite and >= 0 (length per radian), got {omega!r}."
+        )
+    q = sign_continuity(q)
+    if times is None or isinstance(times, str):
+        t = parameter_times(q, p, "chordal" if times is None else times, om)
+    else:
+        t = as_times(times, "times", n)
+    return q, p, t
+
+
+# ---------------------------------------------------------------------- B-spline bases
+def _design(knots: np.ndarray, k: int, x: np.ndarray, nu: int = 0) -> sp.csr_array:
+    """Sparse (len(x), n) matrix of the nu-th derivatives of the B-spline basis at x.
+
+    Derivatives use ``B'_{i,k} = k/(t_{i+k}-t_i) B_{i,k-1} - k/(t_{i+k+1}-t_{i+1}) B_{i+1,k-1}``
+    on the same knot vector. `x` must lie inside the domain for nu > 0.
+    """
+    if nu == 0:
+        return sp.csr_array(BSpline.design_matrix(x, knots, k))
+    n = knots.size - k - 1
+    i = np.arange(n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a = np.where(knots[i + k] > knots[i], k / (knots[i + k] - knots[i]), 0.0)
+        b = np.where(knots[i + k + 1] > knots[i + 1], k / (knots[i + k + 1] - knots[i + 1]), 0.0)
+    d = sp.csr_array(
+        (np.concatenate([a, -b]), (np.concatenate([i, i + 1]), np.concatenate([i, i]))),
+        shape=(n + 1, n),
+    )
+    return sp.csr_array(_design(knots, k - 1, x, nu - 1) @ d)
+
+
+def _gauss(breaks: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss–Legendre nodes and weights, `m` per interval of `breaks`."""
+    xg, wg = np.polynomial.legendre.leggauss(m)
+    a, b = breaks[:-1, None], breaks[1:, None]
+    x = 0.5 * (a + b) + 0.5 * (b - a) * xg
+    w = 0.5 * (b - a) * wg
+    return x.ravel(), w.ravel()
+
+
+def _clamped(breaks: np.ndarray, k: int, mult: int) -> np.ndarray:
+    return np.concatenate(
+        [[breaks[0]] * (k + 1), np.repeat(breaks[1:-1], mult), [breaks[-1]] * (k + 1)]
+    )
+
+
+# ---------------------------------------------------------------------- interpolation
+def interpolate(
+    rotations: Any,
+    positions: Any,
+    times: Any = None,
+    *,
+    omega: float = 1.0,
+    translation: str = "cubic",
+) -> RationalMotion:
+    """C² rational spline motion through keyframe poses (seed §6.5).
+
+    The preimage is the cubic not-a-knot spline of the sign-fixed unit quaternions (seed
+    eq. (32)); N >= 4 keyframes give N - 3 segments. With 2 or 3 keyframes the preimage
+    falls back to degree N - 1 (a single segment).
+
+    Args:
+        rotations: (N, 4) quaternions (scalar first, any norm and sign) or (N, 3, 3).
+        positions: (N, 3) origins.
+        times: (N,) strictly increasing, or "chordal" (default, also None),
+            "centripetal", "uniform" (seed eq. (31), DESIGN §2.7).
+        omega: weight of rotation in the chordal rule, length per radian.
+        translation: "cubic": a C² spline ``p(t)`` of the origin on the same knots, combined
+            as ``v = u0 p`` (degree 2d + d = 9); "minimal": numerators ``v`` of degree 2d on
+            the same knots, minimising ``∫|(v/u0)''|²`` (seed eq. (34) on the Cartesian
+            origin) by Gauss–Legendre quadrature and one KKT system (degree 2d = 6).
+
+    Returns:
+        A :class:`RationalMotion` that meets every keyframe, C² for N >= 4.
+
+    Raises:
+        DegenerateMotionError: if ``min u0 / max u0 <= 1e-8`` (a near-180° step); the
+            message names the keyframe pair.
+    """
+    check_choice(translation, "translation", TRANSLATIONS)
+    q, p, t = keyframes(rotations, positions, times, omega=omega)
+    d = min(3, q.shape[0] - 1)
+    sq = make_interp_spline(t, q, k=d)
+    if translation == "cubic":
+        so = make_interp_spline(t, p, k=d)
+        motion = RationalMotion.from_preimage(d, sq.t, sq.c, (d, so.t, so.c), keyframe_times=t)
+    else:
+        knots_v, coeffs = _minimal_numerator(sq, t, p)
+        motion = RationalMotion.from_preimage(
+            d, sq.t, sq.c, numerator=(2 * d, knots_v, coeffs), keyframe_times=t
+        )
+    _check_weight(motion, t)
+    motion.recipe = Recipe(
+        "rational",
+        q,
+        p,
+        t if times is not None and not isinstance(times, str) else (times or "chordal"),
+        {"omega": omega, "translation": translation},
+    )
+    return motion
+
+
+def _check_weight(motion: RationalMotion, t: np.ndarray) -> None:
+    """Refuse a preimage whose norm nearly vanishes; name the keyframe pair."""
+    vals, where = motion.weight_minimum()
+    i = int(np.argmin(vals))
+    wmax = np.abs(motion.weights()).max()
+    if vals[i] <= MIN_WEIGHT_RATIO * wmax:
+        k = int(np.clip(np.searchsorted(t, where[i], side="right") - 1, 0, t.size - 2))
+        raise DegenerateMotionError(
+            f"The interpolating preimage nearly vanishes (min u0 / max u0 = {vals[i] / wmax:.3g}"
+            f" <= {MIN_WEIGHT_RATIO:g}) at t = {where[i]:.6g}, between keyframes {k} and {k + 1}:"
+            " a near-180° step. Insert an intermediate keyframe there."
+        )
+
+
+def _minimal_numerator(sq: BSpline, t: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Numerators of degree 2d minimising ∫|(v/u0)''|² subject to v(t_i) = u0(t_i) p_i."""
+    d = sq.k
+    k = 2 * d
+    breaks = np.unique(sq.t)
+    knots = _clamped(breaks, k, d + 1)  # C^{d-1} like u0 and U
+    xg, wg = _gauss(breaks, 2 * k + 4)
+    q0, q1, q2 = sq(xg), sq(xg, 1), sq(xg, 2)
+    u = np.einsum("ti,ti->t", q0, q0)
+    du = 2 * np.einsum("ti,ti->t", q0, q1)
+    ddu = 2 * (np.einsum("ti,ti->t", q1, q1) + np.einsum("ti,ti->t", q0, q2))
+    b0, b1, b2 = (_design(knots, k, xg, nu) for nu in range(3))
+    # (v/u)'' = v''/u - 2 v' u'/u² + v (2 u'²/u³ - u''/u²), linear in the coefficients of v.
+    g = (
+        sp.diags(1 / u) @ b2
+        - sp.diags(2 * du / u**2) @ b1
+        + sp.diags(2 * du**2 / u**3 - ddu / u**2) @ b0
+    )
+    energy = (g.T @ sp.diags(wg) @ g).tocsc()
+    a = _design(knots, k, t)
+    ut = np.einsum("ti,ti->t", sq(t), sq(t))
+    n = knots.size - k - 1
+    kkt = sp.block_array([[2 * energy, a.T], [a, None]], format="csc")
+    rhs = np.concatenate([np.zeros((n, 3)), ut[:, None] * p])
+    sol = spsolve(kkt, rhs)
+    coeffs = np.asarray(sol)[:n].reshape(n, 3)
+    if not np.all(np.isfinite(coeffs)):
+        raise MotionError("The minimal-degree translation system is singular for these keyframes.")
+    return knots, coeffs
+
+
+# ---------------------------------------------------------------------- Hermite
+def _three_point_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Derivatives at the nodes of the local parabolas (Bessel / Catmull–Rom for any spacing)."""
+    h = np.diff(t)
+    delta = np.diff(y, axis=0) / h[:, None]
+    m = np.empty_like(y)
+    if t.size == 2:
+        m[:] = delta[0]
+        return m
+    hl, hr = h[:-1, None], h[1:, None]
+    m[1:-1] = (hr * delta[:-1] + hl * delta[1:]) / (hl + hr)
+    m[0] = ((2 * h[0] + h[1]) * delta[0] - h[0] * delta[1]) / (h[0] + h[1])
+    m[-1] = ((2 * h[-1] + h[-2]) * delta[-1] - h[-1] * delta[-2]) / (h[-1] + h[-2])
+    return m
+
+
+def hermite(
+    rotations: Any,
+    positions: Any,
+    times: Any = None,
+    *,
+    velocities: Any = None,
+    angular_velocities: Any = None,
+    omega: float = 1.0,
+) -> RationalMotion:
+    """Kinematic cubic Hermite spline motion: C¹, spherical degree 6 (seed §6.5).
+
+    The preimage is a piecewise cubic through the unit keyframe quaternions with
+    ``Q'(t_i) = ½ [0, ω_i] * Q_i`` (world-frame ω; the derivative of ``Q = exp(½ω t) Q_i``),
+    the origin a cubic Hermite spline with ``p'(t_i) = velocities[i]``. Missing
+    derivatives are estimated locally from the neighbouring keyframes (parabola through
+    three keyframes, projected onto the tangent space of the unit sphere for Q). O(N), no
+    global solve.
+
+    Args:
+        rotations, positions, times, omega: as in :func:`interpolate`.
+        velocities: (N, 3) world-frame origin velocities, or None to estimate.
+        angular_velocities: (N, 3) world-frame angular velocities, or None to estimate.
+    """
+    q, p, t = keyframes(rotations, positions, times, omega=omega)
+    n = q.shape[0]
+    if angular_velocities is None:
+        dq = _three_point_slopes(t, q)
+        dq -= np.einsum("ij,ij->i", dq, q)[:, None] * q
+    else:
+        w = as_points(angular_velocities, "angular_velocities", n)
+        dq = 0.5 * qmul(np.concatenate([np.zeros((n, 1)), w], axis=1), q)
+    dp = _three_point_slopes(t, p) if velocities is None else as_points(velocities, "velocities", n)
+    h = np.diff(t)[:, None]
+
+    def pieces(y, m):
+        return np.stack([y[:-1], y[:-1] + h * m[:-1] / 3, y[1:] - h * m[1:] / 3, y[1:]], axis=1)
+
+    motion = RationalMotion(t, preimage=pieces(q, dq), origin=pieces(p, dp), keyframe_times=t)
+    motion.scheme = "rational-hermite"
+    _check_weight(motion, t)
+    opts = {"omega": omega}
+    if velocities is not None or angular_velocities is not None:
+        opts["derivatives_given"] = True
+    motion.recipe = Recipe(
+        "rational-hermite",
+        q,
+        p,
+        t if times is not None and not isinstance(times, str) else (times or "chordal"),
+        opts,
+    )
+    return motion
+
+
+def angular_velocities_from_preimage(q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+    """World angular velocities ``2 vec(Q' conj(Q)) / |Q|²`` (DESIGN §1)."""
+    return 2 * qmul(dq, qconj(q))[..., 1:] / np.einsum("...i,...i->...", q, q)[..., None]
+
+
+# ---------------------------------------------------------------------- fitting
+SCALE_WEIGHT = 1e-3
+"""Default weight μ of the local scale term ``(<R_j, Q(t_j)> - 1)²`` in the homogeneous fit."""
+
+
+def _homogeneous_fit(
+    a: sp.csr_array, q: np.ndarray, pen: sp.csc_array, lam: float, mu: float
+) -> np.ndarray:
+    """argmin sum_j |P_j Q(t_j)|² + μ sum_j (<R_j, Q(t_j)> - 1)² + lam ∫|Q''|².
+
+    subject to ``sum_j <R_j, Q(t_j)> = N`` (one KKT system). ``P_j = I - R_j R_j^T`` keeps
+    only the rotation-relevant (tangential) residual; the constraint fixes the global
+    scale of the homogeneous preimage, so fairing cannot shrink it, and the weak term μ
+    keeps the local scale from drifting where data are noisy.
+    `a` (N, n) is the collocation matrix, `q` (N, 4) the sign-fixed data.
+    """
+    n_data, n = a.shape
+    a4 = sp.kron(a, sp.eye(4), format="csr")  # (4N, 4n): Q(t_j) for all j
+    proj = sp.block_diag([np.eye(4) - np.outer(r, r) for r in q], format="csr")
+    m = proj @ a4
+    g = sp.block_diag([r[None, :] for r in q], format="csr") @ a4  # (N, 4n): <R_j, Q(t_j)>
+    h = (m.T @ m + mu * (g.T @ g) + lam * sp.kron(pen, sp.eye(4))).tocsc()
+    gsum = sp.csr_array(g.sum(axis=0).reshape(1, -1))
+    kkt = sp.block_array([[2 * h, gsum.T], [gsum, None]], format="csc")
+    rhs = np.concatenate([2 * mu * (g.T @ np.ones(n_data)), [n_data]])
+    return np.asarray(spsolve(kkt, rhs)[: 4 * n]).reshape(n, 4)
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Result of :func:`fit`.
+
+    Attributes:
+        motion: the fitted C² :class:`RationalMotion`.
+        max_angle_error: largest rotation angle (rad) between data and fit.
+        max_position_error: largest origin distance between data and fit.
+        rms_angle_error, rms_position_error: root-mean-square of the same.
+        preimage_energy: ``∫|Q''|² dt``, the fairing proxy that was penalised.
+        angular_acceleration_energy: the true ``∫|ω'|² dt`` of the result.
+    """
+
+    motion: RationalMotion
+    max_angle_error: float
+    max_position_error: float
+    rms_angle_error: float
+    rms_position_error: float
+    preimage_energy: float
+    angular_acceleration_energy: float
+
+
+def fit(
+    rotations: Any,
+    positions: Any,
+    times: Any = None,
+    *,
+    segments: int | None = None,
+    smoothing: float = 0.0,
+    fairing: float = 0.0,
+    omega: float = 1.0,
+    homogeneous: bool = True,
+    scale_weight: float = SCALE_WEIGHT,
+) -> FitResult:
+    """Least-squares C² rational spline motion through many measured poses (seed §6.5).
+
+    The preimage is a cubic B-spline with `segments` uniform spans fitted to the
+    sign-fixed unit quaternions. The preimage is homogeneous (any ``λ(t) Q(t)`` gives the
+    same rotations), so by default only the part of ``Q(t_j)`` orthogonal to ``R_j`` is
+    penalised, ``sum_j |Q(t_j) - <Q(t_j), R_j> R_j|²``, with the global scale fixed by
+    ``sum_j <Q(t_j), R_j> = N`` and a weak local scale term of weight `scale_weight`: one
+    sparse KKT solve. ``homogeneous=False`` fits the unit
+    quaternions themselves. The origin is a cubic B-spline on the same knots (``v = u0 p``).
+
+    Args:
+        rotations, positions, times, omega: as in :func:`interpolate`.
+        segments: number of uniform knot spans (default ``max(1, N // 8)``).
+        smoothing: weight of ``∫|p''|²`` for the origin.
+        fairing: weight of ``∫|Q''|²`` for the preimage, the proxy for ``∫|ω'|²``.
+        homogeneous: fit rotations only (default), not the unit quaternions' norm.
+        scale_weight: μ of the local scale term; smaller is less biased for preimages whose
+            norm varies, larger is steadier on noisy data.
+    """
+    q, p, t = keyframes(rotations, positions, times, omega=omega, min_count=4)
+    n = q.shape[0]
+    s = max(1, n // 8) if segments is None else segments
+    if isinstance(s, bool) or not isinstance(s, int | np.integer) or s < 1:
+        raise ValueError(f"Expected `segments` to be a positive integer, got {segments!r}.")
+    if n < s + 3:
+        raise ValueError(
+            f"Expected at least segments + 3 = {s + 3} poses to fit {s} segments, got {n}."
+        )
+    for name, val in (
+        ("smoothing", smoothing),
+        ("fairing", fairing),
+        ("scale_weight", scale_weight),
+    ):
+        if not isinstance(val, int | float | np.floating) or not np.isfinite(val) or val < 0:
+            raise ValueError(f"Expected `{name}` to be a finite number >= 0, got {short(val)}.")
+    breaks = np.linspace(t[0], t[-1], int(s) + 1)
+    knots = _clamped(breaks, 3, 1)
+    a = _design(knots, 3, t)
+    xg, wg = _gauss(breaks, 6)
+    b2 = _design(knots, 3, xg, 2)
+    pen = (b2.T @ sp.diags(wg) @ b2).tocsc()
+    ata = (a.T @ a).tocsc()
+
+    def solve(target, lam):
+        return np.asarray(spsolve(ata + lam * pen, a.T @ target)).reshape(-1, target.shape[1])
+
+    cq = (
+        _homogeneous_fit(a, q, pen, float(fairing), float(scale_weight))
+        if homogeneous
+        else solve(q, float(fairing))
+    )
+    cp = solve(p, float(smoothing))
+    if np.any(np.einsum("ij,ij->i", a @ cq, q) <= 0):
+        raise MotionError(
+            "The fitted preimage turns away from the data (too few segments or too much fairing)."
+        )
+    motion = RationalMotion.from_preimage(3, knots, cq, (3, knots, cp), keyframe_times=t)
+    r, pos = motion.pose(t)
+    from .quaternion import quat_from_matrix
+
+    qf = quat_from_matrix(r)
+    ang = 2 * np.arctan2(
+        np.minimum(np.linalg.norm(qf - q, axis=1), np.linalg.norm(qf + q, axis=1)),
+        np.maximum(np.linalg.norm(qf + q, axis=1), np.linalg.norm(qf - q, axis=1)),
+    )
+    ang = 2 * ang  # quaternion angle -> rotation angle
+    dist = np.linalg.norm(pos - p, axis=1)
+    xq, wq = _gauss(breaks, 8)
+    spl = BSpline(knots, cq, 3)
+    proxy = float(np.sum(wq * np.einsum("ti,ti->t", spl(xq, 2), spl(xq, 2))))
+    wd = motion.angular_acceleration(xq)
+    true = float(np.sum(wq * np.einsum("ti,ti->t", wd, wd)))
+    return FitResult(
+        motion,
+        float(ang.max()),
+        float(dist.max()),
+        float(np.sqrt(np.mean(ang**2))),
+        float(np.sqrt(np.mean(dist**2))),
+        proxy,
+        true,
+    )

@@ -1,0 +1,232 @@
+"""Measured smoothness of any motion: one-sided jumps at knots, continuity class,
+energies, peaks and frame invariance (DESIGN §3, §8).
+
+Continuity is *measured*, never assumed: a derivative is called continuous at a knot when
+its jump between ``knot - δ`` and ``knot + δ`` falls by at least 5× per decade of δ over
+every pair of the given offsets (or is below round-off). A C¹ motion's acceleration jump
+tends to a non-zero limit and fails that test.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from typing import Any
+
+import numpy as np
+
+from .motion import Motion
+from .quaternion import quat_from_matrix, rotation_matrix
+
+__all__ = ["DECAY_PER_DECADE", "continuity_order", "knot_jumps", "smoothness"]
+
+DECAY_PER_DECADE = 5.0
+ROUNDOFF_FLOOR = 1e-9
+"""Jumps below this fraction of (1 + the quantity's size near the knot) count as zero:
+evaluation round-off of derivatives is ~1e-12 relative, so this leaves a wide margin."""
+QUANTITIES = ("velocity", "angular_velocity", "acceleration", "angular_acceleration")
+
+
+def _interior_knots(motion: Motion) -> np.ndarray:
+    k = motion.knots
+    return k[1:-1]
+
+
+def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarray]:
+    """Jumps ``|f(k + δ) - f(k - δ)|`` at interior knots.
+
+    `offsets` are fractions of the shorter knot interval next to each knot, so that the
+    probe stays inside its two neighbouring pieces.
+
+    Returns:
+        {quantity: (K, len(offsets)) jumps, quantity + "_scale": (K,) sizes}, for the four
+        quantities velocity, angular_velocity, acceleration, angular_acceleration.
+    """
+    offs = np.asarray(offsets, dtype=float)
+    if (
+        offs.ndim != 1
+        or offs.size < 2
+        or np.any(offs <= 0)
+        or np.any(offs >= 0.5)
+        or np.any(np.diff(offs) >= 0)
+    ):
+        raise ValueError(
+            f"Expected `offsets` decreasing in (0, 0.5) with at least 2 entries, got {offsets!r}."
+        )
+    knots = motion.knots
+    inner = knots[1:-1]
+    out: dict[str, np.ndarray] = {}
+    if inner.size == 0:
+        for q in QUANTITIES:
+            out[q] = np.zeros((0, offs.size))
+            out[q + "_scale"] = np.zeros(0)
+        return out
+    h = np.minimum(np.diff(knots)[:-1], np.diff(knots)[1:])
+    delta = h[:, None] * offs[None, :]  # (K, O)
+    lo = inner[:, None] - delta
+    hi = inner[:, None] + delta
+    for q in QUANTITIES:
+        f = getattr(motion, q)
+        a, b = f(lo), f(hi)
+        out[q] = np.linalg.norm(b - a, axis=-1)
+        out[q + "_scale"] = np.maximum(np.linalg.norm(a, axis=-1), np.linalg.norm(b, axis=-1)).max(
+            axis=1
+        )
+    out["offsets"] = offs
+    return out
+
+
+def _continuous(jumps: np.ndarray, scale: np.ndarray, offs: np.ndarray) -> np.ndarray:
+    """(K,) bool: jump decays >= 5x per decade over every offset pair, or is round-off."""
+    if jumps.shape[0] == 0:
+        return np.ones(0, dtype=bool)
+    floor = ROUNDOFF_FLOOR * (1.0 + scale)
+    tiny = jumps[:, -1] <= floor
+    decades = np.log10(offs[:-1] / offs[1:])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = jumps[:, :-1] / jumps[:, 1:]
+        per_decade = ratio ** (1.0 / decades)
+    # A pair whose smaller-offset jump is already round-off cannot decay further.
+    decays = np.all((per_decade >= DECAY_PER_DECADE) | (jumps[:, 1:] <= floor[:, None]), axis=1)
+    return tiny | decays
+
+
+def continuity_order(jumps: dict[str, np.ndarray]) -> int:
+    """Measured continuity class: 2 (C²), 1 (C¹) or 0 (C⁰) from :func:`knot_jumps` output."""
+    offs = jumps.get("offsets")
+    if offs is None:
+        return 2
+    c = {q: _continuous(jumps[q], jumps[q + "_scale"], offs) for q in QUANTITIES}
+    if not (np.all(c["velocity"]) and np.all(c["angular_velocity"])):
+        return 0
+    if not (np.all(c["acceleration"]) and np.all(c["angular_acceleration"])):
+        return 1
+    return 2
+
+
+def _gauss(knots: np.ndarray, m: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    xg, wg = np.polynomial.legendre.leggauss(m)
+    a, b = knots[:-1, None], knots[1:, None]
+    return (0.5 * (a + b) + 0.5 * (b - a) * xg).ravel(), (0.5 * (b - a) * wg).ravel()
+
+
+def _body_points(body: Any) -> np.ndarray | None:
+    if body is None:
+        return None
+    if hasattr(body, "sample_points"):
+        return np.asarray(body.sample_points(), dtype=float)
+    pts = np.asarray(body, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 3:
+        raise ValueError(
+            f"Expected `body` to be points (V, 3) or a shape with sample_points(), got shape {pts.shape}."
+        )
+    return pts
+
+
+def _random_transform(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    q = rng.normal(size=4)
+    return rotation_matrix(q / np.linalg.norm(q)), rng.normal(size=3) * 3.0
+
+
+def invariance_errors(
+    motion: Motion, rng: np.random.Generator | None = None, samples: int = 257
+) -> tuple[float, float]:
+    """Max matrix difference after a change of world frame and of body orientation.
+
+    Rebuilds the motion from moved keyframes (its :attr:`Motion.recipe`) and compares with
+    the moved motion at `samples` times. NaN when the motion has no recipe.
+    """
+    recipe = motion.recipe
+    if recipe is None:
+        return float("nan"), float("nan")
+    from .schemes import build
+
+    rng = np.random.default_rng(2024) if rng is None else rng
+    t = np.linspace(*motion.domain, samples)
+    m0 = motion.matrix(t)
+    rk = rotation_matrix(recipe.rotations)
+    g_r, g_p = _random_transform(rng)
+    moved = build(
+        recipe.scheme,
+        quat_from_matrix(g_r @ rk),
+        recipe.positions @ g_r.T + g_p,
+        recipe.times,
+        **recipe.options,
+    )
+    g = np.eye(4)
+    g[:3, :3], g[:3, 3] = g_r, g_p
+    world = float(np.abs(moved.matrix(t) - g @ m0).max())
+    b_r, _ = _random_transform(rng)
+    turned = build(
+        recipe.scheme, quat_from_matrix(rk @ b_r), recipe.positions, recipe.times, **recipe.options
+    )
+    want = m0.copy()
+    want[:, :3, :3] = m0[:, :3, :3] @ b_r
+    body = float(np.abs(turned.matrix(t) - want).max())
+    return world, body
+
+
+def smoothness(
+    motion: Motion,
+    *,
+    body: Any = None,
+    offsets=(1e-3, 1e-4, 1e-5),
+    invariance: bool = True,
+    rng: np.random.Generator | None = None,
+) -> dict[str, Any]:
+    """One tidy row of smoothness figures of a motion (DESIGN §8).
+
+    Args:
+        motion: any motion of the protocol.
+        body: (V, 3) body points, or a shape with ``sample_points()``, for the peak vertex
+            speed (the origin alone when None).
+        offsets: one-sided offsets as fractions of the neighbouring knot interval.
+        invariance: rebuild from moved keyframes and report the invariance errors.
+
+    Returns:
+        dict with ``scheme``, ``continuity`` ("C0"/"C1"/"C2"), ``continuity_order``, the
+        largest jump of each quantity at the smallest offset (``jump_velocity`` ...),
+        ``angular_acceleration_energy`` ∫|ω'|², ``jerk_energy`` ∫|p'''|², ``peak_angular_velocity``,
+        ``peak_vertex_speed``, ``invariance_world``, ``invariance_body`` and, for schemes that
+        solve iteratively, ``solve_iterations`` and ``solve_seconds``.
+    """
+    if not isinstance(motion, Motion):
+        raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    pts = _body_points(body)
+    t0 = time.perf_counter()
+    jumps = knot_jumps(motion, offsets)
+    order = continuity_order(jumps)
+    row: dict[str, Any] = {
+        "scheme": motion.scheme,
+        "continuity": f"C{order}",
+        "continuity_order": order,
+    }
+    for q in QUANTITIES:
+        j = jumps[q]
+        row[f"jump_{q}"] = float(j[:, -1].max()) if j.size else 0.0
+    knots = motion.knots
+    xg, wg = _gauss(knots)
+    wd = motion.angular_acceleration(xg)
+    row["angular_acceleration_energy"] = float(np.sum(wg * np.einsum("ti,ti->t", wd, wd)))
+    # Jerk by a central difference of the analytic acceleration at interior Gauss points.
+    h = 1e-5 * np.min(np.diff(knots))
+    jerk = (motion.acceleration(xg + h) - motion.acceleration(xg - h)) / (2 * h)
+    row["jerk_energy"] = float(np.sum(wg * np.einsum("ti,ti->t", jerk, jerk)))
+    dense = np.unique(np.concatenate([np.linspace(a, b, 65) for a, b in itertools.pairwise(knots)]))
+    w = motion.angular_velocity(dense)
+    row["peak_angular_velocity"] = float(np.linalg.norm(w, axis=1).max())
+    v = motion.velocity(dense)
+    if pts is None:
+        row["peak_vertex_speed"] = float(np.linalg.norm(v, axis=1).max())
+    else:
+        r, _ = motion.pose(dense)
+        vel = v[:, None, :] + np.cross(w[:, None, :], np.einsum("tij,vj->tvi", r, pts))
+        row["peak_vertex_speed"] = float(np.linalg.norm(vel, axis=-1).max())
+    row["invariance_world"], row["invariance_body"] = (
+        invariance_errors(motion, rng) if invariance else (np.nan, np.nan)
+    )
+    info = getattr(motion, "solve_info", None) or {}
+    row["solve_iterations"] = info.get("iterations", np.nan)
+    row["solve_seconds"] = info.get("seconds", np.nan)
+    row["smoothness_seconds"] = time.perf_counter() - t0
+    return row

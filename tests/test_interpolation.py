@@ -1,0 +1,282 @@
+"""Interpolation (seed §6.5), kinematic Hermite and fitting."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import motions
+from motions import DegenerateMotionError, interpolate, rotation_matrix
+from motions.smoothness import continuity_order, knot_jumps
+
+from .helpers import quat_close, random_unit_quaternions
+
+KEYFRAME_TOL = 1e-10  # DESIGN: keyframes met to round-off
+INVARIANCE_TOL = 1e-10
+
+
+def keyframe_set(rng, n=8, spread=2.0):
+    q = random_unit_quaternions(rng, n)
+    # keep neighbouring rotations within ~100° so that u0 stays well away from 0
+    q = motions.sign_continuity(np.cumprod(np.ones(n))[:, None] * q)
+    steps = Rotation.from_rotvec(rng.normal(size=(n, 3)) * 0.6)
+    rots = [Rotation.random(random_state=int(rng.integers(1 << 30)))]
+    for s in steps[1:]:
+        rots.append(s * rots[-1])
+    q = np.array([r.as_quat(scalar_first=True) for r in rots])
+    p = np.cumsum(rng.normal(size=(n, 3)) * spread, axis=0)
+    return q, p
+
+
+def assert_meets(m, q, p):
+    r, pos = m.pose(m.keyframe_times)
+    np.testing.assert_allclose(r, rotation_matrix(q), atol=KEYFRAME_TOL)
+    np.testing.assert_allclose(pos, p, atol=KEYFRAME_TOL * (1 + np.abs(p).max()))
+
+
+@pytest.mark.parametrize("translation", ["cubic", "minimal"])
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 10])
+def test_keyframes_met(translation, n, rng):
+    q, p = keyframe_set(rng, n)
+    m = interpolate(q, p, translation=translation)
+    assert_meets(m, q, p)
+    d = min(3, n - 1)
+    assert m.preimage_degree == d
+    assert m.degree == (3 * d if translation == "cubic" else 2 * d)
+    assert m.segments == max(1, n - 3)
+    np.testing.assert_allclose(
+        m.keyframe_times, motions.parameter_times(motions.sign_continuity(q), p), rtol=1e-14
+    )
+    assert set(m.keyframe_times) <= set(m.knots) and set(m.breaks) <= set(m.knots)
+
+
+def test_rotation_matrices_and_sign_flips_change_nothing(rng):
+    q, p = keyframe_set(rng, 7)
+    m = interpolate(q, p)
+    flipped = q * rng.choice([-1.0, 1.0], size=(7, 1)) * rng.uniform(0.5, 3, size=(7, 1))
+    for other in (interpolate(flipped, p), interpolate(rotation_matrix(q), p)):
+        x = np.linspace(*m.domain, 301)
+        np.testing.assert_allclose(other.matrix(x), m.matrix(x), atol=1e-12)
+
+
+def test_chordal_rule_is_exact(rng):
+    q, p = keyframe_set(rng, 5)
+    qs = motions.sign_continuity(q)
+    for omega in (0.0, 0.5, 3.0):
+        t = motions.parameter_times(qs, p, "chordal", omega)
+        ang = np.array([np.arccos(np.clip(np.dot(qs[i], qs[i + 1]), -1, 1)) for i in range(4)])
+        want = np.concatenate(
+            [[0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1) + omega * ang)]
+        )
+        np.testing.assert_allclose(t, want, rtol=1e-12)
+    np.testing.assert_array_equal(motions.parameter_times(qs, p, "uniform"), np.arange(5.0))
+    c = motions.parameter_times(qs, p, "centripetal")
+    np.testing.assert_allclose(np.diff(c) ** 2, np.diff(motions.parameter_times(qs, p)), rtol=1e-12)
+
+
+@pytest.mark.parametrize("scheme", ["rational", "rational-hermite"])
+def test_continuity_measured(scheme, rng):
+    q, p = keyframe_set(rng, 9)
+    m = motions.build(scheme, q, p)
+    jumps = knot_jumps(m)
+    order = continuity_order(jumps)
+    assert order == (2 if scheme == "rational" else 1)
+    if scheme == "rational":
+        # acceleration jumps shrink ~10x per decade of the offset
+        j = jumps["acceleration"][jumps["acceleration"][:, 0] > 1e-9]
+        assert np.all(j[:, 0] / j[:, -1] > 50)
+    else:
+        # Hermite: acceleration jumps tend to a non-zero limit at the keyframes
+        j = jumps["angular_acceleration"]
+        assert np.any(j[:, -1] > 1e-3) and np.all(j[:, -1] > 0.5 * j[:, 0] - 1e-9)
+
+
+def random_rigid(rng):
+    return Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix(), rng.normal(
+        size=3
+    ) * 4
+
+
+@pytest.mark.parametrize("translation", ["cubic", "minimal"])
+@pytest.mark.parametrize("given_times", [False, True])
+def test_world_and_body_invariance(translation, given_times, rng):
+    q, p = keyframe_set(rng, 8)
+    times = np.cumsum(rng.uniform(0.3, 2.0, 8)) if given_times else None
+    m = interpolate(q, p, times, translation=translation, omega=0.7)
+    x = np.linspace(*m.domain, 401)
+    g_r, g_p = random_rigid(rng)
+    moved = interpolate(
+        g_r @ rotation_matrix(q), p @ g_r.T + g_p, times, translation=translation, omega=0.7
+    )
+    g = np.eye(4)
+    g[:3, :3], g[:3, 3] = g_r, g_p
+    np.testing.assert_allclose(
+        moved.matrix(x), g @ m.matrix(x), atol=INVARIANCE_TOL * (1 + np.abs(p).max())
+    )
+    b_r, _ = random_rigid(rng)
+    turned = interpolate(rotation_matrix(q) @ b_r, p, times, translation=translation, omega=0.7)
+    r, pos = m.pose(x)
+    r2, pos2 = turned.pose(x)
+    np.testing.assert_allclose(r2, r @ b_r, atol=INVARIANCE_TOL)
+    np.testing.assert_allclose(pos2, pos, atol=INVARIANCE_TOL * (1 + np.abs(p).max()))
+
+
+def test_minimal_energy_is_on_the_cartesian_origin(rng):
+    # Translation invariance: shifting all positions shifts the minimal-mode origin exactly.
+    q, p = keyframe_set(rng, 6)
+    m = interpolate(q, p, translation="minimal")
+    shift = np.array([6.4, -3.0, 12.0])
+    m2 = interpolate(q, p + shift, translation="minimal")
+    x = np.linspace(*m.domain, 201)
+    np.testing.assert_allclose(m2.pose(x)[1], m.pose(x)[1] + shift, atol=1e-10)
+
+
+def test_minimal_numerator_minimises_the_cartesian_energy(rng):
+    # Any other admissible numerator (same spline space, same keyframes) has a larger
+    # ∫|(v/u0)''|²: perturb the solution along the null space of the interpolation rows.
+    from scipy.interpolate import make_interp_spline
+
+    from motions.interpolation import _design, _gauss, _minimal_numerator
+
+    q, p = keyframe_set(rng, 6)
+    m = interpolate(q, p, translation="minimal")
+    t = m.keyframe_times
+    xg, wg = _gauss(m.breaks, 12)
+
+    def energy(motion):
+        a = motion.acceleration(xg)
+        return np.sum(wg * np.einsum("ti,ti->t", a, a))
+
+    d = m.preimage_degree
+    sq = make_interp_spline(t, motions.sign_continuity(q), k=d)
+    knots, coeffs = _minimal_numerator(sq, t, p)
+    rows = _design(knots, 2 * d, t).toarray()
+    null = np.linalg.svd(rows)[2][rows.shape[0] :]
+    e0 = energy(m)
+    for _ in range(5):
+        w = null.T @ rng.normal(size=(null.shape[0], 3)) * 0.05
+        other = motions.RationalMotion.from_preimage(
+            d, sq.t, sq.c, numerator=(2 * d, knots, coeffs + w), keyframe_times=t
+        )
+        assert_meets(other, q, p)
+        assert energy(other) > e0
+
+
+def test_near_180_steps_work_or_fail_clearly(rng, monkeypatch):
+    # A 180° turn between neighbours (orthogonal quaternions) followed by more turns.
+    axis_turns = Rotation.from_rotvec(
+        [[0, 0, 0], [np.pi, 0, 0], [np.pi, np.pi / 2, 0], [0, 0, np.pi * 0.999]]
+    )
+    q = axis_turns.as_quat(scalar_first=True)
+    p = np.zeros((4, 3))
+    m = interpolate(q, p, times=[0.0, 1.0, 2.0, 3.0])
+    assert_meets(m, q, p)
+    r, _ = m.pose(np.linspace(0, 3, 2001))
+    np.testing.assert_allclose(
+        r @ np.swapaxes(r, 1, 2), np.broadcast_to(np.eye(3), r.shape), atol=1e-12
+    )
+    # With a stricter threshold the same data is refused, naming the keyframe pair.
+    vals, _where = m.weight_minimum()
+    ratio = vals.min() / np.abs(m.weights()).max()
+    monkeypatch.setattr(motions.interpolation, "MIN_WEIGHT_RATIO", ratio * 1.01)
+    with pytest.raises(DegenerateMotionError, match=r"between keyframes \d and \d"):
+        interpolate(q, p, times=[0.0, 1.0, 2.0, 3.0])
+
+
+def test_hermite_meets_given_derivatives(rng):
+    q, p = keyframe_set(rng, 6)
+    w = rng.normal(size=(6, 3))
+    v = rng.normal(size=(6, 3))
+    m = motions.hermite(q, p, velocities=v, angular_velocities=w)
+    assert m.preimage_degree == 3 and m.degree == 9 and m.segments == 5
+    assert_meets(m, q, p)
+    t = m.keyframe_times
+    np.testing.assert_allclose(m.angular_velocity(t), w, atol=1e-10)
+    np.testing.assert_allclose(m.velocity(t), v, atol=1e-10)
+    # spherical part of degree 6: the U block of the control matrices has degree 6 (elevated)
+    est = motions.hermite(q, p)
+    assert_meets(est, q, p)
+
+
+def test_fit_recovers_a_known_motion(rng):
+    # Ground truth: a rational motion with a cubic preimage on 4 uniform spans whose
+    # control quaternions are a random walk of unit quaternions (|Q| varies by ~2%).
+    t = np.linspace(0.0, 4.0, 1000)
+    knots = np.concatenate([[0] * 4, [1.0, 2.0, 3.0], [4] * 4])
+    rots = [Rotation.random(random_state=3)]
+    for step in Rotation.from_rotvec(rng.normal(size=(6, 3)) * 0.5):
+        rots.append(step * rots[-1])
+    cq = motions.sign_continuity(np.array([r.as_quat(scalar_first=True) for r in rots]))
+    truth = motions.RationalMotion.from_preimage(3, knots, cq, (3, knots, rng.normal(size=(7, 3))))
+    r, pos = truth.pose(t)
+    noise = 1e-3
+    noisy_r = Rotation.from_rotvec(rng.normal(size=(t.size, 3)) * noise) * Rotation.from_matrix(r)
+    noisy_p = pos + rng.normal(size=(t.size, 3)) * noise
+    res = motions.fit(noisy_r.as_quat(scalar_first=True), noisy_p, t, segments=4)
+    x = np.linspace(0, 4, 1001)
+    rf, pf = res.motion.pose(x)
+    rt, pt = truth.pose(x)
+    ang = np.linalg.norm(Rotation.from_matrix(rf @ np.swapaxes(rt, 1, 2)).as_rotvec(), axis=1)
+    assert ang.max() < noise, f"rotation error {ang.max():.2e} above the noise level"
+    assert np.linalg.norm(pf - pt, axis=1).max() < noise
+    # residuals against the data are at the noise level (3-D noise: |e| ~ sqrt(3) sigma)
+    assert res.rms_position_error < 3 * noise and res.max_angle_error < 10 * noise
+    # fitting unit quaternions instead (homogeneous=False) is biased by the norm variation
+    plain = motions.fit(
+        noisy_r.as_quat(scalar_first=True), noisy_p, t, segments=4, homogeneous=False
+    )
+    assert plain.rms_angle_error > res.rms_angle_error
+
+
+def test_fairing_lowers_the_proxy_and_the_true_energy(rng):
+    t = np.linspace(0, 5, 120)
+    rots = Rotation.from_rotvec(
+        np.stack([np.sin(t), 0.5 * np.cos(2 * t), 0.2 * t], 1) + rng.normal(size=(120, 3)) * 0.05
+    )
+    p = np.stack([t, np.sin(t), 0 * t], 1)
+    plain = motions.fit(rots.as_quat(scalar_first=True), p, t, segments=20)
+    faired = motions.fit(rots.as_quat(scalar_first=True), p, t, segments=20, fairing=1e-2)
+    assert faired.preimage_energy < plain.preimage_energy
+    assert faired.angular_acceleration_energy < plain.angular_acceleration_energy
+    assert faired.max_angle_error > plain.max_angle_error  # the price of fairing
+
+
+Q4 = np.tile([1.0, 0, 0, 0], (4, 1))
+P4 = np.arange(12.0).reshape(4, 3)
+
+
+@pytest.mark.parametrize(
+    ("args", "kwargs", "exc", "match"),
+    [
+        ((Q4[:1], P4[:1]), {}, ValueError, "at least 2 keyframes"),
+        ((Q4, P4, [0.0, 1.0, 1.0, 2.0]), {}, ValueError, "strictly increasing"),
+        ((Q4, P4, [0.0, 1.0, 2.0]), {}, ValueError, "4 entries"),
+        ((Q4, P4[:3]), {}, ValueError, "4 rows"),
+        ((np.vstack([Q4[:3], [np.nan, 0, 0, 0]]), P4), {}, ValueError, "finite"),
+        ((np.vstack([Q4[:3], [0.0, 0, 0, 0]]), P4), {}, ValueError, "non-zero"),
+        (
+            (np.stack([np.eye(3)] * 3 + [np.diag([1.0, 1, -1])]), P4),
+            {},
+            ValueError,
+            "rotation matrices",
+        ),
+        ((np.stack([np.eye(3)] * 3 + [np.eye(3) * 1.01]), P4), {}, ValueError, "rotation matrices"),
+        ((Q4, P4), {"translation": "quintic"}, ValueError, "translation"),
+        ((Q4, P4, "arc"), {}, ValueError, "times"),
+        ((Q4, P4), {"omega": -1.0}, ValueError, "omega"),
+        ((Q4, np.zeros((4, 3))), {}, ValueError, "identical"),
+        ((Q4, P4, "uniform"), {"translation": 3}, ValueError, "translation"),
+    ],
+)
+def test_bad_input(args, kwargs, exc, match):
+    with pytest.raises(exc, match=match):
+        interpolate(*args, **kwargs)
+
+
+def test_build_rejects_unknown_scheme_and_options():
+    with pytest.raises(ValueError, match="rational-hermite"):
+        motions.build("nurbs", Q4, P4)
+    with pytest.raises(TypeError, match="valid options"):
+        motions.build("rational", Q4, P4, tension=0.5)
+    assert quat_close(np.array([1.0, 0, 0, 0]), np.array([-1.0, 0, 0, 0])) == 0
