@@ -32,13 +32,35 @@ def _demo() -> int:
     return 0
 
 
+def _schemes() -> int:
+    """Every scheme with its measured continuity class and invariance errors."""
+    from motions.schemes import scheme_table
+
+    rows = scheme_table()
+    head = f"{'scheme':20s} {'continuity':>10s} {'world inv.':>11s} {'body inv.':>11s} {'speed bound':>12s} {'solve iters':>11s}"
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        it = "" if np.isnan(r["solve_iterations"]) else str(int(r["solve_iterations"]))
+        print(
+            f"{r['scheme']:20s} {r['continuity']:>10s} {r['invariance_world']:11.1e}"
+            f" {r['invariance_body']:11.1e} {r['speed_bound']:>12s} {it:>11s}"
+        )
+    print("\ncontinuity measured from one-sided jumps at knots, chordal (non-uniform) times;")
+    print("invariance: max matrix difference after moving the world frame / turning the body.")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="rsmbench", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("run", help="run a benchmark suite (for now: a demo motion's identity checks)")
+    sub.add_parser("schemes", help="list motion schemes with measured continuity and invariance")
     args = parser.parse_args(argv)
     if args.command == "run":
         return _demo()
+    if args.command == "schemes":
+        return _schemes()
     return 2
 
 

@@ -3,7 +3,11 @@
 Quaternions are scalar first ``(w, x, y, z)`` everywhere (DESIGN §1).
 """
 
-from . import bernstein, quaternion
+from . import (
+    baselines,
+    bernstein,
+    quaternion,
+)
 from .errors import DegenerateMotionError, MotionError
 from .interpolation import FitResult, fit, hermite, interpolate, parameter_times
 from .motion import Motion, Recipe
@@ -43,6 +47,7 @@ __all__ = [
     "RationalMotion",
     "Recipe",
     "U",
+    "baselines",
     "bernstein",
     "build",
     "darboux",

@@ -17,6 +17,7 @@ import numpy as np
 __all__ = [
     "U_TENSOR",
     "U",
+    "preimage_kinematics",
     "qconj",
     "qexp",
     "qlog",
@@ -166,3 +167,22 @@ def qlog(q: np.ndarray) -> np.ndarray:
     a = np.arctan2(vn, q[..., 0])
     # a / sin(a) written through sinc for a stable limit at a = 0.
     return q[..., 1:] / np.sinc(a / np.pi)[..., None]
+
+
+def preimage_kinematics(q: np.ndarray, dq: np.ndarray | None = None, ddq: np.ndarray | None = None):
+    """Rotation and world-frame rates of a homogeneous quaternion curve (DESIGN §1).
+
+    ``R = U(Q)/|Q|²``, ``ω = 2 vec(Q' conj(Q)) / |Q|²`` and
+    ``ω' = 2 vec(Q'' conj(Q)) / |Q|² - ω · 2<Q, Q'>/|Q|²`` (``Q' conj(Q')`` is real).
+    Returns (R (T, 3, 3), ω (T, 3) or None, ω' (T, 3) or None).
+    """
+    n2 = u0(q)
+    r = rotation_matrix(q)
+    if dq is None:
+        return r, None, None
+    w = 2.0 * qmul(dq, qconj(q))[..., 1:] / n2[..., None]
+    if ddq is None:
+        return r, w, None
+    dn2 = 2.0 * np.einsum("...i,...i->...", q, dq)
+    wd = 2.0 * qmul(ddq, qconj(q))[..., 1:] / n2[..., None] - w * (dn2 / n2)[..., None]
+    return r, w, wd

@@ -31,7 +31,7 @@ from .bernstein import (
 )
 from .errors import DegenerateMotionError, MotionError
 from .motion import Motion, skew, vee
-from .quaternion import U_TENSOR, qconj, qmul, rotation_matrix
+from .quaternion import U_TENSOR, preimage_kinematics, rotation_matrix
 
 __all__ = ["WEIGHT_REL_TOL", "RationalMotion", "bezier_minimum"]
 
@@ -39,7 +39,8 @@ WEIGHT_REL_TOL = 1e-12
 """Bézier weights must exceed this fraction of the largest weight (DESIGN §2.4)."""
 MAX_WEIGHT_SPLIT_DEPTH = 30
 _CHUNK = 32768  # times per evaluation chunk: temporaries stay in cache
-FROM_BEZIER_TOL = 1e-10  # relative orthogonality / continuity check of from_bezier
+FROM_BEZIER_TOL = 1e-10
+SPEED_MARGIN = 1e-9  # relative outward margin on proven speed bounds (round-off)  # relative orthogonality / continuity check of from_bezier
 
 
 def _ppoly(pieces: np.ndarray, breaks: np.ndarray) -> PPoly:
@@ -365,41 +366,36 @@ class RationalMotion(Motion):
 
     def _kin_preimage(self, t: np.ndarray, order: int):
         pp = self._evaluator()
-        f = pp(t)
-        q = f[:, :4]
-        n2 = np.einsum("ti,ti->t", q, q)
-        r = rotation_matrix(q)
+        fs = [pp(t, nu) for nu in range(order + 1)]
+        q = fs[0][:, :4]
+        r, w, wd = preimage_kinematics(q, *(f[:, :4] for f in fs[1:]))
         mode = "p" if self._p is not None else ("v" if self._v is not None else None)
-        p = (
-            f[:, 4:7]
-            if mode == "p"
-            else (f[:, 4:7] / n2[:, None] if mode == "v" else np.zeros((t.size, 3)))
-        )
+        if mode is None:
+            lin = [np.zeros((t.size, 3))] * (order + 1)
+        elif mode == "p":
+            lin = [f[:, 4:7] for f in fs]
+        else:
+            # v = u0 p: p = v/u0, p' = (v' - p u0')/u0, p'' = (v'' - 2 p' u0' - p u0'')/u0
+            vs = [f[:, 4:7] for f in fs]
+            qs = [f[:, :4] for f in fs]
+            n2 = np.einsum("ti,ti->t", q, q)[:, None]
+            lin = [vs[0] / n2]
+            if order >= 1:
+                dn2 = 2.0 * np.einsum("ti,ti->t", qs[0], qs[1])[:, None]
+                lin.append((vs[1] - lin[0] * dn2) / n2)
+            if order >= 2:
+                ddn2 = (
+                    2.0
+                    * (np.einsum("ti,ti->t", qs[1], qs[1]) + np.einsum("ti,ti->t", qs[0], qs[2]))[
+                        :, None
+                    ]
+                )
+                lin.append((vs[2] - 2.0 * lin[1] * dn2 - lin[0] * ddn2) / n2)
         if order == 0:
-            return r, p
-        f1 = pp(t, 1)
-        q1 = f1[:, :4]
-        dn2 = 2.0 * np.einsum("ti,ti->t", q, q1)
-        w = 2.0 * qmul(q1, qconj(q))[:, 1:] / n2[:, None]
-        if mode == "p":
-            v = f1[:, 4:7]
-        elif mode == "v":
-            v = (f1[:, 4:7] - p * dn2[:, None]) / n2[:, None]
-        else:
-            v = np.zeros_like(p)
+            return r, lin[0]
         if order == 1:
-            return r, p, w, v
-        f2 = pp(t, 2)
-        q2 = f2[:, :4]
-        wd = 2.0 * qmul(q2, qconj(q))[:, 1:] / n2[:, None] - w * (dn2 / n2)[:, None]
-        if mode == "p":
-            a = f2[:, 4:7]
-        elif mode == "v":
-            ddn2 = 2.0 * (np.einsum("ti,ti->t", q1, q1) + np.einsum("ti,ti->t", q, q2))
-            a = (f2[:, 4:7] - 2.0 * v * dn2[:, None] - p * ddn2[:, None]) / n2[:, None]
-        else:
-            a = np.zeros_like(p)
-        return r, p, w, v, wd, a
+            return r, lin[0], w, lin[1]
+        return r, lin[0], w, lin[1], wd, lin[2]
 
     def _kin_matrix(self, t: np.ndarray, order: int):
         pp = self._evaluator()
@@ -621,18 +617,19 @@ class RationalMotion(Motion):
         u1 = np.clip((b - br[segs]) / h, 0.0, 1.0)
         keep = u1 > u0
         segs, h, u0, u1 = segs[keep], h[keep], u0[keep], u1[keep]
-        c = _restrict(np.array(self.ctrl[segs]), u0, u1)
-        dt = h * (u1 - u0)
+        # Velocity numerator and squared weight on whole segments first (derivatives of
+        # restricted pieces would cancel catastrophically on short intervals), then
+        # restrict both polynomials to [u0, u1] by de Casteljau.
+        c = np.array(self.ctrl[segs])
+        m, w = c[..., :3, :], c[..., 3, 3]
+        num = bezier_product(
+            bezier_derivative(m, axis=1), w[..., None, None], axis=1
+        ) - bezier_product(m, bezier_derivative(w, axis=1)[..., None, None], axis=1)
+        w2 = bezier_product(w, w, axis=1)
+        num = _restrict(num, u0, u1)
+        w2 = _restrict(w2, u0, u1)
         best = 0.0
         for _ in range(40):
-            m = c[..., :3, :]  # (B, n+1, 3, 4)
-            w = c[..., 3, 3]
-            dm = bezier_derivative(m, axis=1)
-            dw = bezier_derivative(w, axis=1)
-            num = bezier_product(dm, w[..., None, None], axis=1) - bezier_product(
-                m, dw[..., None, None], axis=1
-            )
-            w2 = bezier_product(w, w, axis=1)
             w2min = w2.min(axis=1)
             ok = w2min > 0
             if np.any(ok):
@@ -640,14 +637,13 @@ class RationalMotion(Motion):
                 gn = np.linalg.norm(g[..., :3], ord=2, axis=(-2, -1)) * r + np.linalg.norm(
                     g[..., 3], axis=-1
                 )
-                bound = gn.max(axis=1) / w2min[ok] / dt[ok]
-                best = max(best, float(bound.max()))
+                best = max(best, float((gn.max(axis=1) / w2min[ok] / h[ok]).max()))
             if np.all(ok):
-                return best * (1.0 + 1e-9) + 1e-300
-            c, dt = c[~ok], dt[~ok]
-            left, right = de_casteljau_split(c, 0.5, axis=1)
-            c = np.concatenate([left, right])
-            dt = np.concatenate([dt, dt]) * 0.5
+                return best * (1.0 + SPEED_MARGIN) + 1e-300
+            num, w2, h = num[~ok], w2[~ok], h[~ok]
+            nl, nr = de_casteljau_split(num, 0.5, axis=1)
+            wl, wr = de_casteljau_split(w2, 0.5, axis=1)
+            num, w2, h = np.concatenate([nl, nr]), np.concatenate([wl, wr]), np.concatenate([h, h])
         raise DegenerateMotionError(
             f"The weight of the motion vanishes on [{t0!r}, {t1!r}]; no finite speed bound."
         )

@@ -1,0 +1,560 @@
+"""Slerp-family baselines under the common motion protocol (DESIGN §3).
+
+Every scheme except ``"sclerp"`` combines its rotation scheme with the same C² cubic
+not-a-knot origin spline as the rational ``"cubic"`` mode, so only the rotation differs.
+Derivatives are analytic: closed forms for slerp and sclerp, scipy's own for
+``RotationSpline``, and second-order jets (:mod:`motions._jet`) through the nested slerps
+of squad, Bézier-slerp and the cumulative B-spline.
+
+With non-uniform times, squad and Bézier-slerp use two inner points per keyframe so that
+they are C¹ in time: with ``L± = log(q_i⁻¹ q_{i±1})``, ``T = (L+ - L-)/2``,
+``T+ = T 2h_i/(h_{i-1}+h_i)`` and ``T- = T 2h_{i-1}/(h_{i-1}+h_i)``, the curve leaves
+``q_i`` along ``T+`` per unit segment parameter and arrives along ``T-``, so both
+one-sided time derivatives equal ``2T/(h_{i-1}+h_i)``. Squad's inner points are
+``s_i+ = q_i exp((T+ - L+)/2)`` and ``s_i- = q_i exp(-(T- + L-)/2)`` (DESIGN §3); the cubic
+spherical Bézier reaches the same tangents with ``b_i+ = q_i exp(T+/3)`` and
+``b_i- = q_i exp(-T-/3)``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+import warnings
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.interpolate import BSpline, make_interp_spline
+from scipy.sparse.linalg import spsolve
+from scipy.spatial.transform import Rotation, RotationSpline
+
+from ._jet import Jet, concat, qexp_jet, qmul_jet, slerp_jet
+from .bernstein import bspline_bezier_pieces
+from .errors import MotionError
+from .interpolation import keyframes
+from .motion import Motion, Recipe
+from .quaternion import preimage_kinematics, qconj, qexp, qlog, qmul, rotation_matrix
+from .schemes import register
+
+__all__ = [
+    "BezierSlerpMotion",
+    "CumulativeBSplineMotion",
+    "RotationSplineMotion",
+    "ScLerpMotion",
+    "SlerpMotion",
+    "SquadMotion",
+]
+
+CUMULATIVE_TOL = 1e-12  # interpolation residual (quaternion angle) of the cumulative solve
+CUMULATIVE_MAX_ITER = 200
+SPEED_MARGIN = 1e-9  # relative outward margin on proven speed bounds (round-off)
+
+
+def spline_speed_bound(spline: BSpline, t0: float, t1: float) -> float:
+    """max |s'(t)| on [t0, t1] bounded by the Bernstein coefficients of s' (convex hull)."""
+    d = spline.derivative()
+    if d.k == 0:
+        inner = d.t[(d.t > t0) & (d.t < t1)]
+        breaks = np.unique(np.concatenate([[t0, t1], inner]))
+        idx = np.clip(
+            np.searchsorted(d.t, 0.5 * (breaks[:-1] + breaks[1:]), side="right") - 1,
+            0,
+            d.c.shape[0] - 1,
+        )
+        return float(np.linalg.norm(d.c[idx], axis=-1).max())
+    inner = d.t[(d.t > t0) & (d.t < t1)]
+    breaks = np.unique(np.concatenate([[t0, t1], inner]))
+    if breaks.size < 2:
+        breaks = np.array([t0, t1 + 1e-300])
+    pieces = bspline_bezier_pieces(d.t, d.c, d.k, breaks)
+    return float(np.linalg.norm(pieces, axis=-1).max())
+
+
+class KeyframeMotion(Motion):
+    """A baseline: keyframe rotations (sign-fixed unit quaternions) plus the C² cubic
+    not-a-knot origin spline; subclasses provide the rotation part."""
+
+    scheme = "baseline"
+
+    def __init__(self, q: np.ndarray, p: np.ndarray, t: np.ndarray):
+        super().__init__((t[0], t[-1]), t)
+        self._q = q
+        self._p = p
+        self._t = t
+        self._origin = make_interp_spline(t, p, k=min(3, t.size - 1))
+
+    @property
+    def breakpoints(self) -> np.ndarray:
+        return np.unique(np.concatenate([self._t, self._origin.t]))
+
+    def _segment(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Keyframe interval index (T,), its length h (T,) and local parameter u (T,)."""
+        i = np.clip(np.searchsorted(self._t, t, side="right") - 1, 0, self._t.size - 2)
+        h = self._t[i + 1] - self._t[i]
+        return i, h, (t - self._t[i]) / h
+
+    def _translation(self, t: np.ndarray, order: int) -> list[np.ndarray]:
+        return [self._origin(t, nu) for nu in range(order + 1)]
+
+    def _rotation(
+        self, t: np.ndarray, order: int
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        raise NotImplementedError
+
+    def _kinematics(self, t: np.ndarray, order: int):
+        r, w, wd = self._rotation(t, order)
+        lin = self._translation(t, order)
+        rot = (r, w, wd)
+        return tuple(x for nu in range(order + 1) for x in (rot[nu], lin[nu]))
+
+    def _angular_speed_bound(self, t0: float, t1: float) -> float:
+        raise NotImplementedError(f"Scheme {self.scheme!r} has no proven angular speed bound.")
+
+    def speed_bound(self, t0: float, t1: float, radius: float) -> float:
+        """Proven bound on the speed of points within `radius` of the origin on [t0, t1]:
+        ``max |p'| + radius max |ω|`` from Bernstein coefficients and the scheme's bound."""
+        a, b, r = self._check_interval(t0, t1, radius)
+        ang = self._angular_speed_bound(a, b)
+        return (spline_speed_bound(self._origin, a, b) + r * ang) * (1 + SPEED_MARGIN)
+
+
+# --------------------------------------------------------------------------- slerp
+class SlerpMotion(KeyframeMotion):
+    """Piecewise geodesic (slerp) rotation: constant angular velocity per segment, C⁰."""
+
+    scheme = "slerp"
+
+    def __init__(self, q, p, t):
+        super().__init__(q, p, t)
+        self._log = qlog(qmul(qconj(q[:-1]), q[1:]))  # (N-1, 3) half-angle vectors
+        h = np.diff(t)
+        self._omega = 2.0 * np.einsum("nij,nj->ni", rotation_matrix(q[:-1]), self._log) / h[:, None]
+
+    def _rotation(self, t, order):
+        i, _, u = self._segment(t)
+        q = qmul(self._q[i], qexp(u[:, None] * self._log[i]))
+        r = rotation_matrix(q)
+        if order == 0:
+            return r, None, None
+        return r, self._omega[i], np.zeros((t.size, 3))
+
+    def _angular_speed_bound(self, t0, t1):
+        i0 = int(np.clip(np.searchsorted(self._t, t0, side="right") - 1, 0, self._t.size - 2))
+        i1 = int(np.clip(np.searchsorted(self._t, t1, side="left") - 1, 0, self._t.size - 2))
+        return float(np.linalg.norm(self._omega[i0 : max(i0, i1) + 1], axis=1).max())
+
+
+# --------------------------------------------------------------------------- two-inner-point tangents
+def _keyframe_tangents(
+    q: np.ndarray, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Outgoing/incoming tangents T+ (N, 3), T- (N, 3) per unit segment parameter, and
+    L+ (N, 3), L- (N, 3) (zero where the neighbour is missing). Ends use the chord."""
+    n = q.shape[0]
+    lp = np.zeros((n, 3))
+    lm = np.zeros((n, 3))
+    lp[:-1] = qlog(qmul(qconj(q[:-1]), q[1:]))
+    lm[1:] = qlog(qmul(qconj(q[1:]), q[:-1]))
+    h = np.diff(t)
+    tp = lp.copy()  # end tangents: the chord
+    tm = -lm.copy()
+    if n > 2:
+        tt = 0.5 * (lp[1:-1] - lm[1:-1])
+        hl, hr = h[:-1, None], h[1:, None]
+        tp[1:-1] = tt * 2 * hr / (hl + hr)
+        tm[1:-1] = tt * 2 * hl / (hl + hr)
+    return tp, tm, lp, lm
+
+
+def _const(q: np.ndarray) -> Jet:
+    return Jet(q)
+
+
+class _JetRotationMotion(KeyframeMotion):
+    """Baselines whose unit quaternion q(t) is computed as a jet."""
+
+    def _quaternion_jet(self, t: np.ndarray, order: int = 2) -> Jet:
+        raise NotImplementedError
+
+    def _rotation(self, t, order):
+        qj = self._quaternion_jet(t, order)
+        return preimage_kinematics(
+            qj.v, qj.full("d") if order >= 1 else None, qj.full("dd") if order >= 2 else None
+        )
+
+
+class SquadMotion(_JetRotationMotion):
+    """Shoemake's squad with two inner points per keyframe: C¹ in time for any spacing."""
+
+    scheme = "squad"
+
+    def __init__(self, q, p, t):
+        super().__init__(q, p, t)
+        tp, tm, lp, lm = _keyframe_tangents(q, t)
+        self._sp = qmul(q, qexp(0.5 * (tp - lp)))
+        self._sm = qmul(q, qexp(-0.5 * (tm + lm)))
+
+    def _quaternion_jet(self, t, order=2):
+        i, h, u = self._segment(t)
+        uj = Jet(u[:, None], (1 / h)[:, None] if order else None)
+        a = slerp_jet(_const(self._q[i]), _const(self._q[i + 1]), uj)
+        b = slerp_jet(_const(self._sp[i]), _const(self._sm[i + 1]), uj)
+        return slerp_jet(a, b, 2.0 * uj * (1.0 - uj))
+
+
+class BezierSlerpMotion(_JetRotationMotion):
+    """Cubic spherical Bézier (spherical de Casteljau, seed §4.1), C¹ in time."""
+
+    scheme = "bezier-slerp"
+
+    def __init__(self, q, p, t):
+        super().__init__(q, p, t)
+        tp, tm, _, _ = _keyframe_tangents(q, t)
+        self._bp = qmul(q, qexp(tp / 3.0))
+        self._bm = qmul(q, qexp(-tm / 3.0))
+
+    def _quaternion_jet(self, t, order=2):
+        i, h, u = self._segment(t)
+        uj = Jet(u[:, None], (1 / h)[:, None] if order else None)
+        pts = [
+            _const(self._q[i]),
+            _const(self._bp[i]),
+            _const(self._bm[i + 1]),
+            _const(self._q[i + 1]),
+        ]
+        while len(pts) > 1:
+            pts = [slerp_jet(a, b, uj) for a, b in itertools.pairwise(pts)]
+        return pts[0]
+
+
+# --------------------------------------------------------------------------- cumulative B-spline
+def _basis_windows(
+    knots: np.ndarray, k: int, x: np.ndarray, nd: int = 2
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Span index mu (T,) and the non-zero B-spline basis windows with derivatives.
+
+    Returns mu and [values, first, second] derivatives, each (T, k+1) for the basis
+    functions mu-k .. mu (Cox–de Boor table; derivatives from the lower-degree rows).
+    """
+    n = knots.size - k - 1
+    mu = np.clip(np.searchsorted(knots, x, side="right") - 1, k, n - 1)
+    table = [np.ones((x.size, 1))]
+    for p in range(1, k + 1):
+        prev = table[-1]
+        cur = np.zeros((x.size, p + 1))
+        for m in range(p + 1):
+            i = mu - p + m
+            if m >= 1:
+                den = knots[i + p] - knots[i]
+                cur[:, m] += (
+                    np.where(den > 0, (x - knots[i]) / np.where(den > 0, den, 1), 0)
+                    * prev[:, m - 1]
+                )
+            if m <= p - 1:
+                den = knots[i + p + 1] - knots[i + 1]
+                cur[:, m] += (
+                    np.where(den > 0, (knots[i + p + 1] - x) / np.where(den > 0, den, 1), 0)
+                    * prev[:, m]
+                )
+        table.append(cur)
+
+    def deriv(w: np.ndarray, p: int) -> np.ndarray:
+        # Window of degree p-1 (T, p) -> derivative combination for degree p (T, p+1).
+        out = np.zeros((x.size, p + 1))
+        for m in range(p + 1):
+            i = mu - p + m
+            if m >= 1:
+                den = knots[i + p] - knots[i]
+                out[:, m] += np.where(den > 0, p / np.where(den > 0, den, 1), 0) * w[:, m - 1]
+            if m <= p - 1:
+                den = knots[i + p + 1] - knots[i + 1]
+                out[:, m] -= np.where(den > 0, p / np.where(den > 0, den, 1), 0) * w[:, m]
+        return out
+
+    ders = [table[k]]
+    if nd >= 1:
+        ders.append(deriv(table[k - 1], k) if k >= 1 else np.zeros_like(table[k]))
+    if nd >= 2:
+        ders.append(deriv(deriv(table[k - 2], k - 1), k) if k >= 2 else np.zeros_like(table[k]))
+    return mu, ders
+
+
+class CumulativeBSplineMotion(_JetRotationMotion):
+    """Kim–Kim–Shin cumulative quaternion B-spline, C², made to interpolate.
+
+    ``q(t) = c_0 prod_j exp(B~_j(t) Ω_j)`` with ``Ω_j = log(c_{j-1}⁻¹ c_j)`` and the cumulative
+    basis ``B~_j = sum_{l>=j} B_l`` on the not-a-knot knots of the rational scheme. The
+    control rotations c_j are solved so that ``q(t_i)`` meets every keyframe: damped Newton
+    with a block-banded Jacobian, to a residual of 1e-12 (half angle);
+    :attr:`solve_info` reports iterations and time.
+    """
+
+    scheme = "cumulative-bspline"
+
+    def __init__(self, q, p, t):
+        super().__init__(q, p, t)
+        self._k = min(3, t.size - 1)
+        self._knots = make_interp_spline(t, np.zeros(t.size), k=self._k).t
+        t_start = time.perf_counter()
+        _, it, res = self._solve_controls(q, t)
+        self.solve_info = {
+            "iterations": it,
+            "seconds": time.perf_counter() - t_start,
+            "residual": res,
+        }
+
+    def _residual(self, c: np.ndarray, q: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """World-frame residual rotations ``log(R_i q(t_i)⁻¹)`` (N, 3), half angle."""
+        self._set_controls(c)
+        return qlog(qmul(q, qconj(self._quaternion_jet(t, 0).v)))
+
+    def _newton(
+        self, c: np.ndarray, q: np.ndarray, t: np.ndarray, max_iter: int
+    ) -> tuple[np.ndarray, int, float]:
+        """Damped Newton on the control rotations (left, world-frame corrections).
+
+        The Jacobian is block-banded: ``q(t_i)`` depends on the k+1 controls of its span
+        only, so perturbing every (k+1)-th control at once (one colour) gives k+1 columns
+        per keyframe; 3(k+1) residual evaluations build it by forward differences.
+        Returns (controls, iterations, max residual).
+        """
+        n, k = q.shape[0], self._k
+        mu = np.clip(np.searchsorted(self._knots, t, side="right") - 1, k, n - 1)
+        r = self._residual(c, q, t)
+        res = float(np.linalg.norm(r, axis=1).max())
+        eps = 1e-7
+        it = 0
+        while res > CUMULATIVE_TOL and it < max_iter:
+            it += 1
+            rows, cols, vals = [], [], []
+            for m in range(k + 1):
+                sel = np.arange(n) % (k + 1) == m
+                j = mu - k + (m - (mu - k)) % (k + 1)  # the colour-m control of each window
+                for a in range(3):
+                    step = np.zeros(3)
+                    step[a] = eps
+                    cp = c.copy()
+                    cp[sel] = qmul(qexp(step), c[sel])
+                    col = (self._residual(cp, q, t) - r) / eps  # (N, 3)
+                    for b in range(3):
+                        rows.append(3 * np.arange(n) + b)
+                        cols.append(3 * j + a)
+                        vals.append(col[:, b])
+            jac = sp.csc_array(
+                (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                shape=(3 * n, 3 * n),
+            )
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a singular Jacobian shows as non-finite
+                delta = spsolve(jac, -r.ravel()).reshape(n, 3)
+            if not np.all(np.isfinite(delta)):
+                break
+            alpha, merit = 1.0, float(np.sum(r * r))
+            while True:
+                trial = qmul(qexp(alpha * delta), c)
+                rt = self._residual(trial, q, t)
+                if float(np.sum(rt * rt)) < merit or alpha < 1e-4:
+                    break
+                alpha *= 0.5
+            c, r = trial, rt
+            res = float(np.linalg.norm(r, axis=1).max())
+        return c, it, res
+
+    def _solve_controls(self, q: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, int, float]:
+        """Newton from the keyframes; if that stalls, continuation in the turn size.
+
+        The continuation solves for keyframes whose relative turns are scaled by s,
+        ``q_i(s) = q_0 prod_l exp(s log(q_{l-1}⁻¹ q_l))``, from s = 0 (trivial) to s = 1,
+        each step started from the last solution.
+        """
+        c, total, res = self._newton(q.copy(), q, t, 30)
+        if res <= CUMULATIVE_TOL:
+            return c, total, res
+        logs = qlog(qmul(qconj(q[:-1]), q[1:]))
+        s, ds, c = 0.0, 0.25, np.tile(q[0], (q.shape[0], 1))
+        while s < 1.0 and ds > 1e-3 and total < CUMULATIVE_MAX_ITER:
+            s_try = min(1.0, s + ds)
+            qs = np.vstack([q[0], q[0]])[:1]
+            steps = qexp(s_try * logs)
+            qs = [q[0]]
+            for st in steps:
+                qs.append(qmul(qs[-1], st))
+            qs = np.array(qs)
+            c_try, it, res = self._newton(c.copy(), qs, t, 20)
+            total += it
+            if res <= CUMULATIVE_TOL:
+                s, c, ds = s_try, c_try, ds * 1.5
+            else:
+                ds *= 0.5
+        self._set_controls(c)
+        if s < 1.0 or res > CUMULATIVE_TOL:
+            raise MotionError(
+                f"The cumulative B-spline cannot be made to meet the keyframes (Newton and continuation"
+                f" stalled at residual {res:.3g} after {total} iterations): this scheme's nonlinear"
+                " interpolation problem has no reachable solution for these keyframes and times."
+            )
+        return c, total, res
+
+    def _set_controls(self, c: np.ndarray) -> None:
+        self._c = c
+        omega = np.zeros((c.shape[0], 3))
+        omega[1:] = qlog(qmul(qconj(c[:-1]), c[1:]))
+        self._omega = omega
+
+    def _quaternion_jet(self, t, order=2):
+        k = self._k
+        mu, bs = _basis_windows(self._knots, k, t, order)
+        # cumulative sums from the right: B~_{mu-k+m} = sum_{m'>=m} B_{mu-k+m'}
+        cum = [np.cumsum(b[:, ::-1], axis=1)[:, ::-1] for b in bs] + [None, None]
+        out = _const(self._c[mu - k])
+        for m in range(1, k + 1):
+            j = mu - k + m
+            sl = slice(m, m + 1)
+            bj = Jet(
+                cum[0][:, sl],
+                None if cum[1] is None else cum[1][:, sl],
+                None if cum[2] is None else cum[2][:, sl],
+            )
+            out = qmul_jet(out, qexp_jet(bj * self._omega[j]))
+        return out
+
+    def _angular_speed_bound(self, t0, t1):
+        # |ω| <= sum_j |B~_j'| 2|Ω_j|, each |B~_j'| bounded by Bernstein coefficients.
+        n = self._c.shape[0]
+        cum = np.tril(np.ones((n, n)))[:, 1:]  # [l, j-1] = 1 if l >= j: B~_j = sum_{l>=j} B_l
+        spl = BSpline(self._knots, cum, self._k).derivative()
+        inner = spl.t[(spl.t > t0) & (spl.t < t1)]
+        breaks = np.unique(np.concatenate([[t0, t1], inner]))
+        if breaks.size < 2:
+            breaks = np.array([t0, np.nextafter(t0, np.inf)])
+        pieces = bspline_bezier_pieces(spl.t, spl.c, spl.k, breaks)  # (S, k, n-1)
+        per_j = np.abs(pieces).max(axis=(0, 1))
+        return float(np.sum(per_j * 2 * np.linalg.norm(self._omega[1:], axis=1)))
+
+
+# --------------------------------------------------------------------------- scipy RotationSpline
+class RotationSplineMotion(KeyframeMotion):
+    """``scipy.spatial.transform.RotationSpline`` (C², non-rational); its body-frame rates
+    are turned into world-frame ones, ``ω = R rate`` and ``ω' = R accel``."""
+
+    scheme = "rotation-spline"
+
+    def __init__(self, q, p, t):
+        super().__init__(q, p, t)
+        self._spline = RotationSpline(t, Rotation.from_quat(q, scalar_first=True))
+
+    def _rotation(self, t, order):
+        r = self._spline(t).as_matrix()
+        if order == 0:
+            return r, None, None
+        w = np.einsum("tij,tj->ti", r, self._spline(t, 1))
+        if order == 1:
+            return r, w, None
+        return r, w, np.einsum("tij,tj->ti", r, self._spline(t, 2))
+
+
+# --------------------------------------------------------------------------- screw interpolation
+class ScLerpMotion(Motion):
+    """Piecewise screw motion between keyframes (dual-quaternion ScLERP), C⁰.
+
+    Each segment is the constant-twist screw ``T_i D(u)`` with ``D(u)`` a turn by ``u θ``
+    about an axis through ``c`` with direction ``k`` (keyframe-i body frame) and a slide
+    ``u d`` along it, which is what dual-quaternion ScLERP produces. Rotation and
+    translation are interpolated together, so the origin path is a helix piece.
+    """
+
+    scheme = "sclerp"
+
+    def __init__(self, q, p, t):
+        super().__init__((t[0], t[-1]), t)
+        self._q, self._p, self._t = q, p, t
+        rk = rotation_matrix(q)
+        self._rk = rk
+        rel = qmul(qconj(q[:-1]), q[1:])
+        log = qlog(rel)
+        half = np.linalg.norm(log, axis=1)
+        self._theta = 2 * half
+        axis = np.where(
+            half[:, None] > 0, log / np.where(half > 0, half, 1)[:, None], np.array([0.0, 0.0, 1.0])
+        )
+        self._axis = axis
+        pd = np.einsum("nji,nj->ni", rk[:-1], p[1:] - p[:-1])  # R_i^T (p_{i+1} - p_i)
+        d = np.einsum("ni,ni->n", pd, axis)
+        perp = pd - d[:, None] * axis
+        small = self._theta < 1e-12
+        cot = np.where(small, 0.0, 1.0 / np.tan(np.where(small, 1.0, self._theta) / 2))
+        self._c = np.where(small[:, None], 0.0, 0.5 * (perp + cot[:, None] * np.cross(axis, perp)))
+        self._d = np.where(small, 0.0, d)
+        self._slide = np.where(small[:, None], pd, 0.0)  # pure translation segments
+        h = np.diff(t)
+        self._h = h
+
+    def _kinematics(self, t, order):
+        i = np.clip(np.searchsorted(self._t, t, side="right") - 1, 0, self._t.size - 2)
+        h = self._h[i][:, None]
+        u = ((t - self._t[i]) / self._h[i])[:, None]
+        k, th, c, d = self._axis[i], self._theta[i][:, None], self._c[i], self._d[i][:, None]
+        ru = rotation_matrix(np.concatenate([np.cos(u * th / 2), np.sin(u * th / 2) * k], axis=1))
+        rc = np.einsum("tij,tj->ti", ru, c)
+        pu = c - rc + u * d * k + u * self._slide[i]
+        ri = self._rk[i]
+        r = ri @ ru
+        p = self._p[i] + np.einsum("tij,tj->ti", ri, pu)
+        if order == 0:
+            return r, p
+        w_body = th * k
+        w = np.einsum("tij,tj->ti", ri, w_body) / h
+        dpu = -np.cross(w_body, rc) + d * k + self._slide[i]
+        v = np.einsum("tij,tj->ti", ri, dpu) / h
+        if order == 1:
+            return r, p, w, v
+        ddpu = -np.cross(w_body, np.cross(w_body, rc))
+        a = np.einsum("tij,tj->ti", ri, ddpu) / h**2
+        return r, p, w, v, np.zeros_like(w), a
+
+    def speed_bound(self, t0, t1, radius):
+        """``|ω| (|c| + radius) + |slide|`` per segment: exact for a screw (the origin keeps
+        its distance |c| from the axis)."""
+        a, b, r = self._check_interval(t0, t1, radius)
+        i0 = int(np.clip(np.searchsorted(self._t, a, side="right") - 1, 0, self._t.size - 2))
+        i1 = int(np.clip(np.searchsorted(self._t, b, side="left") - 1, 0, self._t.size - 2))
+        sl = slice(i0, max(i0, i1) + 1)
+        w = self._theta[sl] / self._h[sl]
+        lin = (np.abs(self._d[sl]) + np.linalg.norm(self._slide[sl], axis=1)) / self._h[sl]
+        return float(
+            np.max(w * (np.linalg.norm(self._c[sl], axis=1) + r) + lin) * (1 + SPEED_MARGIN)
+        )
+
+
+# --------------------------------------------------------------------------- registry
+def _builder(cls: type, min_count: int = 2):
+    def build(rotations: Any, positions: Any, times: Any = None, *, omega: float = 1.0) -> Motion:
+        q, p, t = keyframes(rotations, positions, times, omega=omega, min_count=min_count)
+        motion = cls(q, p, t)
+        motion.recipe = Recipe(
+            cls.scheme,
+            q,
+            p,
+            t if times is not None and not isinstance(times, str) else (times or "chordal"),
+            {"omega": omega},
+        )
+        return motion
+
+    build.__name__ = f"build_{cls.scheme.replace('-', '_')}"
+    build.__doc__ = f"Build a {cls.scheme!r} motion through keyframes.\n\n{cls.__doc__}"
+    return build
+
+
+for _cls in (
+    SlerpMotion,
+    BezierSlerpMotion,
+    SquadMotion,
+    CumulativeBSplineMotion,
+    RotationSplineMotion,
+    ScLerpMotion,
+):
+    register(_cls.scheme, _builder(_cls))
+
+del _cls
+_ = concat  # re-exported for tests of the jet arithmetic
