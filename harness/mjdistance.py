@@ -1,0 +1,98 @@
+"""Exact signed distances from MuJoCo (``mj_geomDistance``): an engine independent of the
+harness's own GJK kernels, used for ground truth and to cross-check them."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from motions.quaternion import quat_from_matrix
+
+from .shapes import Shape, parts
+
+__all__ = ["CCD_TOLERANCE", "MujocoDistance", "geom_xml"]
+
+CCD_TOLERANCE = 1e-10
+"""opt.ccd_tolerance of the distance model: the ε of a MuJoCo distance (DESIGN §4)."""
+
+
+def _f(a) -> str:
+    return " ".join(repr(float(x)) for x in np.ravel(a))
+
+
+def geom_xml(shape: Shape, name: str, mesh_name: str | None = None, extra: str = "") -> str:
+    """A ``<geom>`` element for a convex part (meshes refer to ``<mesh name=...>``)."""
+    if shape.kind == "box":
+        q = quat_from_matrix(shape.rotation)
+        return f'<geom name="{name}" type="box" size="{_f(shape.half_extents)}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'
+    if shape.kind == "sphere":
+        return f'<geom name="{name}" type="sphere" size="{shape.radius!r}" pos="{_f(shape.center)}" {extra}/>'
+    if shape.kind == "capsule":
+        q = quat_from_matrix(shape.rotation)
+        return f'<geom name="{name}" type="capsule" size="{shape.radius!r} {shape.half_length!r}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'
+    if shape.kind == "mesh":
+        return f'<geom name="{name}" type="mesh" mesh="{mesh_name}" {extra}/>'
+    raise ValueError(f"No MuJoCo geom for shape kind {shape.kind!r}.")
+
+
+class MujocoDistance:
+    """A small MuJoCo model: the body's convex parts on a mocap body, the obstacles static.
+
+    :meth:`distances` returns signed distances (negative: penetration depth) of every
+    (body part, obstacle part) pair at given poses.
+    """
+
+    def __init__(self, body: Shape, obstacles: list[Shape]):
+        assets, bgeoms, ogeoms = [], [], []
+        self.body_parts = list(parts(body))
+        self.obst_parts = []
+        self.obst_owner = []
+        for i, p in enumerate(self.body_parts):
+            mesh = None
+            if p.kind == "mesh":
+                mesh = f"bm{i}"
+                assets.append(f'<mesh name="{mesh}" vertex="{_f(p.vertices_)}"/>')
+            bgeoms.append(geom_xml(p, f"b{i}", mesh, 'contype="0" conaffinity="0"'))
+        k = 0
+        for j, o in enumerate(obstacles):
+            for p in parts(o):
+                mesh = None
+                if p.kind == "mesh":
+                    mesh = f"om{k}"
+                    assets.append(f'<mesh name="{mesh}" vertex="{_f(p.vertices_)}"/>')
+                ogeoms.append(geom_xml(p, f"o{k}", mesh, 'contype="0" conaffinity="0"'))
+                self.obst_parts.append(p)
+                self.obst_owner.append(j)
+                k += 1
+        xml = (
+            f'<mujoco><option ccd_tolerance="{CCD_TOLERANCE!r}" ccd_iterations="1000"/>'
+            f"<asset>{''.join(assets)}</asset><worldbody>"
+            f'<body name="mover" mocap="true">{"".join(bgeoms)}</body>{"".join(ogeoms)}'
+            "</worldbody></mujoco>"
+        )
+        self.model = mujoco.MjModel.from_xml_string(xml)
+        self.data = mujoco.MjData(self.model)
+        self.obst_owner = np.asarray(self.obst_owner)
+        gid = lambda name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731
+        # geom ids follow body order (world geoms first): look them up by name
+        self._pairs = [
+            (gid(f"b{b}"), gid(f"o{o}"))
+            for b in range(len(self.body_parts))
+            for o in range(len(self.obst_parts))
+        ]
+
+    def distances(
+        self, rotations: np.ndarray, positions: np.ndarray, distmax: float = 1e6
+    ) -> np.ndarray:
+        """Signed distances (T, body parts, obstacle parts) at poses (T, 3, 3), (T, 3)."""
+        m, d = self.model, self.data
+        quats = quat_from_matrix(rotations)
+        out = np.empty((len(positions), len(self.body_parts), len(self.obst_parts)))
+        flat = out.reshape(len(positions), -1)
+        for t in range(len(positions)):
+            d.mocap_pos[0] = positions[t]
+            d.mocap_quat[0] = quats[t]
+            mujoco.mj_kinematics(m, d)
+            for k, (g1, g2) in enumerate(self._pairs):
+                flat[t, k] = mujoco.mj_geomDistance(m, d, g1, g2, distmax, None)
+        return out

@@ -1,0 +1,350 @@
+"""Convex shapes for bodies (body coordinates) and obstacles (world coordinates).
+
+Each shape has a support function (the numpy oracle of the kernels), a bounding radius
+about the frame origin, sample points on its surface for tests, and a flat record for
+the Warp kernels. Quaternions are scalar first ``(w, x, y, z)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from motions._checks import as_array, short
+from motions.quaternion import quat_from_matrix, rotation_matrix
+
+from .errors import ShapeError
+
+__all__ = [
+    "KIND",
+    "Box",
+    "Capsule",
+    "Compound",
+    "ConvexMesh",
+    "Shape",
+    "Sphere",
+    "as_obstacles",
+    "as_shape",
+    "parts",
+]
+
+KIND = {"box": 0, "sphere": 1, "capsule": 2, "mesh": 3}
+
+
+def _rotation(rotation: Any, name: str = "rotation") -> np.ndarray:
+    if rotation is None:
+        return np.eye(3)
+    r = as_array(rotation, name)
+    if r.shape == (4,):
+        n = np.linalg.norm(r)
+        if n == 0:
+            raise ShapeError(
+                f"Expected `{name}` to be a non-zero quaternion (w, x, y, z), got {short(r)}."
+            )
+        return rotation_matrix(r / n)
+    if r.shape == (3, 3):
+        if np.abs(r.T @ r - np.eye(3)).max() > 1e-9 or np.linalg.det(r) <= 0:
+            raise ShapeError(f"Expected `{name}` to be a rotation matrix, got {short(r)}.")
+        # re-orthonormalise round-off so that supports are exact rotations
+        return rotation_matrix(quat_from_matrix(r))
+    raise ShapeError(
+        f"Expected `{name}` to be a 3x3 rotation matrix or a quaternion (w, x, y, z), got shape {r.shape}."
+    )
+
+
+def _positive(x: Any, name: str, shape: tuple = ()) -> np.ndarray:
+    a = as_array(x, name)
+    if a.shape != shape:
+        raise ShapeError(f"Expected `{name}` to have shape {shape}, got {a.shape}.")
+    if np.any(a <= 0):
+        raise ShapeError(f"Expected `{name}` to be > 0, got {short(a)}.")
+    return a
+
+
+class Shape:
+    """Base class: a convex set given by its support function."""
+
+    kind: str = ""
+
+    def support(self, d: np.ndarray) -> np.ndarray:
+        """Support points (..., 3) in directions d (..., 3) (any length, non-zero)."""
+        raise NotImplementedError
+
+    def h(self, d: np.ndarray) -> np.ndarray:
+        """Support function ``max_x d.x`` (...)."""
+        return np.einsum("...i,...i->...", self.support(d), np.asarray(d, dtype=float))
+
+    @property
+    def bounding_radius(self) -> float:
+        """Radius of a ball about the frame origin that contains the shape."""
+        raise NotImplementedError
+
+    def sample_points(self, n: int = 64) -> np.ndarray:
+        """(V, 3) points on the shape's boundary (vertices first for polytopes)."""
+        raise NotImplementedError
+
+    def transformed(self, r: np.ndarray, p: np.ndarray) -> Shape:
+        """The shape moved by ``x -> R x + p``."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True, eq=False)
+class Box(Shape):
+    """Box with half extents (3,), centre (3,) and rotation (3, 3) in its frame."""
+
+    half_extents: np.ndarray
+    center: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    kind = "box"
+
+    def __init__(self, half_extents: Any, center: Any = (0, 0, 0), rotation: Any = None):
+        object.__setattr__(self, "half_extents", _positive(half_extents, "half_extents", (3,)))
+        object.__setattr__(self, "center", as_array(center, "center", shape=(3,)))
+        object.__setattr__(self, "rotation", _rotation(rotation))
+
+    def support(self, d):
+        d = np.asarray(d, dtype=float)
+        local = d @ self.rotation
+        return self.center + (np.where(local >= 0, 1.0, -1.0) * self.half_extents) @ self.rotation.T
+
+    @property
+    def bounding_radius(self) -> float:
+        return float(np.linalg.norm(self.center) + np.linalg.norm(self.half_extents))
+
+    def vertices(self) -> np.ndarray:
+        s = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+        return self.center + (s * self.half_extents) @ self.rotation.T
+
+    def sample_points(self, n: int = 64) -> np.ndarray:
+        rng = np.random.default_rng(0)
+        pts = rng.uniform(-1, 1, size=(n, 3))
+        axis = rng.integers(0, 3, n)
+        pts[np.arange(n), axis] = np.sign(pts[np.arange(n), axis])
+        return np.concatenate(
+            [self.vertices(), self.center + (pts * self.half_extents) @ self.rotation.T]
+        )
+
+    def transformed(self, r, p):
+        return Box(self.half_extents, r @ self.center + p, r @ self.rotation)
+
+
+@dataclass(frozen=True, eq=False)
+class Sphere(Shape):
+    """Ball of `radius` about `center`."""
+
+    radius: float
+    center: np.ndarray
+    kind = "sphere"
+
+    def __init__(self, radius: Any, center: Any = (0, 0, 0)):
+        object.__setattr__(self, "radius", float(_positive(radius, "radius")))
+        object.__setattr__(self, "center", as_array(center, "center", shape=(3,)))
+
+    def support(self, d):
+        d = np.asarray(d, dtype=float)
+        n = np.linalg.norm(d, axis=-1, keepdims=True)
+        return self.center + self.radius * d / np.where(n > 0, n, 1.0)
+
+    @property
+    def bounding_radius(self) -> float:
+        return float(np.linalg.norm(self.center) + self.radius)
+
+    def sample_points(self, n: int = 64) -> np.ndarray:
+        d = np.random.default_rng(0).normal(size=(n, 3))
+        return self.support(d)
+
+    def transformed(self, r, p):
+        return Sphere(self.radius, r @ self.center + p)
+
+
+@dataclass(frozen=True, eq=False)
+class Capsule(Shape):
+    """Segment of half length `half_length` along the local z axis, swept by a ball."""
+
+    radius: float
+    half_length: float
+    center: np.ndarray
+    rotation: np.ndarray
+    kind = "capsule"
+
+    def __init__(
+        self, radius: Any, half_length: Any, center: Any = (0, 0, 0), rotation: Any = None
+    ):
+        object.__setattr__(self, "radius", float(_positive(radius, "radius")))
+        object.__setattr__(self, "half_length", float(_positive(half_length, "half_length")))
+        object.__setattr__(self, "center", as_array(center, "center", shape=(3,)))
+        object.__setattr__(self, "rotation", _rotation(rotation))
+
+    @property
+    def axis(self) -> np.ndarray:
+        return self.rotation[:, 2]
+
+    def support(self, d):
+        d = np.asarray(d, dtype=float)
+        n = np.linalg.norm(d, axis=-1, keepdims=True)
+        s = np.where((d @ self.axis)[..., None] >= 0, 1.0, -1.0)
+        return (
+            self.center
+            + s * self.half_length * self.axis
+            + self.radius * d / np.where(n > 0, n, 1.0)
+        )
+
+    @property
+    def bounding_radius(self) -> float:
+        return float(np.linalg.norm(self.center) + self.half_length + self.radius)
+
+    def sample_points(self, n: int = 64) -> np.ndarray:
+        rng = np.random.default_rng(0)
+        d = rng.normal(size=(n, 3))
+        t = rng.uniform(-1, 1, size=(n, 1)) * self.half_length
+        perp = d - (d @ self.axis)[:, None] * self.axis
+        perp /= np.linalg.norm(perp, axis=1, keepdims=True)
+        side = self.center + t * self.axis + self.radius * perp
+        return np.concatenate([self.support(d), side])
+
+    def transformed(self, r, p):
+        return Capsule(self.radius, self.half_length, r @ self.center + p, r @ self.rotation)
+
+
+@dataclass(frozen=True, eq=False)
+class ConvexMesh(Shape):
+    """Convex hull of `vertices` (V, 3), given in the shape's frame."""
+
+    vertices_: np.ndarray
+    kind = "mesh"
+
+    def __init__(self, vertices: Any):
+        v = as_array(vertices, "vertices")
+        if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
+            raise ShapeError(
+                f"Expected `vertices` to have shape (V, 3) with V >= 1, got {v.shape}."
+            )
+        object.__setattr__(self, "vertices_", np.ascontiguousarray(v))
+
+    def vertices(self) -> np.ndarray:
+        return self.vertices_
+
+    def support(self, d):
+        d = np.asarray(d, dtype=float)
+        i = np.argmax(d @ self.vertices_.T, axis=-1)
+        return self.vertices_[i]
+
+    @property
+    def bounding_radius(self) -> float:
+        return float(np.linalg.norm(self.vertices_, axis=1).max())
+
+    def sample_points(self, n: int = 64) -> np.ndarray:
+        return self.vertices_
+
+    def transformed(self, r, p):
+        return ConvexMesh(self.vertices_ @ r.T + p)
+
+
+@dataclass(frozen=True, eq=False)
+class Compound(Shape):
+    """Union of convex shapes; its support is the max of the parts' (the hull of the union)."""
+
+    shapes: tuple
+    kind = "compound"
+
+    def __init__(self, shapes: Any):
+        items = tuple(shapes) if isinstance(shapes, list | tuple) else None
+        if not items:
+            raise ShapeError(f"Expected `shapes` to be a non-empty list of shapes, got {shapes!r}.")
+        flat: list[Shape] = []
+        for i, s in enumerate(items):
+            if isinstance(s, Compound):
+                flat.extend(s.shapes)
+            elif isinstance(s, Shape):
+                flat.append(s)
+            else:
+                raise TypeError(
+                    f"Expected `shapes[{i}]` to be a harness shape, got {type(s).__name__}."
+                )
+        object.__setattr__(self, "shapes", tuple(flat))
+
+    def support(self, d):
+        d = np.asarray(d, dtype=float)
+        pts = np.stack([s.support(d) for s in self.shapes])
+        vals = np.einsum("k...i,...i->k...", pts, d)
+        i = np.argmax(vals, axis=0)
+        return np.take_along_axis(pts, i[None, ..., None], axis=0)[0]
+
+    @property
+    def bounding_radius(self) -> float:
+        return max(s.bounding_radius for s in self.shapes)
+
+    def sample_points(self, n: int = 64) -> np.ndarray:
+        return np.concatenate([s.sample_points(n) for s in self.shapes])
+
+    def transformed(self, r, p):
+        return Compound([s.transformed(r, p) for s in self.shapes])
+
+
+def parts(shape: Shape) -> tuple[Shape, ...]:
+    """The convex parts of a shape (itself unless a Compound)."""
+    return shape.shapes if isinstance(shape, Compound) else (shape,)
+
+
+def as_shape(x: Any, name: str = "body") -> Shape:
+    if not isinstance(x, Shape):
+        raise TypeError(
+            f"Expected `{name}` to be a harness shape (Box, Sphere, Capsule, ConvexMesh, Compound), got {type(x).__name__}."
+        )
+    return x
+
+
+def as_obstacles(x: Any, name: str = "obstacles") -> list[Shape]:
+    if isinstance(x, Shape):
+        return [x]
+    if not isinstance(x, list | tuple):
+        raise TypeError(
+            f"Expected `{name}` to be a sequence of harness shapes, got {type(x).__name__}."
+        )
+    return [as_shape(o, f"{name}[{i}]") for i, o in enumerate(x)]
+
+
+def core_radius(shape: Shape) -> float:
+    """The radius that the kernels add to a shape's core (sphere: point, capsule: segment)."""
+    return shape.radius if shape.kind in ("sphere", "capsule") else 0.0
+
+
+def shape_record(shape: Shape) -> dict[str, Any]:
+    """Flat record for the kernels: kind, pos (3,), rot (3, 3), size (3,), vertices."""
+    if shape.kind == "box":
+        return {
+            "kind": 0,
+            "pos": shape.center,
+            "rot": shape.rotation,
+            "size": shape.half_extents,
+            "verts": None,
+        }
+    if shape.kind == "sphere":
+        return {
+            "kind": 1,
+            "pos": shape.center,
+            "rot": np.eye(3),
+            "size": np.array([shape.radius, 0.0, 0.0]),
+            "verts": None,
+        }
+    if shape.kind == "capsule":
+        return {
+            "kind": 2,
+            "pos": shape.center,
+            "rot": shape.rotation,
+            "size": np.array([shape.radius, shape.half_length, 0.0]),
+            "verts": None,
+        }
+    if shape.kind == "mesh":
+        return {
+            "kind": 3,
+            "pos": np.zeros(3),
+            "rot": np.eye(3),
+            "size": np.zeros(3),
+            "verts": shape.vertices_,
+        }
+    raise ShapeError(
+        f"Shape kind {shape.kind!r} has no kernel record; split compounds with parts()."
+    )

@@ -1,0 +1,284 @@
+"""Collision cases with analytic truth (DESIGN §4 "Decisiveness is tested").
+
+Every case is a rational motion, a body, obstacles, the true verdict, the true signed
+clearance (minimum distance over the motion; negative: the largest penetration depth)
+and, for collisions, the true first-contact time. Truth comes from geometry, not from
+sampling: translations past faces and through thin walls, spins about the body's own
+axis, 180° swings, rim points of the elliptic motion, tiny motions, coordinates near
+1e4, and preimages whose weights need splitting.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+import motions
+from harness import Box, Capsule, ConvexMesh, Sphere
+from motions.quaternion import rotation_matrix
+
+TOL = 1e-3
+
+
+@dataclass
+class Case:
+    family: str
+    motion: motions.RationalMotion
+    body: object
+    obstacles: list
+    clearance: float  # true min distance (negative: max penetration depth)
+    toi: float = np.nan  # true first contact time (collisions)
+    penetration_span: float = np.inf  # time span of penetration >= TOL (collisions)
+
+    @property
+    def truth(self) -> str:
+        return "collision" if self.clearance < 0 else "free"
+
+    @property
+    def klass(self) -> str:
+        if abs(self.clearance) < 1e-2:
+            return "grazing"
+        return self.truth
+
+
+def random_rotation(rng) -> np.ndarray:
+    q = rng.normal(size=4)
+    return q / np.linalg.norm(q)
+
+
+def random_body(rng):
+    kind = rng.integers(0, 4)
+    c = rng.normal(size=3) * 0.05
+    if kind == 0:
+        return Box(rng.uniform(0.05, 0.3, 3), center=c, rotation=random_rotation(rng))
+    if kind == 1:
+        return Sphere(rng.uniform(0.05, 0.25), center=c)
+    if kind == 2:
+        return Capsule(
+            rng.uniform(0.03, 0.15), rng.uniform(0.05, 0.3), center=c, rotation=random_rotation(rng)
+        )
+    pts = rng.normal(size=(12, 3)) * rng.uniform(0.05, 0.2, 3)
+    return ConvexMesh(pts + c)
+
+
+def translation(q, p0, p1) -> motions.RationalMotion:
+    """Constant rotation q, origin moving linearly from p0 to p1 over t in [0, 1]."""
+    kn = [0.0, 0.0, 1.0, 1.0]
+    return motions.RationalMotion.from_preimage(1, kn, [q, q], (1, kn, [p0, p1]))
+
+
+def linear_turn(qa, qb, origin=(0.0, 0.0, 0.0)) -> motions.RationalMotion:
+    """Preimage Q(t) = (1-t) qa + t qb (no sign fix), origin fixed."""
+    kn = [0.0, 0.0, 1.0, 1.0]
+    return motions.RationalMotion.from_preimage(1, kn, [qa, qb], (0, [0.0, 1.0], [origin]))
+
+
+def gap_sample(rng, klass: str) -> float:
+    if klass == "free":
+        return float(10 ** rng.uniform(np.log10(10 * TOL), -0.5))
+    if klass == "collision":
+        return -float(10 ** rng.uniform(np.log10(2 * TOL), -1))
+    return float(rng.choice([-1, 1]) * 10 ** rng.uniform(-4, -2))
+
+
+# ----------------------------------------------------------------- families
+def face_translation(rng, klass, offset=0.0, length=2.0, family="face"):
+    """Body sliding over a plate's top face (z = 0) at a fixed height."""
+    body = random_body(rng)
+    q = random_rotation(rng)
+    r0 = rotation_matrix(q)
+    low = body.h(-(r0.T @ [0, 0, 1.0]))  # depth of the body below its origin
+    gap = gap_sample(rng, klass)
+    h = low + gap
+    base = np.array([offset, offset, offset])
+    p0 = base + [-length / 2, rng.uniform(-0.2, 0.2), h]
+    p1 = base + [length / 2, rng.uniform(-0.2, 0.2), h]
+    plate = Box([length + 2, 3.0, 0.5], center=base + [0, 0, -0.5])
+    return Case(family, translation(q, p0, p1), body, [plate], gap)
+
+
+def thin_wall(rng, klass):
+    """Body translating along x toward a 4 mm wall; collisions cross it."""
+    body = random_body(rng)
+    q = random_rotation(rng)
+    r0 = rotation_matrix(q)
+    front = body.h(r0.T @ [1.0, 0, 0])
+    back = body.h(-(r0.T @ [1.0, 0, 0]))
+    wall = Box([0.002, 2.0, 2.0], center=[1.0, 0, 0])
+    x0 = -0.5
+    if klass == "collision":
+        x1 = 1.0 + 0.002 + back + rng.uniform(0.01, 0.5)  # all the way through
+        v = x1 - x0
+        toi = (1.0 - 0.002 - front - x0) / v
+        depth = min(0.004 + front + back, front + back, 1.0)  # largest penetration depth bound
+        span = (0.004 + front + back) / v
+        return Case(
+            "thin-wall", translation(q, [x0, 0, 0], [x1, 0, 0]), body, [wall], -depth, toi, span
+        )
+    gap = gap_sample(rng, klass)
+    x1 = 1.0 - 0.002 - front - gap
+    if gap >= 0:
+        return Case("thin-wall", translation(q, [x0, 0, 0], [x1, 0, 0]), body, [wall], gap)
+    v = x1 - x0
+    toi = (1.0 - 0.002 - front - x0) / v
+    return Case(
+        "thin-wall", translation(q, [x0, 0, 0], [x1, 0, 0]), body, [wall], gap, toi, (-gap) / v
+    )
+
+
+def _max_sinusoid(terms, const, th0, th1):
+    """max over [th0, th1] of const(θ) + sum_k h_k |f_k(θ)|, f_k = u_k.(cos θ, -sin θ, 0),
+    const = c.(cos θ, -sin θ, 0): piecewise A cos θ + B sin θ, exact."""
+    brk = [th0, th1]
+    for _h, u in terms:
+        base = np.arctan2(u[0], u[1])
+        for m in range(-8, 9):
+            z = base + m * np.pi
+            if th0 < z < th1:
+                brk.append(z)
+    brk = np.unique(brk)
+    best = -np.inf
+    for a, b in itertools.pairwise(brk):
+        mid = 0.5 * (a + b)
+        A = const[0]
+        B = -const[1]
+        for h, u in terms:
+            s = np.sign(u[0] * np.cos(mid) - u[1] * np.sin(mid))
+            A += h * s * u[0]
+            B += -h * s * u[1]
+        cands = [a, b]
+        star = np.arctan2(B, A)
+        for m in range(-4, 5):
+            z = star + 2 * np.pi * m
+            if a < z < b:
+                cands.append(z)
+        best = max(best, max(A * np.cos(z) + B * np.sin(z) for z in cands))
+    return best
+
+
+def spin(rng, klass, long_way=False):
+    """A box spinning about z through the body origin, next to the wall x = D."""
+    half = rng.uniform(0.05, 0.4, 3)
+    rb = rotation_matrix(
+        np.array([np.cos(0.3), 0, 0, np.sin(0.3)]) if rng.random() < 0.5 else random_rotation(rng)
+    )
+    c = rng.normal(size=3) * 0.05
+    body = Box(half, center=c, rotation=rb)
+    phi = (
+        rng.uniform(np.radians(200), np.radians(340)) if long_way else rng.uniform(0.2, np.pi * 0.9)
+    )
+    qa = np.array([1.0, 0, 0, 0])
+    qb = np.array([np.cos(phi / 2), 0, 0, np.sin(phi / 2)])
+    # support along x of the rotated box: c.(R^T e_x) + sum h_k |(R_b e_k).(R^T e_x)|
+    terms = [(half[k], rb[:, k]) for k in range(3)]
+    reach = _max_sinusoid(terms, c, 0.0, phi)
+    gap = gap_sample(rng, klass)
+    wall = Box([0.25, 2.0, 2.0], center=[reach + gap + 0.25, 0, 0])
+    fam = "weights" if long_way else "spin"
+    return Case(fam, linear_turn(qa, qb), body, [wall], gap)
+
+
+def capsule_own_axis(rng, klass):
+    """A capsule spinning about its own axis: the swept volume is the capsule itself."""
+    r, half_len = rng.uniform(0.05, 0.2), rng.uniform(0.1, 0.4)
+    body = Capsule(r, half_len)
+    phi = rng.uniform(0.5, np.pi * 0.95)
+    gap = gap_sample(rng, klass)
+    wall = Box([0.1, 1.0, 1.0], center=[r + gap + 0.1, 0, 0])
+    m = linear_turn(np.array([1.0, 0, 0, 0]), np.array([np.cos(phi / 2), 0, 0, np.sin(phi / 2)]))
+    return Case("own-axis", m, body, [wall], gap)
+
+
+def swing(rng, klass):
+    """A capsule along the body x axis swinging 180° about z; a sphere at polar (ρ, φ)."""
+    r = rng.uniform(0.02, 0.1)
+    half_len = rng.uniform(0.2, 0.6)
+    off = half_len + rng.uniform(0.0, 0.3)
+    body = Capsule(
+        r, half_len, center=[off, 0, 0], rotation=[np.cos(np.pi / 4), 0, np.sin(np.pi / 4), 0]
+    )
+    rs = rng.uniform(0.05, 0.3)
+    phi = rng.uniform(np.radians(15), np.radians(165))
+    gap = gap_sample(rng, klass)
+    tip = off + half_len
+    rho = tip + r + rs + gap
+    c = rho * np.array([np.cos(phi), np.sin(phi), 0.0])
+    m = linear_turn(np.array([1.0, 0, 0, 0]), np.array([0.0, 0, 0, 1.0]))
+    toi = np.nan
+    if gap < 0:
+
+        def dist(th):
+            cb = rho * np.array([np.cos(phi - th), np.sin(phi - th)])
+            x = np.clip(cb[0], off - half_len, off + half_len)
+            return np.hypot(cb[0] - x, cb[1]) - r - rs
+
+        th = brentq(dist, 0.0, phi)
+        toi = np.tan(th / 2) / (1 + np.tan(th / 2))  # θ = 2 atan2(t, 1 - t)
+    return Case("swing", m, body, [Sphere(rs, center=c)], gap, toi)
+
+
+def cardan_rim(rng, klass):
+    """A small ball on the rim of the elliptic motion's circle: it runs on a diameter."""
+    rad = rng.uniform(0.3, 1.0)
+    alpha = rng.uniform(0, 2 * np.pi)
+    rb = rng.uniform(0.02, 0.08)
+    body = Sphere(rb, center=rad * np.array([np.cos(alpha), np.sin(alpha), 0.0]))
+    t0, t1 = sorted(rng.uniform(-2.0, 2.0, 2))
+    m = motions.elliptic(rad, (t0, t1))
+    u = np.array([np.cos(alpha / 2), np.sin(alpha / 2), 0.0])
+    th = 2 * np.arctan(np.linspace(t0, t1, 20001))
+    s = 2 * rad * np.cos(alpha / 2 - th)  # exact positions on the line, dense
+    s_lo, s_hi = s.min(), s.max()
+    # the extreme is analytic: cos is maximal at θ = α/2 (mod π) if that lies in range
+    for z in (alpha / 2 + k * np.pi for k in range(-3, 4)):
+        if 2 * np.arctan(t0) < z < 2 * np.arctan(t1):
+            s_lo, s_hi = (
+                min(s_lo, 2 * rad * np.cos(alpha / 2 - z)),
+                max(s_hi, 2 * rad * np.cos(alpha / 2 - z)),
+            )
+    gap = gap_sample(rng, klass)
+    ro = rng.uniform(0.05, 0.2)
+    side = rng.normal(size=3)
+    side -= side.dot(u) * u
+    side /= np.linalg.norm(side)
+    # obstacle beside the middle of the traversed segment
+    c = 0.5 * (s_lo + s_hi) * u + side * (rb + ro + gap)
+    return Case("cardan", m, body, [Sphere(ro, center=c)], gap)
+
+
+def tiny(rng, klass):
+    case = face_translation(rng, klass, length=1e-6)
+    case.family = "tiny"
+    return case
+
+
+def far(rng, klass):
+    case = face_translation(rng, klass, offset=1e4)
+    case.family = "far"
+    return case
+
+
+FAMILIES = {
+    "face": face_translation,
+    "thin-wall": thin_wall,
+    "spin": spin,
+    "weights": lambda rng, k: spin(rng, k, long_way=True),
+    "own-axis": capsule_own_axis,
+    "swing": swing,
+    "cardan": cardan_rim,
+    "tiny": tiny,
+    "far": far,
+}
+
+
+def make_cases(seed: int = 2024, per_family_class: int = 14) -> list[Case]:
+    rng = np.random.default_rng(seed)
+    out = []
+    for _name, f in FAMILIES.items():
+        for klass in ("free", "collision", "grazing"):
+            for _ in range(per_family_class):
+                out.append(f(rng, klass))
+    return out
