@@ -33,6 +33,7 @@ __all__ = [
 
 _wp = None
 _lock = threading.Lock()
+MIN_ROWS_PER_THREAD = 2048
 
 
 def _warp():
@@ -103,27 +104,24 @@ class ShapeTable:
         return cls(ps, np.asarray(owner, dtype=np.int32), device)
 
     def warp(self):
-        """(shapes array, vertex array) on the device (built once)."""
+        """(shapes array, vertex array) on the device (built once, from a numpy record
+        array: no per-shape Python objects)."""
         if getattr(self, "_arrays", None) is None:
             wp, k = _warp()
-            recs = []
+            recs = np.zeros(len(self.parts), dtype=k.Shape.numpy_dtype())
             verts = [np.zeros((1, 3))]
             start = 1
-            for p in self.parts:
+            for i, p in enumerate(self.parts):
                 r = shape_record(p)
-                s = k.Shape()
-                s.kind = r["kind"]
-                s.pos = wp.vec3d(*r["pos"])
-                s.rot = wp.mat33d(*np.asarray(r["rot"], dtype=float).ravel())
-                s.size = wp.vec3d(*r["size"])
+                recs[i]["kind"] = r["kind"]
+                recs[i]["pos"] = r["pos"]
+                recs[i]["rot"] = r["rot"]
+                recs[i]["size"] = r["size"]
                 if r["verts"] is not None:
-                    s.vstart, s.vcount = start, len(r["verts"])
+                    recs[i]["vstart"], recs[i]["vcount"] = start, len(r["verts"])
                     verts.append(r["verts"])
                     start += len(r["verts"])
-                else:
-                    s.vstart, s.vcount = 0, 0
-                s.extent = float(np.abs(r["pos"]).max() + p.bounding_radius)
-                recs.append(s)
+                recs[i]["extent"] = float(np.abs(r["pos"]).max() + p.bounding_radius)
             self._arrays = (
                 wp.array(recs, dtype=k.Shape, device=self.device),
                 wp.array(np.concatenate(verts), dtype=wp.vec3d, device=self.device),
@@ -133,7 +131,8 @@ class ShapeTable:
 
 def _launch_chunks(n: int, threads: int, launch) -> None:
     """Run ``launch(lo, hi)`` over [0, n) in `threads` contiguous chunks, one per thread."""
-    threads = max(1, min(threads, n // 256 + 1))
+    # A thread costs ~0.1 ms to start: only big batches are worth splitting.
+    threads = max(1, min(threads, n // MIN_ROWS_PER_THREAD))
     if threads == 1 or n == 0:
         if n:
             launch(0, n)

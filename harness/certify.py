@@ -52,7 +52,8 @@ class Certificate:
             bound on the first contact when `certified`.
         toi_hi: time of the first intersecting pose found (+inf if none).
         nodes: bound evaluations of (segment piece, obstacle part), positivity splits
-            included.
+            included (Lipschitz: distance evaluations; sampling: samples).
+        pose_tests: exact distance evaluations of poses.
         depth: deepest subdivision level reached.
         seconds: wall time (for a batch: its share by nodes).
         certified: whether `free` and `toi_lo` are proofs.
@@ -81,6 +82,7 @@ class Certificate:
     unresolved: dict = field(default_factory=dict)
     clearance: float = math.nan
     penetration: float = math.nan
+    pose_tests: int = 0
 
 
 # ----------------------------------------------------------------------------- validation
@@ -268,19 +270,9 @@ def _subdivide(
     table, body_parts, obst_parts, per_motion = _tables(bodies, obst, device)
     radii = np.array([p.bounding_radius for p in table.parts])
     # Positive-weight pieces of every motion, elevated to one common degree.
-    pieces, mot, t0s, t1s = [], [], [], []
-    nodes = np.zeros(len(ms), dtype=np.int64)
-    for i, m in enumerate(ms):
-        iv, c, _src = m.split_positive()
-        nodes[i] += (len(iv) - m.segments) * max(1, len(per_motion[i]))  # splits for positivity
-        pieces.append(c)
-        mot.append(np.full(len(iv), i))
-        t0s.append(iv[:, 0])
-        t1s.append(iv[:, 1])
-    kmax = max(c.shape[1] for c in pieces)
-    ctrl_p = np.concatenate([elevate(c, kmax - c.shape[1], axis=1) for c in pieces])
-    mot_p = np.concatenate(mot)
-    t0_p, t1_p = np.concatenate(t0s), np.concatenate(t1s)
+    ctrl_p, mot_p, t0_p, t1_p, extra = _positive_pieces(ms)
+    nodes = extra * np.array([max(1, len(o)) for o in per_motion])  # splits for positivity
+    kmax = ctrl_p.shape[1]
     pc, bp, op, ob = _pairs(mot_p, body_parts, obst_parts, per_motion)
     rows = {
         "ctrl": np.ascontiguousarray(ctrl_p[pc]),
@@ -293,6 +285,7 @@ def _subdivide(
         "depth": np.zeros(len(pc), dtype=np.int64),
         "warm": np.zeros((len(pc), 3)),
     }
+    tests = 2 * np.bincount(rows["mot"], minlength=len(ms))
     ub0, _, ov0, d0 = pose_rows(rows["ctrl"], 0, bp, op, table, threads=threads)
     ub1, _, ov1, _ = pose_rows(rows["ctrl"], kmax - 1, bp, op, table, d0, threads=threads)
     rows.update(ub0=ub0, ov0=ov0, ub1=ub1, ov1=ov1, warm=d0)
@@ -371,6 +364,7 @@ def _subdivide(
         ubm, _, ovm, _dm = pose_rows(
             left, kk - 1, sel["bp"], sel["op"], table, gdir[rest], threads=threads
         )
+        tests += np.bincount(sel["mot"], minlength=len(ms))
         tm = 0.5 * (sel["t0"] + sel["t1"])
         rows = {
             "ctrl": np.concatenate([left, right]),
@@ -389,10 +383,7 @@ def _subdivide(
         }
     res = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in out.items()}
     elapsed = time.perf_counter() - start
-    return [
-        _assemble(i, res, nodes, deepest, elapsed, bound, tol, certified=True)
-        for i in range(len(ms))
-    ]
+    return _assemble_all(len(ms), res, nodes, deepest, elapsed, bound, tol, True, tests)
 
 
 def _extent(ctrl: np.ndarray, radius: np.ndarray) -> np.ndarray:
@@ -406,41 +397,113 @@ def _extent(ctrl: np.ndarray, radius: np.ndarray) -> np.ndarray:
     return (dp + radius[:, None] * da).max(axis=1)
 
 
-def _assemble(i, res, nodes, deepest, elapsed, bound, tol, certified) -> Certificate:
-    sel = res["mot"] == i
-    kind, t0 = res["kind"][sel].astype(int), res["t0"][sel]
-    wt, wd = res["wt"][sel], res["wd"][sel]
-    share = elapsed * nodes[i] / max(1, nodes.sum())
-    unresolved = {
-        name: int(np.sum(kind == k)) for k, name in _REASON_OF.items() if np.any(kind == k)
-    }
-    common = dict(
-        nodes=int(nodes[i]),
-        depth=int(deepest[i]),
-        seconds=float(share),
-        certified=certified,
-        bound=bound,
-        tolerance=tol,
-        unresolved=unresolved,
-    )
-    not_clear = kind != _CLEAR
-    toi_lo = float(t0[not_clear].min()) if np.any(not_clear) else math.inf
-    coll = kind == _COLL
-    if np.any(coll):
-        return Certificate("collision", "contact", toi_lo, float(wt[coll].min()), **common)
-    unk = np.isin(kind, list(_REASON_OF))
-    if np.any(unk):
-        first = np.flatnonzero(unk)[np.argmin(t0[unk])]
-        reason = _REASON_OF[kind[first]]
-        tol_rows = kind == _TOL
-        w_t = w_d = math.nan
-        if np.any(tol_rows):
-            j = np.flatnonzero(tol_rows)[np.argmin(wt[tol_rows])]
-            w_t, w_d = float(wt[j]), float(wd[j])
-        return Certificate(
-            "unknown", reason, toi_lo, math.inf, witness_time=w_t, witness_distance=w_d, **common
+def _positive_pieces(ms: list) -> tuple:
+    """Bézier segments of all motions split until every weight is positive (seed §6.3),
+    in one vectorised loop. Returns ctrl (P, K, 4, 4) at a common degree, motion (P,),
+    t0 (P,), t1 (P,) and the number of extra pieces per motion."""
+    from motions import DegenerateMotionError
+    from motions.bernstein import de_casteljau_split
+    from motions.rational import MAX_WEIGHT_SPLIT_DEPTH, WEIGHT_REL_TOL
+
+    forms = [m.bezier_form() for m in ms]
+    kmax = max(c.shape[1] for _, c in forms)
+    ctrl = np.concatenate([elevate(c, kmax - c.shape[1], axis=1) for _, c in forms])
+    mot = np.concatenate([np.full(len(b) - 1, i) for i, (b, _) in enumerate(forms)])
+    t0 = np.concatenate([b[:-1] for b, _ in forms])
+    t1 = np.concatenate([b[1:] for b, _ in forms])
+    wmax = np.zeros(len(ms))
+    np.maximum.at(wmax, mot, np.abs(ctrl[:, :, 3, 3]).max(axis=1))
+    done = []
+    for _ in range(MAX_WEIGHT_SPLIT_DEPTH + 1):
+        thr = WEIGHT_REL_TOL * wmax[mot]
+        good = np.all(ctrl[:, :, 3, 3] > thr[:, None], axis=1)
+        done.append((ctrl[good], mot[good], t0[good], t1[good]))
+        if good.all():
+            break
+        ctrl, mot, t0, t1, thr = ctrl[~good], mot[~good], t0[~good], t1[~good], thr[~good]
+        ends = np.minimum(ctrl[:, 0, 3, 3], ctrl[:, -1, 3, 3])
+        if np.any(ends <= thr):
+            i = int(np.argmin(ends - thr))
+            raise DegenerateMotionError(
+                f"motions[{int(mot[i])}]: the weight u0 vanishes near t = {t0[i]!r};"
+                " its control structure is unbounded there."
+            )
+        left, right = de_casteljau_split(ctrl, 0.5, axis=1)
+        tm = 0.5 * (t0 + t1)
+        ctrl, mot = np.concatenate([left, right]), np.concatenate([mot, mot])
+        t0, t1 = np.concatenate([t0, tm]), np.concatenate([tm, t1])
+    else:
+        raise DegenerateMotionError(
+            f"motions{sorted(set(mot.tolist()))}: weights stay non-positive after"
+            f" {MAX_WEIGHT_SPLIT_DEPTH} halvings."
         )
-    return Certificate("free", "clear", math.inf, math.inf, **common)
+    ctrl, mot, t0, t1 = (np.concatenate(x) for x in zip(*done, strict=True))
+    order = np.lexsort((t0, mot))
+    extra = np.bincount(mot, minlength=len(ms)) - np.array([len(b) - 1 for b, _ in forms])
+    return np.ascontiguousarray(ctrl[order]), mot[order], t0[order], t1[order], extra
+
+
+def _assemble_all(
+    n, res, nodes, deepest, elapsed, bound, tol, certified, tests
+) -> list[Certificate]:
+    """Certificates of all motions from the outcome rows (vectorised over motions)."""
+    mot = res["mot"].astype(np.int64)
+    kind = res["kind"].astype(np.int64)
+    t0, wt, wd = res["t0"], res["wt"], res["wd"]
+    toi_lo = np.full(n, np.inf)
+    nc = kind != _CLEAR
+    np.minimum.at(toi_lo, mot[nc], t0[nc])
+    toi_hi = np.full(n, np.inf)
+    coll = kind == _COLL
+    np.minimum.at(toi_hi, mot[coll], wt[coll])
+
+    def first_per_motion(rows: np.ndarray, key: np.ndarray) -> np.ndarray:
+        """Row index of the smallest `key` per motion among `rows` (-1 if none)."""
+        out = np.full(n, -1)
+        if rows.size:
+            order = rows[np.lexsort((key[rows], mot[rows]))]
+            firsts = order[np.r_[True, mot[order][1:] != mot[order][:-1]]]
+            out[mot[firsts]] = firsts
+        return out
+
+    first_unk = first_per_motion(np.flatnonzero(np.isin(kind, list(_REASON_OF))), t0)
+    first_tol = first_per_motion(np.flatnonzero(kind == _TOL), wt)
+    counts = {k: np.bincount(mot[kind == k], minlength=n) for k in _REASON_OF}
+    share = elapsed * nodes / max(1, nodes.sum())
+    out = []
+    for i in range(n):
+        common = dict(
+            nodes=int(nodes[i]),
+            depth=int(deepest[i]),
+            seconds=float(share[i]),
+            certified=certified,
+            bound=bound,
+            tolerance=tol,
+            pose_tests=int(tests[i]),
+            unresolved={name: int(counts[k][i]) for k, name in _REASON_OF.items() if counts[k][i]},
+        )
+        if np.isfinite(toi_hi[i]):
+            out.append(
+                Certificate("collision", "contact", float(toi_lo[i]), float(toi_hi[i]), **common)
+            )
+        elif first_unk[i] >= 0:
+            j = first_tol[i]
+            w_t, w_d = (float(wt[j]), float(wd[j])) if j >= 0 else (math.nan, math.nan)
+            reason = _REASON_OF[int(kind[first_unk[i]])]
+            out.append(
+                Certificate(
+                    "unknown",
+                    reason,
+                    float(toi_lo[i]),
+                    math.inf,
+                    witness_time=w_t,
+                    witness_distance=w_d,
+                    **common,
+                )
+            )
+        else:
+            out.append(Certificate("free", "clear", math.inf, math.inf, **common))
+    return out
 
 
 # ----------------------------------------------------------------------------- pose batches
@@ -543,10 +606,7 @@ def _advance(ms, bodies, obst, tol, max_nodes, threads, device) -> list[Certific
     elapsed = time.perf_counter() - start
     deepest = np.zeros(len(ms), dtype=np.int64)
     np.maximum.at(deepest, mt, steps)
-    return [
-        _assemble(i, res, nodes, deepest, elapsed, "lipschitz", tol, certified=True)
-        for i in range(len(ms))
-    ]
+    return _assemble_all(len(ms), res, nodes, deepest, elapsed, "lipschitz", tol, True, nodes)
 
 
 def _sample(ms, bodies, obst, tol, samples, threads, device) -> list[Certificate]:

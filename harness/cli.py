@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 import numpy as np
@@ -56,7 +57,48 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("run", help="run a benchmark suite (for now: a demo motion's identity checks)")
     sub.add_parser("schemes", help="list motion schemes with measured continuity and invariance")
+    sub.add_parser("scenes", help="list the registered scenes")
+    pr = sub.add_parser("render", help="write a PNG filmstrip of a scene's motion")
+    pr.add_argument("scene")
+    pr.add_argument("--scheme", default="rational")
+    pr.add_argument("--out", default=None, help="PNG path (default SCENE_SCHEME.png)")
+    pr.add_argument("--backend", default="auto", choices=["auto", "mujoco", "matplotlib"])
+    pr.add_argument("--frames", type=int, default=6)
+    pr.add_argument(
+        "--control-segment",
+        type=int,
+        default=None,
+        help="draw this segment's affine control positions (matplotlib)",
+    )
     args = parser.parse_args(argv)
+    if args.command == "scenes":
+        import scenes
+
+        for name in scenes.SCENES:
+            sc = scenes.load(name)
+            print(
+                f"{name:16s} {sc.model.ngeom:5d} geoms  {len(sc.keyframes.times)} keyframes  {sc.description}"
+            )
+        return 0
+    if args.command == "render":
+        os.environ.setdefault("MUJOCO_GL", "egl")
+        from harness.render import render
+
+        path, backend = render(
+            args.scene,
+            scheme=args.scheme,
+            out=args.out,
+            backend=args.backend,
+            frames=args.frames,
+            control_segment=args.control_segment,
+        )
+        note = (
+            ""
+            if backend == "mujoco"
+            else " (MuJoCo offscreen needs a GL backend: MUJOCO_GL=egl or osmesa)"
+        )
+        print(f"wrote {path} with the {backend} backend{note}")
+        return 0
     if args.command == "run":
         return _demo()
     if args.command == "schemes":

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from scenes.errors import InvalidMocapBody, SceneError
+
 __all__ = [
     "HarnessError",
     "InvalidMocapBody",
@@ -18,14 +20,6 @@ class HarnessError(ValueError):
 
 class ShapeError(HarnessError):
     """A shape with invalid parameters (non-positive sizes, non-rotations, ...)."""
-
-
-class SceneError(HarnessError):
-    """An unknown or malformed scene."""
-
-
-class InvalidMocapBody(SceneError):
-    """A body name that is not a mocap body of the model."""
 
 
 class UnsupportedGeomError(SceneError):

@@ -1,0 +1,353 @@
+"""MuJoCo driver: motions drive mocap bodies in real simulations (DESIGN §5).
+
+- :func:`body_from_model`, :func:`obstacles_from_model`: MuJoCo geoms -> shapes.
+- :func:`simulate`: evaluates the motion once, vectorised, at every control step, writes
+  ``mocap_pos``/``mocap_quat`` (scalar first) and steps; ``record=False`` goes through
+  ``mujoco.rollout`` with a mocap ``control_spec``.
+- :func:`physics_smoothness`: force and acceleration jumps of carried bodies at knots.
+
+MuJoCo filters out contacts between a mocap body and static geometry, so distances come
+from ``mj_geomDistance``, which ignores the filter; and it gives mocap bodies zero
+velocity in contacts, so scenes carry things with free bodies welded to the mocap target.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from typing import Any
+
+import mujoco
+import numpy as np
+import pandas as pd
+from mujoco import rollout
+
+import scenes as scenes_pkg
+from motions import Motion, quat_from_matrix, rotation_matrix
+
+from .errors import HarnessError, UnsupportedGeomError
+from .shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
+
+__all__ = [
+    "DomainError",
+    "body_from_model",
+    "obstacles_from_model",
+    "physics_smoothness",
+    "simulate",
+]
+
+SUPPORTED_GEOMS = ("box", "sphere", "capsule", "mesh", "plane")
+PLANE_HALF = 1e3  # a plane becomes a 2e3-m box below its surface
+
+
+class DomainError(HarnessError):
+    """The motion's domain does not cover the requested duration."""
+
+
+def _geom_shape(model: mujoco.MjModel, g: int, rot: np.ndarray, pos: np.ndarray) -> Shape:
+    """Shape of geom g placed by (rot, pos) (geom frame -> target frame)."""
+    t = int(model.geom_type[g])
+    size = np.array(model.geom_size[g], dtype=float)
+    if t == mujoco.mjtGeom.mjGEOM_BOX:
+        return Box(size, center=pos, rotation=rot)
+    if t == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return Sphere(size[0], center=pos)
+    if t == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return Capsule(size[0], size[1], center=pos, rotation=rot)
+    if t == mujoco.mjtGeom.mjGEOM_MESH:
+        mid = int(model.geom_dataid[g])
+        a, n = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
+        v = np.array(model.mesh_vert[a : a + n], dtype=float)  # float32 in MuJoCo, exact in float64
+        return ConvexMesh(v @ rot.T + pos)
+    if t == mujoco.mjtGeom.mjGEOM_PLANE:
+        # half-space below the plane, represented by a large box (exact within its extent)
+        n = rot[:, 2]
+        return Box([PLANE_HALF] * 3, center=pos - PLANE_HALF * n, rotation=rot)
+    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
+    kind = mujoco.mjtGeom(t).name.replace("mjGEOM_", "").lower()
+    raise UnsupportedGeomError(
+        f"Geom {name!r} has type {kind!r}; supported geom types: {list(SUPPORTED_GEOMS)}."
+    )
+
+
+def body_from_model(model: mujoco.MjModel, mocap_body: str) -> Shape:
+    """The mocap body's geoms as one shape in body coordinates (a Compound when several).
+
+    Mesh vertices come from ``model.mesh_vert`` placed by ``geom_pos``/``geom_quat``
+    (MuJoCo re-centres meshes on their inertial frame).
+    """
+    scenes_pkg.mocap_id(model, mocap_body)
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body)
+    geoms = np.flatnonzero(model.geom_bodyid == bid)
+    if geoms.size == 0:
+        raise HarnessError(f"Mocap body {mocap_body!r} has no geoms to certify.")
+    parts = [
+        _geom_shape(
+            model, g, rotation_matrix(model.geom_quat[g]), np.array(model.geom_pos[g], dtype=float)
+        )
+        for g in geoms
+    ]
+    return parts[0] if len(parts) == 1 else Compound(parts)
+
+
+def _static_bodies(model: mujoco.MjModel) -> np.ndarray:
+    """(nbody,) True for the world and bodies welded to it (no joints up the tree, not mocap)."""
+    static = np.zeros(model.nbody, dtype=bool)
+    static[0] = True
+    for b in range(1, model.nbody):
+        parent = model.body_parentid[b]
+        static[b] = static[parent] and model.body_jntnum[b] == 0 and model.body_mocapid[b] < 0
+    return static
+
+
+def obstacle_geoms(model: mujoco.MjModel) -> np.ndarray:
+    """Ids of the static, colliding geoms (contype or conaffinity non-zero)."""
+    static = _static_bodies(model)
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    return np.flatnonzero(static[model.geom_bodyid] & colliding)
+
+
+def obstacles_from_model(model: mujoco.MjModel) -> list[Shape]:
+    """Static geoms in world coordinates (planes as large boxes below their surface)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    out = []
+    for g in obstacle_geoms(model):
+        out.append(
+            _geom_shape(
+                model,
+                g,
+                np.array(data.geom_xmat[g]).reshape(3, 3),
+                np.array(data.geom_xpos[g], dtype=float),
+            )
+        )
+    return out
+
+
+# ----------------------------------------------------------------------------- driver
+def _scene(scene: Any) -> scenes_pkg.Scene:
+    if isinstance(scene, str):
+        return scenes_pkg.load(scene)
+    if not isinstance(scene, scenes_pkg.Scene):
+        raise TypeError(
+            f"Expected `scene` to be a scenes.Scene or a scene name, got {type(scene).__name__}."
+        )
+    return scene
+
+
+def _control_times(
+    motion: Motion, model: mujoco.MjModel, dt: float | None, duration: float | None
+) -> tuple[float, np.ndarray]:
+    if not isinstance(motion, Motion):
+        raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    step = float(model.opt.timestep) if dt is None else float(dt)
+    if not math.isfinite(step) or step <= 0:
+        raise ValueError(f"Expected `dt` > 0, got {dt!r}.")
+    t0, t1 = motion.domain
+    span = t1 - t0
+    dur = span if duration is None else float(duration)
+    if not math.isfinite(dur) or dur <= 0:
+        raise ValueError(f"Expected `duration` > 0, got {duration!r}.")
+    if dur > span * (1 + 1e-12):
+        raise DomainError(
+            f"The motion's domain [{t0!r}, {t1!r}] covers {span:g} s; `duration` {dur:g} s is longer."
+        )
+    n = math.floor(dur / step + 1e-9) + 1
+    return step, np.minimum(np.arange(n) * step, dur)
+
+
+def _poses(motion: Motion, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    r, p = motion.pose(motion.domain[0] + tau)
+    return p, quat_from_matrix(r)
+
+
+def _prepared(scene: scenes_pkg.Scene, step: float) -> tuple[mujoco.MjModel, mujoco.MjData, int]:
+    model = scene.model
+    if step != model.opt.timestep:
+        model = copy.deepcopy(model)
+        model.opt.timestep = step
+    data = mujoco.MjData(model)
+    if model.nkey:
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+    return model, data, scenes_pkg.mocap_id(model, scene.mocap_body)
+
+
+def simulate(
+    scene: Any,
+    motion: Motion,
+    *,
+    dt: float | None = None,
+    duration: float | None = None,
+    record: bool = True,
+) -> pd.DataFrame:
+    """Drive the scene's mocap body with `motion` and step the simulation.
+
+    Simulation time τ in [0, duration] drives ``motion(t_start + τ)``; ``dt=None`` uses the
+    model's timestep; ``duration=None`` the motion's whole domain.
+
+    Returns:
+        One row per control step: ``time``, ``pos_x..z``, ``quat_w..z``; with `record`, also
+        ``min_distance`` (signed, mover geoms to static obstacles, ``mj_geomDistance``),
+        ``ncon`` and, per carried body B, ``B_x..z``, ``B_acc_x..z`` (linear acceleration),
+        ``B_force`` (net constraint force ``m (a - g)``) and ``B_contact_force`` (sum of
+        contact normal forces). Without `record`: time, pose and the carried bodies'
+        positions, through ``mujoco.rollout``.
+    """
+    sc = _scene(scene)
+    step, tau = _control_times(motion, sc.model, dt, duration)
+    model, data, mid = _prepared(sc, step)
+    pos, quat = _poses(motion, tau)
+    data.mocap_pos[mid], data.mocap_quat[mid] = pos[0], quat[0]
+    mujoco.mj_forward(model, data)
+    frame = {"time": tau}
+    for k, a in enumerate("xyz"):
+        frame[f"pos_{a}"] = pos[:, k]
+    for k, a in enumerate("wxyz"):
+        frame[f"quat_{a}"] = quat[:, k]
+    carried = [(c, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, c)) for c in sc.carried]
+    if not record:
+        frame.update(_rollout(model, data, mid, pos, quat, carried))
+        return pd.DataFrame(frame)
+    frame.update(_record(model, data, mid, pos, quat, carried, sc.mocap_body))
+    return pd.DataFrame(frame)
+
+
+def _rollout_inputs(model, data, mid, pos, quat):
+    spec = mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
+    full = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    state = np.empty(mujoco.mj_stateSize(model, full))
+    mujoco.mj_getState(model, data, state, full)
+    ctrl = np.empty((1, len(pos), model.nmocap * 7))
+    mp = np.array(data.mocap_pos)
+    mq = np.array(data.mocap_quat)
+    ctrl[0, :, : model.nmocap * 3] = np.tile(mp.ravel(), (len(pos), 1))
+    ctrl[0, :, model.nmocap * 3 :] = np.tile(mq.ravel(), (len(pos), 1))
+    ctrl[0, :, 3 * mid : 3 * mid + 3] = pos
+    ctrl[0, :, 3 * model.nmocap + 4 * mid : 3 * model.nmocap + 4 * mid + 4] = quat
+    return state[None], ctrl, int(spec)
+
+
+def _rollout(model, data, mid, pos, quat, carried) -> dict:
+    state0, ctrl, spec = _rollout_inputs(model, data, mid, pos, quat)
+    state, _ = rollout.rollout(model, data, state0, ctrl, control_spec=spec)
+    out = {}
+    # state after step k is the state at τ_{k+1}; row k reports the state at τ_k
+    qpos = np.concatenate([state0[:, 1 : 1 + model.nq], state[0, :-1, 1 : 1 + model.nq]])
+    for name, bid in carried:
+        adr = model.jnt_qposadr[model.body_jntadr[bid]]
+        for k, a in enumerate("xyz"):
+            out[f"{name}_{a}"] = qpos[:, adr + k]
+    return out
+
+
+def _record(model, data, mid, pos, quat, carried, mocap_body) -> dict:
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body)
+    mover = np.flatnonzero(model.geom_bodyid == bid)
+    obst = obstacle_geoms(model)
+    n = len(pos)
+    mind = np.full(n, np.inf)
+    ncon = np.zeros(n, dtype=np.int64)
+    cols: dict[str, np.ndarray] = {}
+    info = []
+    g = np.array(model.opt.gravity)
+    for name, b in carried:
+        dof = model.jnt_dofadr[model.body_jntadr[b]]
+        adr = model.jnt_qposadr[model.body_jntadr[b]]
+        geoms = set(np.flatnonzero(model.geom_bodyid == b).tolist())
+        info.append((name, b, dof, adr, float(model.body_subtreemass[b]), geoms))
+        for suffix in ("x", "y", "z", "acc_x", "acc_y", "acc_z", "force", "contact_force"):
+            cols[f"{name}_{suffix}"] = np.zeros(n)
+    force6 = np.zeros(6)
+    for k in range(n):
+        for name, _b, _dof, adr, _m, _g in info:
+            # free-joint position: the body's world position at τ_k (before the step)
+            cols[f"{name}_x"][k], cols[f"{name}_y"][k], cols[f"{name}_z"][k] = data.qpos[
+                adr : adr + 3
+            ]
+        data.mocap_pos[mid] = pos[k]
+        data.mocap_quat[mid] = quat[k]
+        mujoco.mj_step(model, data)
+        # mj_step evaluated positions, contacts and accelerations at τ_k before integrating
+        ncon[k] = data.ncon
+        if mover.size and obst.size:
+            mind[k] = min(
+                mujoco.mj_geomDistance(model, data, int(a), int(o), 10.0, None)
+                for a in mover
+                for o in obst
+            )
+        for name, _b, dof, _adr, mass, geoms in info:
+            acc = np.array(data.qacc[dof : dof + 3])
+            cols[f"{name}_acc_x"][k], cols[f"{name}_acc_y"][k], cols[f"{name}_acc_z"][k] = acc
+            cols[f"{name}_force"][k] = np.linalg.norm(mass * (acc - g))
+            cf = 0.0
+            for c in range(data.ncon):
+                con = data.contact[c]
+                if con.geom1 in geoms or con.geom2 in geoms:
+                    mujoco.mj_contactForce(model, data, c, force6)
+                    cf += abs(force6[0])
+            cols[f"{name}_contact_force"][k] = cf
+    return {"min_distance": mind, "ncon": ncon, **cols}
+
+
+# ----------------------------------------------------------------------------- metrics
+def physics_smoothness(
+    frame: pd.DataFrame, motion: Motion, carried: tuple | list, *, window: int = 8
+) -> dict[str, Any]:
+    """Physics-side smoothness of the carried bodies at each interior knot of the motion.
+
+    Lines are fitted to the net constraint force (and to the acceleration) over `window`
+    steps on each side of the knot; their values at the knot give the *jump* and their
+    slopes the *rate jump*. A weld or contact reacts to a jump of the driver's velocity
+    (C⁰) with a force jump, and to a jump of its acceleration (C¹) with a jump of the
+    force's rate of change; a C² motion shows neither.
+
+    Returns:
+        dict with ``force_jump``, ``force_rate_jump``, ``acceleration_jump``,
+        ``jerk_jump`` (max over knots and carried bodies) and ``peak_jerk``.
+    """
+    tau = frame["time"].to_numpy()
+    t = tau + motion.domain[0]
+    knots = motion.knots[1:-1]
+    out = dict(
+        force_jump=0.0, force_rate_jump=0.0, acceleration_jump=0.0, jerk_jump=0.0, peak_jerk=0.0
+    )
+    if len(t) < 2 * window + 2:
+        return out
+
+    def sided(y: np.ndarray, i: int, kt: float):
+        """values and slopes at the knot of lines fitted before and after it."""
+        res = []
+        for sl in (slice(i - window, i), slice(i, i + window)):
+            x = t[sl] - kt
+            coef = np.polyfit(x, y[sl], 1)
+            res.append(coef)
+        (sb, vb), (sa, va) = res
+        return np.abs(va - vb), np.abs(sa - sb)
+
+    dt = float(tau[1] - tau[0])
+    for name in carried:
+        f = frame[f"{name}_force"].to_numpy()
+        acc = frame[[f"{name}_acc_{a}" for a in "xyz"]].to_numpy()
+        for kt in knots:
+            i = int(np.searchsorted(t, kt))
+            if i - window < 0 or i + window > len(t):
+                continue
+            jv, js = sided(f, i, kt)
+            out["force_jump"] = max(out["force_jump"], float(jv))
+            out["force_rate_jump"] = max(out["force_rate_jump"], float(js))
+            av, aslope = sided(acc, i, kt)
+            out["acceleration_jump"] = max(out["acceleration_jump"], float(np.linalg.norm(av)))
+            out["jerk_jump"] = max(out["jerk_jump"], float(np.linalg.norm(aslope)))
+        settled = acc[4 * window :]  # skip the start-up transient from the initial state
+        if len(settled) > 2:
+            out["peak_jerk"] = max(
+                out["peak_jerk"], float(np.linalg.norm(np.diff(settled, axis=0), axis=1).max() / dt)
+            )
+    return out
+
+
+def timed_simulate(scene, motion, **kw) -> tuple[pd.DataFrame, float]:
+    t0 = time.perf_counter()
+    out = simulate(scene, motion, **kw)
+    return out, time.perf_counter() - t0

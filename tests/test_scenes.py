@@ -1,0 +1,168 @@
+"""Scenes, the mocap driver, physics-side smoothness, the certificate cross-check, pictures."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+import harness
+import motions
+import scenes
+from harness.bounds import ShapeTable, pose_rows
+from harness.certify import _pose_ctrl
+from harness.sim import (
+    DomainError,
+    body_from_model,
+    obstacle_geoms,
+    obstacles_from_model,
+    physics_smoothness,
+    simulate,
+)
+
+from .helpers import quat_close
+
+
+def scene_motion(name: str, scheme: str = "rational"):
+    sc = scenes.load(name)
+    kf = sc.keyframes
+    return sc, motions.build(scheme, kf.rotations, kf.positions, kf.times)
+
+
+@pytest.mark.parametrize("name", scenes.SCENES)
+def test_mocap_pose_follows_the_motion(name):
+    sc, m = scene_motion(name)
+    model = sc.model
+    data = mujoco.MjData(model)
+    mid = scenes.mocap_id(model, sc.mocap_body)
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, sc.mocap_body)
+    for t in np.concatenate([m.keyframe_times, np.random.default_rng(0).uniform(*m.domain, 5)]):
+        r, p = m.pose(t)
+        data.mocap_pos[mid], data.mocap_quat[mid] = p, motions.quat_from_matrix(r)
+        mujoco.mj_forward(model, data)
+        np.testing.assert_allclose(data.xpos[bid], p, atol=1e-12)
+        assert quat_close(data.xquat[bid], motions.quat_from_matrix(r)) < 1e-12
+    # keyframes are met
+    r, p = m.pose(sc.keyframes.times)
+    np.testing.assert_allclose(p, sc.keyframes.positions, atol=1e-10)
+
+
+@pytest.mark.parametrize("name", scenes.SCENES)
+def test_shapes_reproduce_mujoco_distances(name):
+    sc, m = scene_motion(name)
+    body = body_from_model(sc.model, sc.mocap_body)
+    obst = obstacles_from_model(sc.model)
+    t = np.linspace(*m.domain, 25)
+    r, p = m.pose(t)
+    data = mujoco.MjData(sc.model)
+    mid = scenes.mocap_id(sc.model, sc.mocap_body)
+    bid = mujoco.mj_name2id(sc.model, mujoco.mjtObj.mjOBJ_BODY, sc.mocap_body)
+    mover = np.flatnonzero(sc.model.geom_bodyid == bid)
+    geoms = obstacle_geoms(sc.model)
+    ref = np.empty((len(t), len(geoms)))
+    for k in range(len(t)):
+        data.mocap_pos[mid], data.mocap_quat[mid] = p[k], motions.quat_from_matrix(r[k])
+        mujoco.mj_kinematics(sc.model, data)
+        for j, g in enumerate(geoms):
+            ref[k, j] = min(
+                mujoco.mj_geomDistance(sc.model, data, int(a), int(g), 50.0, None) for a in mover
+            )
+    table = ShapeTable.build([body, *obst])
+    bparts = np.flatnonzero(table.owner == 0)
+    poses = _pose_ctrl(r, p)
+    for j in range(len(obst)):
+        opart = np.flatnonzero(table.owner == j + 1)
+        best = np.full(len(t), np.inf)
+        for b in bparts:
+            ub, _, ov, _ = pose_rows(poses, 0, np.full(len(t), b), np.full(len(t), opart[0]), table)
+            best = np.minimum(best, np.where(ov, -1.0, ub))
+        sep = ref[:, j] > 0
+        eps = 1e-6  # meshes are float32 in MuJoCo
+        np.testing.assert_allclose(best[sep], ref[sep, j], atol=eps * (1 + np.abs(p).max()))
+        assert np.all(best[~sep] <= eps)
+
+
+def test_scenes_give_free_and_collision_certificates_and_simulation_agrees():
+    verdicts = {}
+    for name in scenes.SCENES:
+        sc, m = scene_motion(name)
+        body = body_from_model(sc.model, sc.mocap_body)
+        cert = harness.certify(m, body, obstacles_from_model(sc.model))
+        verdicts[name] = cert.verdict
+        for dt in (None, 5 * sc.model.opt.timestep):
+            df = simulate(sc, m, dt=dt)
+            if cert.verdict == "free":
+                assert (df["min_distance"] > 0).all(), (
+                    f"{name}: certified free, but the simulation touches"
+                )
+            if cert.verdict == "collision" and dt is None:
+                # the simulation sees the contact near the certificate's bracket
+                hit = df["time"][df["min_distance"] < 0].to_numpy() + m.domain[0]
+                assert hit.size and hit.min() >= cert.toi_lo - 1e-9
+    assert "free" in verdicts.values() and "collision" in verdicts.values(), verdicts
+
+
+def test_rollout_and_recorded_loop_agree():
+    sc, m = scene_motion("payload")
+    a = simulate(sc, m, record=False)
+    b = simulate(sc, m, record=True)
+    np.testing.assert_allclose(a["payload_x"], b["payload_x"], atol=1e-12)
+    np.testing.assert_allclose(a[["pos_x", "quat_w"]], b[["pos_x", "quat_w"]])
+    assert len(a) == int(np.ptp(m.domain) / sc.model.opt.timestep + 1e-9) + 1
+
+
+def test_tray_carries_its_load():
+    sc, m = scene_motion("tray")
+    df = simulate(sc, m)
+    tray = df[["tray_x", "tray_y"]].to_numpy()
+    load = df[["load_x", "load_y"]].to_numpy()
+    d_tray = np.linalg.norm(tray[-1] - tray[0])
+    d_load = np.linalg.norm(load[-1] - load[0])
+    assert d_tray > 0.25
+    assert abs(d_load - d_tray) <= 0.05 * d_tray
+
+
+def test_payload_force_jumps_show_continuity():
+    # slerp (C⁰) makes the weld force jump; squad (C¹) makes its rate of change jump;
+    # the rational C² motion does neither (a property check, no stored numbers)
+    rows = {}
+    for scheme in ("rational", "slerp", "squad"):
+        sc, m = scene_motion("payload", scheme)
+        rows[scheme] = physics_smoothness(simulate(sc, m), m, sc.carried)
+    assert rows["slerp"]["force_jump"] > 3 * rows["rational"]["force_jump"], rows
+    assert rows["squad"]["force_rate_jump"] > 3 * rows["rational"]["force_rate_jump"], rows
+    assert rows["slerp"]["force_rate_jump"] > 3 * rows["rational"]["force_rate_jump"], rows
+
+
+def test_render_png_with_matplotlib(tmp_path):
+    path, backend = harness.render(
+        "slot", out=tmp_path / "slot.png", backend="matplotlib", frames=3, control_segment=0
+    )
+    assert backend == "matplotlib"
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+
+
+XML = """<mujoco><worldbody>
+<body name="mover" mocap="true"><geom type="box" size=".1 .1 .1"/></body>
+<body name="free"><freejoint/><geom type="sphere" size=".1"/></body>
+<geom name="can" type="cylinder" size=".1 .2" pos="1 0 0"/>
+</worldbody><keyframe><key time="0" mpos="0 0 0"/><key time="1" mpos="0.5 0 0"/></keyframe></mujoco>"""
+
+
+def test_bad_input():
+    with pytest.raises(scenes.SceneError, match="Available scenes"):
+        scenes.load("kitchen")
+    sc = scenes.load("payload")
+    with pytest.raises(harness.InvalidMocapBody, match=r"Mocap bodies: \['hand'\]"):
+        body_from_model(sc.model, "payload")
+    with pytest.raises(scenes.SceneError, match="Malformed MJCF"):
+        scenes.from_xml("<mujoco><worldbody><geom type='box'/></worldbody", "mover")
+    inline = scenes.from_xml(XML, "mover")
+    with pytest.raises(harness.UnsupportedGeomError, match="supported geom types"):
+        obstacles_from_model(inline.model)
+    _, m = scene_motion("payload")
+    with pytest.raises(DomainError, match="duration"):
+        simulate(sc, m, duration=100.0)
+    with pytest.raises(ValueError, match="dt"):
+        simulate(sc, m, dt=-1.0)
