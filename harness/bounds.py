@@ -337,8 +337,18 @@ def aabb_rows_numpy(ctrl: np.ndarray, body: Shape) -> tuple[np.ndarray, np.ndarr
     a = ctrl[..., :3, :3] / ctrl[..., 3:, 3:]
     b = ctrl[..., :3, 3] / ctrl[..., 3:4, 3]
     if body.kind == "mesh":
-        pts = np.einsum("rkij,vj->rkvi", a, body.vertices_) + b[:, :, None, :]
-        return pts.min(axis=(1, 2)), pts.max(axis=(1, 2))
+        # one GEMM per chunk: (rows * K * 3, 3) @ (3, V), then min/max over K and V
+        v = body.vertices_.T
+        r, k = a.shape[:2]
+        lo, hi = np.empty((r, 3)), np.empty((r, 3))
+        step = max(1, 4_000_000 // (k * 3 * v.shape[1]))
+        for i in range(0, r, step):
+            pts = (a[i : i + step].reshape(-1, 3) @ v).reshape(-1, k, 3, v.shape[1]) + b[
+                i : i + step, :, :, None
+            ]
+            lo[i : i + step] = pts.min(axis=(1, 3))
+            hi[i : i + step] = pts.max(axis=(1, 3))
+        return lo, hi
     c = np.einsum("rkij,j->rki", a, body.center) + b
     rownorm = np.linalg.norm(a, axis=-1)
     if body.kind == "box":
@@ -384,11 +394,29 @@ def aabb_warp(
     )
 
 
-# Crossover of the AABB bound function between numpy (one GEMM per batch) and Warp
-# (scalar loops, one launch): numpy wins for meshes with many vertices and for small
-# batches (launch and wrapping overhead); see tests/benchmarks/test_30_bound_dispatch.py.
-NUMPY_MIN_VERTS = 64
-WARP_MIN_ROWS = 64
+# Cost models of the two AABB paths in µs, fitted on this kind of machine (2 cores) over
+# the (S rows, K control matrices, V vertices) grid of tests/benchmarks/test_30_*.py:
+# numpy pays little per call but more per element; Warp pays a launch (~0.1 ms) and
+# then runs ~2x faster per element on two threads. The public function takes the path
+# with the lower predicted time.
+COST_US = {
+    ("mesh", "numpy"): (8.8, 0.31, 0.0074),
+    ("mesh", "warp"): (101.0, 0.012, 0.0040),
+    ("primitive", "numpy"): (15.6, 0.237, 0.0),
+    ("primitive", "warp"): (100.0, 0.0196, 0.0),
+}
+
+
+def aabb_path(rows: int, k: int, body: Shape) -> str:
+    """The cheaper AABB path ("numpy" or "warp") for `rows` pieces of `k` control matrices."""
+    kind = "mesh" if body.kind == "mesh" else "primitive"
+    v = len(body.vertices_) if kind == "mesh" else 0
+    cost = {
+        path: a + b * rows * k + c * rows * k * v
+        for path in ("numpy", "warp")
+        for a, b, c in [COST_US[(kind, path)]]
+    }
+    return min(cost, key=cost.get)
 
 
 def aabb_dispatch(
@@ -396,8 +424,7 @@ def aabb_dispatch(
 ) -> tuple[np.ndarray, np.ndarray]:
     """The public AABB bound function: numpy or Warp, whichever is cheaper here."""
     if path is None:
-        nverts = len(body.vertices_) if body.kind == "mesh" else 0
-        path = "numpy" if (nverts >= NUMPY_MIN_VERTS or len(ctrl) < WARP_MIN_ROWS) else "warp"
+        path = aabb_path(len(ctrl), ctrl.shape[1], body)
     if path == "numpy":
         return aabb_rows_numpy(ctrl, body)
     if path == "warp":

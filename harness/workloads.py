@@ -62,27 +62,28 @@ def _moved(shape: Shape, shift: np.ndarray) -> Shape:
 
 def min_clearance(
     ms: list, bodies: list, obstacles: list, samples: int = 800, refine: int = 40
-) -> tuple[np.ndarray, np.ndarray]:
-    """Minimum distance over each motion (and its time), by dense exact distances refined
-    by golden-section search around the best sample. Batched through the pose kernel."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Minimum distance over each motion, its time, and the unit direction from the body
+    to the obstacle there: dense exact distances refined by golden-section search around
+    the best sample, batched through the pose kernel. Overlapping poses give -inf."""
     table = ShapeTable.build(list(bodies) + list(obstacles))
     nb = len(bodies)
     bpart = np.array([np.flatnonzero(table.owner == i)[0] for i in range(nb)])
     opart = np.array([np.flatnonzero(table.owner == nb + i)[0] for i in range(len(obstacles))])
 
-    def dist(tt: np.ndarray) -> np.ndarray:  # tt (P, T) -> (P, T)
+    def dist(tt: np.ndarray):  # tt (P, T) -> distances (P, T), directions (P, T, 3)
         poses = np.zeros((tt.size, 1, 4, 4))
         for i, m in enumerate(ms):
             r, p = m.pose(tt[i])
             poses[i * tt.shape[1] : (i + 1) * tt.shape[1]] = _pose_ctrl(r, p)
-        ub, _, ov, _ = pose_rows(
+        ub, _, ov, d = pose_rows(
             poses, 0, np.repeat(bpart, tt.shape[1]), np.repeat(opart, tt.shape[1]), table
         )
-        return np.where(ov, -np.inf, ub).reshape(tt.shape)
+        return np.where(ov, -np.inf, ub).reshape(tt.shape), d.reshape(*tt.shape, 3)
 
     dom = np.array([m.domain for m in ms])
     grid = dom[:, :1] + (dom[:, 1:] - dom[:, :1]) * np.linspace(0, 1, samples)[None, :]
-    d = dist(grid)
+    d, _ = dist(grid)
     k = np.argmin(d, axis=1)
     h = (dom[:, 1] - dom[:, 0]) / (samples - 1)
     a = np.maximum(grid[np.arange(len(ms)), k] - h, dom[:, 0])
@@ -91,14 +92,17 @@ def min_clearance(
     for _ in range(refine):
         c1 = b - g * (b - a)
         c2 = a + g * (b - a)
-        f = dist(np.stack([c1, c2], 1))
+        f, _ = dist(np.stack([c1, c2], 1))
         left = f[:, 0] < f[:, 1]
         b = np.where(left, c2, b)
         a = np.where(left, a, c1)
     tm = 0.5 * (a + b)
-    dm = dist(tm[:, None])[:, 0]
-    better = d.min(axis=1) < dm
-    return np.where(better, d.min(axis=1), dm), np.where(better, grid[np.arange(len(ms)), k], tm)
+    best_grid = grid[np.arange(len(ms)), k]
+    cand = np.stack([tm, best_grid], 1)
+    dc, dirs = dist(cand)
+    j = np.argmin(dc, axis=1)
+    idx = np.arange(len(ms))
+    return dc[idx, j], cand[idx, j], dirs[idx, j]
 
 
 @dataclass
@@ -154,22 +158,24 @@ def certify_workload(
         dirs.append(n)
     target = np.array(target)
     dirs = np.array(dirs)
-    # other poses may come closer than the placement pose: shift free obstacles out
-    # along their direction until the measured minimum matches the target
-    clear, when = min_clearance(ms, bodies, obst)
-    for _ in range(10):
+    # Other poses may come closer than the placement pose: move free obstacles along the
+    # direction of the current closest approach (where d distance / d shift = 1) until the
+    # measured minimum matches the target.
+    clear, when, closest = min_clearance(ms, bodies, obst)
+    for _ in range(12):
         adjust = (target > 0) & ~(np.abs(clear - target) <= 1e-3 * target)
         if not adjust.any():
             break
         for i in np.flatnonzero(adjust):
-            # overlapping elsewhere: step out; else shift by the clearance error
-            step = 0.25 if not np.isfinite(clear[i]) else target[i] - clear[i]
-            obst[i] = _moved(obst[i], step * dirs[i])
+            if np.isfinite(clear[i]):
+                obst[i] = _moved(obst[i], (target[i] - clear[i]) * closest[i])
+            else:  # overlapping elsewhere: step out along the placement direction
+                obst[i] = _moved(obst[i], 0.25 * dirs[i])
         idx = np.flatnonzero(adjust)
-        c2, w2 = min_clearance(
+        c2, w2, n2 = min_clearance(
             [ms[i] for i in idx], [bodies[i] for i in idx], [obst[i] for i in idx]
         )
-        clear[idx], when[idx] = c2, w2
+        clear[idx], when[idx], closest[idx] = c2, w2, n2
     # labels are the measured clearances (a few placements do not converge exactly)
     return Workload(ms, bodies, [[o] for o in obst], clear, target, when)
 

@@ -11,7 +11,7 @@ import pytest
 from harness import ConvexMesh
 from harness.bounds import aabb_dispatch
 
-GRID = [(s, k, v) for s in (1, 30, 1000) for k in (4, 10) for v in (8, 64, 1000)]
+GRID = [(s, k, v) for s in (1, 10, 30, 100, 1000) for k in (4, 10) for v in (8, 64, 256, 1000)]
 
 
 def best(f, n=7):

@@ -1,0 +1,246 @@
+"""Runner, results, reports and the compare gate (DESIGN §6)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from harness.compare import CompareError, compare
+from harness.errors import SuiteError
+from harness.runner import TIMING_COLUMNS, expand, load_suite, run_suite
+
+TINY = """
+[suite]
+name = "tiny"
+seed = 3
+
+[[study]]
+kind = "certify"
+scenes = ["slot"]
+keyframes = "both"
+random_sets = 1
+schemes = ["rational", "slerp"]
+bounds = ["hull", "lipschitz", "sampled"]
+truth_resolution = 5e-3
+
+[[study]]
+kind = "simulate"
+scenes = ["payload"]
+schemes = ["rational"]
+"""
+
+REQUIRED = [
+    "scene", "keyframes", "scheme", "bound", "seed", "verdict", "reason", "truth", "toi_lo", "toi_hi",
+    "toi_true", "toi_true_lo", "nodes", "depth", "seconds", "continuity", "jump_acceleration",
+    "false_negative", "false_positive", "peak_memory_mb",
+]  # fmt: skip
+
+
+def rsmbench(*args, check=True, timeout=600):
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.run(
+        [sys.executable, "-m", "harness.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=env,
+    )
+    if check and proc.returncode != 0:
+        raise AssertionError(
+            f"rsmbench {args} exited {proc.returncode}:\n{proc.stdout}\n{proc.stderr}"
+        )
+    return proc
+
+
+@pytest.fixture
+def tiny(tmp_path) -> Path:
+    p = tmp_path / "tiny.toml"
+    p.write_text(TINY)
+    return p
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("smoke") / "run"
+    rsmbench("run", "smoke", "--out", str(out), "--quiet")
+    return out
+
+
+def test_smoke_suite_end_to_end(smoke_run):
+    df = pd.read_parquet(smoke_run / "results.parquet")
+    csv = pd.read_csv(smoke_run / "results.csv")
+    assert len(df) == len(csv) > 0
+    for col in REQUIRED:
+        assert col in df.columns, col
+    cert = df[df["study"] == "certify"]
+    # every scheme x bound of the suite has a row; certified bounds never say free wrongly
+    assert set(cert["bound"]) == {"hull", "aabb", "lipschitz", "sampled"}
+    assert not (cert["false_negative"] & cert["certified"].fillna(False).astype(bool)).any()
+    assert set(df["study"]) == {"certify", "workload", "scaling", "simulate"}
+    meta = json.loads((smoke_run / "meta.json").read_text())
+    for key in ("suite_hash", "versions", "cpu", "git_revision", "seed"):
+        assert key in meta
+    md = (smoke_run / "report.md").read_text()
+    assert md.startswith("# rsmbench report") and "## Certification accuracy" in md
+    pngs = list((smoke_run / "figures").glob("*.png"))
+    assert len(pngs) >= 5
+    for png in pngs:
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert f"figures/{png.name}" in md
+    assert (smoke_run / "report.html").read_text().startswith("<!doctype html>")
+
+
+def test_compare_exit_codes(smoke_run, tmp_path):
+    same = rsmbench("compare", str(smoke_run), str(smoke_run), check=False)
+    assert same.returncode == 0, same.stdout
+    # synthetic timing regression: one group twice as slow
+    slow = tmp_path / "slow"
+    shutil.copytree(smoke_run, slow)
+    df = pd.read_parquet(slow / "results.parquet")
+    sel = (df["study"] == "certify") & (df["bound"] == "sampled")
+    df.loc[sel, "seconds"] = df.loc[sel, "seconds"] * 3 + 0.1
+    df.to_parquet(slow / "results.parquet")
+    r = rsmbench("compare", str(smoke_run), str(slow), check=False)
+    assert r.returncode == 1 and "timing" in r.stdout
+    assert (
+        rsmbench(
+            "compare", str(smoke_run), str(slow), "--time-threshold", "2000%", check=False
+        ).returncode
+        == 0
+    )
+    # synthetic accuracy regression: a false free that the base did not have
+    wrong = tmp_path / "wrong"
+    shutil.copytree(smoke_run, wrong)
+    df = pd.read_parquet(wrong / "results.parquet")
+    i = df.index[df["study"] == "certify"][0]
+    df.loc[i, "false_negative"] = True
+    df.to_parquet(wrong / "results.parquet")
+    r = rsmbench("compare", str(smoke_run), str(wrong), check=False)
+    assert r.returncode == 1 and "false free" in r.stdout
+    # a continuity class that got worse
+    worse = tmp_path / "worse"
+    shutil.copytree(smoke_run, worse)
+    df = pd.read_parquet(worse / "results.parquet")
+    df.loc[df["scheme"] == "rational", "continuity_order"] = 1
+    df.to_parquet(worse / "results.parquet")
+    assert rsmbench("compare", str(smoke_run), str(worse), check=False).returncode == 1
+    # mismatched runs: usage error naming what differs
+    other = tmp_path / "other"
+    shutil.copytree(smoke_run, other)
+    meta = json.loads((other / "meta.json").read_text())
+    meta["suite_hash"] = "0" * 16
+    (other / "meta.json").write_text(json.dumps(meta))
+    r = rsmbench("compare", str(smoke_run), str(other), check=False)
+    assert r.returncode == 2 and "suite_hash" in r.stderr
+
+
+def test_compare_reads_pytest_benchmark_json(tmp_path):
+    def bench(name, t):
+        return {
+            "benchmarks": [
+                {"fullname": name, "stats": {"min": t}},
+                {"fullname": "other", "stats": {"min": 1.0}},
+            ]
+        }
+
+    (tmp_path / "a.json").write_text(json.dumps(bench("x", 1.0)))
+    (tmp_path / "b.json").write_text(json.dumps(bench("x", 1.5)))
+    assert compare(tmp_path / "a.json", tmp_path / "b.json").exit_code == 1
+    assert compare(tmp_path / "a.json", tmp_path / "a.json").exit_code == 0
+    with pytest.raises(CompareError, match="neither a run folder"):
+        compare(tmp_path / "a.json", tmp_path)
+
+
+def test_resume_after_sigkill(tiny, tmp_path):
+    out = tmp_path / "run"
+    expected = len(expand(load_suite(tiny)))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "harness.cli", "run", str(tiny), "--out", str(out), "--quiet"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    journal = out / "rows.jsonl"
+    deadline = time.time() + 300
+    while time.time() < deadline:
+        if journal.exists() and journal.read_text().count("\n") >= 2:
+            break
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done = journal.read_text().count("\n")
+    assert 2 <= done < expected, "the kill should land mid-run"
+    assert (
+        not (out / "results.parquet").exists()
+        or pd.read_parquet(out / "results.parquet") is not None
+    )
+    rsmbench("run", str(tiny), "--out", str(out), "--quiet")
+    df = pd.read_parquet(out / "results.parquet")
+    assert df["case_id"].nunique() == expected
+    assert not df.duplicated(["case_id"]).any()
+    clean = tmp_path / "clean"
+    rsmbench("run", str(tiny), "--out", str(clean), "--quiet")
+    assert len(pd.read_parquet(clean / "results.parquet")) == len(df)
+
+
+def test_two_runs_with_the_same_seed_are_identical(tiny, tmp_path):
+    suite = load_suite(tiny)
+    a = run_suite(suite, tmp_path / "a", progress=False)
+    b = run_suite(suite, tmp_path / "b", progress=False)
+    cols = [c for c in a.columns if c not in TIMING_COLUMNS and not c.endswith("seconds")]
+    pd.testing.assert_frame_equal(a[cols].reset_index(drop=True), b[cols].reset_index(drop=True))
+    c = run_suite(suite, tmp_path / "c", seed=4, progress=False)
+    assert not c["keyframes"].isna().all()
+
+
+def test_bad_suites(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[suite\nname=1")
+    with pytest.raises(SuiteError, match="not valid TOML"):
+        load_suite(bad)
+    bad.write_text('[[study]]\nkind = "certify"\nschemes = ["rational", "nurbs"]\n')
+    with pytest.raises(
+        SuiteError,
+        match=r"bad.toml: key `study\[0\].schemes`: unknown name\(s\) \['nurbs'\]; valid: \[",
+    ):
+        load_suite(bad)
+    bad.write_text('[[study]]\nkind = "certify"\nscenes = ["kitchen"]\n')
+    with pytest.raises(SuiteError, match="Available|valid: \\['cube_keyframes'"):
+        load_suite(bad)
+    bad.write_text('[[study]]\nkind = "certify"\nbounds = ["obb"]\n')
+    with pytest.raises(SuiteError, match="bounds"):
+        load_suite(bad)
+    bad.write_text('[[study]]\nkind = "certify"\ntolerances = [-1]\n')
+    with pytest.raises(SuiteError, match="tolerances"):
+        load_suite(bad)
+    bad.write_text('[[study]]\nkind = "certify"\nspeed = 3\n')
+    with pytest.raises(SuiteError, match="unknown key"):
+        load_suite(bad)
+    bad.write_text('[[study]]\nkind = "painting"\n')
+    with pytest.raises(SuiteError, match="study\\[0\\].kind"):
+        load_suite(bad)
+    with pytest.raises(SuiteError, match="built-in suites"):
+        load_suite("nonexistent-suite")
+
+
+def test_unwritable_output_and_foreign_folder(tiny, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    r = rsmbench("run", str(tiny), "--out", str(blocker / "run"), "--quiet", check=False)
+    assert r.returncode == 2 and "not writable" in r.stderr
+    out = tmp_path / "run"
+    run_suite(load_suite(tiny), out, progress=False)
+    other = tmp_path / "other.toml"
+    other.write_text(TINY.replace('schemes = ["rational"]', 'schemes = ["squad"]'))
+    with pytest.raises(SuiteError, match="refusing to resume"):
+        run_suite(load_suite(other), out, progress=False)
+    r = rsmbench("run", str(tiny), "--out", str(out), "--seed", "9", "--quiet", check=False)
+    assert r.returncode == 2 and "belongs to suite" in r.stderr
