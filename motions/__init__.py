@@ -9,6 +9,15 @@ from . import (
     quaternion,
 )
 from .errors import DegenerateMotionError, MotionError
+from .frames import (
+    PHCurve,
+    SweepSurface,
+    ph_curve,
+    rmf_error,
+    rmf_motion,
+    rmf_reference,
+    sweep_surface,
+)
 from .interpolation import FitResult, fit, hermite, interpolate, parameter_times
 from .motion import Motion, Recipe
 from .quaternion import (
@@ -44,8 +53,10 @@ __all__ = [
     "FitResult",
     "Motion",
     "MotionError",
+    "PHCurve",
     "RationalMotion",
     "Recipe",
+    "SweepSurface",
     "U",
     "baselines",
     "bernstein",
@@ -56,6 +67,7 @@ __all__ = [
     "hermite",
     "interpolate",
     "parameter_times",
+    "ph_curve",
     "planar",
     "qconj",
     "qexp",
@@ -64,8 +76,12 @@ __all__ = [
     "qnorm",
     "quat_from_matrix",
     "quaternion",
+    "rmf_error",
+    "rmf_motion",
+    "rmf_reference",
     "rotation_matrix",
     "sign_continuity",
     "smoothness",
+    "sweep_surface",
     "u0",
 ]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from harness import ConvexMesh
-from harness.bounds import aabb_dispatch
+from harness.bounds import aabb_dispatch, aabb_path
 
 GRID = [(s, k, v) for s in (1, 10, 30, 100, 1000) for k in (4, 10) for v in (8, 64, 256, 1000)]
 
@@ -39,5 +39,6 @@ def test_dispatch(benchmark, s, k, v):
         numpy_s=t_np,
         warp_s=t_wp,
         faster="numpy" if t_np < t_wp else "warp",
+        chosen=aabb_path(s, k, body),
         public_over_faster=t_pub / min(t_np, t_wp),
     )

@@ -1,0 +1,394 @@
+"""Rational frames, PH curves, rotation-minimising frames and sweep surfaces (seed §6.6).
+
+- :func:`ph_curve`: the Pythagorean-hodograph curve of a quaternion preimage, seed eq.
+  (35): ``x'(t) = U(Q(t)) e1``, integrated exactly in Bernstein form; its parametric speed
+  is the polynomial ``u0(Q(t))`` and its rational frame is a :class:`RationalMotion` of
+  degree 4d + 1.
+- :func:`rmf_reference` (double reflection, Wang et al. 2008) and :func:`rmf_motion`
+  (kinematic cubic Hermite through reference frames, spherical degree 6).
+- :func:`sweep_surface`: a NURBS profile moved by a rational motion is an exact rational
+  tensor-product surface with homogeneous control points ``C_i @ (w_j P_j, w_j)``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.interpolate import BPoly, BSpline, PPoly
+
+from ._checks import as_array, short
+from .interpolation import hermite
+from .motion import Motion
+from .quaternion import quat_from_matrix
+from .rational import RationalMotion, _check_bspline, _control_matrices
+
+__all__ = [
+    "PHCurve",
+    "SweepSurface",
+    "ph_curve",
+    "rmf_error",
+    "rmf_motion",
+    "rmf_reference",
+    "sweep_surface",
+]
+
+
+# ----------------------------------------------------------------------------- PH curves
+@dataclass(frozen=True)
+class PHCurve:
+    """A polynomial PH curve of degree 2d + 1 from a preimage of degree d (seed eq. (35)).
+
+    Attributes:
+        breaks: (S+1,) breakpoints.
+        preimage: (S, d+1, 4) Bézier control quaternions of the preimage.
+        pieces: (S, 2d+2, 3) Bézier control points of the curve.
+    """
+
+    breaks: np.ndarray
+    preimage: np.ndarray
+    pieces: np.ndarray
+
+    @property
+    def domain(self) -> tuple[float, float]:
+        return float(self.breaks[0]), float(self.breaks[-1])
+
+    def _pp(self) -> PPoly:
+        return PPoly.from_bernstein_basis(BPoly(np.moveaxis(self.pieces, 1, 0), self.breaks))
+
+    def point(self, t: Any) -> np.ndarray:
+        """Curve points (..., 3); ``x(t_start) = 0``."""
+        return self._eval(t, 0)
+
+    def derivative(self, t: Any) -> np.ndarray:
+        """Hodograph ``x'(t) = U(Q(t)) e1`` (..., 3); its norm is ``u0(Q(t))``."""
+        return self._eval(t, 1)
+
+    def _eval(self, t: Any, nu: int) -> np.ndarray:
+        m = self.frame()
+        tt, shape = m._check_t(t)
+        return self._pp()(tt, nu).reshape(shape + (3,))
+
+    def speed(self, t: Any) -> np.ndarray:
+        """Parametric speed ``u0(Q(t))`` (a polynomial), (...)."""
+        m = self.frame()
+        tt, shape = m._check_t(t)
+        q = PPoly.from_bernstein_basis(BPoly(np.moveaxis(self.preimage, 1, 0), self.breaks))(tt)
+        return np.einsum("ti,ti->t", q, q).reshape(shape)
+
+    def frame(self) -> RationalMotion:
+        """The rational frame: origin on the curve, body x axis along the tangent (4d+1)."""
+        return RationalMotion(self.breaks, preimage=self.preimage, origin=self.pieces)
+
+
+def ph_curve(degree: int, knots: Any, quaternions: Any) -> PHCurve:
+    """PH curve whose hodograph is the first column of ``U(Q(t))`` (seed eq. (35)).
+
+    Args:
+        degree, knots, quaternions: the preimage B-spline, as in
+            :meth:`RationalMotion.from_preimage` (scalar-first control quaternions).
+    """
+    base = RationalMotion.from_preimage(degree, knots, quaternions)
+    qb = base.preimage_pieces
+    br = base.breaks
+    d = qb.shape[1] - 1
+    hod = _control_matrices(qb, None, None)[:, :, :3, 0]  # (S, 2d+1, 3): U(Q) e1
+    m = 2 * d
+    s_count = len(br) - 1
+    pieces = np.empty((s_count, m + 2, 3))
+    start = np.zeros(3)
+    for s in range(s_count):
+        h = br[s + 1] - br[s]
+        anti = np.concatenate([np.zeros((1, 3)), np.cumsum(hod[s], axis=0) / (m + 1)])
+        pieces[s] = start + h * anti
+        start = pieces[s, -1]
+    return PHCurve(br, qb, pieces)
+
+
+# ----------------------------------------------------------------------------- RMF
+def _spine_eval(spine: Any, t: np.ndarray, nu: int) -> np.ndarray:
+    if isinstance(spine, BSpline | PPoly):
+        return np.asarray(spine(t, nu), dtype=float)
+    if callable(spine):
+        return np.asarray(spine(t, nu), dtype=float)
+    raise TypeError(
+        f"Expected `spine` to be a scipy BSpline/PPoly or a callable spine(t, nu), got {type(spine).__name__}."
+    )
+
+
+def rmf_reference(spine: Any, t: Any, normal0: Any = None) -> np.ndarray:
+    """Rotation-minimising frames along a spine by double reflection (Wang et al. 2008).
+
+    Args:
+        spine: scipy BSpline/PPoly (values (T, 3)) or a callable ``spine(t, nu)``.
+        t: (T,) increasing parameters; the finer, the more accurate (error O(h^4)).
+        normal0: initial normal (3,) (projected onto the normal plane); default any.
+
+    Returns:
+        (T, 3, 3) rotation matrices with columns (tangent, normal, binormal).
+
+    Raises:
+        ValueError: where the spine's tangent vanishes (a degenerate spine).
+    """
+    tt = as_array(t, "t", ndim=1)
+    if tt.size < 2 or np.any(np.diff(tt) <= 0):
+        raise ValueError(f"Expected `t` strictly increasing with >= 2 entries, got {short(tt)}.")
+    x = _spine_eval(spine, tt, 0)
+    dx = _spine_eval(spine, tt, 1)
+    speed = np.linalg.norm(dx, axis=1)
+    bad = np.flatnonzero(speed <= 1e-12 * (1 + np.abs(x).max()))
+    if bad.size:
+        raise ValueError(
+            f"The spine's tangent vanishes at t = {tt[bad[0]]!r} (a degenerate spine); an RMF needs x'(t) != 0."
+        )
+    tan = dx / speed[:, None]
+    if normal0 is None:
+        a = np.eye(3)[np.argmin(np.abs(tan[0]))]
+        r = np.cross(tan[0], a)
+    else:
+        r = as_array(normal0, "normal0", shape=(3,))
+        r = r - r.dot(tan[0]) * tan[0]
+        if np.linalg.norm(r) <= 1e-12:
+            raise ValueError("Expected `normal0` not parallel to the initial tangent.")
+    r = r / np.linalg.norm(r)
+    out = np.empty((tt.size, 3, 3))
+    out[0] = np.stack([tan[0], r, np.cross(tan[0], r)], axis=1)
+    for i in range(tt.size - 1):
+        v1 = x[i + 1] - x[i]
+        c1 = v1 @ v1
+        if c1 > 0:
+            rl = r - (2 / c1) * (v1 @ r) * v1
+            tl = tan[i] - (2 / c1) * (v1 @ tan[i]) * v1
+        else:
+            rl, tl = r, tan[i]
+        v2 = tan[i + 1] - tl
+        c2 = v2 @ v2
+        r = rl - (2 / c2) * (v2 @ rl) * v2 if c2 > 0 else rl
+        r = r - (r @ tan[i + 1]) * tan[i + 1]
+        r /= np.linalg.norm(r)
+        out[i + 1] = np.stack([tan[i + 1], r, np.cross(tan[i + 1], r)], axis=1)
+    return out
+
+
+def rmf_motion(
+    spine: Any,
+    segments: int,
+    *,
+    domain: Any = None,
+    normal0: Any = None,
+    reference_steps: int = 4096,
+) -> RationalMotion:
+    """Rational approximation of the RMF by the kinematic cubic Hermite scheme (seed §6.6).
+
+    Keyframes at `segments` + 1 uniform parameters: reference frames (double reflection
+    on a fine grid), spine points and derivatives, and the RMF's angular velocity
+    ``ω = T x T'`` (no twist about the tangent). Spherical degree 6.
+    """
+    if isinstance(segments, bool) or not isinstance(segments, int | np.integer) or segments < 1:
+        raise ValueError(f"Expected `segments` to be a positive integer, got {segments!r}.")
+    t0, t1 = _spine_domain(spine, domain)
+    fine = np.linspace(t0, t1, max(reference_steps, 8 * segments) + 1)
+    ref = rmf_reference(spine, fine, normal0)
+    step = (len(fine) - 1) // segments
+    idx = np.arange(0, len(fine), step)
+    if idx[-1] != len(fine) - 1:
+        idx = np.append(idx, len(fine) - 1)
+    tk = fine[idx]
+    x1 = _spine_eval(spine, tk, 1)
+    x2 = _spine_eval(spine, tk, 2)
+    sp = np.linalg.norm(x1, axis=1, keepdims=True)
+    tan = x1 / sp
+    dtan = (x2 - tan * np.einsum("ij,ij->i", tan, x2)[:, None]) / sp
+    omega = np.cross(tan, dtan)
+    return hermite(
+        quat_from_matrix(ref[idx]),
+        _spine_eval(spine, tk, 0),
+        tk,
+        velocities=x1,
+        angular_velocities=omega,
+    )
+
+
+def _spine_domain(spine: Any, domain: Any) -> tuple[float, float]:
+    if domain is not None:
+        d = as_array(domain, "domain", shape=(2,))
+        return float(d[0]), float(d[1])
+    if isinstance(spine, BSpline):
+        return float(spine.t[spine.k]), float(spine.t[-spine.k - 1])
+    if isinstance(spine, PPoly):
+        return float(spine.x[0]), float(spine.x[-1])
+    raise ValueError("Expected `domain` = (t0, t1) for a callable spine.")
+
+
+def rmf_error(motion: Motion, spine: Any, samples: int = 2001, normal0: Any = None) -> float:
+    """Largest rotation angle (rad) between `motion`'s frames and the reference RMF."""
+    t = np.linspace(*motion.domain, samples)
+    ref = rmf_reference(spine, np.linspace(*motion.domain, 16 * (samples - 1) + 1), normal0)[::16]
+    r, _ = motion.pose(t)
+    rel = np.einsum("tji,tjk->tik", ref, r)
+    cos = np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)
+    return float(np.arccos(cos).max())
+
+
+# ----------------------------------------------------------------------------- sweeps
+@dataclass(frozen=True)
+class SweepSurface:
+    """Rational tensor-product surface swept by a NURBS profile under a rational motion.
+
+    Attributes:
+        degree_s, knots_s: the profile direction (s), as given.
+        degree_t, knots_t: the motion direction (t): the Bézier form as a B-spline
+            (interior knots of multiplicity n).
+        homogeneous: (Nt, Ns, 4) homogeneous control points ``C_i @ (w_j P_j, w_j)``.
+    """
+
+    degree_s: int
+    knots_s: np.ndarray
+    degree_t: int
+    knots_t: np.ndarray
+    homogeneous: np.ndarray
+
+    @property
+    def control_points(self) -> np.ndarray:
+        return self.homogeneous[..., :3] / self.homogeneous[..., 3:]
+
+    @property
+    def weights(self) -> np.ndarray:
+        return self.homogeneous[..., 3]
+
+    def evaluate(self, s: Any, t: Any) -> np.ndarray:
+        """Surface points (T, S, 3) at profile parameters s (S,) and times t (T,)."""
+        ss = as_array(s, "s", ndim=1)
+        tt = as_array(t, "t", ndim=1)
+        for name, x, kn, k in (
+            ("s", ss, self.knots_s, self.degree_s),
+            ("t", tt, self.knots_t, self.degree_t),
+        ):
+            lo, hi = kn[k], kn[-k - 1]
+            if x.size and (x.min() < lo - 1e-12 * (hi - lo) or x.max() > hi + 1e-12 * (hi - lo)):
+                raise ValueError(f"Expected `{name}` within [{lo!r}, {hi!r}], got {short(x)}.")
+        bs = BSpline.design_matrix(
+            np.clip(ss, self.knots_s[self.degree_s], self.knots_s[-self.degree_s - 1]),
+            self.knots_s,
+            self.degree_s,
+        ).toarray()
+        bt = BSpline.design_matrix(
+            np.clip(tt, self.knots_t[self.degree_t], self.knots_t[-self.degree_t - 1]),
+            self.knots_t,
+            self.degree_t,
+        ).toarray()
+        h = np.einsum("ti,ijk,sj->tsk", bt, self.homogeneous, bs)
+        return h[..., :3] / h[..., 3:]
+
+    def to_mesh(self, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+        """Triangle mesh whose midpoints deviate from the surface by less than `tolerance`.
+
+        A uniform parameter grid is refined (doubling along s and t) until the surface at
+        the grid's cell centres lies within `tolerance` of the two triangles' average.
+
+        Returns:
+            vertices (V, 3), faces (F, 3) (0-based indices).
+        """
+        try:
+            tol = float(tolerance)
+        except (TypeError, ValueError):
+            raise TypeError(f"Expected `tolerance` to be a number, got {tolerance!r}.") from None
+        if not np.isfinite(tol) or tol <= 0:
+            raise ValueError(f"Expected `tolerance` > 0, got {tolerance!r}.")
+        s0, s1 = self.knots_s[self.degree_s], self.knots_s[-self.degree_s - 1]
+        t0, t1 = self.knots_t[self.degree_t], self.knots_t[-self.degree_t - 1]
+        ns = max(2, len(np.unique(self.knots_s)) * 2)
+        nt = max(2, len(np.unique(self.knots_t)) * 2)
+        for _ in range(12):
+            s = np.linspace(s0, s1, ns + 1)
+            t = np.linspace(t0, t1, nt + 1)
+            p = self.evaluate(s, t)
+            sm, tm = 0.5 * (s[1:] + s[:-1]), 0.5 * (t[1:] + t[:-1])
+            centre = self.evaluate(sm, tm)
+            avg = 0.25 * (p[:-1, :-1] + p[1:, :-1] + p[:-1, 1:] + p[1:, 1:])
+            err = np.linalg.norm(centre - avg, axis=-1).max()
+            if err < tol:
+                break
+            ns, nt = ns * 2, nt * 2
+        nt1, ns1 = p.shape[:2]
+        idx = np.arange(nt1 * ns1).reshape(nt1, ns1)
+        a, b, c, d = (
+            idx[:-1, :-1].ravel(),
+            idx[:-1, 1:].ravel(),
+            idx[1:, :-1].ravel(),
+            idx[1:, 1:].ravel(),
+        )
+        faces = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
+        return p.reshape(-1, 3), faces
+
+    def to_obj(self, path: str | Path, tolerance: float = 1e-3) -> Path:
+        """Write the mesh of :meth:`to_mesh` as a Wavefront OBJ file."""
+        v, f = self.to_mesh(tolerance)
+        path = Path(path)
+        lines = [f"v {float(x)!r} {float(y)!r} {float(z)!r}" for x, y, z in v] + [
+            f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f
+        ]
+        path.write_text("# rsmbench sweep surface\n" + "\n".join(lines) + "\n")
+        return path
+
+    def to_dict(self) -> dict:
+        """Plain data form (JSON-able) of the NURBS surface."""
+        return {
+            "type": "rational tensor-product B-spline surface",
+            "degree_s": self.degree_s,
+            "degree_t": self.degree_t,
+            "knots_s": self.knots_s.tolist(),
+            "knots_t": self.knots_t.tolist(),
+            "control_points": self.control_points.tolist(),
+            "weights": self.weights.tolist(),
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict())
+
+
+def sweep_surface(profile: Any, motion: RationalMotion) -> SweepSurface:
+    """The exact rational surface swept by a NURBS profile under a rational motion.
+
+    Args:
+        profile: ``(degree, knots, points (m, 3), weights (m,) or None)`` in body
+            coordinates.
+        motion: a :class:`RationalMotion`.
+
+    The homogeneous control points are ``C_i @ (w_j P_j, w_j)`` for the motion's control
+    matrices C_i (its Bézier form, as a B-spline with interior knots of multiplicity n).
+    """
+    if not isinstance(motion, RationalMotion):
+        raise TypeError(f"Expected `motion` to be a RationalMotion, got {type(motion).__name__}.")
+    if not isinstance(profile, tuple | list) or len(profile) != 4:
+        raise TypeError(
+            f"Expected `profile` = (degree, knots, points, weights or None), got {short(profile)}."
+        )
+    deg, kn = _check_bspline(profile[0], profile[1], "profile[0]", "profile[1]")
+    pts = as_array(profile[2], "profile[2]")
+    if pts.ndim != 2 or pts.shape != (kn.size - deg - 1, 3):
+        raise ValueError(
+            f"Expected `profile[2]` to have shape ({kn.size - deg - 1}, 3) for degree {deg} and {kn.size} knots, got {pts.shape}."
+        )
+    w = np.ones(len(pts)) if profile[3] is None else as_array(profile[3], "profile[3]", ndim=1)
+    if w.shape != (len(pts),) or np.any(w <= 0):
+        raise ValueError(
+            f"Expected `profile[3]` to be {len(pts)} positive weights, got {short(w)}."
+        )
+    breaks, ctrl = motion.bezier_form()
+    n = ctrl.shape[1] - 1
+    # scale segments so that their joint control matrices coincide (a C0 B-spline)
+    scale = np.ones(len(ctrl))
+    for s in range(1, len(ctrl)):
+        scale[s] = scale[s - 1] * ctrl[s - 1, -1, 3, 3] / ctrl[s, 0, 3, 3]
+    ctrl = ctrl * scale[:, None, None, None]
+    mats = np.concatenate([ctrl[0], *[c[1:] for c in ctrl[1:]]])  # (S n + 1, 4, 4)
+    hp = np.concatenate([pts * w[:, None], w[:, None]], axis=1)  # (m, 4)
+    homog = np.einsum("iab,jb->ija", mats, hp)
+    knots_t = np.concatenate(
+        [[breaks[0]] * (n + 1), np.repeat(breaks[1:-1], n), [breaks[-1]] * (n + 1)]
+    )
+    return SweepSurface(deg, kn, n, knots_t, homog)

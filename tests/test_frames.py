@@ -1,0 +1,140 @@
+"""PH curves, rational frames, rotation-minimising frames and sweep surfaces (seed §6.6)."""
+
+from __future__ import annotations
+
+import itertools
+import json
+
+import numpy as np
+import pytest
+from scipy.interpolate import BSpline, make_interp_spline
+
+import motions
+
+
+@pytest.fixture
+def preimage(rng):
+    q = motions.sign_continuity(rng.normal(size=(7, 4)))
+    s = make_interp_spline(np.cumsum(rng.uniform(0.5, 1.5, 7)), q, k=3)
+    return s
+
+
+def test_ph_property_and_degree(preimage):
+    c = motions.ph_curve(3, preimage.t, preimage.c)
+    t = np.linspace(*c.domain, 2001)
+    # |x'(t)| = u0(Q(t)): the parametric speed is a polynomial
+    np.testing.assert_allclose(np.linalg.norm(c.derivative(t), axis=1), c.speed(t), rtol=1e-12)
+    np.testing.assert_allclose(
+        c.speed(t), np.einsum("ti,ti->t", preimage(t), preimage(t)), rtol=1e-12
+    )
+    np.testing.assert_array_equal(c.point(c.domain[0]), np.zeros(3))
+    # the curve integrates its hodograph: finite differences of points match it
+    h = 1e-6
+    x = t[5:-5]
+    np.testing.assert_allclose(
+        (c.point(x + h) - c.point(x - h)) / (2 * h), c.derivative(x), atol=1e-6
+    )
+    assert c.pieces.shape[1] - 1 == 2 * 3 + 1  # degree 2d + 1
+
+
+def test_rational_frame_follows_the_tangent(preimage):
+    c = motions.ph_curve(3, preimage.t, preimage.c)
+    f = c.frame()
+    assert f.degree == 4 * 3 + 1
+    t = np.linspace(*c.domain, 3000)
+    r, p = f.pose(t)
+    np.testing.assert_allclose(p, c.point(t), atol=1e-12 * (1 + np.abs(p).max()))
+    tan = c.derivative(t)
+    tan /= np.linalg.norm(tan, axis=1, keepdims=True)
+    np.testing.assert_allclose(r[:, :, 0], tan, atol=1e-12)
+
+
+def helix():
+    th = np.linspace(0, 4 * np.pi, 60)
+    return make_interp_spline(th, np.stack([np.cos(th), np.sin(th), 0.3 * th], 1), k=5)
+
+
+def test_rmf_reference_is_rotation_minimising():
+    sp = helix()
+    t = np.linspace(*motions.frames._spine_domain(sp, None), 4001)
+    f = motions.rmf_reference(sp, t)
+    np.testing.assert_allclose(
+        f @ np.swapaxes(f, 1, 2), np.broadcast_to(np.eye(3), f.shape), atol=1e-12
+    )
+    tan = sp(t, 1)
+    np.testing.assert_allclose(
+        f[:, :, 0], tan / np.linalg.norm(tan, axis=1, keepdims=True), atol=1e-12
+    )
+    # rotation-minimising: the normal turns with no component about the tangent, dN/dt . B = 0
+    dn = np.gradient(f[:, :, 1], t, axis=0)
+    twist = np.einsum("ti,ti->t", dn, f[:, :, 2])
+    assert np.abs(twist[5:-5]).max() < 1e-4
+
+
+def test_rmf_approximation_converges_at_fourth_order():
+    sp = helix()
+    errors = [motions.rmf_error(motions.rmf_motion(sp, n), sp) for n in (8, 16, 32, 64)]
+    assert all(b < a for a, b in itertools.pairwise(errors))
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert orders.mean() > 3.0, orders  # cubic Hermite: O(h^4)
+    m = motions.rmf_motion(sp, 16)
+    assert m.preimage_degree == 3 and m.scheme == "rational-hermite"
+
+
+def test_sweep_surface_is_the_moved_profile(preimage, tmp_path):
+    f = motions.ph_curve(3, preimage.t, preimage.c).frame()
+    w = np.array([1.0, np.sqrt(0.5), 1.0])
+    pts = np.array([[0.0, 0.2, 0.0], [0.0, 0.2, 0.2], [0.0, 0.0, 0.2]])  # a quarter circle
+    prof = (2, [0, 0, 0, 1, 1, 1.0], pts, w)
+    surf = motions.sweep_surface(prof, f)
+    s = np.linspace(0, 1, 11)
+    t = np.linspace(*f.domain, 23)
+    curve = (
+        BSpline(np.array(prof[1]), pts * w[:, None], 2)(s)
+        / BSpline(np.array(prof[1]), w, 2)(s)[:, None]
+    )
+    np.testing.assert_allclose(
+        np.linalg.norm(curve[:, 1:], axis=1), 0.2, atol=1e-15
+    )  # exact circle
+    np.testing.assert_allclose(surf.evaluate(s, t), f.transform(curve, t), atol=1e-12)
+    v, faces = surf.to_mesh(1e-2)
+    assert faces.max() < len(v) and faces.min() >= 0
+    path = surf.to_obj(tmp_path / "sweep.obj", tolerance=1e-2)
+    back = np.array(
+        [
+            [float(x) for x in line.split()[1:]]
+            for line in path.read_text().splitlines()
+            if line.startswith("v ")
+        ]
+    )
+    np.testing.assert_array_equal(back, v)
+    fs = np.array(
+        [
+            [int(x) - 1 for x in line.split()[1:]]
+            for line in path.read_text().splitlines()
+            if line.startswith("f ")
+        ]
+    )
+    np.testing.assert_array_equal(fs, faces)
+    d = json.loads(surf.to_json())
+    assert np.array(d["control_points"]).shape == surf.homogeneous.shape[:2] + (3,)
+    assert d["degree_t"] == f.degree and d["degree_s"] == 2
+
+
+def test_bad_input(preimage):
+    f = motions.ph_curve(3, preimage.t, preimage.c).frame()
+    with pytest.raises(ValueError, match="clamped"):
+        motions.sweep_surface((2, [0, 0, 0.5, 1, 1, 1.0], np.zeros((3, 3)), None), f)
+    with pytest.raises(ValueError, match="positive weights"):
+        motions.sweep_surface((1, [0, 0, 1, 1.0], np.zeros((2, 3)), [1.0, -1.0]), f)
+    surf = motions.sweep_surface((1, [0, 0, 1, 1.0], np.eye(3)[:2], None), f)
+    with pytest.raises(ValueError, match="tolerance"):
+        surf.to_mesh(0.0)
+    line = make_interp_spline(np.arange(5.0), np.zeros((5, 3)), k=3)  # a point: zero tangent
+    with pytest.raises(ValueError, match="degenerate spine"):
+        motions.rmf_reference(line, np.linspace(0, 4, 10))
+    with pytest.raises(TypeError, match="RationalMotion"):
+        motions.sweep_surface(
+            (1, [0, 0, 1, 1.0], np.eye(3)[:2], None),
+            motions.build("slerp", *motions.schemes.demo_keyframes(4)),
+        )
