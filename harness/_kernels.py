@@ -209,6 +209,27 @@ def _origin_outside(p0: wp.vec3d, p1: wp.vec3d, p2: wp.vec3d, opp: wp.vec3d) -> 
 
 
 @wp.func
+def _face_candidate(
+    p0: wp.vec3d,
+    p1: wp.vec3d,
+    p2: wp.vec3d,
+    opp: wp.vec3d,
+    best: wp.float64,
+    bv: wp.vec3d,
+    bn: wp.int32,
+    q0: wp.vec3d,
+    q1: wp.vec3d,
+    q2: wp.vec3d,
+) -> tuple[wp.float64, wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d]:
+    """Keep face p0p1p2's closest feature if the origin is beyond it and it is closer."""
+    if _origin_outside(p0, p1, p2, opp) == 1:
+        v, n, x, y, z = _closest_triangle(p0, p1, p2)
+        if wp.dot(v, v) < best:
+            return wp.dot(v, v), v, n, x, y, z
+    return best, bv, bn, q0, q1, q2
+
+
+@wp.func
 def _closest_tetra(
     a: wp.vec3d, b: wp.vec3d, c: wp.vec3d, d: wp.vec3d
 ) -> tuple[wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d]:
@@ -219,42 +240,10 @@ def _closest_tetra(
     q0 = a
     q1 = b
     q2 = c
-    if _origin_outside(a, b, c, d) == 1:
-        v, n, x, y, z = _closest_triangle(a, b, c)
-        if wp.dot(v, v) < best:
-            best = wp.dot(v, v)
-            bv = v
-            bn = n
-            q0 = x
-            q1 = y
-            q2 = z
-    if _origin_outside(a, c, d, b) == 1:
-        v, n, x, y, z = _closest_triangle(a, c, d)
-        if wp.dot(v, v) < best:
-            best = wp.dot(v, v)
-            bv = v
-            bn = n
-            q0 = x
-            q1 = y
-            q2 = z
-    if _origin_outside(a, d, b, c) == 1:
-        v, n, x, y, z = _closest_triangle(a, d, b)
-        if wp.dot(v, v) < best:
-            best = wp.dot(v, v)
-            bv = v
-            bn = n
-            q0 = x
-            q1 = y
-            q2 = z
-    if _origin_outside(b, d, c, a) == 1:
-        v, n, x, y, z = _closest_triangle(b, d, c)
-        if wp.dot(v, v) < best:
-            best = wp.dot(v, v)
-            bv = v
-            bn = n
-            q0 = x
-            q1 = y
-            q2 = z
+    best, bv, bn, q0, q1, q2 = _face_candidate(a, b, c, d, best, bv, bn, q0, q1, q2)
+    best, bv, bn, q0, q1, q2 = _face_candidate(a, c, d, b, best, bv, bn, q0, q1, q2)
+    best, bv, bn, q0, q1, q2 = _face_candidate(a, d, b, c, best, bv, bn, q0, q1, q2)
+    best, bv, bn, q0, q1, q2 = _face_candidate(b, d, c, a, best, bv, bn, q0, q1, q2)
     return bv, bn, q0, q1, q2
 
 

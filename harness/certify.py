@@ -35,6 +35,7 @@ __all__ = ["BOUNDS", "REASONS", "Certificate", "certify", "certify_many", "swept
 BOUNDS = ("hull", "aabb", "lipschitz", "sampled")
 REASONS = ("clear", "contact", "tolerance", "depth", "budget")
 DEFAULT_MAX_NODES = 200_000  # per motion
+MAX_LIVE_ROWS = 1 << 16  # rows per launch; the others wait (bounded memory)
 _CLEAR, _COLL, _TOL, _DEPTH, _BUDGET, _PRUNED = range(6)
 _REASON_OF = {_TOL: "tolerance", _DEPTH: "depth", _BUDGET: "budget"}
 
@@ -296,11 +297,11 @@ def _subdivide(
 
     def record(mask, kind, wt, wd):
         for key, val in (
-            ("mot", rows["mot"][mask]),
-            ("t0", rows["t0"][mask]),
-            ("t1", rows["t1"][mask]),
-            ("depth", rows["depth"][mask]),
-            ("ob", rows["ob"][mask]),
+            ("mot", r["mot"][mask]),
+            ("t0", r["t0"][mask]),
+            ("t1", r["t1"][mask]),
+            ("depth", r["depth"][mask]),
+            ("ob", r["ob"][mask]),
         ):
             out[key].append(val)
         n = int(mask.sum())
@@ -308,8 +309,13 @@ def _subdivide(
         out["wt"].append(np.broadcast_to(wt, mask.shape)[mask] if np.ndim(wt) else np.full(n, wt))
         out["wd"].append(np.broadcast_to(wd, mask.shape)[mask] if np.ndim(wd) else np.full(n, wd))
 
-    while len(rows["mot"]):
-        r = rows
+    queue = rows
+    while len(queue["mot"]):
+        # Level-synchronous, but at most MAX_LIVE_ROWS rows per launch: the rest wait, so
+        # that memory stays bounded when many rows stay undecided (AABB, budgets).
+        n_now = min(MAX_LIVE_ROWS, len(queue["mot"]))
+        r = {k: v[:n_now] for k, v in queue.items()}
+        waiting = {k: v[n_now:] for k, v in queue.items()}
         clear, _gap, gdir = bound_rows(
             r["ctrl"],
             r["bp"],
@@ -357,7 +363,8 @@ def _subdivide(
         record(is_budget & ~c1, _BUDGET, np.nan, np.nan)
         record(pruned, _PRUNED, np.nan, np.nan)
         if not rest.any():
-            break
+            queue = waiting
+            continue
         sel = {k: v[rest] for k, v in r.items()}
         left, right = split_rows(np.ascontiguousarray(sel["ctrl"]), table.device, threads)
         kk = left.shape[1]
@@ -366,7 +373,7 @@ def _subdivide(
         )
         tests += np.bincount(sel["mot"], minlength=len(ms))
         tm = 0.5 * (sel["t0"] + sel["t1"])
-        rows = {
+        children = {
             "ctrl": np.concatenate([left, right]),
             "mot": np.tile(sel["mot"], 2),
             "bp": np.tile(sel["bp"], 2),
@@ -381,6 +388,7 @@ def _subdivide(
             "ub1": np.concatenate([ubm, sel["ub1"]]),
             "ov1": np.concatenate([ovm, sel["ov1"]]),
         }
+        queue = {k: np.concatenate([children[k], waiting[k]]) for k in children}
     res = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in out.items()}
     elapsed = time.perf_counter() - start
     return _assemble_all(len(ms), res, nodes, deepest, elapsed, bound, tol, True, tests)

@@ -49,7 +49,6 @@ __all__ = ["STUDIES", "Suite", "load_suite", "run_suite", "suite_path"]
 
 SUITE_DIR = Path(__file__).parent / "suites"
 STUDIES = ("certify", "workload", "scaling", "simulate")
-UNIFORM_DEPTH_CAP = 12  # uniform AABB subdivision of a turning body never clears: censored
 TIMING_COLUMNS = (
     "seconds",
     "truth_seconds",
@@ -452,32 +451,23 @@ def _truth(
 
     def make():
         t0 = time.perf_counter()
+        out = dict(
+            truth="unknown", toi_true=math.nan, toi_true_lo=math.nan, truth_clearance=math.nan
+        )
         try:
             g = ground_truth(m, body, obst, resolution=resolution)
-        except NotImplementedError:
-            return dict(
-                truth="unproven",
-                toi_true=math.nan,
-                toi_true_lo=math.nan,
-                truth_clearance=math.nan,
-                truth_seconds=time.perf_counter() - t0,
+            out.update(
+                truth=g.verdict,
+                toi_true=g.toi_hi,
+                toi_true_lo=g.toi_lo,
+                truth_clearance=g.clearance,
             )
+        except NotImplementedError:  # no proven speed bound: no proven truth
+            out["truth"] = "unproven"
         except ValueError as e:  # too many samples at this resolution
-            return dict(
-                truth="unknown",
-                toi_true=math.nan,
-                toi_true_lo=math.nan,
-                truth_clearance=math.nan,
-                truth_seconds=time.perf_counter() - t0,
-                truth_note=str(e)[:200],
-            )
-        return dict(
-            truth=g.verdict,
-            toi_true=g.toi_hi,
-            toi_true_lo=g.toi_lo,
-            truth_clearance=g.clearance,
-            truth_seconds=time.perf_counter() - t0,
-        )
+            out["truth_note"] = str(e)[:200]
+        out["truth_seconds"] = time.perf_counter() - t0
+        return out
 
     return ctx.memo(("truth", scene, kf, scheme, resolution), make)
 
@@ -594,67 +584,11 @@ def _workload_case(case: dict, st: dict, ctx: Context) -> list[dict]:
 
 
 def _scaling_case(case: dict, st: dict, ctx: Context) -> list[dict]:
-    from motions.rational import _restrict
+    from .workloads import scaling_costs
 
-    from .bounds import ShapeTable, bound_rows
-    from .certify import _positive_pieces
-    from .workloads import certify_workload
-
-    d = case["delta"]
-    w = certify_workload(st["motions"], seed=st["seed"], free_fraction=1.0, lo=2 * d, hi=2 * d)
     base = {k: case[k] for k in ("study", "scene", "keyframes", "scheme", "bound", "delta")}
     base["seed"] = ctx.seed
-    samples = sum(
-        math.ceil(m.speed_bound(*m.domain, b.bounding_radius) * np.ptp(m.domain) / d)
-        for m, b in zip(w.motions, w.bodies, strict=True)
-    )
-    rows = [{**base, "method": "uniform sampling", "cost": float(samples)}]
-    for aabb in (False, True):
-        total, censored = 0, False
-        t0 = time.perf_counter()
-        for m, b, o in zip(w.motions, w.bodies, w.obstacles, strict=True):
-            table = ShapeTable.build([b, *o])
-            ctrl, *_ = _positive_pieces([m])
-            for depth in range(0, UNIFORM_DEPTH_CAP + 1):
-                n = 2**depth
-                seg = np.repeat(np.arange(len(ctrl)), n)
-                u = np.tile(np.arange(n) / n, len(ctrl))
-                pieces = np.ascontiguousarray(_restrict(ctrl[seg], u, u + 1 / n))
-                clear, *_ = bound_rows(
-                    pieces,
-                    np.zeros(len(seg), int),
-                    np.ones(len(seg), int),
-                    table,
-                    np.zeros((len(seg), 3)),
-                    np.full(len(seg), depth),
-                    aabb=aabb,
-                )
-                if clear.all():
-                    break
-            else:
-                censored = True
-            total += len(seg)
-        rows.append(
-            {
-                **base,
-                "method": f"uniform subdivision ({'aabb' if aabb else 'hull'})",
-                "cost": float(total),
-                "censored": censored,
-                "seconds": time.perf_counter() - t0,
-            }
-        )
-    t0 = time.perf_counter()
-    certs = certify_many(w.motions, w.bodies, w.obstacles, tolerance=d)
-    rows.append(
-        {
-            **base,
-            "method": "adaptive subdivision (hull)",
-            "cost": float(sum(c.nodes for c in certs)),
-            "seconds": time.perf_counter() - t0,
-            "verdicts": json.dumps(sorted(set(c.verdict for c in certs))),
-        }
-    )
-    return rows
+    return [{**base, **r} for r in scaling_costs(case["delta"], st["motions"], st["seed"])]
 
 
 def _simulate_case(case: dict, st: dict, ctx: Context) -> dict:

@@ -25,13 +25,17 @@ from .mjdistance import MujocoDistance
 from .shapes import Box, Capsule, Shape, Sphere
 
 __all__ = [
+    "UNIFORM_DEPTH_CAP",
     "Workload",
     "certify_workload",
     "conservative_advancement",
     "dense_sampling",
     "min_clearance",
     "random_keyframes",
+    "scaling_costs",
 ]
+
+UNIFORM_DEPTH_CAP = 12  # uniform AABB subdivision of a turning body never clears: censored
 
 
 def random_keyframes(
@@ -241,3 +245,69 @@ def conservative_advancement(m, body: Shape, obstacles: list, tol: float) -> tup
         if t >= t1:
             return "free", calls, time.perf_counter() - start
         t = min(t1, t + max(d, tol) / v)
+
+
+def scaling_costs(delta: float, n_motions: int = 6, seed: int = 7) -> list[dict]:
+    """Cost to certify pairs with clearance 2δ at resolution δ (DESIGN §9 scaling).
+
+    Rows (method, cost): uniform sampling (poses for a δ guarantee with the proven speed
+    bound), uniform subdivision with the hull and with the AABB bound (pieces at the first
+    depth where every piece clears; censored at UNIFORM_DEPTH_CAP), and adaptive
+    subdivision (certify_many nodes with tolerance δ).
+    """
+    from motions.rational import _restrict
+
+    from .bounds import bound_rows
+    from .certify import _positive_pieces, certify_many
+
+    w = certify_workload(n_motions, seed=seed, free_fraction=1.0, lo=2 * delta, hi=2 * delta)
+    samples = sum(
+        math.ceil(m.speed_bound(*m.domain, b.bounding_radius) * np.ptp(m.domain) / delta)
+        for m, b in zip(w.motions, w.bodies, strict=True)
+    )
+    rows = [{"method": "uniform sampling", "cost": float(samples)}]
+    for aabb in (False, True):
+        total, censored = 0, False
+        t0 = time.perf_counter()
+        for m, b, o in zip(w.motions, w.bodies, w.obstacles, strict=True):
+            table = ShapeTable.build([b, *o])
+            ctrl, *_ = _positive_pieces([m])
+            for depth in range(UNIFORM_DEPTH_CAP + 1):
+                n = 2**depth
+                seg = np.repeat(np.arange(len(ctrl)), n)
+                u = np.tile(np.arange(n) / n, len(ctrl))
+                pieces = np.ascontiguousarray(_restrict(ctrl[seg], u, u + 1 / n))
+                rows_n = len(seg)
+                clear, *_ = bound_rows(
+                    pieces,
+                    np.zeros(rows_n, int),
+                    np.ones(rows_n, int),
+                    table,
+                    np.zeros((rows_n, 3)),
+                    np.full(rows_n, depth),
+                    aabb=aabb,
+                )
+                if clear.all():
+                    break
+            else:
+                censored = True
+            total += rows_n
+        rows.append(
+            {
+                "method": f"uniform subdivision ({'aabb' if aabb else 'hull'})",
+                "cost": float(total),
+                "censored": censored,
+                "seconds": time.perf_counter() - t0,
+            }
+        )
+    t0 = time.perf_counter()
+    certs = certify_many(w.motions, w.bodies, w.obstacles, tolerance=delta)
+    rows.append(
+        {
+            "method": "adaptive subdivision (hull)",
+            "cost": float(sum(c.nodes for c in certs)),
+            "seconds": time.perf_counter() - t0,
+            "verdicts": ",".join(sorted({c.verdict for c in certs})),
+        }
+    )
+    return rows

@@ -5,14 +5,14 @@ DESIGN §9 target: >= 2.5x single-threaded at 10^6 sorted times (goal 4.5x on 2 
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from scipy.interpolate import make_interp_spline
 from scipy.spatial.transform import Rotation, RotationSpline
 
 import motions
+
+from .timing import best_of
 
 N_TIMES = 10**6
 N_KEYS = 11
@@ -37,19 +37,10 @@ def workload():
     return m, rs, cs, x
 
 
-def _best(f, repeat=5):
-    best = np.inf
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        f()
-        best = min(best, time.perf_counter() - t0)
-    return best
-
-
 def test_pose_rational(benchmark, workload):
     m, rs, cs, x = workload
     benchmark.pedantic(m.pose, args=(x,), rounds=5, iterations=1)
-    scipy_s = _best(lambda: (rs(x).as_matrix(), cs(x)))
+    scipy_s = best_of(lambda: (rs(x).as_matrix(), cs(x)))
     ours_s = benchmark.stats.stats.min
     benchmark.extra_info["scipy_seconds"] = scipy_s
     benchmark.extra_info["ratio_vs_rotationspline"] = scipy_s / ours_s
@@ -59,7 +50,7 @@ def test_pose_rational(benchmark, workload):
 def test_pose_rational_two_threads(benchmark, workload):
     m, rs, cs, x = workload
     benchmark.pedantic(lambda: m.pose(x, threads=2), rounds=5, iterations=1)
-    scipy_s = _best(lambda: (rs(x).as_matrix(), cs(x)))
+    scipy_s = best_of(lambda: (rs(x).as_matrix(), cs(x)))
     benchmark.extra_info["scipy_seconds"] = scipy_s
     benchmark.extra_info["ratio_vs_rotationspline"] = scipy_s / benchmark.stats.stats.min
 

@@ -94,72 +94,19 @@ def test_competitors(benchmark, workload, method):
 
 def test_scaling_slopes(benchmark):
     """Cost against resolution δ with clearance 2δ: fitted slopes of log cost on log δ."""
+    import pandas as pd
+
+    from harness.report import scaling_slopes
+    from harness.workloads import scaling_costs
+
     deltas = np.logspace(-4, -1.5, 6)
-    from harness.bounds import ShapeTable, bound_rows
-    from harness.certify import _positive_pieces
-    from motions.rational import _restrict
 
     def measure():
-        rows = []
-        for d in deltas:
-            w = certify_workload(12, seed=7, free_fraction=1.0, lo=2 * d, hi=2 * d)
-            # uniform sampling: samples for a δ guarantee
-            samp = sum(
-                int(np.ceil(m.speed_bound(*m.domain, b.bounding_radius) * np.ptp(m.domain) / d))
-                for m, b in zip(w.motions, w.bodies, strict=True)
-            )
-            # uniform subdivision: depth until every piece's hull (and AABB) clears; an
-            # AABB around a turning body may never clear: capped at depth 14 (censored)
-            uni = {}
-            for aabb in (False, True):
-                total = 0
-                for m, b, o in zip(w.motions, w.bodies, w.obstacles, strict=True):
-                    table = ShapeTable.build([b, *o])
-                    ctrl, *_ = _positive_pieces([m])
-                    for depth in range(0, 15):
-                        n = 2**depth
-                        seg = np.repeat(np.arange(len(ctrl)), n)
-                        u = np.arange(n) / n
-                        pieces = _restrict(
-                            ctrl[seg], np.tile(u, len(ctrl)), np.tile(u + 1 / n, len(ctrl))
-                        )
-                        cl, _, _ = bound_rows(
-                            np.ascontiguousarray(pieces),
-                            np.zeros(len(seg), int),
-                            np.ones(len(seg), int),
-                            table,
-                            np.zeros((len(seg), 3)),
-                            np.full(len(seg), depth),
-                            aabb=aabb,
-                        )
-                        if cl.all():
-                            break
-                    total += len(seg)
-                uni["aabb" if aabb else "hull"] = total
-            ada = sum(
-                k.nodes for k in harness.certify_many(w.motions, w.bodies, w.obstacles, tolerance=d)
-            )
-            rows.append((d, samp, uni["hull"], uni["aabb"], ada))
-        return np.array(rows)
+        return pd.DataFrame([{"delta": d, **r} for d in deltas for r in scaling_costs(d, 12)])
 
     table = benchmark.pedantic(measure, rounds=1, iterations=1)
-    logd = np.log(table[:, 0])
-    slopes = {
-        name: float(np.polyfit(logd, np.log(table[:, j]), 1)[0])
-        for j, name in enumerate(
-            [
-                "uniform_sampling",
-                "uniform_subdivision_hull",
-                "uniform_subdivision_aabb",
-                "adaptive_hull",
-            ],
-            start=1,
-        )
-    }
-    benchmark.extra_info.update(slopes=slopes, table=table.tolist())
-    print(
-        "\nδ, samples, uniform hull pieces, uniform aabb pieces, adaptive nodes\n",
-        table,
-        "\nslopes",
-        slopes,
+    slopes = scaling_slopes(table)
+    benchmark.extra_info.update(
+        slopes=slopes, table=table[["delta", "method", "cost"]].to_dict("records")
     )
+    print("\n", table[["delta", "method", "cost", "censored"]], "\nslopes", slopes)

@@ -3,24 +3,15 @@ grid (DESIGN §9: within 1.1x of the faster path everywhere; crossover reported)
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
 from harness import ConvexMesh
 from harness.bounds import aabb_dispatch, aabb_path
 
+from .timing import best_of
+
 GRID = [(s, k, v) for s in (1, 10, 30, 100, 1000) for k in (4, 10) for v in (8, 64, 256, 1000)]
-
-
-def best(f, n=7):
-    out = np.inf
-    for _ in range(n):
-        t0 = time.perf_counter()
-        f()
-        out = min(out, time.perf_counter() - t0)
-    return out
 
 
 @pytest.mark.parametrize(("s", "k", "v"), GRID)
@@ -31,8 +22,8 @@ def test_dispatch(benchmark, s, k, v):
     ctrl[..., 3, 3] = rng.uniform(1, 2, size=(s, k))
     body = ConvexMesh(rng.normal(size=(v, 3)))
     aabb_dispatch(ctrl, body, path="warp")  # warm
-    t_np = best(lambda: aabb_dispatch(ctrl, body, path="numpy"))
-    t_wp = best(lambda: aabb_dispatch(ctrl, body, path="warp"))
+    t_np = best_of(lambda: aabb_dispatch(ctrl, body, path="numpy"))
+    t_wp = best_of(lambda: aabb_dispatch(ctrl, body, path="warp"))
     benchmark.pedantic(aabb_dispatch, args=(ctrl, body), rounds=7, iterations=1)
     t_pub = benchmark.stats.stats.min
     benchmark.extra_info.update(
