@@ -590,7 +590,10 @@ def _advance(ms, bodies, obst, tol, max_nodes, threads, device) -> list[Certific
         wd[near_idx[new]] = near_ub[new]
         go = ~coll
         idx = live[go]
-        gaps = np.maximum(lb[go], tol)
+        # A proven step uses the certified lower bound lb (a separating plane); past a near
+        # pose the track is no longer a proof and moves on by at least tolerance / V.
+        past_near = np.isfinite(first_near[idx])
+        gaps = np.where(past_near, np.maximum(lb[go], tol), np.maximum(lb[go], 0.0))
         kn, vv = knots_pad[mt[idx]], v_pad[mt[idx]]
         s = np.clip((kn <= t[idx, None]).sum(axis=1) - 1, 0, nseg[mt[idx]] - 1)
         v_here = vv[np.arange(len(idx)), s]
