@@ -142,6 +142,12 @@ class Motion(abc.ABC):
         r, p = self._kinematics(tt, 0)[:2]
         return r.reshape(shape + (3, 3)), p.reshape(shape + (3,))
 
+    def quaternion(self, t: Any) -> np.ndarray:
+        """Unit quaternions (..., 4), scalar first, of the rotation at `t` (either sign)."""
+        from .quaternion import quat_from_matrix
+
+        return quat_from_matrix(self.pose(t)[0])
+
     def matrix(self, t: Any) -> np.ndarray:
         """Homogeneous body -> world matrices ``[[R, p], [0, 0, 0, 1]]``, (..., 4, 4)."""
         r, p = self.pose(t)

@@ -364,6 +364,14 @@ class RationalMotion(Motion):
                 list(pool.map(work, range(threads)))
         return r.reshape(shape + (3, 3)), p.reshape(shape + (3,))
 
+    def quaternion(self, t: Any) -> np.ndarray:
+        """Unit quaternions ``Q(t)/|Q(t)|`` straight from the preimage (scalar first)."""
+        if self._q is None:
+            return super().quaternion(t)
+        tt, shape = self._check_t(t)
+        q = self._evaluator()(tt)[:, :4]
+        return (q / np.linalg.norm(q, axis=1, keepdims=True)).reshape(shape + (4,))
+
     def _kin_preimage(self, t: np.ndarray, order: int):
         pp = self._evaluator()
         fs = [pp(t, nu) for nu in range(order + 1)]
