@@ -35,7 +35,10 @@ __all__ = ["BOUNDS", "REASONS", "Certificate", "certify", "certify_many", "swept
 BOUNDS = ("hull", "aabb", "lipschitz", "sampled")
 REASONS = ("clear", "contact", "tolerance", "depth", "budget")
 DEFAULT_MAX_NODES = 200_000  # per motion
-MAX_LIVE_ROWS = 1 << 16  # rows per launch; the others wait (bounded memory)
+MAX_LIVE_ROWS = 1 << 13
+"""Rows per launch. Children go to the front of the queue (depth first), so the queue
+holds at most about MAX_LIVE_ROWS x depth rows: bounded memory even when an AABB keeps
+thousands of rows per motion undecided; 8192 rows keep the launch cost negligible."""
 _CLEAR, _COLL, _TOL, _DEPTH, _BUDGET, _PRUNED = range(6)
 _REASON_OF = {_TOL: "tolerance", _DEPTH: "depth", _BUDGET: "budget"}
 
@@ -316,6 +319,14 @@ def _subdivide(
         n_now = min(MAX_LIVE_ROWS, len(queue["mot"]))
         r = {k: v[:n_now] for k, v in queue.items()}
         waiting = {k: v[n_now:] for k, v in queue.items()}
+        over = nodes[r["mot"]] >= max_nodes
+        if over.any():  # motions out of budget: their waiting rows end unevaluated
+            record(over & (r["ov1"] | (r["ub1"] < 0)), _COLL, r["t1"], np.nan)
+            record(over & ~(r["ov1"] | (r["ub1"] < 0)), _BUDGET, np.nan, np.nan)
+            r = {k: v[~over] for k, v in r.items()}
+            if not len(r["mot"]):
+                queue = waiting
+                continue
         clear, _gap, gdir = bound_rows(
             r["ctrl"],
             r["bp"],
