@@ -143,14 +143,28 @@ def quat_from_matrix(r: np.ndarray) -> np.ndarray:
     return q / np.take_along_axis(norms, best[..., None], axis=-1)
 
 
+SIGN_TIE = 1e-9
+"""``|<Q_i, Q_{i+1}>|`` below this is a 180° step: both signs are equally near."""
+
+
 def sign_continuity(q: np.ndarray) -> np.ndarray:
-    """Flip signs along a sequence (N, 4) so that ``<Q_i, Q_{i+1}> >= 0`` (seed eq. (30))."""
+    """Flip signs along a sequence (N, 4) so that ``<Q_i, Q_{i+1}> >= 0`` (seed eq. (30)).
+
+    A 180° step (``|<Q_i, Q_{i+1}>| < 1e-9``) leaves the sign to round-off, which would
+    make interpolants depend on the world frame; such a tie is broken by the keyframe
+    before, ``<Q_{i-1}, Q_{i+1}> >= 0`` (a frame-invariant rule), when there is one.
+    """
     q = np.array(q, dtype=float, copy=True)
     if q.shape[0] < 2:
         return q
-    dots = np.einsum("ij,ij->i", q[1:], q[:-1])
-    flips = np.concatenate([[1.0], np.cumprod(np.where(dots < 0, -1.0, 1.0))])
-    return q * flips[:, None]
+    n = np.linalg.norm(q, axis=1)
+    for i in range(1, q.shape[0]):
+        d = float(q[i] @ q[i - 1]) / (n[i] * n[i - 1])
+        if abs(d) < SIGN_TIE and i >= 2:
+            d = float(q[i] @ q[i - 2])
+        if d < 0:
+            q[i] = -q[i]
+    return q
 
 
 def qexp(v: np.ndarray) -> np.ndarray:

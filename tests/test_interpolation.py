@@ -8,7 +8,7 @@ from scipy.spatial.transform import Rotation
 
 import motions
 from motions import DegenerateMotionError, interpolate, rotation_matrix
-from motions.smoothness import continuity_order, knot_jumps
+from motions.smoothness import continuity_order, invariance_errors, knot_jumps
 
 from .helpers import quat_close, random_unit_quaternions
 
@@ -280,3 +280,23 @@ def test_build_rejects_unknown_scheme_and_options():
     with pytest.raises(TypeError, match="valid options"):
         motions.build("rational", Q4, P4, tension=0.5)
     assert quat_close(np.array([1.0, 0, 0, 0]), np.array([-1.0, 0, 0, 0])) == 0
+
+
+def test_exact_180_degree_steps_stay_frame_invariant(rng):
+    # k2 -> k3 is an exact 180° turn: its sign is a tie, broken by the keyframe before.
+    q = np.array(
+        [
+            [1.0, 0, 0, 0],
+            [0.866025, 0, 0, 0.5],
+            [0.5, 0.5, 0.5, 0.5],
+            [0.5, -0.5, -0.5, 0.5],
+            [0.0, 0.0, 1.0, 0.0],
+        ]
+    )
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    assert abs(q[2] @ q[3]) < 1e-12
+    p = np.cumsum(rng.normal(size=(5, 3)), axis=0)
+    for scheme in ("rational", "squad", "slerp"):
+        m = motions.build(scheme, q, p)
+        world, body = invariance_errors(m, np.random.default_rng(1))
+        assert world < 1e-9 and body < 1e-9, (scheme, world, body)
