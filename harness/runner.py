@@ -688,26 +688,14 @@ def machine_meta() -> dict:
                 break
     except OSError:
         pass
+
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", *args], capture_output=True, text=True, cwd=Path(__file__).parent, timeout=5
+        ).stdout.strip()
+
     try:
-        rev = (
-            subprocess.run(
-                ["git", "rev-parse", "HEAD"],
-                capture_output=True,
-                text=True,
-                cwd=Path(__file__).parent,
-                timeout=5,
-            ).stdout.strip()
-            or None
-        )
-        dirty = bool(
-            subprocess.run(
-                ["git", "status", "--porcelain"],
-                capture_output=True,
-                text=True,
-                cwd=Path(__file__).parent,
-                timeout=5,
-            ).stdout.strip()
-        )
+        rev, dirty = git("rev-parse", "HEAD") or None, bool(git("status", "--porcelain"))
     except (OSError, subprocess.SubprocessError):
         rev, dirty = None, None
     return {
