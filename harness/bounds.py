@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .shapes import Shape, core_radius, parts, shape_record
+from .shapes import Shape, parts, shape_record
 
 __all__ = [
     "ShapeTable",
@@ -371,10 +371,6 @@ def hull_gap_numpy(ctrl: np.ndarray, body: Shape, obstacle: Shape, d: np.ndarray
     hb = body.h(e.reshape(-1, 3)).reshape(e.shape[:2])
     hull = ((hb + np.einsum("rki,ri->rk", bvec, d)) / w).max(axis=1)
     return -obstacle.h(-d) - hull
-
-
-def core_radii(table: ShapeTable, idx: np.ndarray) -> np.ndarray:
-    return np.array([core_radius(table.parts[i]) for i in idx])
 
 
 _SINGLE_TABLES: dict[int, ShapeTable] = {}

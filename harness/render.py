@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 
-import scenes as scenes_pkg
 from motions import Motion, RationalMotion, build, quat_from_matrix
 
 from .shapes import Shape, parts
@@ -185,7 +184,3 @@ def _render_matplotlib(name, motion, body, obstacles, times, out, control_segmen
     fig.tight_layout()
     fig.savefig(out, dpi=80)
     plt.close(fig)
-
-
-def scene_names() -> tuple[str, ...]:
-    return scenes_pkg.SCENES

@@ -338,13 +338,17 @@ class Context:
             self.cache[key] = make()
         return self.cache[key]
 
+    def scene(self, name: str) -> scenes_pkg.Scene:
+        """Each scene's MJCF is compiled once per process."""
+        return self.memo(("scene", name), lambda: scenes_pkg.load(name))
+
     def keyframes(self, scene: str, kf: str):
         def make():
             if kf == "scene":
-                k = scenes_pkg.load(scene).keyframes
+                k = self.scene(scene).keyframes
                 return k.rotations, k.positions, k.times
             idx = int(kf.split("-")[1])
-            sc = scenes_pkg.load(scene)
+            sc = self.scene(scene)
             rng = np.random.default_rng([self.seed, idx, *map(ord, scene)])
             base = sc.keyframes
             # perturbed scene keyframes: same corridor, different poses
@@ -367,7 +371,7 @@ class Context:
         from .sim import body_from_model, obstacles_from_model
 
         def make():
-            sc = scenes_pkg.load(scene)
+            sc = self.scene(scene)
             return body_from_model(sc.model, sc.mocap_body), obstacles_from_model(sc.model)
 
         return self.memo(("geom", scene), make)
@@ -586,7 +590,7 @@ def _simulate_case(case: dict, st: dict, ctx: Context) -> dict:
     scene, scheme = case["scene"], case["scheme"]
     row = {k: case[k] for k in ("study", "scene", "keyframes", "scheme", "bound")}
     row["seed"] = ctx.seed
-    sc = scenes_pkg.load(scene)
+    sc = ctx.scene(scene)
     try:
         m = ctx.motion(scene, "scene", scheme)
     except motions.MotionError as e:

@@ -12,7 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from motions._checks import as_array, short
+from motions._checks import as_array as _as_array
+from motions._checks import short
 from motions.quaternion import quat_from_matrix, rotation_matrix
 
 from .errors import ShapeError
@@ -31,6 +32,16 @@ __all__ = [
 ]
 
 KIND = {"box": 0, "sphere": 1, "capsule": 2, "mesh": 3}
+
+
+def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
+    """motions' array check, with its ValueErrors as ShapeErrors (one named error)."""
+    try:
+        return _as_array(x, name, **kw)
+    except TypeError:
+        raise
+    except ValueError as e:
+        raise ShapeError(str(e)) from None
 
 
 def _rotation(rotation: Any, name: str = "rotation") -> np.ndarray:

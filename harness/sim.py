@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import copy
 import math
-import time
 from typing import Any
 
 import mujoco
@@ -357,9 +356,3 @@ def physics_smoothness(
                 out["peak_jerk"], float(np.linalg.norm(np.diff(settled, axis=0), axis=1).max() / dt)
             )
     return out
-
-
-def timed_simulate(scene, motion, **kw) -> tuple[pd.DataFrame, float]:
-    t0 = time.perf_counter()
-    out = simulate(scene, motion, **kw)
-    return out, time.perf_counter() - t0

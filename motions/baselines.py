@@ -29,7 +29,7 @@ from scipy.interpolate import BSpline, make_interp_spline
 from scipy.sparse.linalg import spsolve
 from scipy.spatial.transform import Rotation, RotationSpline
 
-from ._jet import Jet, concat, qexp_jet, qmul_jet, slerp_jet
+from ._jet import Jet, qexp_jet, qmul_jet, slerp_jet
 from .bernstein import bspline_bezier_pieces
 from .errors import MotionError
 from .interpolation import keyframes
@@ -557,4 +557,3 @@ for _cls in (
     register(_cls.scheme, _builder(_cls))
 
 del _cls
-_ = concat  # re-exported for tests of the jet arithmetic

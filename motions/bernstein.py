@@ -14,7 +14,7 @@ from scipy.special import comb
 
 __all__ = [
     "bernstein_basis",
-    "bezier_bounds",
+    "bernstein_to_power",
     "bezier_derivative",
     "bezier_eval",
     "bezier_product",
@@ -133,10 +133,16 @@ def power_to_bernstein(a: np.ndarray, axis: int = 0) -> np.ndarray:
     return np.moveaxis(np.tensordot(m, a, axes=(1, 0)), 0, axis)
 
 
-def bezier_bounds(c: np.ndarray, axis: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Rigorous (min, max) of a Bézier polynomial on [0, 1] from its coefficients."""
-    c = np.asarray(c, dtype=float)
-    return c.min(axis=axis), c.max(axis=axis)
+def bernstein_to_power(c: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Power coefficients ``a_j`` (``f(u) = sum_j a_j u^j``) of Bernstein coefficients:
+    ``a_j = C(n, j) sum_{i<=j} (-1)^(j-i) C(j, i) c_i`` (inverse of power_to_bernstein)."""
+    c = np.moveaxis(np.asarray(c, dtype=float), axis, 0)
+    n = c.shape[0] - 1
+    m = np.zeros((n + 1, n + 1))
+    for j in range(n + 1):
+        for i in range(j + 1):
+            m[j, i] = comb(n, j, exact=True) * comb(j, i, exact=True) * (-1) ** (j - i)
+    return np.moveaxis(np.tensordot(m, c, axes=(1, 0)), 0, axis)
 
 
 def bspline_bezier_pieces(

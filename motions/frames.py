@@ -14,17 +14,18 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import BPoly, BSpline, PPoly
+from scipy.interpolate import BSpline, PPoly
 
 from ._checks import as_array, short
 from .interpolation import hermite
 from .motion import Motion
 from .quaternion import quat_from_matrix
-from .rational import RationalMotion, _check_bspline, _control_matrices
+from .rational import RationalMotion, _check_bspline, _control_matrices, _ppoly
 
 __all__ = [
     "PHCurve",
@@ -56,8 +57,13 @@ class PHCurve:
     def domain(self) -> tuple[float, float]:
         return float(self.breaks[0]), float(self.breaks[-1])
 
-    def _pp(self) -> PPoly:
-        return PPoly.from_bernstein_basis(BPoly(np.moveaxis(self.pieces, 1, 0), self.breaks))
+    @cached_property
+    def _motion(self) -> RationalMotion:
+        return RationalMotion(self.breaks, preimage=self.preimage, origin=self.pieces)
+
+    @cached_property
+    def _curve(self) -> PPoly:
+        return _ppoly(self.pieces, self.breaks)
 
     def point(self, t: Any) -> np.ndarray:
         """Curve points (..., 3); ``x(t_start) = 0``."""
@@ -68,20 +74,18 @@ class PHCurve:
         return self._eval(t, 1)
 
     def _eval(self, t: Any, nu: int) -> np.ndarray:
-        m = self.frame()
-        tt, shape = m._check_t(t)
-        return self._pp()(tt, nu).reshape(shape + (3,))
+        tt, shape = self._motion._check_t(t)
+        return self._curve(tt, nu).reshape(shape + (3,))
 
     def speed(self, t: Any) -> np.ndarray:
         """Parametric speed ``u0(Q(t))`` (a polynomial), (...)."""
-        m = self.frame()
-        tt, shape = m._check_t(t)
-        q = PPoly.from_bernstein_basis(BPoly(np.moveaxis(self.preimage, 1, 0), self.breaks))(tt)
+        tt, shape = self._motion._check_t(t)
+        q = self._motion._evaluator()(tt)[:, :4]  # the preimage, as the frame evaluates it
         return np.einsum("ti,ti->t", q, q).reshape(shape)
 
     def frame(self) -> RationalMotion:
         """The rational frame: origin on the curve, body x axis along the tangent (4d+1)."""
-        return RationalMotion(self.breaks, preimage=self.preimage, origin=self.pieces)
+        return self._motion
 
 
 def ph_curve(degree: int, knots: Any, quaternions: Any) -> PHCurve:
@@ -110,9 +114,7 @@ def ph_curve(degree: int, knots: Any, quaternions: Any) -> PHCurve:
 
 # ----------------------------------------------------------------------------- RMF
 def _spine_eval(spine: Any, t: np.ndarray, nu: int) -> np.ndarray:
-    if isinstance(spine, BSpline | PPoly):
-        return np.asarray(spine(t, nu), dtype=float)
-    if callable(spine):
+    if callable(spine):  # scipy BSpline/PPoly or spine(t, nu)
         return np.asarray(spine(t, nu), dtype=float)
     raise TypeError(
         f"Expected `spine` to be a scipy BSpline/PPoly or a callable spine(t, nu), got {type(spine).__name__}."

@@ -21,6 +21,8 @@ from scipy.interpolate import BPoly, PPoly
 
 from ._checks import as_array, as_quaternions, short
 from .bernstein import (
+    bernstein_basis,
+    bernstein_to_power,
     bezier_derivative,
     bezier_eval,
     bezier_product,
@@ -58,41 +60,25 @@ def bezier_minimum(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s_count, n1 = c.shape
     cand = [np.zeros((s_count, 1)), np.ones((s_count, 1))]
     if n1 > 2:
-        # Power coefficients of the derivative (degree n-1), highest first, via sampling.
-        dc = bezier_derivative(c, axis=1)
-        m = dc.shape[1] - 1
-        if m >= 1:
-            u = np.linspace(0.0, 1.0, m + 1)
-            vals = bezier_eval(dc, u, axis=1).T if dc.ndim == 2 else None  # (S, m+1)
-            vander = np.vander(u, m + 1)
-            coef = np.linalg.solve(vander, vals.T).T  # (S, m+1) highest power first
-            lead = coef[:, 0]
-            ok = np.abs(lead) > 1e-14 * np.abs(coef).max(axis=1).clip(1e-300)
-            roots = np.full((s_count, m), 0.0)
-            if np.any(ok):
-                comp = np.zeros((int(ok.sum()), m, m))
-                comp[:, 0, :] = -coef[ok, 1:] / lead[ok, None]
-                if m > 1:
-                    comp[:, np.arange(1, m), np.arange(m - 1)] = 1.0
-                ev = np.linalg.eigvals(comp)
-                real = np.abs(ev.imag) < 1e-9
-                r = np.where(real, ev.real, 0.0)
-                roots[ok] = np.clip(r, 0.0, 1.0)
-            if np.any(~ok):
-                # Degenerate leading coefficient: fall back to a dense sample.
-                dense = np.linspace(0.0, 1.0, m + 1)
-                roots[~ok] = np.resize(dense, m)
-            cand.append(roots)
+        # real roots in (0, 1) of the derivative (degree m = n-1): companion eigenvalues
+        coef = bernstein_to_power(bezier_derivative(c, axis=1), axis=1)[:, ::-1]  # highest first
+        m = coef.shape[1] - 1
+        lead = coef[:, 0]
+        ok = np.abs(lead) > 1e-14 * np.abs(coef).max(axis=1).clip(1e-300)
+        roots = np.zeros((s_count, m))
+        if np.any(ok):
+            comp = np.zeros((int(ok.sum()), m, m))
+            comp[:, 0, :] = -coef[ok, 1:] / lead[ok, None]
+            comp[:, np.arange(1, m), np.arange(m - 1)] = 1.0
+            ev = np.linalg.eigvals(comp)
+            roots[ok] = np.clip(np.where(np.abs(ev.imag) < 1e-9, ev.real, 0.0), 0.0, 1.0)
+        # a degenerate leading coefficient: fall back to a sample of the interval
+        roots[~ok] = np.resize(np.linspace(0.0, 1.0, m + 1), m)
+        cand.append(roots)
     u = np.concatenate(cand, axis=1)  # (S, C)
-    vals = np.einsum("sck,sk->sc", _basis(n1 - 1, u), c)
+    vals = np.einsum("sck,sk->sc", bernstein_basis(n1 - 1, u), c)
     i = np.argmin(vals, axis=1)
     return vals[np.arange(s_count), i], u[np.arange(s_count), i]
-
-
-def _basis(n: int, u: np.ndarray) -> np.ndarray:
-    from .bernstein import bernstein_basis
-
-    return bernstein_basis(n, u)
 
 
 def _restrict(c: np.ndarray, u0: np.ndarray, u1: np.ndarray, axis: int = 1) -> np.ndarray:

@@ -57,7 +57,7 @@ def test_box_own_rotation_and_centre_matter():
     ],
 )
 def test_bad_shapes(make, match):
-    with pytest.raises(ShapeError if "finite" not in match else ValueError, match=match):
+    with pytest.raises(ShapeError, match=match):
         make()
 
 
