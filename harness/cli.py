@@ -50,7 +50,7 @@ def _scenes() -> int:
 
 def _run(args) -> int:
     from harness.report import headline, write_report
-    from harness.runner import load_suite, run_suite
+    from harness.run import load_suite, run_suite
 
     suite = load_suite(args.suite)
     out = (

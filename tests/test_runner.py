@@ -17,7 +17,7 @@ import pytest
 
 from harness.compare import CompareError, compare
 from harness.errors import SuiteError
-from harness.runner import TIMING_COLUMNS, expand, load_suite, run_suite
+from harness.run import TIMING_COLUMNS, expand, load_suite, run_suite
 
 TINY = """
 [suite]

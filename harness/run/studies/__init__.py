@@ -1,0 +1,55 @@
+"""Study kinds of a suite, one module each (DESIGN §6).
+
+A kind is read from its ``[[study]]`` table (``parse``), expanded into cases
+(``expand``) and run case by case (``run``). To add a kind, write a module with ``KEYS``,
+``parse``, ``expand`` and ``run`` like :mod:`.scaling` and add one line to
+:data:`STUDIES`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import certify, scaling, simulate, workload
+from .context import Context
+
+__all__ = ["STUDIES", "Context", "StudyKind", "run_case"]
+
+
+@dataclass(frozen=True)
+class StudyKind:
+    """How one kind of ``[[study]]`` is read, expanded and run.
+
+    Attributes:
+        keys: the keys its table may hold (besides ``kind``).
+        parse: ``(table, file, where) -> dict`` of validated parameters; errors name
+            ``file`` and the key under ``where`` (e.g. ``study[2]``).
+        expand: ``study -> [case parameters]`` in a deterministic order; the runner adds
+            ``study``, ``block`` and ``case_id``.
+        run: ``(case, study, ctx) -> rows`` of one case.
+    """
+
+    keys: frozenset[str]
+    parse: Callable[[dict, Path, str], dict]
+    expand: Callable[[dict], list[dict]]
+    run: Callable[[dict, dict, Context], list[dict]]
+
+
+def _kind(module) -> StudyKind:
+    return StudyKind(module.KEYS, module.parse, module.expand, module.run)
+
+
+STUDIES: dict[str, StudyKind] = {
+    "certify": _kind(certify),
+    "workload": _kind(workload),
+    "scaling": _kind(scaling),
+    "simulate": _kind(simulate),
+}
+
+
+def run_case(case: dict, ctx: Context) -> list[dict]:
+    """Run one case; returns its row(s)."""
+    st = ctx.suite.studies[case["block"]]
+    return STUDIES[case["study"]].run(case, st, ctx)

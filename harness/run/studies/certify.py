@@ -1,0 +1,130 @@
+"""The ``certify`` study: scenes x keyframe sets x schemes x bounds x tolerances x repeats.
+
+Each row holds the certificate, the ground truth of the same motion and obstacles, and
+the motion's smoothness figures.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import motions
+import scenes as scenes_pkg
+
+from ...certify import BOUNDS, certify_many
+from ..fields import names, need, numbers
+from .context import Context, accuracy_cols, cert_cols, smoothness_cols, truth_cols
+
+KEYS = frozenset(
+    {
+        "scenes",
+        "keyframes",
+        "random_sets",
+        "schemes",
+        "bounds",
+        "tolerances",
+        "max_depth",
+        "samples",
+        "repeats",
+        "truth_resolution",
+        "max_nodes",
+    }
+)
+
+
+def parse(st: dict, file: Path, where: str) -> dict:
+    out: dict = {}
+    out["scenes"] = names(st.get("scenes", "all"), file, f"{where}.scenes", scenes_pkg.SCENES)
+    kf = st.get("keyframes", "scene")
+    need(
+        kf in ("scene", "random", "both"),
+        file,
+        f"{where}.keyframes",
+        f'expected "scene", "random" or "both", got {kf!r}',
+    )
+    out["keyframes"] = kf
+    out["random_sets"] = int(st.get("random_sets", 2))
+    out["schemes"] = names(st.get("schemes", "all"), file, f"{where}.schemes", motions.SCHEMES)
+    out["bounds"] = names(st.get("bounds", "all"), file, f"{where}.bounds", BOUNDS)
+    out["tolerances"] = numbers(st.get("tolerances", [1e-3]), file, f"{where}.tolerances")
+    out["max_depth"] = int(st.get("max_depth", 24))
+    out["samples"] = st.get("samples")
+    need(
+        out["samples"] is None or (isinstance(out["samples"], int) and out["samples"] >= 2),
+        file,
+        f"{where}.samples",
+        f"expected an integer >= 2, got {out['samples']!r}",
+    )
+    out["repeats"] = int(st.get("repeats", 1))
+    need(out["repeats"] >= 1, file, f"{where}.repeats", "expected >= 1")
+    out["truth_resolution"] = numbers(
+        st.get("truth_resolution", 1e-3), file, f"{where}.truth_resolution"
+    )[0]
+    out["max_nodes"] = int(st.get("max_nodes", 200_000))
+    return out
+
+
+def expand(st: dict) -> list[dict]:
+    sets = []
+    if st["keyframes"] in ("scene", "both"):
+        sets.append("scene")
+    if st["keyframes"] in ("random", "both"):
+        sets += [f"random-{k}" for k in range(st["random_sets"])]
+    return [
+        dict(scene=scene, keyframes=kf, scheme=scheme, bound=bound, tolerance=tol, repeat=rep)
+        for scene in st["scenes"]
+        for kf in sets
+        for scheme in st["schemes"]
+        for bound in st["bounds"]
+        for tol in st["tolerances"]
+        for rep in range(st["repeats"])
+    ]
+
+
+def run(case: dict, st: dict, ctx: Context) -> list[dict]:
+    scene, kf, scheme, bound, tol = (
+        case["scene"],
+        case["keyframes"],
+        case["scheme"],
+        case["bound"],
+        case["tolerance"],
+    )
+    row = {
+        k: case[k]
+        for k in ("study", "scene", "keyframes", "scheme", "bound", "tolerance", "repeat")
+    }
+    row["seed"] = ctx.seed
+    try:
+        m = ctx.motion(scene, kf, scheme)
+    except motions.MotionError as e:
+        return [{**row, "verdict": "n/a", "reason": f"motion not built: {e}"[:200]}]
+    body, obst = ctx.geometry(scene)
+    row.update(
+        smoothness_cols(
+            ctx.memo(("smooth", scene, kf, scheme), lambda: motions.smoothness(m, body=body))
+        )
+    )
+    row.update(truth_cols(ctx, scene, kf, scheme, m, body, obst, st["truth_resolution"]))
+    rational = isinstance(m, motions.RationalMotion)
+    if bound in ("hull", "aabb") and not rational:
+        return [{**row, "verdict": "n/a", "reason": f"bound {bound!r} needs a rational motion"}]
+    if bound == "lipschitz":
+        try:
+            m.speed_bound(*m.domain, 1.0)
+        except NotImplementedError:
+            return [
+                {**row, "verdict": "n/a", "reason": f"scheme {scheme!r} has no proven speed bound"}
+            ]
+    cert = certify_many(
+        [m],
+        body,
+        obst,
+        bound=bound,
+        tolerance=tol,
+        max_depth=st["max_depth"],
+        samples=st["samples"],
+        max_nodes=st["max_nodes"],
+    )[0]
+    row.update(cert_cols(cert))
+    row.update(accuracy_cols(cert.verdict, row["truth"], cert.toi_lo, row["toi_true"]))
+    return [row]

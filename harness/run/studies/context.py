@@ -1,0 +1,148 @@
+"""What every study shares: per-process caches and the columns of a certificate row."""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+import motions
+import scenes as scenes_pkg
+
+from ...certify import Certificate
+
+__all__ = ["Context", "accuracy_cols", "cert_cols", "smoothness_cols", "truth_cols"]
+
+
+class Context:
+    """Per-process caches: motions, ground truths, smoothness rows, workloads.
+
+    `suite` is the :class:`~harness.run.suite.Suite` being run and `seed` its (possibly
+    overridden) seed.
+    """
+
+    def __init__(self, suite, seed: int):
+        self.suite = suite
+        self.seed = seed
+        self.cache: dict[tuple, Any] = {}
+
+    def memo(self, key: tuple, make):
+        if key not in self.cache:
+            self.cache[key] = make()
+        return self.cache[key]
+
+    def scene(self, name: str) -> scenes_pkg.Scene:
+        """Each scene's MJCF is compiled once per process."""
+        return self.memo(("scene", name), lambda: scenes_pkg.load(name))
+
+    def keyframes(self, scene: str, kf: str):
+        def make():
+            if kf == "scene":
+                k = self.scene(scene).keyframes
+                return k.rotations, k.positions, k.times
+            idx = int(kf.split("-")[1])
+            sc = self.scene(scene)
+            rng = np.random.default_rng([self.seed, idx, *map(ord, scene)])
+            base = sc.keyframes
+            # perturbed scene keyframes: same corridor, different poses
+            q = base.rotations + rng.normal(size=base.rotations.shape) * 0.15
+            p = base.positions + rng.normal(size=base.positions.shape) * 0.1 * (
+                1 + np.ptp(base.positions, axis=0).max() / 10
+            )
+            return motions.sign_continuity(q / np.linalg.norm(q, axis=1, keepdims=True)), p, None
+
+        return self.memo(("kf", scene, kf), make)
+
+    def motion(self, scene: str, kf: str, scheme: str):
+        def make():
+            q, p, t = self.keyframes(scene, kf)
+            return motions.build(scheme, q, p, t)
+
+        return self.memo(("motion", scene, kf, scheme), make)
+
+    def geometry(self, scene: str):
+        from ...sim import body_from_model, obstacles_from_model
+
+        def make():
+            sc = self.scene(scene)
+            return body_from_model(sc.model, sc.mocap_body), obstacles_from_model(sc.model)
+
+        return self.memo(("geom", scene), make)
+
+
+def smoothness_cols(row: dict) -> dict:
+    keep = (
+        "continuity",
+        "continuity_order",
+        "jump_velocity",
+        "jump_angular_velocity",
+        "jump_acceleration",
+        "jump_angular_acceleration",
+        "angular_acceleration_energy",
+        "jerk_energy",
+        "peak_angular_velocity",
+        "peak_vertex_speed",
+        "invariance_world",
+        "invariance_body",
+        "solve_iterations",
+        "solve_seconds",
+        "smoothness_seconds",
+    )
+    return {k: row.get(k) for k in keep}
+
+
+def cert_cols(c: Certificate) -> dict:
+    return dict(
+        verdict=c.verdict,
+        reason=c.reason,
+        toi_lo=c.toi_lo,
+        toi_hi=c.toi_hi,
+        nodes=c.nodes,
+        pose_tests=c.pose_tests,
+        depth=c.depth,
+        seconds=c.seconds,
+        certified=c.certified,
+        unresolved=json.dumps(c.unresolved, sort_keys=True),
+    )
+
+
+def accuracy_cols(verdict: str, truth: str, toi_lo: float, toi_true: float) -> dict:
+    decided_truth = truth in ("free", "collision")
+    return dict(
+        false_negative=bool(decided_truth and truth == "collision" and verdict == "free"),
+        false_positive=bool(decided_truth and truth == "free" and verdict == "collision"),
+        toi_error=(toi_lo - toi_true)
+        if (verdict == "collision" and truth == "collision")
+        else math.nan,
+    )
+
+
+def truth_cols(
+    ctx: Context, scene: str, kf: str, scheme: str, m, body, obst, resolution: float
+) -> dict:
+    from ...truth import ground_truth
+
+    def make():
+        t0 = time.perf_counter()
+        out = dict(
+            truth="unknown", toi_true=math.nan, toi_true_lo=math.nan, truth_clearance=math.nan
+        )
+        try:
+            g = ground_truth(m, body, obst, resolution=resolution)
+            out.update(
+                truth=g.verdict,
+                toi_true=g.toi_hi,
+                toi_true_lo=g.toi_lo,
+                truth_clearance=g.clearance,
+            )
+        except NotImplementedError:  # no proven speed bound: no proven truth
+            out["truth"] = "unproven"
+        except ValueError as e:  # too many samples at this resolution
+            out["truth_note"] = str(e)[:200]
+        out["truth_seconds"] = time.perf_counter() - t0
+        return out
+
+    return ctx.memo(("truth", scene, kf, scheme, resolution), make)
