@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import copy
 import math
+import warnings
 from typing import Any
 
 import mujoco
@@ -23,13 +24,14 @@ import pandas as pd
 from mujoco import rollout
 
 import scenes as scenes_pkg
-from motions import Motion, rotation_matrix
+from motions import Motion
 
 from .errors import HarnessError, UnsupportedGeomError
 from .shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
 
 __all__ = [
     "DomainError",
+    "HeldJointsWarning",
     "body_from_model",
     "obstacles_from_model",
     "physics_smoothness",
@@ -70,24 +72,85 @@ def _geom_shape(model: mujoco.MjModel, g: int, rot: np.ndarray, pos: np.ndarray)
     )
 
 
-def body_from_model(model: mujoco.MjModel, mocap_body: str) -> Shape:
-    """The mocap body's geoms as one shape in body coordinates (a Compound when several).
+def subtree_geoms(model: mujoco.MjModel, body_id: int) -> np.ndarray:
+    """Ids of every geom on body `body_id` or on any body below it in the kinematic tree."""
+    return np.flatnonzero(_subtree_mask(model, body_id)[model.geom_bodyid])
 
-    Mesh vertices come from ``model.mesh_vert`` placed by ``geom_pos``/``geom_quat``
-    (MuJoCo re-centres meshes on their inertial frame).
+
+def _subtree_mask(model: mujoco.MjModel, body_id: int) -> np.ndarray:
+    """(nbody,) True for `body_id` and every body below it."""
+    inside = np.zeros(model.nbody, dtype=bool)
+    inside[body_id] = True
+    # MuJoCo numbers bodies so that a parent comes before its children
+    for b in range(body_id + 1, model.nbody):
+        inside[b] = inside[model.body_parentid[b]]
+    return inside
+
+
+def reference_qpos(model: mujoco.MjModel) -> np.ndarray:
+    """The configuration jointed children are held at: the first keyframe's ``qpos`` (where
+    :func:`simulate` starts) when the model has keyframes, else ``qpos0``."""
+    return np.array(model.key_qpos[0] if model.nkey else model.qpos0, dtype=float)
+
+
+class HeldJointsWarning(UserWarning):
+    """Jointed bodies below the mocap body are certified at one fixed configuration."""
+
+
+def body_from_model(model: mujoco.MjModel, mocap_body: str) -> Shape:
+    """Every geom of the mocap body's subtree as one shape in body coordinates (DESIGN §5).
+
+    Rigidly attached child bodies are composed in; bodies below a joint are held at the
+    reference configuration (:func:`reference_qpos`) with a :class:`HeldJointsWarning`
+    naming the joints. A Compound when there are several geoms. Mesh vertices come from
+    ``model.mesh_vert`` placed by the geom's pose (MuJoCo re-centres meshes on their
+    inertial frame, and ``geom_pos``/``geom_quat`` carry that offset).
     """
     scenes_pkg.mocap_id(model, mocap_body)
     bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body)
-    geoms = np.flatnonzero(model.geom_bodyid == bid)
+    geoms = subtree_geoms(model, bid)
     if geoms.size == 0:
-        raise HarnessError(f"Mocap body {mocap_body!r} has no geoms to certify.")
-    parts = [
-        _geom_shape(
-            model, g, rotation_matrix(model.geom_quat[g]), np.array(model.geom_pos[g], dtype=float)
+        raise HarnessError(f"Mocap body {mocap_body!r} has no geoms to certify (nor its children).")
+    qpos = reference_qpos(model)
+    held = _held_joints(model, bid, qpos)
+    if held:
+        warnings.warn(
+            f"Mocap body {mocap_body!r}: jointed children are certified held at "
+            f"{'the first keyframe' if model.nkey else 'qpos0'}: {held}.",
+            HeldJointsWarning,
+            stacklevel=2,
         )
-        for g in geoms
-    ]
+    rot, pos = _poses_in_body(model, bid, qpos)
+    parts = [_geom_shape(model, g, rot[g], pos[g]) for g in geoms]
     return parts[0] if len(parts) == 1 else Compound(parts)
+
+
+def _held_joints(model: mujoco.MjModel, body_id: int, qpos: np.ndarray) -> dict[str, Any]:
+    """Joints below `body_id` and the qpos values they are held at."""
+    out = {}
+    for j in np.flatnonzero(_subtree_mask(model, body_id)[model.jnt_bodyid]):
+        kind = int(model.jnt_type[j])
+        width = {mujoco.mjtJoint.mjJNT_BALL: 4, mujoco.mjtJoint.mjJNT_FREE: 7}.get(kind, 1)
+        adr = int(model.jnt_qposadr[j])
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}"
+        val = qpos[adr : adr + width]
+        out[name] = float(val[0]) if width == 1 else [float(x) for x in val]
+    return out
+
+
+def _poses_in_body(
+    model: mujoco.MjModel, body_id: int, qpos: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every geom's rotation (ngeom, 3, 3) and position (ngeom, 3) in the frame of body
+    `body_id` (a mocap body), from MuJoCo's own forward kinematics at `qpos`."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    # the mocap body at the world origin: world coordinates are then body coordinates
+    mid = model.body_mocapid[body_id]
+    data.mocap_pos[mid] = 0.0
+    data.mocap_quat[mid] = (1.0, 0.0, 0.0, 0.0)
+    mujoco.mj_kinematics(model, data)
+    return np.array(data.geom_xmat).reshape(-1, 3, 3), np.array(data.geom_xpos)
 
 
 def _static_bodies(model: mujoco.MjModel) -> np.ndarray:
@@ -253,8 +316,7 @@ def _rollout(model, data, mid, pos, quat, carried) -> dict:
 
 
 def _record(model, data, mid, pos, quat, carried, mocap_body) -> dict:
-    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body)
-    mover = np.flatnonzero(model.geom_bodyid == bid)
+    mover = subtree_geoms(model, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body))
     obst = obstacle_geoms(model)
     n = len(pos)
     mind = np.full(n, np.inf)

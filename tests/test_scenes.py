@@ -18,6 +18,7 @@ from harness.sim import (
     obstacles_from_model,
     physics_smoothness,
     simulate,
+    subtree_geoms,
 )
 
 from .helpers import quat_close
@@ -57,7 +58,7 @@ def test_shapes_reproduce_mujoco_distances(name):
     data = mujoco.MjData(sc.model)
     mid = scenes.mocap_id(sc.model, sc.mocap_body)
     bid = mujoco.mj_name2id(sc.model, mujoco.mjtObj.mjOBJ_BODY, sc.mocap_body)
-    mover = np.flatnonzero(sc.model.geom_bodyid == bid)
+    mover = subtree_geoms(sc.model, bid)
     geoms = obstacle_geoms(sc.model)
     ref = np.empty((len(t), len(geoms)))
     for k in range(len(t)):
