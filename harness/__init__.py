@@ -1,17 +1,13 @@
 """rsmbench.harness — everything that runs things: Warp kernels, certified queries,
 the MuJoCo driver, the benchmark runner, reports and the CLI."""
 
-import os
-
-# Headless machines render offscreen through EGL unless the user chose a GL backend;
-# MuJoCo reads MUJOCO_GL when it is first imported, so this must come first.
-if "MUJOCO_GL" not in os.environ and not os.environ.get("DISPLAY"):
-    os.environ["MUJOCO_GL"] = "egl"
-
+# No import side effects: harness.render chooses the OpenGL backend when it draws.
 from .certify import BOUNDS, Certificate, certify, certify_many, swept_aabbs
 from .errors import (
+    DegenerateMeshError,
     HarnessError,
     InvalidMocapBody,
+    NoSpeedBoundError,
     SceneError,
     ShapeError,
     SuiteError,
@@ -29,8 +25,10 @@ __all__ = [
     "Certificate",
     "Compound",
     "ConvexMesh",
+    "DegenerateMeshError",
     "HarnessError",
     "InvalidMocapBody",
+    "NoSpeedBoundError",
     "SceneError",
     "ShapeError",
     "Sphere",

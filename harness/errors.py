@@ -5,8 +5,10 @@ from __future__ import annotations
 from scenes.errors import InvalidMocapBody, SceneError
 
 __all__ = [
+    "DegenerateMeshError",
     "HarnessError",
     "InvalidMocapBody",
+    "NoSpeedBoundError",
     "SceneError",
     "ShapeError",
     "SuiteError",
@@ -20,6 +22,16 @@ class HarnessError(ValueError):
 
 class ShapeError(HarnessError):
     """A shape with invalid parameters (non-positive sizes, non-rotations, ...)."""
+
+
+class DegenerateMeshError(ShapeError):
+    """Mesh vertices that do not span a solid (fewer than 4 points, coplanar, collinear)."""
+
+
+class NoSpeedBoundError(HarnessError, NotImplementedError):
+    """A motion without a proven speed bound where a proof needs one (ground truth).
+
+    Also a NotImplementedError, which is what ``Motion.speed_bound`` raises for it."""
 
 
 class UnsupportedGeomError(SceneError):

@@ -8,6 +8,7 @@ import numpy as np
 
 from motions.quaternion import quat_from_matrix
 
+from .errors import ShapeError
 from .shapes import Shape, parts
 
 __all__ = ["CCD_TOLERANCE", "MujocoDistance", "geom_xml"]
@@ -35,6 +36,12 @@ def geom_xml(shape: Shape, name: str, mesh_name: str | None = None, extra: str =
     raise ValueError(f"No MuJoCo geom for shape kind {shape.kind!r}.")
 
 
+def _mesh_xml(name: str, mesh: Shape) -> str:
+    # inertia="shell": the distance model never moves; it must only compile, and MuJoCo's
+    # volume check refuses thin (but solid) hulls that the harness accepts
+    return f'<mesh name="{name}" vertex="{_f(mesh.vertices_)}" inertia="shell"/>'
+
+
 class MujocoDistance:
     """A small MuJoCo model: the body's convex parts on a mocap body, the obstacles static.
 
@@ -51,7 +58,7 @@ class MujocoDistance:
             mesh = None
             if p.kind == "mesh":
                 mesh = f"bm{i}"
-                assets.append(f'<mesh name="{mesh}" vertex="{_f(p.vertices_)}"/>')
+                assets.append(_mesh_xml(mesh, p))
             bgeoms.append(geom_xml(p, f"b{i}", mesh, 'contype="0" conaffinity="0"'))
         k = 0
         for j, o in enumerate(obstacles):
@@ -59,7 +66,7 @@ class MujocoDistance:
                 mesh = None
                 if p.kind == "mesh":
                     mesh = f"om{k}"
-                    assets.append(f'<mesh name="{mesh}" vertex="{_f(p.vertices_)}"/>')
+                    assets.append(_mesh_xml(mesh, p))
                 ogeoms.append(geom_xml(p, f"o{k}", mesh, 'contype="0" conaffinity="0"'))
                 self.obst_parts.append(p)
                 self.obst_owner.append(j)
@@ -70,7 +77,13 @@ class MujocoDistance:
             f'<body name="mover" mocap="true">{"".join(bgeoms)}</body>{"".join(ogeoms)}'
             "</worldbody></mujoco>"
         )
-        self.model = mujoco.MjModel.from_xml_string(xml)
+        try:
+            self.model = mujoco.MjModel.from_xml_string(xml)
+        except ValueError as e:  # e.g. a mesh too small for MuJoCo's area check
+            raise ShapeError(
+                f"MuJoCo cannot represent these shapes for `mj_geomDistance`: "
+                f"{str(e).splitlines()[0]}"
+            ) from None
         self.data = mujoco.MjData(self.model)
         self.obst_owner = np.asarray(self.obst_owner)
         gid = lambda name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731

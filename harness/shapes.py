@@ -16,9 +16,11 @@ from motions._checks import as_array as _as_array
 from motions._checks import short
 from motions.quaternion import quat_from_matrix, rotation_matrix
 
-from .errors import ShapeError
+from .errors import DegenerateMeshError, ShapeError
 
 __all__ = [
+    "FLAT_RATIO",
+    "HULL_SLACK",
     "KIND",
     "Box",
     "Capsule",
@@ -28,6 +30,7 @@ __all__ = [
     "Sphere",
     "as_obstacles",
     "as_shape",
+    "hull_vertices",
     "parts",
 ]
 
@@ -219,11 +222,36 @@ class Capsule(Shape):
         return Capsule(self.radius, self.half_length, r @ self.center + p, r @ self.rotation)
 
 
+FLAT_RATIO = 1e-9
+"""A point set whose spread across its thinnest principal direction is at most this
+fraction of its largest spread is flat (coplanar or collinear): MuJoCo cannot build its
+hull ("coplanar vertices"), so :class:`ConvexMesh` refuses it rather than let the
+certifier and the ground truth treat it differently."""
+
+HULL_SLACK = 1e-12
+"""Vertices within this fraction of the coordinate scale of the hull's facet planes are
+kept even when qhull does not list them as hull vertices. Qhull merges nearly coplanar
+facets, which can leave an input point outside the kept vertices' hull by its precision
+(~1e-15 of the scale); keeping every point that close to the boundary means no input
+vertex is dropped unless it is strictly inside (the support function is never
+underestimated)."""
+
+
 @dataclass(frozen=True, eq=False)
 class ConvexMesh(Shape):
-    """Convex hull of `vertices` (V, 3), given in the shape's frame."""
+    """Convex hull of `vertices` (V, 3), given in the shape's frame.
+
+    Duplicate vertices are removed and only the vertices of the convex hull are kept
+    (scipy's qhull): the support function, and so every bound, is unchanged, and the
+    kernels enumerate fewer vertices. ``input_count`` is the number of vertices given.
+
+    Raises:
+        DegenerateMeshError: fewer than 4 distinct points, or all of them (nearly) in one
+            plane or on one line (a flat part: use a thin Box).
+    """
 
     vertices_: np.ndarray
+    input_count: int = 0
     kind = "mesh"
 
     def __init__(self, vertices: Any):
@@ -232,7 +260,16 @@ class ConvexMesh(Shape):
             raise ShapeError(
                 f"Expected `vertices` to have shape (V, 3) with V >= 1, got {v.shape}."
             )
-        object.__setattr__(self, "vertices_", np.ascontiguousarray(v))
+        object.__setattr__(self, "vertices_", hull_vertices(v))
+        object.__setattr__(self, "input_count", int(v.shape[0]))
+
+    @classmethod
+    def _of_hull(cls, vertices: np.ndarray, input_count: int) -> ConvexMesh:
+        """A mesh from points that are already its hull vertices (a rigid image of one)."""
+        mesh = object.__new__(cls)
+        object.__setattr__(mesh, "vertices_", np.ascontiguousarray(vertices, dtype=float))
+        object.__setattr__(mesh, "input_count", input_count)
+        return mesh
 
     def vertices(self) -> np.ndarray:
         return self.vertices_
@@ -250,7 +287,45 @@ class ConvexMesh(Shape):
         return self.vertices_
 
     def transformed(self, r, p):
-        return ConvexMesh(self.vertices_ @ r.T + p)
+        # a rigid motion maps hull vertices to hull vertices: no second qhull
+        return ConvexMesh._of_hull(self.vertices_ @ np.asarray(r).T + p, self.input_count)
+
+
+def hull_vertices(points: np.ndarray) -> np.ndarray:
+    """The distinct points (V, 3) of `points` that the convex hull needs (qhull).
+
+    Raises:
+        DegenerateMeshError: fewer than 4 distinct points, or a flat set (:data:`FLAT_RATIO`).
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    v = np.unique(points, axis=0)
+    if len(v) < 4:
+        raise DegenerateMeshError(
+            f"Expected `vertices` to hold at least 4 distinct points spanning a solid, got "
+            f"{len(v)} distinct point(s). A flat or thin part is a Box with a small half-extent."
+        )
+    spread = np.linalg.svd(v - v.mean(axis=0), compute_uv=False)
+    if spread[2] <= FLAT_RATIO * spread[0]:
+        what = "on one line" if spread[1] <= FLAT_RATIO * spread[0] else "in one plane"
+        raise DegenerateMeshError(
+            f"Expected `vertices` to span a solid, got {len(v)} distinct points {what} "
+            f"(thinnest spread {spread[2]:.3g} against {spread[0]:.3g}). MuJoCo cannot build "
+            "the hull of a flat mesh either; use a Box with a small half-extent."
+        )
+    try:
+        hull = ConvexHull(v)
+    except QhullError as e:
+        raise DegenerateMeshError(
+            f"Expected `vertices` to span a solid; qhull could not build their hull: "
+            f"{str(e).strip().splitlines()[0]}"
+        ) from None
+    keep = np.zeros(len(v), dtype=bool)
+    keep[hull.vertices] = True
+    # hull.equations: n . x + offset <= 0 inside, with unit normals n
+    excess = (v @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1)
+    keep |= excess > -HULL_SLACK * (1.0 + np.abs(v).max())
+    return np.ascontiguousarray(v[keep])
 
 
 @dataclass(frozen=True, eq=False)
@@ -315,11 +390,6 @@ def as_obstacles(x: Any, name: str = "obstacles") -> list[Shape]:
             f"Expected `{name}` to be a sequence of harness shapes, got {type(x).__name__}."
         )
     return [as_shape(o, f"{name}[{i}]") for i, o in enumerate(x)]
-
-
-def core_radius(shape: Shape) -> float:
-    """The radius that the kernels add to a shape's core (sphere: point, capsule: segment)."""
-    return shape.radius if shape.kind in ("sphere", "capsule") else 0.0
 
 
 def shape_record(shape: Shape) -> dict[str, Any]:

@@ -17,6 +17,7 @@ from motions import Motion
 
 from .bounds import ShapeTable, pose_rows
 from .certify import Certificate, _obstacle_lists, _pose_ctrl
+from .errors import NoSpeedBoundError
 from .mjdistance import CCD_TOLERANCE, MujocoDistance
 from .shapes import Shape, as_shape, parts
 
@@ -87,7 +88,9 @@ def ground_truth(
         (free), ``penetration`` the largest proven depth.
 
     Raises:
-        NotImplementedError: the motion has no proven speed bound (no proven truth).
+        NoSpeedBoundError: the motion's scheme has no proven speed bound, so there is no
+            proven truth (a ValueError naming the scheme; also a NotImplementedError, which
+            is what ``Motion.speed_bound`` raises).
     """
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
@@ -100,9 +103,29 @@ def ground_truth(
     if not math.isfinite(res) or res <= 0:
         raise ValueError(f"Expected `resolution` > 0 (a length), got {resolution!r}.")
     start = time.perf_counter()
+    common = dict(depth=0, certified=True, bound="truth", tolerance=res)
+    if not obst:
+        # nothing to meet: free, and the distance to the empty set is +inf
+        return Certificate(
+            "free",
+            "clear",
+            math.inf,
+            math.inf,
+            nodes=0,
+            seconds=0.0,
+            clearance=math.inf,
+            penetration=0.0,
+            **common,
+        )
     knots = motion.knots
     radius = body.bounding_radius
-    v = np.array([motion.speed_bound(a, b, radius) for a, b in itertools.pairwise(knots)])
+    try:
+        v = np.array([motion.speed_bound(a, b, radius) for a, b in itertools.pairwise(knots)])
+    except NotImplementedError:
+        raise NoSpeedBoundError(
+            f"Expected `motion` to have a proven speed bound (a proven ground truth needs one);"
+            f" scheme {motion.scheme!r} has none (`rsmbench schemes` shows which schemes do)."
+        ) from None
     counts = np.maximum(1, np.ceil(np.diff(knots) * v / res).astype(np.int64))
     if counts.sum() > max_samples:
         raise ValueError(
@@ -119,13 +142,7 @@ def ground_truth(
     slack = lo[:-1] + lo[1:] - vi * dt - 2 * eps
     free_iv = slack > 0
     hit = hi < -eps
-    common = dict(
-        nodes=int(len(t) * sum(len(parts(o)) for o in obst) * len(parts(body))),
-        depth=0,
-        certified=True,
-        bound="truth",
-        tolerance=res,
-    )
+    common["nodes"] = int(len(t) * sum(len(parts(o)) for o in obst) * len(parts(body)))
     penetration = float(max(0.0, -(hi[hit]).min())) if np.any(hit) else 0.0
     seconds = time.perf_counter() - start
     if np.any(hit):
@@ -148,7 +165,9 @@ def ground_truth(
             math.inf,
             math.inf,
             seconds=seconds,
-            clearance=float((slack / 2 + eps).min()),
+            # between two samples the distance is at least max(lo_i - ε - V s,
+            # lo_{i+1} - ε - V (Δt - s)), whose minimum over s is slack / 2
+            clearance=float((slack / 2).min()),
             penetration=0.0,
             **common,
         )

@@ -66,3 +66,79 @@ def test_compound_rejects_non_shapes():
         Compound([Box([1.0, 1, 1]), "a box"])
     with pytest.raises(ShapeError, match="non-empty"):
         Compound([])
+
+
+# ----------------------------------------------------------------------------- meshes
+def support_of(points: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """max over points of d.x, each dot product rounded the same way for any point set."""
+    return (d[:, None, :] * points[None, :, :]).sum(axis=-1).max(axis=1)
+
+
+def test_mesh_keeps_only_distinct_hull_vertices(rng):
+    # a cube's 8 corners, every corner twice, and 300 points inside it and on its faces
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    inside = rng.uniform(-0.99, 0.99, size=(300, 3))
+    pts = np.concatenate([corners, corners, inside])
+    mesh = ConvexMesh(rng.permutation(pts))
+    assert mesh.input_count == 316
+    np.testing.assert_array_equal(np.unique(mesh.vertices_, axis=0), np.unique(corners, axis=0))
+    # the support function of the reduced set equals that of every input point, exactly
+    d = rng.normal(size=(500, 3))
+    np.testing.assert_array_equal(support_of(mesh.vertices_, d), support_of(pts, d))
+
+
+def test_mesh_reduction_never_lowers_the_support(rng):
+    # qhull merges facets within its precision: face points bulging 5e-15 above a cube's
+    # top face are dropped by qhull (only the corners are hull vertices to it), though
+    # they stick out; HULL_SLACK keeps them, so the support is never underestimated
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    bulge = np.column_stack([rng.uniform(-1, 1, (200, 2)), 1 + rng.uniform(0, 5e-15, 200)])
+    sphere = rng.normal(size=(400, 3))
+    sphere /= np.linalg.norm(sphere, axis=1, keepdims=True)
+    d = np.concatenate([np.eye(3), -np.eye(3), rng.normal(size=(2000, 3))])
+    for pts in (np.concatenate([corners, bulge]), sphere * 3.7 + 1e3):
+        mesh = ConvexMesh(pts)
+        assert np.all(support_of(mesh.vertices_, d) >= support_of(pts, d))
+    assert ConvexMesh(np.concatenate([corners, bulge])).h(np.array([0.0, 0, 1])) > 1.0
+    assert len(ConvexMesh(sphere).vertices_) == 400
+
+
+def test_transformed_mesh_keeps_its_hull_vertices(rng):
+    mesh = ConvexMesh(rng.normal(size=(60, 3)))
+    r = Box([1.0, 1, 1], rotation=[0.3, -0.5, 0.2, 0.7]).rotation
+    moved = mesh.transformed(r, np.array([1.0, 2.0, 3.0]))
+    np.testing.assert_allclose(moved.vertices_, mesh.vertices_ @ r.T + [1.0, 2.0, 3.0], atol=TOL)
+    assert moved.input_count == mesh.input_count == 60
+
+
+@pytest.mark.parametrize(
+    ("points", "match"),
+    [
+        ([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]], r"got 3 distinct point\(s\)"),
+        ([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 0, 0], [0, 1, 0]], r"got 3 distinct point\(s\)"),
+        ([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0], [0.5, 0.2, 0]], "in one plane"),
+        ([[0.0, 0, 0], [1, 1, 1], [2, 2, 2], [3, 3, 3]], "on one line"),
+        # tilted and far from the origin: flat to round-off is still flat
+        ([[1e3 + a, 1e3 + b, 1e3 + a + b] for a in (0, 1, 2) for b in (0, 1)], "in one plane"),
+    ],
+)
+def test_degenerate_meshes_are_refused(points, match):
+    from harness import DegenerateMeshError
+
+    with pytest.raises(DegenerateMeshError, match=match):
+        ConvexMesh(points)
+
+
+def test_degenerate_meshes_fail_alike_in_the_certifier_and_the_ground_truth():
+    # the shape cannot be made, so neither path sees it; MuJoCo itself refuses a flat mesh
+    # ("coplanar vertices") for the ground truth's distance model, which is why
+    import mujoco
+
+    flat = "0 0 0  1 0 0  0 1 0  1 1 0"
+    with pytest.raises(ValueError, match="coplanar"):
+        mujoco.MjModel.from_xml_string(
+            f'<mujoco><asset><mesh name="m" vertex="{flat}"/></asset><worldbody>'
+            '<geom type="mesh" mesh="m"/></worldbody></mujoco>'
+        )
+    with pytest.raises(ShapeError, match="one plane"):
+        ConvexMesh(np.fromstring(flat, sep=" ").reshape(-1, 3))
