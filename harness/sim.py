@@ -1,6 +1,7 @@
 """MuJoCo driver: motions drive mocap bodies in real simulations (DESIGN §5).
 
-- :func:`body_from_model`, :func:`obstacles_from_model`: MuJoCo geoms -> shapes.
+- :func:`body_from_model`, :func:`obstacles_from_model`: MuJoCo geoms -> shapes (defined
+  in :mod:`harness.geoms`, re-exported here).
 - :func:`simulate`: evaluates the motion once, vectorised, at every control step, writes
   ``mocap_pos``/``mocap_quat`` (scalar first) and steps; ``record=False`` goes through
   ``mujoco.rollout`` with a mocap ``control_spec``.
@@ -14,8 +15,9 @@ velocity in contacts, so scenes carry things with free bodies welded to the moca
 from __future__ import annotations
 
 import copy
+import functools
 import math
-import warnings
+import os
 from typing import Any
 
 import mujoco
@@ -24,178 +26,69 @@ import pandas as pd
 from mujoco import rollout
 
 import scenes as scenes_pkg
-from motions import Motion
+from motions import Motion, RationalMotion, quat_from_matrix
 
-from .errors import HarnessError, UnsupportedGeomError
-from .shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
+from .errors import HarnessError
+from .geoms import (
+    HeldJointsWarning,
+    body_from_model,
+    check_body_covers_subtree,
+    obstacle_geoms,
+    obstacles_from_model,
+    subtree_geoms,
+)
 
 __all__ = [
     "DomainError",
     "HeldJointsWarning",
     "body_from_model",
+    "check_body_covers_subtree",
+    "obstacle_geoms",
     "obstacles_from_model",
     "physics_smoothness",
     "simulate",
+    "subtree_geoms",
 ]
-
-SUPPORTED_GEOMS = ("box", "sphere", "capsule", "mesh", "plane")
-PLANE_HALF = 1e3  # a plane becomes a 2e3-m box below its surface
 
 
 class DomainError(HarnessError):
     """The motion's domain does not cover the requested duration."""
 
 
-def _geom_shape(model: mujoco.MjModel, g: int, rot: np.ndarray, pos: np.ndarray) -> Shape:
-    """Shape of geom g placed by (rot, pos) (geom frame -> target frame)."""
-    t = int(model.geom_type[g])
-    size = np.array(model.geom_size[g], dtype=float)
-    if t == mujoco.mjtGeom.mjGEOM_BOX:
-        return Box(size, center=pos, rotation=rot)
-    if t == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return Sphere(size[0], center=pos)
-    if t == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        return Capsule(size[0], size[1], center=pos, rotation=rot)
-    if t == mujoco.mjtGeom.mjGEOM_MESH:
-        mid = int(model.geom_dataid[g])
-        a, n = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
-        v = np.array(model.mesh_vert[a : a + n], dtype=float)  # float32 in MuJoCo, exact in float64
-        return ConvexMesh(v @ rot.T + pos)
-    if t == mujoco.mjtGeom.mjGEOM_PLANE:
-        # half-space below the plane, represented by a large box (exact within its extent)
-        n = rot[:, 2]
-        return Box([PLANE_HALF] * 3, center=pos - PLANE_HALF * n, rotation=rot)
-    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g) or f"#{g}"
-    kind = mujoco.mjtGeom(t).name.replace("mjGEOM_", "").lower()
-    raise UnsupportedGeomError(
-        f"Geom {name!r} has type {kind!r}; supported geom types: {list(SUPPORTED_GEOMS)}."
-    )
-
-
-def subtree_geoms(model: mujoco.MjModel, body_id: int) -> np.ndarray:
-    """Ids of every geom on body `body_id` or on any body below it in the kinematic tree."""
-    return np.flatnonzero(_subtree_mask(model, body_id)[model.geom_bodyid])
-
-
-def _subtree_mask(model: mujoco.MjModel, body_id: int) -> np.ndarray:
-    """(nbody,) True for `body_id` and every body below it."""
-    inside = np.zeros(model.nbody, dtype=bool)
-    inside[body_id] = True
-    # MuJoCo numbers bodies so that a parent comes before its children
-    for b in range(body_id + 1, model.nbody):
-        inside[b] = inside[model.body_parentid[b]]
-    return inside
-
-
-def reference_qpos(model: mujoco.MjModel) -> np.ndarray:
-    """The configuration jointed children are held at: the first keyframe's ``qpos`` (where
-    :func:`simulate` starts) when the model has keyframes, else ``qpos0``."""
-    return np.array(model.key_qpos[0] if model.nkey else model.qpos0, dtype=float)
-
-
-class HeldJointsWarning(UserWarning):
-    """Jointed bodies below the mocap body are certified at one fixed configuration."""
-
-
-def body_from_model(model: mujoco.MjModel, mocap_body: str) -> Shape:
-    """Every geom of the mocap body's subtree as one shape in body coordinates (DESIGN §5).
-
-    Rigidly attached child bodies are composed in; bodies below a joint are held at the
-    reference configuration (:func:`reference_qpos`) with a :class:`HeldJointsWarning`
-    naming the joints. A Compound when there are several geoms. Mesh vertices come from
-    ``model.mesh_vert`` placed by the geom's pose (MuJoCo re-centres meshes on their
-    inertial frame, and ``geom_pos``/``geom_quat`` carry that offset).
-    """
-    scenes_pkg.mocap_id(model, mocap_body)
-    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body)
-    geoms = subtree_geoms(model, bid)
-    if geoms.size == 0:
-        raise HarnessError(f"Mocap body {mocap_body!r} has no geoms to certify (nor its children).")
-    qpos = reference_qpos(model)
-    held = _held_joints(model, bid, qpos)
-    if held:
-        warnings.warn(
-            f"Mocap body {mocap_body!r}: jointed children are certified held at "
-            f"{'the first keyframe' if model.nkey else 'qpos0'}: {held}.",
-            HeldJointsWarning,
-            stacklevel=2,
-        )
-    rot, pos = _poses_in_body(model, bid, qpos)
-    parts = [_geom_shape(model, g, rot[g], pos[g]) for g in geoms]
-    return parts[0] if len(parts) == 1 else Compound(parts)
-
-
-def _held_joints(model: mujoco.MjModel, body_id: int, qpos: np.ndarray) -> dict[str, Any]:
-    """Joints below `body_id` and the qpos values they are held at."""
-    out = {}
-    for j in np.flatnonzero(_subtree_mask(model, body_id)[model.jnt_bodyid]):
-        kind = int(model.jnt_type[j])
-        width = {mujoco.mjtJoint.mjJNT_BALL: 4, mujoco.mjtJoint.mjJNT_FREE: 7}.get(kind, 1)
-        adr = int(model.jnt_qposadr[j])
-        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"#{j}"
-        val = qpos[adr : adr + width]
-        out[name] = float(val[0]) if width == 1 else [float(x) for x in val]
-    return out
-
-
-def _poses_in_body(
-    model: mujoco.MjModel, body_id: int, qpos: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Every geom's rotation (ngeom, 3, 3) and position (ngeom, 3) in the frame of body
-    `body_id` (a mocap body), from MuJoCo's own forward kinematics at `qpos`."""
-    data = mujoco.MjData(model)
-    data.qpos[:] = qpos
-    # the mocap body at the world origin: world coordinates are then body coordinates
-    mid = model.body_mocapid[body_id]
-    data.mocap_pos[mid] = 0.0
-    data.mocap_quat[mid] = (1.0, 0.0, 0.0, 0.0)
-    mujoco.mj_kinematics(model, data)
-    return np.array(data.geom_xmat).reshape(-1, 3, 3), np.array(data.geom_xpos)
-
-
-def _static_bodies(model: mujoco.MjModel) -> np.ndarray:
-    """(nbody,) True for the world and bodies welded to it (no joints up the tree, not mocap)."""
-    static = np.zeros(model.nbody, dtype=bool)
-    static[0] = True
-    for b in range(1, model.nbody):
-        parent = model.body_parentid[b]
-        static[b] = static[parent] and model.body_jntnum[b] == 0 and model.body_mocapid[b] < 0
-    return static
-
-
-def obstacle_geoms(model: mujoco.MjModel) -> np.ndarray:
-    """Ids of the static, colliding geoms (contype or conaffinity non-zero)."""
-    static = _static_bodies(model)
-    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
-    return np.flatnonzero(static[model.geom_bodyid] & colliding)
-
-
-def obstacles_from_model(model: mujoco.MjModel) -> list[Shape]:
-    """Static geoms in world coordinates (planes as large boxes below their surface)."""
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
-    out = []
-    for g in obstacle_geoms(model):
-        out.append(
-            _geom_shape(
-                model,
-                g,
-                np.array(data.geom_xmat[g]).reshape(3, 3),
-                np.array(data.geom_xpos[g], dtype=float),
-            )
-        )
-    return out
-
-
 # ----------------------------------------------------------------------------- driver
 def _scene(scene: Any) -> scenes_pkg.Scene:
-    if isinstance(scene, str):
+    if isinstance(scene, str | os.PathLike):
         return scenes_pkg.load(scene)
     if not isinstance(scene, scenes_pkg.Scene):
         raise TypeError(
-            f"Expected `scene` to be a scenes.Scene or a scene name, got {type(scene).__name__}."
+            f"Expected `scene` to be a scenes.Scene, a scene name or an MJCF path, got "
+            f"{type(scene).__name__}."
         )
     return scene
+
+
+MAX_SIM_BYTES = 2 * 2**30
+"""Memory a simulation may allocate for its per-step states, controls and columns; a
+`dt` so small that it would need more is refused up front (a 1e-12 s step over 4 s once
+asked numpy for 23 TiB)."""
+
+
+def _seconds(value: Any, name: str, default: float) -> float:
+    if value is None:
+        return default
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        raise TypeError(f"Expected `{name}` to be a number of seconds, got {value!r}.")
+    x = float(value)
+    if not math.isfinite(x) or x <= 0:
+        raise ValueError(f"Expected `{name}` > 0 (seconds), got {x!r}.")
+    return x
+
+
+def _step_bytes(model: mujoco.MjModel) -> int:
+    """Bytes a simulation holds per control step: rollout states in and out, controls,
+    sensor data and the frame's columns."""
+    full = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    return 8 * (2 * full + 7 * model.nmocap + model.nsensordata + 32)
 
 
 def _control_times(
@@ -203,25 +96,37 @@ def _control_times(
 ) -> tuple[float, np.ndarray]:
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
-    step = float(model.opt.timestep) if dt is None else float(dt)
-    if not math.isfinite(step) or step <= 0:
-        raise ValueError(f"Expected `dt` > 0, got {dt!r}.")
+    step = _seconds(dt, "dt", float(model.opt.timestep))
     t0, t1 = motion.domain
     span = t1 - t0
-    dur = span if duration is None else float(duration)
-    if not math.isfinite(dur) or dur <= 0:
-        raise ValueError(f"Expected `duration` > 0, got {duration!r}.")
+    dur = _seconds(duration, "duration", span)
     if dur > span * (1 + 1e-12):
         raise DomainError(
             f"The motion's domain [{t0!r}, {t1!r}] covers {span:g} s; `duration` {dur:g} s is longer."
         )
-    n = math.floor(dur / step + 1e-9) + 1
-    return step, np.minimum(np.arange(n) * step, dur)
+    steps = math.floor(dur / step + 1e-9) + 1
+    if steps * _step_bytes(model) > MAX_SIM_BYTES:
+        raise ValueError(
+            f"Expected `dt` ({step:g} s) and `duration` ({dur:g} s) to give at most "
+            f"{MAX_SIM_BYTES // _step_bytes(model)} control steps ({MAX_SIM_BYTES / 2**30:g} GiB of "
+            f"states for this model), got {steps:.3g} steps."
+        )
+    return step, np.minimum(np.arange(steps) * step, dur)
 
 
 def _poses(motion: Motion, tau: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mocap positions (T, 3) and unit quaternions (T, 4) at simulation times τ.
+
+    A rational motion's quaternion comes straight from its preimage, ``Q/|Q|`` (sign
+    continuous along the motion): a second evaluation of the preimage, but cheaper than
+    converting the rotations ``pose`` returns (0.39 ms against 0.72 ms for 3,501 steps;
+    ``motions`` has no public call returning both from one evaluation). Any other motion
+    is evaluated once and its rotations converted (seed eq. (9))."""
     t = motion.domain[0] + tau
-    return motion.pose(t)[1], motion.quaternion(t)
+    if isinstance(motion, RationalMotion) and motion.preimage_pieces is not None:
+        return motion.pose(t)[1], motion.quaternion(t)
+    r, p = motion.pose(t)
+    return p, quat_from_matrix(r)
 
 
 def _prepared(scene: scenes_pkg.Scene, step: float) -> tuple[mujoco.MjModel, mujoco.MjData, int]:
@@ -247,6 +152,14 @@ def _prepared(scene: scenes_pkg.Scene, step: float) -> tuple[mujoco.MjModel, muj
 _DATA: dict[int, mujoco.MjData] = {}
 
 
+@functools.lru_cache(maxsize=64)
+def _columns(carried: tuple[str, ...]) -> pd.Index:
+    """Column labels of an unrecorded frame (building a pandas Index from strings costs
+    ~0.1 ms, a tenth of the driver's own budget on a short rollout)."""
+    names = ["time", "pos_x", "pos_y", "pos_z", "quat_w", "quat_x", "quat_y", "quat_z"]
+    return pd.Index(names + [f"{c}_{a}" for c in carried for a in "xyz"])
+
+
 def simulate(
     scene: Any,
     motion: Motion,
@@ -262,27 +175,28 @@ def simulate(
 
     Returns:
         One row per control step: ``time``, ``pos_x..z``, ``quat_w..z``; with `record`, also
-        ``min_distance`` (signed, mover geoms to static obstacles, ``mj_geomDistance``),
-        ``ncon`` and, per carried body B, ``B_x..z``, ``B_acc_x..z`` (linear acceleration),
-        ``B_force`` (net constraint force ``m (a - g)``) and ``B_contact_force`` (sum of
-        contact normal forces). Without `record`: time, pose and the carried bodies'
-        positions, through ``mujoco.rollout``.
+        ``min_distance`` (signed, every geom of the mocap body's subtree to the static
+        obstacles, ``mj_geomDistance``), ``ncon`` and, per carried body B, ``B_x..z``,
+        ``B_acc_x..z`` (linear acceleration), ``B_force`` (net constraint force
+        ``m (a - g)``) and ``B_contact_force`` (sum of contact normal forces). Without
+        `record`: time, pose and the carried bodies' positions, through ``mujoco.rollout``.
     """
     sc = _scene(scene)
+    if not isinstance(record, bool | np.bool_):
+        raise TypeError(f"Expected `record` to be True or False, got {record!r}.")
     step, tau = _control_times(motion, sc.model, dt, duration)
     model, data, mid = _prepared(sc, step)
     pos, quat = _poses(motion, tau)
     data.mocap_pos[mid], data.mocap_quat[mid] = pos[0], quat[0]
+    carried = [(c, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, c)) for c in sc.carried]
+    if not record:
+        return _rollout(model, data, mid, tau, pos, quat, carried)
     mujoco.mj_forward(model, data)
     frame = {"time": tau}
     for k, a in enumerate("xyz"):
         frame[f"pos_{a}"] = pos[:, k]
     for k, a in enumerate("wxyz"):
         frame[f"quat_{a}"] = quat[:, k]
-    carried = [(c, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, c)) for c in sc.carried]
-    if not record:
-        frame.update(_rollout(model, data, mid, pos, quat, carried))
-        return pd.DataFrame(frame)
     frame.update(_record(model, data, mid, pos, quat, carried, sc.mocap_body))
     return pd.DataFrame(frame)
 
@@ -292,27 +206,43 @@ def _rollout_inputs(model, data, mid, pos, quat):
     full = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state = np.empty(mujoco.mj_stateSize(model, full))
     mujoco.mj_getState(model, data, state, full)
-    ctrl = np.empty((1, len(pos), model.nmocap * 7))
-    mp = np.array(data.mocap_pos)
-    mq = np.array(data.mocap_quat)
-    ctrl[0, :, : model.nmocap * 3] = np.tile(mp.ravel(), (len(pos), 1))
-    ctrl[0, :, model.nmocap * 3 :] = np.tile(mq.ravel(), (len(pos), 1))
+    nm = model.nmocap
+    ctrl = np.empty((1, len(pos), nm * 7))
+    ctrl[0, :, : nm * 3] = data.mocap_pos.ravel()  # the other mocap bodies stay put
+    ctrl[0, :, nm * 3 :] = data.mocap_quat.ravel()
     ctrl[0, :, 3 * mid : 3 * mid + 3] = pos
-    ctrl[0, :, 3 * model.nmocap + 4 * mid : 3 * model.nmocap + 4 * mid + 4] = quat
+    ctrl[0, :, 3 * nm + 4 * mid : 3 * nm + 4 * mid + 4] = quat
     return state[None], ctrl, int(spec)
 
 
-def _rollout(model, data, mid, pos, quat, carried) -> dict:
+def _rollout(model, data, mid, tau, pos, quat, carried) -> pd.DataFrame:
     state0, ctrl, spec = _rollout_inputs(model, data, mid, pos, quat)
-    state, _ = rollout.rollout(model, data, state0, ctrl, control_spec=spec)
-    out = {}
-    # state after step k is the state at τ_{k+1}; row k reports the state at τ_k
-    qpos = np.concatenate([state0[:, 1 : 1 + model.nq], state[0, :-1, 1 : 1 + model.nq]])
-    for name, bid in carried:
-        adr = model.jnt_qposadr[model.body_jntadr[bid]]
-        for k, a in enumerate("xyz"):
-            out[f"{name}_{a}"] = qpos[:, adr + k]
-    return out
+    n = len(tau)
+    state = np.empty((1, n, state0.shape[1]))
+    # the inputs are built here with the exact shapes and dtypes rollout wants, so its
+    # checks and tiling are skipped (~0.2 ms, 4 % of a 2,000-step rollout of a small scene)
+    rollout.rollout(
+        [model],
+        [data],
+        state0,
+        ctrl,
+        control_spec=spec,
+        skip_checks=True,
+        nstep=n,
+        state=state,
+        sensordata=np.empty((1, n, model.nsensordata)),
+    )
+    # one float block: a DataFrame of one 2-D array is ~10x cheaper than one of columns
+    out = np.empty((len(tau), 8 + 3 * len(carried)))
+    out[:, 0] = tau
+    out[:, 1:4] = pos
+    out[:, 4:8] = quat
+    for i, (_name, bid) in enumerate(carried):
+        adr = 1 + model.jnt_qposadr[model.body_jntadr[bid]]  # state = (time, qpos, ...)
+        # state after step k is the state at τ_{k+1}; row k reports the state at τ_k
+        out[0, 8 + 3 * i : 11 + 3 * i] = state0[0, adr : adr + 3]
+        out[1:, 8 + 3 * i : 11 + 3 * i] = state[0, :-1, adr : adr + 3]
+    return pd.DataFrame(out, columns=_columns(tuple(c for c, _ in carried)), copy=False)
 
 
 def _record(model, data, mid, pos, quat, carried, mocap_body) -> dict:

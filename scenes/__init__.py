@@ -7,6 +7,8 @@ a builder in :mod:`scenes.procedural`.
 
 from __future__ import annotations
 
+import inspect
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,7 +20,18 @@ import numpy as np
 from .errors import InvalidMocapBody, SceneError
 from .procedural import BUILDERS
 
-__all__ = ["SCENES", "InvalidMocapBody", "Keyframes", "Scene", "SceneError", "load", "mocap_bodies"]
+__all__ = [
+    "SCENES",
+    "InvalidMocapBody",
+    "Keyframes",
+    "Scene",
+    "SceneError",
+    "compile_file",
+    "from_xml",
+    "load",
+    "mocap_bodies",
+    "suite_scenes",
+]
 
 _HERE = Path(__file__).parent
 _REGISTRY: dict[str, dict[str, Any]] = tomllib.loads((_HERE / "registry.toml").read_text())
@@ -44,13 +57,14 @@ class Scene:
     """A loaded scene.
 
     Attributes:
-        name: registry name.
+        name: registry name (the file's stem for a scene loaded from a path).
         model: the compiled ``mujoco.MjModel``.
         mocap_body: name of the moving mocap body.
         keyframes: its keyframes.
         carried: names of free bodies it carries (by a weld or by contact).
         description: one line.
         xml: the MJCF source.
+        path: the MJCF file it was compiled from (None for procedural and inline scenes).
     """
 
     name: str
@@ -60,6 +74,7 @@ class Scene:
     carried: tuple = ()
     description: str = ""
     xml: str = field(default="", repr=False)
+    path: Path | None = None
 
 
 def mocap_bodies(model: mujoco.MjModel) -> list[str]:
@@ -82,50 +97,215 @@ def mocap_id(model: mujoco.MjModel, body: str) -> int:
 
 
 def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
-    """The mocap body's poses in the model's ``<keyframe>`` keys."""
+    """The mocap body's poses in the model's ``<keyframe>`` keys.
+
+    Raises:
+        SceneError: fewer than 2 keys, times not increasing, a non-finite ``mpos`` or a
+            zero or non-finite ``mquat`` (MuJoCo keeps ``mquat="0 0 0 0"`` as it is).
+    """
     mid = mocap_id(model, body)
     if model.nkey < 2:
-        raise SceneError(f"Expected at least 2 <key> entries with mocap poses, got {model.nkey}.")
+        raise SceneError(
+            f"Expected at least 2 <key> entries with poses (mpos/mquat) of mocap body {body!r}"
+            f" in the model's <keyframe>, got {model.nkey}."
+        )
     times = np.array(model.key_time, dtype=float)
     if np.any(np.diff(times) <= 0):
         raise SceneError(f"Expected the keyframe times to be strictly increasing, got {times}.")
     pos = np.array(model.key_mpos).reshape(model.nkey, -1, 3)[:, mid]
     quat = np.array(model.key_mquat).reshape(model.nkey, -1, 4)[:, mid]
-    return Keyframes(times, quat / np.linalg.norm(quat, axis=1, keepdims=True), pos)
+    norm = np.linalg.norm(quat, axis=1)
+    bad_q = ~np.isfinite(norm) | (norm == 0)
+    bad_p = ~np.all(np.isfinite(pos), axis=1)
+    for bad, what, vals in ((bad_q, "mquat", quat), (bad_p, "mpos", pos)):
+        if np.any(bad):
+            k = int(np.argmax(bad))
+            label = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_KEY, k)
+            raise SceneError(
+                f"Expected <key> {k}{f' ({label!r})' if label else ''} to give mocap body "
+                f"{body!r} a {'non-zero, finite quaternion' if what == 'mquat' else 'finite position'}"
+                f" ({what}), got {vals[k].tolist()}."
+            )
+    return Keyframes(times, quat / norm[:, None], pos)
 
 
-def from_xml(
-    xml: str, mocap_body: str, name: str = "inline", carried=(), description: str = ""
-) -> Scene:
-    """A scene from an MJCF string (tests build tiny scenes inline)."""
+def compile_file(path: str | os.PathLike) -> mujoco.MjModel:
+    """Compile an MJCF file; relative asset paths (``meshdir``, ``file=``) resolve against
+    the file's folder, as MuJoCo does.
+
+    Raises:
+        SceneError: the file does not exist, is not a file, or MuJoCo cannot compile it
+            (MuJoCo's message, e.g. a missing mesh file, on one line).
+    """
+    p = Path(path).expanduser()
+    if not p.exists():
+        raise SceneError(f"MJCF file {str(p)!r} does not exist.")
+    if not p.is_file():
+        raise SceneError(f"Expected an MJCF file, got the folder {str(p)!r}.")
     try:
-        model = mujoco.MjModel.from_xml_string(xml)
+        return mujoco.MjModel.from_xml_path(str(p))
     except ValueError as e:
-        raise SceneError(f"Malformed MJCF for scene {name!r}: {e}") from None
+        raise SceneError(
+            f"Cannot compile MJCF file {str(p)!r}: {' '.join(str(e).split())}"
+        ) from None
+
+
+def _pick_mocap_body(model: mujoco.MjModel, mocap_body: str | None, where: str) -> str:
+    names = mocap_bodies(model)
+    if mocap_body is None:
+        if len(names) == 1:
+            return names[0]
+        if not names:
+            raise SceneError(
+                f'{where} has no mocap body; add mocap="true" to the body that the motion'
+                " drives (a child of <worldbody>)."
+            )
+        raise SceneError(f"{where} has several mocap bodies {names}; choose one with `mocap_body`.")
+    if not isinstance(mocap_body, str):
+        raise TypeError(
+            f"Expected `mocap_body` to be a body name (str) or None, got {type(mocap_body).__name__}."
+        )
+    mocap_id(model, mocap_body)
+    return mocap_body
+
+
+def _scene(
+    model: mujoco.MjModel,
+    mocap_body: str,
+    name: str,
+    carried=(),
+    description: str = "",
+    xml: str = "",
+    path: Path | None = None,
+) -> Scene:
     kf = keyframes_of(model, mocap_body)
     for c in carried:
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, c) < 0:
             raise SceneError(
                 f"Scene {name!r} lists carried body {c!r}, which the model does not have."
             )
-    return Scene(name, model, mocap_body, kf, tuple(carried), description, xml)
+    return Scene(name, model, mocap_body, kf, tuple(carried), description, xml, path)
 
 
-def load(name: str, **params: Any) -> Scene:
-    """Load a registered scene; procedural scenes take their builder's parameters."""
-    if not isinstance(name, str) or name not in _REGISTRY:
-        raise SceneError(f"Unknown scene {name!r}. Available scenes: {list(SCENES)}")
+def from_xml(
+    xml: str, mocap_body: str | None = None, name: str = "inline", carried=(), description: str = ""
+) -> Scene:
+    """A scene from an MJCF string (tests build tiny scenes inline). Relative asset paths
+    would resolve against the working directory: use :func:`load` with a path for files."""
+    if not isinstance(xml, str):
+        raise TypeError(f"Expected `xml` to be an MJCF string, got {type(xml).__name__}.")
+    try:
+        model = mujoco.MjModel.from_xml_string(xml)
+    except ValueError as e:
+        raise SceneError(f"Malformed MJCF for scene {name!r}: {' '.join(str(e).split())}") from None
+    body = _pick_mocap_body(model, mocap_body, f"Scene {name!r}")
+    return _scene(model, body, name, carried, description, xml)
+
+
+def _builder_params(name: str, builder: Any, params: dict[str, Any]) -> dict[str, Any]:
+    valid = list(inspect.signature(builder).parameters)
+    unknown = sorted(set(params) - set(valid))
+    if unknown:
+        raise SceneError(f"Scene {name!r} takes the parameters {valid}, got unknown {unknown}.")
+    return params
+
+
+def load(name_or_path: str | os.PathLike, *, mocap_body: str | None = None, **params: Any) -> Scene:
+    """A registered scene by name, or a scene from an MJCF file (DESIGN §5, §8).
+
+    Args:
+        name_or_path: a name in :data:`SCENES`, or the path of an MJCF file, compiled from
+            the file itself so that its assets (meshes in a ``meshdir``) resolve against it.
+        mocap_body: the driven mocap body; required when the file has several.
+        **params: a procedural scene's builder parameters (``clutter``: ``n_obstacles``,
+            ``seed``, ``tube``).
+
+    Raises:
+        SceneError: an unknown name (the message lists the scenes), a missing file, a file
+            MuJoCo cannot compile (a missing mesh, ...), no mocap body or several without
+            `mocap_body`, fewer than 2 keyframes; InvalidMocapBody for a `mocap_body` that
+            is not one.
+    """
+    if not isinstance(name_or_path, str | os.PathLike):
+        raise TypeError(
+            f"Expected `name_or_path` to be a scene name or an MJCF path, got "
+            f"{type(name_or_path).__name__}."
+        )
+    if isinstance(name_or_path, str) and name_or_path in _REGISTRY:
+        return _load_registered(name_or_path, mocap_body, params)
+    p = Path(name_or_path).expanduser()
+    if not p.exists() and not _looks_like_path(name_or_path):
+        raise SceneError(
+            f"Unknown scene {str(name_or_path)!r}. Available scenes: {list(SCENES)}, or the "
+            "path of an MJCF file."
+        )
+    if params:
+        raise SceneError(f"An MJCF file takes no scene parameters, got {sorted(params)}.")
+    model = compile_file(p)
+    body = _pick_mocap_body(model, mocap_body, f"MJCF file {str(p)!r}")
+    return _scene(model, body, p.stem, xml=p.read_text(errors="replace"), path=p.resolve())
+
+
+def _looks_like_path(x: str | os.PathLike) -> bool:
+    if not isinstance(x, str):
+        return True
+    return x.lower().endswith((".xml", ".mjcf")) or "/" in x or os.sep in x
+
+
+def _load_registered(name: str, mocap_body: str | None, params: dict[str, Any]) -> Scene:
     entry = _REGISTRY[name]
+    body = entry["mocap_body"] if mocap_body is None else mocap_body
+    desc = entry.get("description", "")
+    carried = entry.get("carried", ())
     if "builder" in entry:
-        kw = {**entry.get("params", {}), **params}
-        xml = BUILDERS[entry["builder"]](**kw)
-    else:
-        if params:
-            raise SceneError(f"Scene {name!r} takes no parameters, got {sorted(params)}.")
-        xml = (_HERE / entry["file"]).read_text()
-    return from_xml(
-        xml, entry["mocap_body"], name, entry.get("carried", ()), entry.get("description", "")
-    )
+        builder = BUILDERS[entry["builder"]]
+        kw = {**entry.get("params", {}), **_builder_params(name, builder, params)}
+        xml = builder(**kw)
+        try:
+            model = mujoco.MjModel.from_xml_string(xml)
+        except ValueError as e:
+            raise SceneError(f"Scene {name!r} built malformed MJCF: {e}") from None
+        mocap_id(model, body)
+        return _scene(model, body, name, carried, desc.format(**kw), xml)
+    if params:
+        raise SceneError(f"Scene {name!r} takes no parameters, got {sorted(params)}.")
+    file = _HERE / entry["file"]
+    model = compile_file(file)
+    mocap_id(model, body)
+    return _scene(model, body, name, carried, desc, file.read_text(), file)
+
+
+def suite_scenes(value: Any, relative_to: str | os.PathLike) -> list[str]:
+    """The `scenes` of a suite: ``"all"`` (the registered scenes) or a non-empty list of
+    registered names and MJCF paths; a relative path is relative to `relative_to` (the
+    suite file's folder). Paths come back absolute, and every file is compiled now, so a
+    missing mesh or keyframe is reported before any work.
+
+    Raises:
+        SceneError: what is wrong and which entry.
+    """
+    if value == "all":
+        return list(SCENES)
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
+        raise SceneError(
+            f'Expected a non-empty list of scene names or MJCF paths, or "all", got {value!r}.'
+        )
+    out = []
+    for v in value:
+        if v in _REGISTRY:
+            out.append(v)
+            continue
+        p = Path(v).expanduser()
+        if not p.is_absolute():
+            p = Path(relative_to) / p
+        if not p.exists() and not _looks_like_path(v):
+            raise SceneError(
+                f"unknown scene {v!r}; valid: {list(SCENES)}, or the path of an MJCF file "
+                "(relative to the suite file)."
+            )
+        load(p)
+        out.append(str(p.resolve()))
+    return out
 
 
 def path(name: str) -> Path | None:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .errors import SceneError
+
 __all__ = ["BUILDERS", "clutter"]
 
 
@@ -21,10 +23,18 @@ def clutter(n_obstacles: int = 50, seed: int = 0, tube: float = 0.7) -> str:
     """N boxes, spheres and capsules in a 12 x 6 x 6 m region, with six keyframes of a small
     box threading through; obstacles are kept out of a tube of radius `tube` around the
     keyframe polyline (the interpolated motion may still graze them)."""
-    if not isinstance(n_obstacles, int) or not 1 <= n_obstacles <= 100_000:
-        raise ValueError(
+    if (
+        isinstance(n_obstacles, bool)
+        or not isinstance(n_obstacles, int | np.integer)
+        or not 1 <= n_obstacles <= 100_000
+    ):
+        raise SceneError(
             f"Expected `n_obstacles` to be an integer in [1, 100000], got {n_obstacles!r}."
         )
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise SceneError(f"Expected `seed` to be a non-negative integer, got {seed!r}.")
+    if isinstance(tube, bool) or not isinstance(tube, int | float) or not 0 <= tube < 3:
+        raise SceneError(f"Expected `tube` to be a number in [0, 3) (metres), got {tube!r}.")
     rng = np.random.default_rng(seed)
     n_keys = 6
     pos = np.stack(

@@ -3,6 +3,9 @@ certified, child bodies composed in, jointed children held at the reference conf
 
 from __future__ import annotations
 
+import shutil
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -10,7 +13,16 @@ import pytest
 import harness
 import motions
 import scenes
-from harness.sim import HeldJointsWarning, body_from_model, obstacles_from_model, simulate
+from harness.geoms import UncoveredGeomError
+from harness.sim import (
+    HeldJointsWarning,
+    body_from_model,
+    check_body_covers_subtree,
+    obstacle_geoms,
+    obstacles_from_model,
+    simulate,
+    subtree_geoms,
+)
 
 from .cases import translation
 
@@ -91,3 +103,295 @@ def test_jointed_children_are_held_at_the_reference_configuration_with_a_warning
     # a quarter turn about y takes the thumb's local -z offset to -x
     np.testing.assert_allclose(thumb.center, [-0.13, 0.0, 0.0], atol=1e-15)
     np.testing.assert_allclose(np.abs(thumb.axis), [1.0, 0.0, 0.0], atol=1e-15)
+
+
+# ----------------------------------------------------------------------------- the example
+GRIPPER = scenes.path("gripper")
+PART_POSE_TOL = 1e-12
+"""Relative agreement of extracted parts with MuJoCo's ``geom_xpos``/``geom_xmat``: both
+compose the same float64 poses in a different order (measured at most ~1e-15)."""
+
+
+def _gripper():
+    sc = scenes.load("gripper")
+    with pytest.warns(HeldJointsWarning, match="left_slide"):
+        body = body_from_model(sc.model, "hand")
+    return sc, body
+
+
+def _support(points: np.ndarray, d: np.ndarray) -> np.ndarray:
+    return (d @ points.T).max(axis=1)
+
+
+def test_example_is_built_like_a_real_robot_model():
+    # the brief of issue 14: child bodies (one jointed, one fixed), meshes from files in
+    # assets/ beside the MJCF, class defaults, non-unit quaternions, a visual-only geom
+    text = GRIPPER.read_text()
+    assert 'meshdir="assets"' in text and 'childclass="gripper"' in text
+    assert 'quat="0 0 0 2"' in text and 'quat="2 0 0 0"' in text
+    for f in ("gripper_finger.obj", "gripper_palm.obj"):
+        assert (GRIPPER.parent / "assets" / f).is_file()
+    model = scenes.load("gripper").model
+    hand = model.body("hand").id
+    children = [b for b in range(model.nbody) if model.body_parentid[b] == hand]
+    assert sorted(model.body_jntnum[children].tolist()) == [0, 1]
+    visual = model.geom("palm_visual")
+    assert visual.contype == 0 and visual.conaffinity == 0 and visual.group == 2
+    # meshes hold far more vertices than their hulls need
+    for name in ("palm", "finger"):
+        assert model.mesh(name).vertnum > 900
+
+
+def test_extracted_parts_match_mujoco_geom_poses_at_random_poses(rng):
+    sc, body = _gripper()
+    model = sc.model
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    geoms = subtree_geoms(model, model.body("hand").id)
+    parts = harness.shapes.parts(body)
+    assert len(parts) == len(geoms) == 6  # one part per geom, in geom id order
+    dirs = rng.normal(size=(300, 3))
+    worst = 0.0
+    for _ in range(20):
+        q = rng.normal(size=4)
+        rot, pos = motions.rotation_matrix(q / np.linalg.norm(q)), rng.uniform(-1, 1, 3)
+        data.mocap_pos[0], data.mocap_quat[0] = pos, q  # MuJoCo normalises mocap_quat
+        mujoco.mj_kinematics(model, data)
+        for part, g in zip(parts, geoms, strict=True):
+            moved = part.transformed(rot, pos)
+            xpos, xmat = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3)
+            size = model.geom_size[g]
+            if part.kind == "mesh":
+                m = model.mesh(int(model.geom_dataid[g]))
+                v = np.array(model.mesh_vert[m.vertadr[0] : m.vertadr[0] + m.vertnum[0]])
+                # every stored vertex placed by MuJoCo: the hull keeps the support function
+                err = np.abs(_support(moved.vertices_, dirs) - _support(v @ xmat.T + xpos, dirs))
+                errs = [err.max() / np.linalg.norm(dirs, axis=1).max()]
+            else:
+                errs = [np.abs(moved.center - xpos).max()]
+                if part.kind == "box":
+                    errs += [
+                        np.abs(moved.rotation - xmat).max(),
+                        np.abs(moved.half_extents - size).max(),
+                    ]
+                if part.kind == "capsule":
+                    errs += [np.abs(moved.rotation[:, 2] - xmat[:, 2]).max()]
+                    errs += [abs(moved.radius - size[0]), abs(moved.half_length - size[1])]
+            worst = max(worst, *errs)
+    assert worst <= PART_POSE_TOL * 3, worst
+
+
+def test_extracted_body_reproduces_mujoco_distances_at_random_poses(rng):
+    # mj_geomDistance in the scene's own model against the same distance on a model built
+    # from the extracted shapes (harness.mjdistance): every (geom, obstacle) pair
+    from harness.mjdistance import MujocoDistance
+
+    sc, body = _gripper()
+    model = sc.model
+    obst = obstacles_from_model(model)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    geoms = subtree_geoms(model, model.body("hand").id)
+    og = obstacle_geoms(model)
+    n = 40
+    quats = rng.normal(size=(n, 4))
+    quats /= np.linalg.norm(quats, axis=1, keepdims=True)
+    # positions over the table, from touching the block to 10 cm clear
+    pos = np.column_stack(
+        [rng.uniform(-0.1, 0.35, n), rng.uniform(-0.15, 0.15, n), rng.uniform(0.03, 0.2, n)]
+    )
+    ref = np.empty((n, len(geoms), len(og)))
+    for k in range(n):
+        data.mocap_pos[0], data.mocap_quat[0] = pos[k], quats[k]
+        mujoco.mj_kinematics(model, data)
+        for i, g in enumerate(geoms):
+            for j, o in enumerate(og):
+                ref[k, i, j] = mujoco.mj_geomDistance(model, data, int(g), int(o), 10.0, None)
+    got = MujocoDistance(body, obst).distances(motions.rotation_matrix(quats), pos, 10.0)
+    mesh = model.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_MESH
+    err = np.abs(got - ref)
+    assert (ref < 0).any() and (ref > 0).any()  # both sides are exercised
+    # meshes: MuJoCo re-stores the extracted vertices in float32 and its CCD stops at
+    # ccd_tolerance (1e-6); the other pairs are closed forms
+    assert err[:, mesh].max() <= 2 * model.opt.ccd_tolerance, err[:, mesh].max()
+    assert err[:, ~mesh].max() <= 1e-12, err[:, ~mesh].max()
+
+
+def _fingertip_dip(body: harness.shapes.Shape, depth: float) -> motions.RationalMotion:
+    """The hand, upright, sliding along y at x = 0 with its lowest point `depth` into the
+    table top (z = 0)."""
+    lowest = -float(body.h(np.array([0.0, 0.0, -1.0])))
+    z = -lowest - depth
+    return translation([1.0, 0.0, 0.0, 0.0], [0.0, -0.12, z], [0.0, 0.12, z])
+
+
+def test_certificate_is_collision_when_only_a_fingertip_touches():
+    sc, body = _gripper()
+    model = sc.model
+    obst = obstacles_from_model(model)
+    m = _fingertip_dip(body, 0.003)
+    # MuJoCo's own distances, geom by geom: only the two fingertips (child bodies) touch
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    geoms = subtree_geoms(model, model.body("hand").id)
+    r, p = m.pose(np.linspace(0, 1, 11))
+    least = {}
+    for k in range(len(p)):
+        data.mocap_pos[0], data.mocap_quat[0] = p[k], motions.quat_from_matrix(r[k])
+        mujoco.mj_kinematics(model, data)
+        for g in geoms:
+            d = min(
+                mujoco.mj_geomDistance(model, data, int(g), int(o), 1.0, None)
+                for o in obstacle_geoms(model)
+            )
+            least[model.geom(g).name] = min(least.get(model.geom(g).name, np.inf), d)
+    assert {k for k, v in least.items() if v < 0} == {"left_tip", "right_tip"}, least
+    assert least["right_tip"] == pytest.approx(-0.003, abs=1e-9)
+    assert min(v for k, v in least.items() if not k.endswith("tip")) > 0.003
+    assert harness.certify(m, body, obst).verdict == "collision"
+    assert harness.ground_truth(m, body, obst).verdict == "collision"
+    # the body without its child bodies (what the extraction used to return) misses it
+    own = harness.Compound(
+        [
+            s
+            for s, g in zip(harness.shapes.parts(body), geoms, strict=True)
+            if model.geom_bodyid[g] == model.body("hand").id
+        ]
+    )
+    assert harness.certify(m, own, obst).verdict == "free"
+    # 3 mm above the table the whole hand is free
+    assert harness.certify(_fingertip_dip(body, -0.003), body, obst).verdict == "free"
+
+
+def test_coverage_check_names_a_dropped_or_misplaced_geom():
+    sc, body = _gripper()
+    model = sc.model
+    check_body_covers_subtree(model, "hand", body)
+    parts = list(harness.shapes.parts(body))
+    names = [model.geom(g).name for g in subtree_geoms(model, model.body("hand").id)]
+    tip = names.index("left_tip")
+    with pytest.raises(
+        UncoveredGeomError, match=r"1 of its subtree's 6 geoms: 'left_tip' \(body 'left_finger'\)"
+    ):
+        check_body_covers_subtree(model, "hand", harness.Compound(parts[:tip] + parts[tip + 1 :]))
+    # the left finger where qpos0 puts it, 8 mm from where the first keyframe holds it
+    pad = names.index("left_pad")
+    moved = parts[pad].transformed(np.eye(3), np.array([0.0, 0.008, 0.0]))
+    with pytest.raises(UncoveredGeomError, match="'left_pad'"):
+        check_body_covers_subtree(
+            model, "hand", harness.Compound(parts[:pad] + [moved] + parts[pad + 1 :])
+        )
+
+
+def test_geom_groups_select_what_is_certified():
+    sc, _ = _gripper()
+    model = sc.model
+    with pytest.warns(HeldJointsWarning):
+        collision = body_from_model(model, "hand", groups=[3])
+    meshes = [p.input_count for p in harness.shapes.parts(collision) if p.kind == "mesh"]
+    assert len(harness.shapes.parts(collision)) == 5
+    assert meshes == [model.mesh("finger").vertnum[0]] * 2  # the palm's mesh is left out
+    check_body_covers_subtree(model, "hand", collision, groups=[3])
+    with pytest.raises(UncoveredGeomError, match="palm_visual"):
+        check_body_covers_subtree(model, "hand", collision)
+    with pytest.warns(HeldJointsWarning):
+        visual = body_from_model(model, "hand", groups=(2,))
+    assert visual.kind == "mesh" and visual.input_count == model.mesh("palm").vertnum[0]
+    with pytest.raises(
+        harness.HarnessError, match=r"no geoms to certify in `groups` \[5\]; .*groups \[2, 3\]"
+    ):
+        body_from_model(model, "hand", groups=[5])
+    for bad in ([7], [True], "3", []):
+        with pytest.raises(ValueError, match="`groups`"):
+            body_from_model(model, "hand", groups=bad)
+    # obstacles likewise
+    assert len(obstacles_from_model(model, groups=[0])) == 3
+    assert obstacles_from_model(model, groups=[1]) == []
+
+
+# ----------------------------------------------------------------------------- files
+def _copy_gripper(tmp_path) -> Path:
+    robot = tmp_path / "robot"
+    shutil.copytree(
+        GRIPPER.parent / "assets", robot / "assets", ignore=shutil.ignore_patterns("*.py")
+    )
+    shutil.copy(GRIPPER, robot / "my_gripper.xml")
+    return robot / "my_gripper.xml"
+
+
+def test_load_a_users_file_from_another_folder(tmp_path, monkeypatch):
+    xml = _copy_gripper(tmp_path)
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    for given in ("../robot/my_gripper.xml", xml, str(xml)):
+        sc = scenes.load(given)
+        assert sc.mocap_body == "hand" and sc.name == "my_gripper" and sc.path == xml.resolve()
+        assert len(sc.keyframes.times) == 5
+    with pytest.warns(HeldJointsWarning):
+        body = body_from_model(sc.model, sc.mocap_body)
+    assert len(harness.shapes.parts(body)) == 6
+    kf = sc.keyframes
+    m = motions.build("rational", kf.rotations, kf.positions, kf.times)
+    assert harness.certify(m, body, obstacles_from_model(sc.model)).verdict == "free"
+    df = simulate(sc, m, record=False)
+    assert len(df) == round(np.ptp(m.domain) / sc.model.opt.timestep) + 1
+
+
+NO_MOCAP = """<mujoco><worldbody><body name="hand"><geom size=".1"/></body></worldbody></mujoco>"""
+TWO_MOCAP = """<mujoco><worldbody>
+<body name="a" mocap="true"><geom size=".1"/></body><body name="b" mocap="true"><geom size=".1"/></body>
+</worldbody><keyframe><key time="0"/><key time="1" mpos="1 0 0 0 1 0"/></keyframe></mujoco>"""
+FREE_CHILD = """<mujoco><worldbody><body name="hand" mocap="true"><geom size=".1"/>
+<body name="loose"><freejoint/><geom size=".05"/></body></body></worldbody></mujoco>"""
+KEYS = """<mujoco><worldbody><body name="hand" mocap="true"><geom size=".1"/></body></worldbody>
+<keyframe>{}</keyframe></mujoco>"""
+
+
+def test_bad_files_get_named_errors(tmp_path):
+    def write(name, text):
+        (tmp_path / name).write_text(text)
+        return tmp_path / name
+
+    with pytest.raises(scenes.SceneError, match=r"'nowhere/robot.xml' does not exist"):
+        scenes.load("nowhere/robot.xml")
+    with pytest.raises(scenes.SceneError, match=r"Unknown scene 'kitchen'.*path of an MJCF file"):
+        scenes.load("kitchen")
+    with pytest.raises(scenes.SceneError, match="folder"):
+        scenes.load(tmp_path)
+    with pytest.raises(scenes.SceneError, match="no mocap body"):
+        scenes.load(write("none.xml", NO_MOCAP))
+    two = write("two.xml", TWO_MOCAP)
+    with pytest.raises(
+        scenes.SceneError, match=r"several mocap bodies \['a', 'b'\]; choose one with `mocap_body`"
+    ):
+        scenes.load(two)
+    assert scenes.load(two, mocap_body="b").keyframes.positions[1].tolist() == [0.0, 1.0, 0.0]
+    with pytest.raises(
+        scenes.InvalidMocapBody, match=r"'c' is not a mocap body. Mocap bodies: \['a', 'b'\]"
+    ):
+        scenes.load(two, mocap_body="c")
+    with pytest.raises(scenes.SceneError, match=r"Cannot compile .*free joint"):
+        scenes.load(write("free.xml", FREE_CHILD))  # MuJoCo allows them on top-level bodies only
+    with pytest.raises(
+        scenes.SceneError,
+        match=r"<key> 1 \('bad'\) .*non-zero, finite quaternion \(mquat\), got \[0.0, 0.0, 0.0, 0.0\]",
+    ):
+        scenes.load(
+            write("q.xml", KEYS.format('<key time="0"/><key name="bad" time="1" mquat="0 0 0 0"/>'))
+        )
+    with pytest.raises(scenes.SceneError, match="at least 2 <key>"):
+        scenes.load(write("one.xml", KEYS.format('<key time="0"/>')))
+    with pytest.raises(scenes.SceneError, match="takes no scene parameters"):
+        scenes.load(two, seed=3)
+    xml = _copy_gripper(tmp_path)
+    (xml.parent / "assets" / "gripper_finger.obj").unlink()
+    with pytest.raises(scenes.SceneError, match=r"Cannot compile MJCF file .*gripper_finger\.obj"):
+        scenes.load(xml)
+    with pytest.raises(TypeError, match=r"`model` to be a mujoco\.MjModel"):
+        body_from_model("slot", "mover")
+    with pytest.raises(TypeError, match=r"`model` to be a mujoco\.MjModel"):
+        obstacles_from_model(None)
+    with pytest.raises(TypeError, match="`mocap_body`"):
+        body_from_model(scenes.load("slot").model, 3)
+    with pytest.raises(TypeError, match="`name_or_path`"):
+        scenes.load(3)

@@ -29,6 +29,16 @@ def names(value: Any, file: Path, key: str, valid: Iterable[str]) -> list[str]:
     return items
 
 
+def scene_names(value: Any, file: Path, key: str) -> list[str]:
+    """Scene names and MJCF paths (relative to the suite file), each file compiled now."""
+    import scenes
+
+    try:
+        return scenes.suite_scenes(value, file.parent)
+    except scenes.SceneError as e:
+        raise SuiteError(f"{file}: key `{key}`: {e}") from None
+
+
 def numbers(value: Any, file: Path, key: str, positive: bool = True) -> list[float]:
     items = value if isinstance(value, list) else [value]
     ok = (

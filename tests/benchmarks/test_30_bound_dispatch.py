@@ -20,7 +20,10 @@ def test_dispatch(benchmark, s, k, v):
     ctrl = rng.normal(size=(s, k, 4, 4))
     ctrl[..., 3, :3] = 0
     ctrl[..., 3, 3] = rng.uniform(1, 2, size=(s, k))
-    body = ConvexMesh(rng.normal(size=(v, 3)))
+    pts = rng.normal(size=(v, 3))
+    # on a sphere, so that every point is a hull vertex (ConvexMesh keeps only those)
+    body = ConvexMesh(pts / np.linalg.norm(pts, axis=1, keepdims=True))
+    assert len(body.vertices_) == v
     aabb_dispatch(ctrl, body, path="warp")  # warm
     t_np = best_of(lambda: aabb_dispatch(ctrl, body, path="numpy"))
     t_wp = best_of(lambda: aabb_dispatch(ctrl, body, path="warp"))

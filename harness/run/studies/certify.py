@@ -9,10 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import motions
-import scenes as scenes_pkg
 
 from ...certify import BOUNDS, certify_many
-from ..fields import names, need, numbers
+from ..fields import names, need, numbers, scene_names
 from .context import Context, accuracy_cols, cert_cols, smoothness_cols, truth_cols
 
 KEYS = frozenset(
@@ -34,7 +33,7 @@ KEYS = frozenset(
 
 def parse(st: dict, file: Path, where: str) -> dict:
     out: dict = {}
-    out["scenes"] = names(st.get("scenes", "all"), file, f"{where}.scenes", scenes_pkg.SCENES)
+    out["scenes"] = scene_names(st.get("scenes", "all"), file, f"{where}.scenes")
     kf = st.get("keyframes", "scene")
     need(
         kf in ("scene", "random", "both"),

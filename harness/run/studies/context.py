@@ -64,11 +64,13 @@ class Context:
         return self.memo(("motion", scene, kf, scheme), make)
 
     def geometry(self, scene: str):
-        from ...sim import body_from_model, obstacles_from_model
+        from ...sim import body_from_model, check_body_covers_subtree, obstacles_from_model
 
         def make():
             sc = self.scene(scene)
-            return body_from_model(sc.model, sc.mocap_body), obstacles_from_model(sc.model)
+            body = body_from_model(sc.model, sc.mocap_body)
+            check_body_covers_subtree(sc.model, sc.mocap_body, body)
+            return body, obstacles_from_model(sc.model)
 
         return self.memo(("geom", scene), make)
 

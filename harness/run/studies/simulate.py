@@ -7,10 +7,9 @@ import time
 from pathlib import Path
 
 import motions
-import scenes as scenes_pkg
 
 from ...certify import certify_many
-from ..fields import names, numbers
+from ..fields import names, numbers, scene_names
 from .context import Context, smoothness_cols
 
 KEYS = frozenset({"scenes", "schemes", "dt"})
@@ -18,7 +17,7 @@ KEYS = frozenset({"scenes", "schemes", "dt"})
 
 def parse(st: dict, file: Path, where: str) -> dict:
     out: dict = {}
-    out["scenes"] = names(st.get("scenes", "all"), file, f"{where}.scenes", scenes_pkg.SCENES)
+    out["scenes"] = scene_names(st.get("scenes", "all"), file, f"{where}.scenes")
     out["schemes"] = names(st.get("schemes", "all"), file, f"{where}.schemes", motions.SCHEMES)
     dt = st.get("dt")
     out["dt"] = None if dt is None else numbers(dt, file, f"{where}.dt")[0]

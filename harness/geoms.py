@@ -1,0 +1,333 @@
+"""MuJoCo geoms as harness shapes (DESIGN §5 "A user's own robot model").
+
+- :func:`body_from_model`: every geom of a mocap body's subtree, in body coordinates;
+  rigid children composed in, jointed children held at the reference configuration.
+- :func:`obstacles_from_model`: the static geoms, in world coordinates.
+- :func:`check_body_covers_subtree`: every geom of the subtree is inside some part of a
+  certified body (the runner's guard against an extraction that drops geoms, which a
+  truth computed from the same shapes could not see).
+
+Poses come from MuJoCo's own forward kinematics; mesh vertices from ``model.mesh_vert``
+(MuJoCo re-centres meshes and stores them in float32; ``geom_pos``/``geom_quat`` carry
+the offset), reduced to their hull vertices by :class:`~harness.shapes.ConvexMesh`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Iterable
+from typing import Any
+
+import mujoco
+import numpy as np
+
+import scenes as scenes_pkg
+from motions import quat_from_matrix, rotation_matrix
+
+from .errors import HarnessError, ShapeError, UnsupportedGeomError
+from .shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere, parts
+
+__all__ = [
+    "COVER_TOLERANCE",
+    "SUPPORTED_GEOMS",
+    "HeldJointsWarning",
+    "UncoveredGeomError",
+    "body_from_model",
+    "check_body_covers_subtree",
+    "held_joints",
+    "obstacle_geoms",
+    "obstacles_from_model",
+    "reference_qpos",
+    "subtree_geoms",
+]
+
+SUPPORTED_GEOMS = ("box", "sphere", "capsule", "mesh", "plane")
+PLANE_HALF = 1e3  # a plane becomes a 2e3-m box below its surface
+
+COVER_TOLERANCE = 1e-9
+"""Relative slack of the coverage check: a geom counts as covered by a part when the
+part's support exceeds the geom's in every test direction by at least ``-tol * scale``
+(both come from the same float64 numbers; composing poses rounds at ~1e-16)."""
+
+
+class HeldJointsWarning(UserWarning):
+    """Jointed bodies below the mocap body are certified at one fixed configuration."""
+
+
+class UncoveredGeomError(HarnessError):
+    """A geom of the mover's subtree that no part of the certified body covers."""
+
+
+def _check_model(model: Any) -> mujoco.MjModel:
+    if not isinstance(model, mujoco.MjModel):
+        raise TypeError(
+            f"Expected `model` to be a mujoco.MjModel (e.g. scenes.load(...).model), "
+            f"got {type(model).__name__}."
+        )
+    return model
+
+
+def _mocap_body_id(model: mujoco.MjModel, mocap_body: Any) -> int:
+    if not isinstance(mocap_body, str):
+        raise TypeError(
+            f"Expected `mocap_body` to be a body name (str), got {type(mocap_body).__name__}."
+        )
+    scenes_pkg.mocap_id(model, mocap_body)  # InvalidMocapBody lists the valid names
+    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body)
+
+
+def _group_mask(groups: Any) -> np.ndarray | None:
+    """(mjNGROUP,) True for the selected geom groups, or None for all."""
+    if groups is None:
+        return None
+    items = [groups] if isinstance(groups, int | np.integer) else groups
+    ok = isinstance(items, Iterable) and not isinstance(items, str | bytes)
+    items = list(items) if ok else []
+    valid = range(mujoco.mjNGROUP)
+    if (
+        not items
+        or any(isinstance(g, bool) or not isinstance(g, int | np.integer) for g in items)
+        or any(g not in valid for g in items)
+    ):
+        raise ValueError(
+            f"Expected `groups` to be None or a non-empty list of MuJoCo geom groups "
+            f"(integers 0..{mujoco.mjNGROUP - 1}), got {groups!r}."
+        )
+    mask = np.zeros(mujoco.mjNGROUP, dtype=bool)
+    mask[np.asarray(items, dtype=int)] = True
+    return mask
+
+
+def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, i: int) -> str:
+    return mujoco.mj_id2name(model, kind, int(i)) or f"#{int(i)}"
+
+
+def _geom_shape(model: mujoco.MjModel, g: int, rot: np.ndarray, pos: np.ndarray) -> Shape:
+    """Shape of geom g placed by (rot, pos) (geom frame -> target frame)."""
+    t = int(model.geom_type[g])
+    size = np.array(model.geom_size[g], dtype=float)
+    if t == mujoco.mjtGeom.mjGEOM_BOX:
+        return Box(size, center=pos, rotation=rot)
+    if t == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return Sphere(size[0], center=pos)
+    if t == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return Capsule(size[0], size[1], center=pos, rotation=rot)
+    if t == mujoco.mjtGeom.mjGEOM_MESH:
+        mid = int(model.geom_dataid[g])
+        a, n = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
+        v = np.array(model.mesh_vert[a : a + n], dtype=float)  # float32 in MuJoCo, exact in float64
+        try:
+            return ConvexMesh(v @ rot.T + pos)
+        except ShapeError as e:
+            raise type(e)(f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r}: {e}") from None
+    if t == mujoco.mjtGeom.mjGEOM_PLANE:
+        # half-space below the plane, represented by a large box (exact within its extent)
+        n = rot[:, 2]
+        return Box([PLANE_HALF] * 3, center=pos - PLANE_HALF * n, rotation=rot)
+    kind = mujoco.mjtGeom(t).name.replace("mjGEOM_", "").lower()
+    raise UnsupportedGeomError(
+        f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r} (body "
+        f"{_name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])!r}) has type {kind!r}; "
+        f"supported geom types: {list(SUPPORTED_GEOMS)}."
+    )
+
+
+def _subtree_mask(model: mujoco.MjModel, body_id: int) -> np.ndarray:
+    """(nbody,) True for `body_id` and every body below it."""
+    inside = np.zeros(model.nbody, dtype=bool)
+    inside[body_id] = True
+    # MuJoCo numbers bodies so that a parent comes before its children
+    for b in range(body_id + 1, model.nbody):
+        inside[b] = inside[model.body_parentid[b]]
+    return inside
+
+
+def subtree_geoms(model: mujoco.MjModel, body_id: int, groups: Any = None) -> np.ndarray:
+    """Ids of every geom on body `body_id` or on any body below it in the kinematic tree
+    (only those in `groups`, MuJoCo geom groups, when given)."""
+    geoms = np.flatnonzero(_subtree_mask(model, body_id)[model.geom_bodyid])
+    mask = _group_mask(groups)
+    return geoms if mask is None else geoms[mask[model.geom_group[geoms]]]
+
+
+def reference_qpos(model: mujoco.MjModel) -> np.ndarray:
+    """The configuration jointed children are held at: the first keyframe's ``qpos`` (where
+    :func:`harness.simulate` starts) when the model has keyframes, else ``qpos0``."""
+    return np.array(model.key_qpos[0] if model.nkey else model.qpos0, dtype=float)
+
+
+def held_joints(model: mujoco.MjModel, body_id: int, qpos: np.ndarray) -> dict[str, Any]:
+    """Joints below `body_id` and the qpos values they are held at."""
+    widths = {
+        mujoco.mjtJoint.mjJNT_HINGE: 1,
+        mujoco.mjtJoint.mjJNT_SLIDE: 1,
+        mujoco.mjtJoint.mjJNT_BALL: 4,
+    }
+    out = {}
+    for j in np.flatnonzero(_subtree_mask(model, body_id)[model.jnt_bodyid]):
+        name = _name(model, mujoco.mjtObj.mjOBJ_JOINT, j)
+        width = widths.get(int(model.jnt_type[j]))
+        if width is None:  # MuJoCo only allows free joints at the top level today
+            kind = mujoco.mjtJoint(int(model.jnt_type[j])).name.replace("mjJNT_", "").lower()
+            raise HarnessError(
+                f"Joint {name!r} below mocap body "
+                f"{_name(model, mujoco.mjtObj.mjOBJ_BODY, body_id)!r} is a {kind} joint, which "
+                "cannot be held at one configuration; supported: hinge, slide, ball."
+            )
+        adr = int(model.jnt_qposadr[j])
+        val = qpos[adr : adr + width]
+        out[name] = float(val[0]) if width == 1 else [float(x) for x in val]
+    return out
+
+
+def _poses_at(
+    model: mujoco.MjModel, body_id: int, qpos: np.ndarray, rot: np.ndarray, pos: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every geom's world rotation (ngeom, 3, 3) and position (ngeom, 3) from MuJoCo's
+    forward kinematics, with mocap body `body_id` at (rot, pos) and joints at `qpos`."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = qpos
+    mid = model.body_mocapid[body_id]
+    data.mocap_pos[mid] = pos
+    data.mocap_quat[mid] = quat_from_matrix(rot)
+    mujoco.mj_kinematics(model, data)
+    return np.array(data.geom_xmat).reshape(-1, 3, 3), np.array(data.geom_xpos)
+
+
+def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = None) -> Shape:
+    """Every geom of the mocap body's subtree as one shape in body coordinates (DESIGN §5).
+
+    Rigidly attached child bodies are composed in; bodies below a joint are held at the
+    reference configuration (:func:`reference_qpos`) with a :class:`HeldJointsWarning`
+    naming the joints. A superset of the moving geometry is sound, so every geom counts,
+    visual ones included, unless `groups` (MuJoCo geom groups, 0..5) selects some.
+
+    Returns:
+        A shape (a Compound when there are several geoms).
+
+    Raises:
+        InvalidMocapBody: `mocap_body` is not a mocap body (the message lists them).
+        UnsupportedGeomError: a geom type without a shape (cylinder, ellipsoid, ...).
+        HarnessError: no geom in the subtree (or in `groups`).
+    """
+    _check_model(model)
+    bid = _mocap_body_id(model, mocap_body)
+    geoms = subtree_geoms(model, bid, groups)
+    if geoms.size == 0:
+        every = subtree_geoms(model, bid)
+        raise HarnessError(
+            f"Mocap body {mocap_body!r} has no geoms to certify"
+            + (
+                f" in `groups` {groups!r}; its subtree's geoms are in groups "
+                f"{sorted(set(model.geom_group[every].tolist()))}."
+                if every.size
+                else " (nor have its child bodies)."
+            )
+        )
+    qpos = reference_qpos(model)
+    held = held_joints(model, bid, qpos)
+    if held:
+        warnings.warn(
+            f"Mocap body {mocap_body!r}: jointed children are certified held at "
+            f"{'the first keyframe' if model.nkey else 'qpos0'}: {held}.",
+            HeldJointsWarning,
+            stacklevel=2,
+        )
+    # the mocap body at the world origin: world coordinates are then body coordinates
+    rot, pos = _poses_at(model, bid, qpos, np.eye(3), np.zeros(3))
+    shapes = [_geom_shape(model, g, rot[g], pos[g]) for g in geoms]
+    return shapes[0] if len(shapes) == 1 else Compound(shapes)
+
+
+def _static_bodies(model: mujoco.MjModel) -> np.ndarray:
+    """(nbody,) True for the world and bodies welded to it (no joints up the tree, not mocap)."""
+    static = np.zeros(model.nbody, dtype=bool)
+    static[0] = True
+    for b in range(1, model.nbody):
+        parent = model.body_parentid[b]
+        static[b] = static[parent] and model.body_jntnum[b] == 0 and model.body_mocapid[b] < 0
+    return static
+
+
+def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
+    """Ids of the static, colliding geoms (contype or conaffinity non-zero), in `groups`."""
+    static = _static_bodies(model)
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    geoms = np.flatnonzero(static[model.geom_bodyid] & colliding)
+    mask = _group_mask(groups)
+    return geoms if mask is None else geoms[mask[model.geom_group[geoms]]]
+
+
+def obstacles_from_model(model: mujoco.MjModel, *, groups: Any = None) -> list[Shape]:
+    """The static colliding geoms in world coordinates: geoms of the world body and of
+    bodies fixed to it (no joint up the tree, not mocap), with contype or conaffinity
+    non-zero; nothing that moves. Planes become large boxes below their surface.
+    `groups` (MuJoCo geom groups) selects some."""
+    _check_model(model)
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    return [
+        _geom_shape(
+            model,
+            g,
+            np.array(data.geom_xmat[g]).reshape(3, 3),
+            np.array(data.geom_xpos[g], dtype=float),
+        )
+        for g in obstacle_geoms(model, groups)
+    ]
+
+
+def _directions() -> np.ndarray:
+    """(134, 3) unit test directions: a Fibonacci sphere plus the six axes."""
+    n = 128
+    k = np.arange(n) + 0.5
+    z = 1 - 2 * k / n
+    phi = np.pi * (1 + 5**0.5) * k
+    s = np.sqrt(1 - z * z)
+    fib = np.stack([s * np.cos(phi), s * np.sin(phi), z], 1)
+    return np.concatenate([fib, np.eye(3), -np.eye(3)])
+
+
+# a generic pose of the mocap body for the coverage check (not the identity, so that a
+# composition error in the extraction cannot cancel out)
+_CHECK_ROT = rotation_matrix(
+    np.array([0.8, 0.2, -0.4, 0.4]) / np.linalg.norm([0.8, 0.2, -0.4, 0.4])
+)
+_CHECK_POS = np.array([0.3, -0.2, 0.1])
+
+
+def check_body_covers_subtree(
+    model: mujoco.MjModel, mocap_body: str, body: Shape, *, groups: Any = None
+) -> None:
+    """Raise unless every geom of the mocap body's subtree (in `groups`) lies inside some
+    part of `body` (body coordinates).
+
+    The geoms are placed by MuJoCo's own kinematics with the mocap body at a generic pose
+    and compared with `body` moved there, by support functions in 134 directions, so a
+    geom dropped or misplaced by the extraction is caught even though the ground truth
+    would be computed from the same shapes.
+
+    Raises:
+        UncoveredGeomError: names the geoms (and their bodies) not covered.
+    """
+    _check_model(model)
+    bid = _mocap_body_id(model, mocap_body)
+    geoms = subtree_geoms(model, bid, groups)
+    rot, pos = _poses_at(model, bid, reference_qpos(model), _CHECK_ROT, _CHECK_POS)
+    moved = [p.transformed(_CHECK_ROT, _CHECK_POS) for p in parts(body)]
+    d = _directions()
+    h_parts = np.stack([p.h(d) for p in moved])  # (P, D)
+    scale = 1.0 + np.linalg.norm(_CHECK_POS) + body.bounding_radius
+    missing = []
+    for g in geoms:
+        h_geom = _geom_shape(model, int(g), rot[g], pos[g]).h(d)
+        if not np.any(np.all(h_parts >= h_geom - COVER_TOLERANCE * scale, axis=1)):
+            missing.append(
+                f"{_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r} (body "
+                f"{_name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])!r})"
+            )
+    if missing:
+        raise UncoveredGeomError(
+            f"The certified body of mocap body {mocap_body!r} does not cover "
+            f"{len(missing)} of its subtree's {len(geoms)} geoms: {', '.join(missing)}."
+        )
