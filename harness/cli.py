@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from datetime import datetime
 from pathlib import Path
 
 import numpy as np
+
+from harness.errors import HarnessError, SceneError
 
 
 class UsageError(ValueError):
@@ -37,14 +38,91 @@ def _schemes() -> int:
     return 0
 
 
-def _scenes() -> int:
-    import scenes
+def _scenes(args) -> int:
+    """The registered scenes, or what an MJCF file holds (``rsmbench scenes FILE``)."""
+    import warnings
 
+    import scenes
+    from harness.geoms import HeldJointsWarning, obstacle_geoms, subtree_geoms
+
+    if args.file is not None:
+        return _describe_file(args.file, args.mocap_body)
     for name in scenes.SCENES:
         sc = scenes.load(name)
+        model = sc.model
+        bid = model.body(sc.mocap_body).id
+        mover, obst = len(subtree_geoms(model, bid)), len(obstacle_geoms(model))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", HeldJointsWarning)
+            print(
+                f"{name:16s} mover {mover:2d} geoms, {obst:4d} obstacles, "
+                f"{len(sc.keyframes.times)} keyframes  {sc.description}"
+            )
+    return 0
+
+
+def _describe_file(file: str, mocap_body: str | None) -> int:
+    """Mocap bodies with every geom of their subtrees, obstacles and keyframes of a file."""
+    import warnings
+
+    import mujoco
+
+    import scenes
+    from harness.geoms import (
+        HeldJointsWarning,
+        body_from_model,
+        held_joints,
+        obstacle_geoms,
+        reference_qpos,
+        subtree_geoms,
+    )
+    from harness.shapes import parts
+
+    model = scenes.compile_file(file)
+    names = scenes.mocap_bodies(model)
+    if mocap_body is not None:
+        scenes.mocap_id(model, mocap_body)
+        names = [mocap_body]
+    kind = lambda g: mujoco.mjtGeom(int(model.geom_type[g])).name[7:].lower()  # noqa: E731
+    print(f"MJCF file {Path(file).resolve()}")
+    hint = 'none (add mocap="true" to the driven body, a child of <worldbody>)'
+    print(f"mocap bodies: {', '.join(names) if names else hint}")
+    for name in names:
+        bid = model.body(name).id
+        geoms = subtree_geoms(model, bid)
+        held = held_joints(model, bid, reference_qpos(model))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", HeldJointsWarning)
+            try:
+                shapes = parts(body_from_model(model, name))
+            except ValueError as e:
+                shapes = None
+                print(f"  (the body cannot be certified: {e})")
+        on_children = int(np.sum(model.geom_bodyid[geoms] != bid))
         print(
-            f"{name:16s} {sc.model.ngeom:5d} geoms  {len(sc.keyframes.times)} keyframes  {sc.description}"
+            f"  {name}: {len(geoms)} geoms in its subtree ({on_children} on child bodies)"
+            + (f"; jointed children held at {held}" if held else "")
         )
+        for i, g in enumerate(geoms):
+            extra = ""
+            if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+                n = int(model.mesh_vertnum[model.geom_dataid[g]])
+                hull = f", {len(shapes[i].vertices_)} on the hull" if shapes else ""
+                extra = f"  ({n} vertices{hull})"
+            print(
+                f"    {model.geom(g).name or f'#{g}':16s} {kind(g):8s} body "
+                f"{model.body(model.geom_bodyid[g]).name:16s} group {model.geom_group[g]}{extra}"
+            )
+    obst = obstacle_geoms(model)
+    counts = {}
+    for g in obst:
+        counts[kind(g)] = counts.get(kind(g), 0) + 1
+    print(f"obstacles: {len(obst)} static colliding geoms {counts}")
+    if model.nkey:
+        keys = [model.key(k).name or f"#{k}" for k in range(model.nkey)]
+        print(f"keyframes: {model.nkey} at t = {np.round(model.key_time, 6).tolist()} {keys}")
+    else:
+        print("keyframes: none (a scene needs at least 2 <key> entries with mocap poses)")
     return 0
 
 
@@ -95,14 +173,26 @@ def _compare(args) -> int:
 def _render(args) -> int:
     from harness.render import render
 
-    path, backend = render(
-        args.scene,
-        scheme=args.scheme,
-        out=args.out,
-        backend=args.backend,
-        frames=args.frames,
-        control_segment=args.control_segment,
-    )
+    if args.frames < 1:
+        raise UsageError(f"Expected `--frames` >= 1, got {args.frames}.")
+    try:
+        scene = args.scene
+        if args.mocap_body is not None:
+            import scenes
+
+            scene = scenes.load(args.scene, mocap_body=args.mocap_body)
+        path, backend = render(
+            scene,
+            scheme=args.scheme,
+            out=args.out,
+            backend=args.backend,
+            frames=args.frames,
+            control_segment=args.control_segment,
+        )
+    except (ValueError, TypeError) as e:  # bad arguments: a usage error, one line
+        if isinstance(e, HarnessError | SceneError):
+            raise
+        raise UsageError(str(e)) from None
     note = (
         ""
         if backend == "mujoco"
@@ -143,12 +233,20 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument(
         "--fp-threshold", type=int, default=0, help="allowed increase in false collisions"
     )
-    sub.add_parser("scenes", help="list the registered scenes")
+    sc = sub.add_parser(
+        "scenes",
+        help="list the registered scenes, or the mocap bodies, geoms and keyframes of FILE",
+    )
+    sc.add_argument("file", nargs="?", default=None, help="an MJCF file to describe")
+    sc.add_argument("--mocap-body", default=None, help="describe only this mocap body")
     sub.add_parser("schemes", help="list motion schemes with measured continuity and invariance")
     pr = sub.add_parser("render", help="write a PNG filmstrip of a scene's motion")
-    pr.add_argument("scene")
+    pr.add_argument("scene", help="a scene name or an MJCF file")
+    pr.add_argument("--mocap-body", default=None, help="the driven mocap body (files with several)")
     pr.add_argument("--scheme", default="rational")
-    pr.add_argument("--out", default=None, help="PNG path (default SCENE_SCHEME.png)")
+    pr.add_argument(
+        "--out", default=None, help="PNG path or folder (default SCENE_SCHEME.png; .png is added)"
+    )
     pr.add_argument("--backend", default="auto", choices=["auto", "mujoco", "matplotlib"])
     pr.add_argument("--frames", type=int, default=6)
     pr.add_argument(
@@ -162,17 +260,15 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    os.environ.setdefault("MUJOCO_GL", "egl")
     handlers = {
         "run": _run,
         "report": _report,
         "compare": _compare,
-        "scenes": lambda a: _scenes(),
+        "scenes": _scenes,
         "schemes": lambda a: _schemes(),
         "render": _render,
     }
     from harness.compare import CompareError
-    from harness.errors import HarnessError, SceneError
 
     try:
         return handlers[args.command](args)
