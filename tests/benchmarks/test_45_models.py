@@ -76,3 +76,66 @@ def test_hull_query_with_and_without_hull_vertex_reduction(benchmark, scene):
         nodes_every=full_c.nodes,
     )
     benchmark.pedantic(lambda: harness.certify(m, body, obst, bound="hull"), rounds=5)
+
+
+def test_extraction_against_mujoco(benchmark):
+    """Time of body_from_model on the example, and (extra_info) the largest differences of
+    the extracted parts from MuJoCo's geom_xpos/geom_xmat and of their distances from
+    mj_geomDistance, over 500 random mocap poses above the table."""
+    from harness.mjdistance import MujocoDistance
+    from harness.sim import obstacle_geoms
+
+    rng = np.random.default_rng(2026)
+    sc = scenes.load("gripper")
+    model = sc.model
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        body = harness.body_from_model(model, "hand")
+        benchmark.pedantic(harness.body_from_model, args=(model, "hand"), rounds=5)
+    obst = harness.obstacles_from_model(model)
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, 0)
+    geoms = subtree_geoms(model, model.body("hand").id)
+    og = obstacle_geoms(model)
+    dirs = rng.normal(size=(500, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    n = 500
+    quats = rng.normal(size=(n, 4))
+    quats /= np.linalg.norm(quats, axis=1, keepdims=True)
+    pos = np.column_stack(
+        [rng.uniform(-0.1, 0.35, n), rng.uniform(-0.15, 0.15, n), rng.uniform(0.03, 0.2, n)]
+    )
+    pose_err = {"mesh": 0.0, "other": 0.0}
+    ref = np.empty((n, len(geoms), len(og)))
+    for k in range(n):
+        data.mocap_pos[0], data.mocap_quat[0] = pos[k], quats[k]
+        mujoco.mj_kinematics(model, data)
+        rot = motions.rotation_matrix(quats[k])
+        for i, (part, g) in enumerate(zip(parts(body), geoms, strict=True)):
+            moved = part.transformed(rot, pos[k])
+            xpos, xmat = data.geom_xpos[g], data.geom_xmat[g].reshape(3, 3)
+            if part.kind == "mesh":
+                m = model.mesh(int(model.geom_dataid[g]))
+                v = np.array(model.mesh_vert[m.vertadr[0] : m.vertadr[0] + m.vertnum[0]])
+                placed = v @ xmat.T + xpos
+                e = np.abs((dirs @ moved.vertices_.T).max(1) - (dirs @ placed.T).max(1)).max()
+                pose_err["mesh"] = max(pose_err["mesh"], float(e))
+            else:
+                e = np.abs(moved.center - xpos).max()
+                if part.kind in ("box", "capsule"):
+                    e = max(e, np.abs(moved.rotation - xmat).max())
+                pose_err["other"] = max(pose_err["other"], float(e))
+            for j, o in enumerate(og):
+                ref[k, i, j] = mujoco.mj_geomDistance(model, data, int(g), int(o), 10.0, None)
+    got = MujocoDistance(body, obst).distances(motions.rotation_matrix(quats), pos, 10.0)
+    mesh = model.geom_type[geoms] == mujoco.mjtGeom.mjGEOM_MESH
+    err = np.abs(got - ref)
+    benchmark.extra_info.update(
+        poses=n,
+        pairs=int(err.size),
+        penetrating_pairs=int((ref < 0).sum()),
+        max_pose_error_primitives=pose_err["other"],
+        max_support_error_meshes=pose_err["mesh"],
+        max_distance_error_meshes=float(err[:, mesh].max()),
+        max_distance_error_primitives=float(err[:, ~mesh].max()),
+    )
