@@ -25,7 +25,7 @@ from ._checks import as_array, short
 from .interpolation import hermite
 from .motion import Motion
 from .quaternion import quat_from_matrix
-from .rational import RationalMotion, _check_bspline, _control_matrices, _ppoly
+from .rational import RationalMotion, _check_bspline, _ppoly, control_matrices
 
 __all__ = [
     "PHCurve",
@@ -99,7 +99,7 @@ def ph_curve(degree: int, knots: Any, quaternions: Any) -> PHCurve:
     qb = base.preimage_pieces
     br = base.breaks
     d = qb.shape[1] - 1
-    hod = _control_matrices(qb, None, None)[:, :, :3, 0]  # (S, 2d+1, 3): U(Q) e1
+    hod = control_matrices(qb, None, None)[:, :, :3, 0]  # (S, 2d+1, 3): U(Q) e1
     m = 2 * d
     s_count = len(br) - 1
     pieces = np.empty((s_count, m + 2, 3))

@@ -27,22 +27,29 @@ from .bernstein import (
     bezier_eval,
     bezier_product,
     bezier_product_weights,
+    bspline_bezier_error,
     bspline_bezier_pieces,
     de_casteljau_split,
     elevate,
 )
 from .errors import DegenerateMotionError, MotionError
 from .motion import Motion, skew, vee
+from .pieces import (
+    SPEED_MARGIN,
+    UNIT_ROUNDOFF,
+    BezierPieces,
+    block_magnitude,
+    gamma,
+    square_lower,
+)
 from .quaternion import U_TENSOR, preimage_kinematics, rotation_matrix
 
-__all__ = ["WEIGHT_REL_TOL", "RationalMotion", "bezier_minimum"]
+__all__ = ["RationalMotion", "bezier_minimum", "control_matrices"]
 
-WEIGHT_REL_TOL = 1e-12
-"""Bézier weights must exceed this fraction of the largest weight (DESIGN §2.4)."""
-MAX_WEIGHT_SPLIT_DEPTH = 30
 _CHUNK = 32768  # times per evaluation chunk: temporaries stay in cache
 FROM_BEZIER_TOL = 1e-10
-SPEED_MARGIN = 1e-9  # relative outward margin on proven speed bounds (round-off)  # relative orthogonality / continuity check of from_bezier
+SPEED_MAX_PIECES = 4096
+"""Pieces a speed bound may split into near a weight dip before it gives up."""
 
 
 def _ppoly(pieces: np.ndarray, breaks: np.ndarray) -> PPoly:
@@ -50,43 +57,43 @@ def _ppoly(pieces: np.ndarray, breaks: np.ndarray) -> PPoly:
     return PPoly.from_bernstein_basis(BPoly(np.moveaxis(pieces, 1, 0), breaks))
 
 
+POWER_TRIM = 1e-11
+"""Leading power coefficients of a derivative below this fraction of its largest one are
+treated as zero: a degree-elevated polynomial's true leading coefficients are zero and
+come out as round-off; dropping a genuine one this small moves values on [0, 1] by at most
+this fraction of the coefficient scale."""
+
+
 def bezier_minimum(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Minimum value and its parameter of scalar Bézier polynomials c (S, n+1) on [0, 1].
 
-    Candidates are the ends and the real roots of the derivative in (0, 1) (companion
-    eigenvalues), so the minimum is exact up to round-off.
+    Candidates are the ends, the real roots in (0, 1) of the derivative (companion
+    eigenvalues of its effective degree, see :data:`POWER_TRIM`) and a 33-point grid, so
+    the minimum is exact up to round-off for polynomials of any stored degree.
     """
     c = np.asarray(c, dtype=float)
     s_count, n1 = c.shape
-    cand = [np.zeros((s_count, 1)), np.ones((s_count, 1))]
+    cand = [np.linspace(0.0, 1.0, 33)[None].repeat(s_count, axis=0)]
     if n1 > 2:
-        # real roots in (0, 1) of the derivative (degree m = n-1): companion eigenvalues
-        coef = bernstein_to_power(bezier_derivative(c, axis=1), axis=1)[:, ::-1]  # highest first
-        m = coef.shape[1] - 1
-        lead = coef[:, 0]
-        ok = np.abs(lead) > 1e-14 * np.abs(coef).max(axis=1).clip(1e-300)
-        roots = np.zeros((s_count, m))
-        if np.any(ok):
-            comp = np.zeros((int(ok.sum()), m, m))
-            comp[:, 0, :] = -coef[ok, 1:] / lead[ok, None]
+        coef = bernstein_to_power(bezier_derivative(c, axis=1), axis=1)  # lowest first
+        scale = np.abs(coef).max(axis=1, keepdims=True).clip(1e-300)
+        live = np.abs(coef) > POWER_TRIM * scale
+        deg = np.where(live.any(axis=1), coef.shape[1] - 1 - np.argmax(live[:, ::-1], axis=1), 0)
+        roots = np.zeros((s_count, coef.shape[1] - 1))
+        for m in np.unique(deg[deg > 0]):
+            sel = deg == m
+            lead = coef[sel, m]
+            comp = np.zeros((int(sel.sum()), m, m))
+            comp[:, 0, :] = -coef[sel, m - 1 :: -1][:, :m] / lead[:, None]
             comp[:, np.arange(1, m), np.arange(m - 1)] = 1.0
             ev = np.linalg.eigvals(comp)
-            roots[ok] = np.clip(np.where(np.abs(ev.imag) < 1e-9, ev.real, 0.0), 0.0, 1.0)
-        # a degenerate leading coefficient: fall back to a sample of the interval
-        roots[~ok] = np.resize(np.linspace(0.0, 1.0, m + 1), m)
+            real = np.where(np.abs(ev.imag) < 1e-9, ev.real, 0.0)
+            roots[np.ix_(sel, np.arange(m))] = np.clip(real, 0.0, 1.0)
         cand.append(roots)
     u = np.concatenate(cand, axis=1)  # (S, C)
     vals = np.einsum("sck,sk->sc", bernstein_basis(n1 - 1, u), c)
     i = np.argmin(vals, axis=1)
     return vals[np.arange(s_count), i], u[np.arange(s_count), i]
-
-
-def _restrict(c: np.ndarray, u0: np.ndarray, u1: np.ndarray, axis: int = 1) -> np.ndarray:
-    """Bézier pieces (B, ..., n+1 on `axis`, ...) restricted to [u0, u1] per batch entry."""
-    left, _ = de_casteljau_split(c, u1, axis=axis)
-    frac = np.where(u1 > 0, u0 / np.where(u1 > 0, u1, 1.0), 0.0)
-    _, right = de_casteljau_split(left, frac, axis=axis)
-    return right
 
 
 class RationalMotion(Motion):
@@ -100,6 +107,11 @@ class RationalMotion(Motion):
         degree: n, polynomial degree of the entries of ``M_h``.
         preimage_degree: d, the degree of the quaternion preimage (None when rebuilt from
             control matrices); the spherical part has degree 2d.
+
+    The motion is the one its generating data define exactly: the preimage (and origin or
+    numerator) B-splines given in floating point, or the control matrices given to
+    :meth:`from_bezier`. :attr:`ctrl_error` bounds how far the computed control matrices
+    are from that motion's exact ones.
     """
 
     scheme = "rational"
@@ -113,6 +125,7 @@ class RationalMotion(Motion):
         numerator: np.ndarray | None = None,
         ctrl: np.ndarray | None = None,
         keyframe_times: np.ndarray | None = None,
+        piece_error: np.ndarray | None = None,
     ):
         breaks = np.asarray(breaks, dtype=float)
         kt = np.empty(0) if keyframe_times is None else np.asarray(keyframe_times, dtype=float)
@@ -123,6 +136,13 @@ class RationalMotion(Motion):
         self._v = numerator
         self._ctrl = ctrl
         self._pp = None
+        # (S, 2) bounds on |computed - exact| of the preimage and translation Bézier
+        # coefficients per segment (B-spline conversion, splits); zero for given pieces.
+        self._piece_error = (
+            np.zeros((breaks.size - 1, 2)) if piece_error is None else np.asarray(piece_error)
+        )
+        self._ctrl_error = None
+        self._positive = None
         if preimage is None and ctrl is None:
             raise MotionError("A RationalMotion needs preimage pieces or control matrices.")
 
@@ -187,11 +207,14 @@ class RationalMotion(Motion):
         if trans is not None:
             breaks = np.unique(np.concatenate([breaks, trans[2]]))
         qb = bspline_bezier_pieces(t, q, d, breaks)
+        err = np.zeros((breaks.size - 1, 2))
+        err[:, 0] = bspline_bezier_error(t, q, d, breaks)
         kwargs: dict[str, np.ndarray] = {}
         if trans is not None:
             kwargs[trans[0]] = bspline_bezier_pieces(trans[2], trans[3], trans[1], breaks)
+            err[:, 1] = bspline_bezier_error(trans[2], trans[3], trans[1], breaks)
         kt = None if keyframe_times is None else as_array(keyframe_times, "keyframe_times", ndim=1)
-        return cls(breaks, preimage=qb, keyframe_times=kt, **kwargs)
+        return cls(breaks, preimage=qb, keyframe_times=kt, piece_error=err, **kwargs)
 
     @classmethod
     def from_bezier(cls, breaks: Any, ctrl: Any, *, keyframe_times: Any = None) -> RationalMotion:
@@ -288,9 +311,57 @@ class RationalMotion(Motion):
     def ctrl(self) -> np.ndarray:
         """(S, n+1, 4, 4) homogeneous control matrices (computed once, read-only)."""
         if self._ctrl is None:
-            self._ctrl = _control_matrices(self._q, self._p, self._v)
+            self._ctrl = control_matrices(self._q, self._p, self._v)
             self._ctrl.setflags(write=False)
         return self._ctrl
+
+    @property
+    def ctrl_error(self) -> np.ndarray:
+        """(S, 3) absolute bounds on |computed - exact| of any entry of the A block, the b
+        column and the weight of each segment's control matrices (read-only).
+
+        Zero for control matrices given to :meth:`from_bezier`. From preimage pieces:
+        every entry is a polynomial in the preimage and translation coefficients with the
+        coefficients of ``U_TENSOR`` and of Bernstein products, so with ``f_abs`` the same
+        polynomial of absolute values, ``|f(x + e) - f(x)| <= f_abs(|x| + |e|) - f_abs(|x|)``
+        bounds the effect of the coefficient errors ``e``, and ``γ_m f_abs`` the rounding of
+        the ``m`` operations that compute it (m counted generously from the degrees).
+        """
+        if self._ctrl_error is None:
+            if self._q is None:
+                err = np.zeros((self.segments, 3))
+            else:
+                eq, et = self._piece_error[:, 0], self._piece_error[:, 1]
+                ab = [np.abs(x) if x is not None else None for x in (self._q, self._p, self._v)]
+                lo = control_matrices(*ab, absolute=True)
+                hi_in = [
+                    x + e[:, None, None] if x is not None else None
+                    for x, e in zip(ab, (eq, et, et), strict=True)
+                ]
+                hi = control_matrices(*hi_in, absolute=True)
+                ops = 3 * (lo.shape[1] + self._q.shape[1]) + 40
+                diff = hi * (1.0 + gamma(ops)) - lo
+                err = np.stack(
+                    [
+                        diff[:, :, :3, :3].max(axis=(1, 2, 3)),
+                        diff[:, :, :3, 3].max(axis=(1, 2)),
+                        diff[:, :, 3, 3].max(axis=1),
+                    ],
+                    axis=1,
+                )
+            err.setflags(write=False)
+            self._ctrl_error = err
+        return self._ctrl_error
+
+    def positive_pieces(self) -> BezierPieces:
+        """The segments split until every weight is provably positive (computed once).
+
+        See :meth:`motions.pieces.BezierPieces.positive`; raises
+        :class:`DegenerateMotionError` where ``u0`` vanishes.
+        """
+        if self._positive is None:
+            self._positive = BezierPieces.from_motion(self).positive(names=["the motion"])
+        return self._positive
 
     def bezier_form(self) -> tuple[np.ndarray, np.ndarray]:
         """``(breaks (S+1,), ctrl (S, n+1, 4, 4))``, exact control matrices (eq. (27)–(28)).
@@ -461,11 +532,24 @@ class RationalMotion(Motion):
             k: cut(v)
             for k, v in (("preimage", self._q), ("origin", self._p), ("numerator", self._v))
         }
-        ctrl = cut(self._ctrl)
+        # From preimage pieces the halves recompute their control matrices; the cut
+        # segment's coefficients gain the rounding of one de Casteljau split (weights
+        # 1 - u and u, k levels: γ_{4(k+1)} of their magnitude). Control matrices given
+        # to from_bezier are the halves' own data.
+        ctrl = cut(self._ctrl) if self._q is None else (None, None)
+        err = self._piece_error.copy()
+        if self._q is not None and not at_break:
+            trans = self._p if self._p is not None else self._v
+            mags = [np.abs(self._q[s]).max(), 0.0 if trans is None else np.abs(trans[s]).max()]
+            k = max(self._q.shape[1], 1 if trans is None else trans.shape[1])
+            err[s] += gamma(4 * k) * (np.array(mags) + err[s])
+        errs = (err[: s + 1], err[s:]) if not at_break else (err[:s], err[s:])
         for side, br in ((0, bl), (1, brr)):
             kw = {k: v[side] for k, v in parts.items()}
             keep = kt[(kt >= br[0]) & (kt <= br[-1])]
-            out.append(type(self)(br, ctrl=ctrl[side], keyframe_times=keep, **kw))
+            out.append(
+                type(self)(br, ctrl=ctrl[side], keyframe_times=keep, piece_error=errs[side], **kw)
+            )
         return out[0], out[1]
 
     # ------------------------------------------------------------------ control structures
@@ -473,68 +557,42 @@ class RationalMotion(Motion):
         """(S, n+1) Bézier weights ``ctrl[s, i, 3, 3]``."""
         return np.array(self.ctrl[:, :, 3, 3])
 
-    def weights_positive(self, rel_tol: float = WEIGHT_REL_TOL) -> np.ndarray:
-        """(S,) True where every Bézier weight exceeds ``rel_tol * max |w|`` (seed §6.3)."""
-        w = self.weights()
-        return np.all(w > rel_tol * np.abs(w).max(), axis=1)
+    def weights_positive(self) -> np.ndarray:
+        """(S,) True where every Bézier weight is provably positive: ``w_i > E_w``, the
+        error bound of :attr:`ctrl_error` (seed §6.3)."""
+        return np.all(self.ctrl[:, :, 3, 3] > self.ctrl_error[:, 2:3], axis=1)
 
     def weight_minimum(self) -> tuple[np.ndarray, np.ndarray]:
-        """Exact minimum of the weight ``M_h[3, 3]`` per segment: (values (S,), times (S,))."""
-        vals, u = bezier_minimum(self.ctrl[:, :, 3, 3])
+        """Minimum of the weight ``u0(t) = M_h[3, 3]`` per segment: (values (S,), times (S,)).
+
+        Through the preimage, ``u0 = |Q|^2`` is a polynomial of degree 2d whose minimum is
+        found exactly (roots of its derivative); the control matrices' weights carry the
+        same polynomial degree-elevated, whose leading power coefficients are round-off.
+        """
+        if self._q is not None:
+            c = bezier_product(self._q, self._q, axis=1).sum(axis=2)
+        else:
+            c = self.ctrl[:, :, 3, 3]
+        vals, u = bezier_minimum(c)
         h = np.diff(self._breaks)
         return vals, self._breaks[:-1] + u * h
 
-    def split_positive(
-        self, rel_tol: float = WEIGHT_REL_TOL, max_depth: int = MAX_WEIGHT_SPLIT_DEPTH
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Split segments until every Bézier weight is positive (seed §6.3).
+    def split_positive(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Split segments until every Bézier weight is provably positive (seed §6.3).
+
+        The one positivity splitter (:meth:`motions.pieces.BezierPieces.positive`) that
+        the certifier and the swept boxes use too.
 
         Returns:
             intervals (P, 2) time intervals, ctrl (P, n+1, 4, 4) control matrices on them,
             and source (P,) the segment each piece came from. Pieces are in time order.
 
         Raises:
-            DegenerateMotionError: if the weight vanishes (u0 has a root) on a segment, or
-                positivity is not reached within `max_depth` halvings.
+            DegenerateMotionError: where ``u0`` vanishes or has a root (named by time), or
+                positivity is not proven within the depth limit.
         """
-        ctrl = np.array(self.ctrl)
-        wmax = np.abs(ctrl[:, :, 3, 3]).max()
-        thr = rel_tol * wmax
-        lo = self._breaks[:-1].copy()
-        hi = self._breaks[1:].copy()
-        src = np.arange(self.segments)
-        done_i, done_c, done_s = [], [], []
-        for _depth in range(max_depth + 1):
-            w = ctrl[:, :, 3, 3]
-            good = np.all(w > thr, axis=1)
-            done_i.append(np.stack([lo[good], hi[good]], 1))
-            done_c.append(ctrl[good])
-            done_s.append(src[good])
-            bad = ~good
-            if not np.any(bad):
-                break
-            ctrl, lo, hi, src = ctrl[bad], lo[bad], hi[bad], src[bad]
-            ends = np.minimum(ctrl[:, 0, 3, 3], ctrl[:, -1, 3, 3])
-            if np.any(ends <= thr):
-                i = int(np.argmin(ends))
-                tbad = lo[i] if ctrl[i, 0, 3, 3] <= thr else hi[i]
-                raise DegenerateMotionError(
-                    f"The motion's weight u0 vanishes (u0 <= {rel_tol:g} * max) at t = {tbad!r}"
-                    f" on segment {int(src[i])}; its control structure is unbounded there."
-                )
-            left, right = de_casteljau_split(ctrl, 0.5, axis=1)
-            mid = 0.5 * (lo + hi)
-            ctrl = np.concatenate([left, right])
-            lo, hi = np.concatenate([lo, mid]), np.concatenate([mid, hi])
-            src = np.concatenate([src, src])
-        else:
-            raise DegenerateMotionError(
-                f"Bézier weights of segment(s) {sorted(set(src.tolist()))} stay non-positive after"
-                f" {max_depth} halvings; u0 has a root or a near-root there."
-            )
-        iv = np.concatenate(done_i)
-        order = np.argsort(iv[:, 0], kind="stable")
-        return iv[order], np.concatenate(done_c)[order], np.concatenate(done_s)[order]
+        pc = self.positive_pieces()
+        return np.stack([pc.t0, pc.t1], axis=1), np.array(pc.ctrl), pc.segment.copy()
 
     def affine_control_structure(self) -> tuple[np.ndarray, np.ndarray]:
         """Affine control and Farin positions (seed §6.3) as (S, n+1, 3, 4) and (S, n, 3, 4).
@@ -593,66 +651,132 @@ class RationalMotion(Motion):
     def speed_bound(self, t0: float, t1: float, radius: float) -> float:
         """Proven bound on the speed of every point within `radius` of the body origin.
 
-        From Bernstein coefficients: the velocity of body point x is
-        ``((A' w - A w') x + (b' w - b w')) / w^2``; the norm of a Bézier polynomial is at
-        most the largest coefficient norm, and ``w^2`` at least its smallest coefficient
-        (pieces are halved until that is positive).
+        The velocity of body point x is ``(N_A x + N_b) / w^2`` with the numerator
+        ``N = M' w - M w'`` (M = [A | b]), a Bézier polynomial of degree 2n - 1 computed on
+        whole segments (derivatives of short pieces would cancel), then restricted to the
+        interval (widened to cover it). On a piece, ``|N(t)| <= max_i |N_i|`` (convex
+        hull) and ``w(t) >= min_i w_i``. Every coefficient carries its round-off bound
+        (from :attr:`ctrl_error`, the products and the restriction), added to the
+        numerator and subtracted from the weight; pieces whose weight is not provably
+        positive are halved (at most :data:`SPEED_MAX_PIECES` of them).
+
+        Raises:
+            DegenerateMotionError: where the weight cannot be bounded away from zero.
         """
         a, b, r = self._check_interval(t0, t1, radius)
         br = self._breaks
-        if b == a:
-            b = min(a + 1e-12 * (br[-1] - br[0]), br[-1])
-            a = b - 1e-12 * (br[-1] - br[0])
         s0 = int(np.clip(np.searchsorted(br, a, side="right") - 1, 0, self.segments - 1))
         s1 = int(np.clip(np.searchsorted(br, b, side="left") - 1, 0, self.segments - 1))
-        segs = np.arange(s0, s1 + 1)
+        segs = np.arange(s0, max(s0, s1) + 1)
         h = br[segs + 1] - br[segs]
         u0 = np.clip((a - br[segs]) / h, 0.0, 1.0)
         u1 = np.clip((b - br[segs]) / h, 0.0, 1.0)
-        keep = u1 > u0
+        keep = (u1 > u0) | (np.arange(segs.size) == 0)  # an instant: its one segment
         segs, h, u0, u1 = segs[keep], h[keep], u0[keep], u1[keep]
-        # Velocity numerator and squared weight on whole segments first (derivatives of
-        # restricted pieces would cancel catastrophically on short intervals), then
-        # restrict both polynomials to [u0, u1] by de Casteljau.
         c = np.array(self.ctrl[segs])
+        n = c.shape[1] - 1
+        e = self.ctrl_error[segs]
+        mag = block_magnitude(c) + e  # (P, 3): A, b, w
         m, w = c[..., :3, :], c[..., 3, 3]
         num = bezier_product(
             bezier_derivative(m, axis=1), w[..., None, None], axis=1
         ) - bezier_product(m, bezier_derivative(w, axis=1)[..., None, None], axis=1)
-        w2 = bezier_product(w, w, axis=1)
-        num = _restrict(num, u0, u1)
-        w2 = _restrict(w2, u0, u1)
+        # |d(fg)| <= F (E_f (M_g + E_g) + (M_f + E_f) E_g) per product (F = 2n bounds the
+        # derivative's coefficients), two products, plus their rounding.
+        f = 2.0 * max(n, 1)
+        g_err = (
+            2 * f * (e[:, :2] * mag[:, 2:] + mag[:, :2] * e[:, 2:])
+            + gamma(3 * n + 8) * f * mag[:, :2] * mag[:, 2:]
+        )
+        tab = np.concatenate(  # (P, 2n, 12): the A block (9) then the b column (3)
+            [num[..., :3].reshape(len(segs), 2 * n, 9), num[..., 3]], axis=2
+        )
+        err = np.concatenate([g_err, e[:, 2:]], axis=1)  # (P, 3): N_A, N_b, w
+        # restrict numerator and weight to [u0, u1], widened to cover it
+        u0c = np.maximum(0.0, u0 - 4.0 * UNIT_ROUNDOFF)
+        u1c = np.minimum(1.0, u1 + 4.0 * UNIT_ROUNDOFF)
+        numr = _restrict(tab, u0c, u1c)
+        wr = _restrict(w, u0c, u1c)
+        mags = np.stack(
+            [
+                np.abs(tab[..., :9]).max(axis=(1, 2)),
+                np.abs(tab[..., 9:]).max(axis=(1, 2)),
+                mag[:, 2],
+            ],
+            axis=1,
+        )
+        err = err + gamma(16 * (2 * n + 1)) * (mags + err)
         best = 0.0
-        for _ in range(40):
-            w2min = w2.min(axis=1)
-            ok = w2min > 0
+        for _ in range(64):
+            wl = square_lower(wr, err[:, 2])
+            ok = wl > 0
             if np.any(ok):
-                g = num[ok]
-                gn = np.linalg.norm(g[..., :3], ord=2, axis=(-2, -1)) * r + np.linalg.norm(
-                    g[..., 3], axis=-1
-                )
-                best = max(best, float((gn.max(axis=1) / w2min[ok] / h[ok]).max()))
+                na = np.linalg.norm(numr[ok, :, :9].reshape(-1, 3, 3), ord=2, axis=(1, 2))
+                nb = np.linalg.norm(numr[ok, :, 9:12], axis=-1).reshape(-1)
+                gn = (r * na + nb).reshape(int(ok.sum()), -1).max(axis=1)
+                gn = gn + r * 3.0 * err[ok, 0] + np.sqrt(3.0) * err[ok, 1]
+                speed = gn / wl[ok] / h[ok]
+                best = max(best, float(speed.max()))
             if np.all(ok):
+                # the norms and the division round too: a relative margin covers them
                 return best * (1.0 + SPEED_MARGIN) + 1e-300
-            num, w2, h = num[~ok], w2[~ok], h[~ok]
-            nl, nr = de_casteljau_split(num, 0.5, axis=1)
-            wl, wr = de_casteljau_split(w2, 0.5, axis=1)
-            num, w2, h = np.concatenate([nl, nr]), np.concatenate([wl, wr]), np.concatenate([h, h])
+            numr, wr, err, h = numr[~ok], wr[~ok], err[~ok], h[~ok]
+            if 2 * len(numr) > SPEED_MAX_PIECES:
+                break
+            mags = np.stack(
+                [
+                    np.abs(numr[..., :9]).max(axis=(1, 2)),
+                    np.abs(numr[..., 9:12]).max(axis=(1, 2)),
+                    np.abs(wr).max(axis=1),
+                ],
+                1,
+            )
+            err = err + np.concatenate(
+                [
+                    gamma(2 * n) * (mags[:, :2] + err[:, :2]),
+                    gamma(n + 1) * (mags[:, 2:] + err[:, 2:]),
+                ],
+                axis=1,
+            )
+            nl, nr = de_casteljau_split(numr, 0.5, axis=1)
+            wl_, wr_ = de_casteljau_split(wr, 0.5, axis=1)
+            numr, wr = np.concatenate([nl, nr]), np.concatenate([wl_, wr_])
+            err, h = np.concatenate([err, err]), np.concatenate([h, h])
         raise DegenerateMotionError(
-            f"The weight of the motion vanishes on [{t0!r}, {t1!r}]; no finite speed bound."
+            f"The weight of the motion cannot be bounded away from zero on [{t0!r}, {t1!r}]"
+            " in floating point; no finite speed bound."
         )
 
 
-def _control_matrices(q: np.ndarray, p: np.ndarray | None, v: np.ndarray | None) -> np.ndarray:
+def _restrict(c: np.ndarray, u0: np.ndarray, u1: np.ndarray) -> np.ndarray:
+    """Bézier coefficients (B, n+1, ...) restricted to [u0, u1] per batch entry."""
+    left, _ = de_casteljau_split(c, u1, axis=1)
+    frac = np.divide(u0, u1, out=np.zeros_like(u0), where=u1 > 0)
+    _, right = de_casteljau_split(left, frac, axis=1)
+    return right
+
+
+def control_matrices(
+    q: np.ndarray, p: np.ndarray | None, v: np.ndarray | None, *, absolute: bool = False
+) -> np.ndarray:
     """Exact control matrices (S, n+1, 4, 4) from preimage and translation pieces.
 
     ``U`` and ``u0`` are quadratic in Q, so their Bernstein coefficients of degree 2d are
     ``sum_{i+j=k} C(d,i) C(d,j) / C(2d,k) T(B_i, B_j)`` with T the polarised map.
+
+    Args:
+        q: (S, d+1, 4) Bézier control quaternions of the preimage per segment.
+        p: (S, k+1, 3) origin pieces (``v = u0 p``), or None.
+        v: (S, m+1, 3) numerator pieces, or None (exclusive with `p`).
+        absolute: use the absolute values of the coefficients of ``U_TENSOR`` (with
+            non-negative inputs this gives the magnitude polynomial of the round-off
+            analysis in :attr:`RationalMotion.ctrl_error`).
     """
     d = q.shape[1] - 1
     w = bezier_product_weights(d, d)
+    tensor = np.abs(U_TENSOR) if absolute else U_TENSOR
     outer = np.einsum("ijk,sia,sjb->skab", w, q, q)  # (S, 2d+1, 4, 4)
-    uc = np.einsum("jkab,snab->snjk", U_TENSOR, outer)  # (S, 2d+1, 3, 3)
+    uc = np.einsum("jkab,snab->snjk", tensor, outer)  # (S, 2d+1, 3, 3)
     u0c = np.einsum("snaa->sn", outer)  # (S, 2d+1)
     if p is not None:
         k = p.shape[1] - 1
