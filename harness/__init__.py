@@ -2,7 +2,8 @@
 the MuJoCo driver, the benchmark runner, reports and the CLI."""
 
 # No import side effects: harness.render chooses the OpenGL backend when it draws.
-from .certify import BOUNDS, Certificate, certify, certify_many, swept_aabbs
+from .certification import BOUNDS, Certificate, certify, certify_many
+from .certification.swept import swept_aabbs
 from .errors import (
     DegenerateMeshError,
     HarnessError,

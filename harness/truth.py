@@ -15,8 +15,9 @@ import numpy as np
 
 from motions import Motion
 
-from .bounds import ShapeTable, pose_rows
-from .certify import Certificate, _obstacle_lists, _pose_ctrl
+from .certification.advance import pose_matrices, pose_rows
+from .certification.api import Certificate, obstacle_lists
+from .certification.tables import ShapeTable
 from .errors import NoSpeedBoundError
 from .mjdistance import CCD_TOLERANCE, MujocoDistance
 from .shapes import Shape, as_shape, parts
@@ -45,21 +46,17 @@ def sample_distances(
         return d, d, (MESH_EPS if has_mesh else CCD_TOLERANCE) * scale
     if method == "gjk":
         table = ShapeTable.build([body, *obstacles])
-        bparts = np.flatnonzero(table.owner == 0)
-        oparts = np.flatnonzero(table.owner > 0)
+        bparts = np.arange(table.offsets[0], table.offsets[1])
+        oparts = np.arange(table.offsets[1], table.offsets[-1])
         bp = np.repeat(bparts, len(oparts))
         op = np.tile(oparts, len(bparts))
-        poses = _pose_ctrl(r, p)
+        poses = pose_matrices(r, p)
         rows = np.repeat(np.arange(len(t)), len(bp))
-        ub, lb, ov, _ = pose_rows(
-            np.ascontiguousarray(poses[rows]), 0, np.tile(bp, len(t)), np.tile(op, len(t)), table
+        # the bracket is widened by each pose's round-off margin: ub < 0 is a proof
+        ub, lb, _x, _ = pose_rows(
+            np.ascontiguousarray(poses[rows]), np.tile(bp, len(t)), np.tile(op, len(t)), table
         )
-        # overlapping cores: intersecting, depth unknown (count it as just below -ε)
-        ub = (
-            np.where(ov, np.minimum(ub, -2e-12 * (1.0 + np.abs(p).max())), ub)
-            .reshape(len(t), -1)
-            .min(axis=1)
-        )
+        ub = ub.reshape(len(t), -1).min(axis=1)
         lb = lb.reshape(len(t), -1).min(axis=1)
         scale = 1.0 + np.abs(p).max() + body.bounding_radius
         return lb, ub, 1e-12 * scale
@@ -95,7 +92,7 @@ def ground_truth(
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     body = as_shape(body)
-    obst = _obstacle_lists(obstacles, 1)[0]
+    obst = obstacle_lists(obstacles, 1)[0]
     try:
         res = float(resolution)
     except (TypeError, ValueError):

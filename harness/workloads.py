@@ -19,8 +19,8 @@ import numpy as np
 import motions
 from motions.quaternion import qexp, qmul
 
-from .bounds import ShapeTable, pose_rows
-from .certify import _pose_ctrl
+from .certification.advance import pose_matrices, pose_rows
+from .certification.tables import ShapeTable
 from .mjdistance import MujocoDistance
 from .shapes import Box, Capsule, Shape, Sphere
 
@@ -72,16 +72,15 @@ def min_clearance(
     the best sample, batched through the pose kernel. Overlapping poses give -inf."""
     table = ShapeTable.build(list(bodies) + list(obstacles))
     nb = len(bodies)
-    bpart = np.array([np.flatnonzero(table.owner == i)[0] for i in range(nb)])
-    opart = np.array([np.flatnonzero(table.owner == nb + i)[0] for i in range(len(obstacles))])
+    bpart = table.offsets[:nb]
+    opart = table.offsets[nb:-1]
 
     def dist(tt: np.ndarray):  # tt (P, T) -> distances (P, T), directions (P, T, 3)
-        poses = np.zeros((tt.size, 1, 4, 4))
+        poses = np.zeros((tt.size, 4, 4))
         for i, m in enumerate(ms):
-            r, p = m.pose(tt[i])
-            poses[i * tt.shape[1] : (i + 1) * tt.shape[1]] = _pose_ctrl(r, p)
+            poses[i * tt.shape[1] : (i + 1) * tt.shape[1]] = pose_matrices(*m.pose(tt[i]))
         ub, _, ov, d = pose_rows(
-            poses, 0, np.repeat(bpart, tt.shape[1]), np.repeat(opart, tt.shape[1]), table
+            poses, np.repeat(bpart, tt.shape[1]), np.repeat(opart, tt.shape[1]), table
         )
         return np.where(ov, -np.inf, ub).reshape(tt.shape), d.reshape(*tt.shape, 3)
 
@@ -255,10 +254,7 @@ def scaling_costs(delta: float, n_motions: int = 6, seed: int = 7) -> list[dict]
     depth where every piece clears; censored at UNIFORM_DEPTH_CAP), and adaptive
     subdivision (certify_many nodes with tolerance δ).
     """
-    from motions.rational import _restrict
-
-    from .bounds import bound_rows
-    from .certify import _positive_pieces, certify_many
+    from .certification import certify, certify_many
 
     w = certify_workload(n_motions, seed=seed, free_fraction=1.0, lo=2 * delta, hi=2 * delta)
     samples = sum(
@@ -266,35 +262,28 @@ def scaling_costs(delta: float, n_motions: int = 6, seed: int = 7) -> list[dict]
         for m, b in zip(w.motions, w.bodies, strict=True)
     )
     rows = [{"method": "uniform sampling", "cost": float(samples)}]
-    for aabb in (False, True):
+    for bound in ("hull", "aabb"):
         total, censored = 0, False
         t0 = time.perf_counter()
         for m, b, o in zip(w.motions, w.bodies, w.obstacles, strict=True):
-            table = ShapeTable.build([b, *o])
-            ctrl, *_ = _positive_pieces([m])
-            for depth in range(UNIFORM_DEPTH_CAP + 1):
-                n = 2**depth
-                seg = np.repeat(np.arange(len(ctrl)), n)
-                u = np.tile(np.arange(n) / n, len(ctrl))
-                pieces = np.ascontiguousarray(_restrict(ctrl[seg], u, u + 1 / n))
-                rows_n = len(seg)
-                clear, *_ = bound_rows(
-                    pieces,
-                    np.zeros(rows_n, int),
-                    np.ones(rows_n, int),
-                    table,
-                    np.zeros((rows_n, 3)),
-                    np.full(rows_n, depth),
-                    aabb=aabb,
+            table = m.positive_pieces()
+            for _depth in range(UNIFORM_DEPTH_CAP + 1):
+                # every piece of the uniform subdivision at this depth, tested at depth 0
+                uniform = motions.RationalMotion.from_bezier(
+                    np.append(table.t0, table.t1[-1]), table.ctrl
                 )
-                if clear.all():
+                if (
+                    certify(uniform, b, o, bound=bound, tolerance=delta, max_depth=0).verdict
+                    == "free"
+                ):
                     break
+                table = table.halve()
             else:
                 censored = True
-            total += rows_n
+            total += len(table)
         rows.append(
             {
-                "method": f"uniform subdivision ({'aabb' if aabb else 'hull'})",
+                "method": f"uniform subdivision ({bound})",
                 "cost": float(total),
                 "censored": censored,
                 "seconds": time.perf_counter() - t0,

@@ -1,8 +1,11 @@
 """Warp kernels against their numpy oracles, on every available device; swept-volume
-containment; and the kernel module compiled in a subprocess (STYLE rule 13)."""
+containment; margins that cover round-off; and the kernel modules compiled in a
+subprocess (STYLE rule 13)."""
 
 from __future__ import annotations
 
+import itertools
+import os
 import subprocess
 import sys
 
@@ -11,19 +14,20 @@ import pytest
 
 import motions
 from harness import Box, Capsule, ConvexMesh, Sphere, swept_aabbs
-from harness.bounds import (
-    ShapeTable,
-    aabb_dispatch,
-    aabb_rows,
-    aabb_rows_numpy,
-    bound_rows,
-    hull_gap_numpy,
-    pose_rows,
-    split_rows,
-    split_rows_numpy,
-)
+from harness.certification import probes
+from harness.certification.advance import pose_matrices, pose_rows
+from harness.certification.tables import ShapeTable
 from harness.mjdistance import MujocoDistance
 from motions.schemes import demo_keyframes
+
+KERNEL_MODULES = (
+    "harness.certification._refine_kernels",
+    "harness.certification._advance_kernels",
+    "harness.certification._probe_kernels",
+)
+ROUND = 1e-13
+"""Relative agreement of two float64 evaluations of the same formula in different
+orders (a few hundred roundings of magnitude-1 terms)."""
 
 
 def devices() -> list[str]:
@@ -37,21 +41,16 @@ def devices() -> list[str]:
 DEVICES = devices()
 
 
-def test_kernel_module_compiles_in_a_subprocess(tmp_path):
+def test_kernel_modules_compile_in_a_subprocess(tmp_path):
     # A Warp/LLVM abort while compiling float64 kernels kills the process; isolate it.
-    code = (
-        "import warp as wp; wp.config.quiet = True; wp.init();"
-        "import harness._kernels as k; wp.load_module(k, device='cpu'); print('ok')"
+    loads = "; ".join(
+        f"import {m} as k{i}; wp.load_module(k{i}, device='cpu')"
+        for i, m in enumerate(KERNEL_MODULES)
     )
-    env = {"WARP_CACHE_PATH": str(tmp_path)}  # a cold cache: really compile
-    import os
-
+    code = f"import warp as wp; wp.config.quiet = True; wp.init(); {loads}; print('ok')"
+    env = {**os.environ, "WARP_CACHE_PATH": str(tmp_path)}  # a cold cache: really compile
     proc = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        env={**os.environ, **env},
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=900, env=env
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip().endswith("ok")
@@ -65,9 +64,13 @@ def motion():
 
 @pytest.fixture(scope="module")
 def pieces(motion):
-    _iv, ctrl, _ = motion.split_positive()
-    left, right = split_rows_numpy(ctrl)
-    return np.ascontiguousarray(np.concatenate([ctrl, left, right]))
+    """Positive pieces, their halves and quarters, with their error bounds."""
+    t = motion.positive_pieces()
+    h = t.halve()
+    q = h.halve()
+    ctrl = np.concatenate([t.ctrl, h.ctrl, q.ctrl])
+    err = np.concatenate([t.error, h.error, q.error])
+    return ctrl, err
 
 
 BODIES = [
@@ -76,30 +79,6 @@ BODIES = [
     Capsule(0.1, 0.3, center=[0.0, 0.1, 0.0], rotation=[0.7, 0.7, 0.1, 0.0]),
     ConvexMesh(np.random.default_rng(3).normal(size=(30, 3)) * [0.3, 0.2, 0.1]),
 ]
-
-
-@pytest.mark.parametrize("device", DEVICES)
-def test_split_kernel_equals_numpy(device, pieces):
-    left, right = split_rows(pieces, device)
-    lref, rref = split_rows_numpy(pieces)
-    np.testing.assert_allclose(left, lref, rtol=0, atol=1e-14 * np.abs(pieces).max())
-    np.testing.assert_allclose(right, rref, rtol=0, atol=1e-14 * np.abs(pieces).max())
-
-
-@pytest.mark.parametrize("device", DEVICES)
-@pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
-def test_aabb_kernel_equals_numpy(device, body, pieces):
-    table = ShapeTable.build([body], device)
-    lo, hi = aabb_rows(pieces, np.zeros(len(pieces), dtype=np.int32), table)
-    lref, href = aabb_rows_numpy(pieces, body)
-    np.testing.assert_allclose(lo, lref, atol=1e-12)
-    np.testing.assert_allclose(hi, href, atol=1e-12)
-    for path in ("numpy", "warp", None):
-        a, b = aabb_dispatch(pieces, body, path=path)
-        np.testing.assert_allclose(a, lref, atol=1e-12)
-        np.testing.assert_allclose(b, href, atol=1e-12)
-
-
 OBSTACLES = [
     Box([0.5, 0.4, 0.3], center=[1.0, 2.0, 0.5], rotation=[0.8, 0.2, 0.1, 0.5]),
     Sphere(0.4, center=[2.0, 1.0, 1.0]),
@@ -109,63 +88,97 @@ OBSTACLES = [
 
 
 @pytest.mark.parametrize("device", DEVICES)
-@pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
-def test_bound_kernel_gap_is_the_oracle_gap(device, body, pieces):
-    table = ShapeTable.build([body, *OBSTACLES], device)
-    n = len(pieces)
-    for k in range(1, len(OBSTACLES) + 1):
-        bi = np.zeros(n, dtype=np.int32)
-        oi = np.full(n, k, dtype=np.int32)
-        clear, gap, d = bound_rows(
-            pieces, bi, oi, table, np.zeros((n, 3)), np.zeros(n, dtype=np.int32)
-        )
-        oracle = hull_gap_numpy(pieces, body, OBSTACLES[k - 1], d)
-        # the kernel's gap is the oracle's gap along its direction, less a tiny margin
-        assert np.all(gap <= oracle + 1e-12)
-        np.testing.assert_allclose(gap, oracle, atol=1e-9)
-        assert np.all(oracle[clear] > 0), "a clear row must be separated along its direction"
-        # aabb mode: the box of the control positions is also separated when clear
-        clear_a, gap_a, d_a = bound_rows(
-            pieces, bi, oi, table, np.zeros((n, 3)), np.zeros(n, dtype=np.int32), aabb=True
-        )
-        lo, hi = aabb_rows_numpy(pieces, body)
-        box_h = np.where(d_a >= 0, hi, lo)
-        oracle_a = -OBSTACLES[k - 1].h(-d_a) - np.einsum("ij,ij->i", box_h, d_a)
-        np.testing.assert_allclose(gap_a, oracle_a, atol=1e-9)
-        assert np.all(clear_a <= clear + 0), (
-            "the hull is inside the AABB: AABB-clear implies hull-clear"
-        )
+def test_halve_kernel_equals_numpy(device, pieces):
+    ctrl, _ = pieces
+    left, right = probes.halve_rows(ctrl, device)
+    lref, rref = probes.halve_numpy(ctrl)
+    scale = np.abs(ctrl).max()
+    np.testing.assert_allclose(left, lref, rtol=0, atol=ROUND * scale)
+    np.testing.assert_allclose(right, rref, rtol=0, atol=ROUND * scale)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_eval_kernel_equals_numpy_within_its_error_bound(device, pieces, rng):
+    ctrl, _ = pieces
+    u = np.concatenate([[0.0, 1.0], rng.uniform(0, 1, len(ctrl) - 2)])
+    got, err = probes.eval_rows(ctrl, u, device)
+    ref = probes.eval_numpy(ctrl, u)
+    diff = np.abs(got - ref)
+    # the returned bound covers the difference, block by block
+    assert np.all(diff[:, :3, :3].max(axis=(1, 2)) <= err[:, 0] + 1e-300)
+    assert np.all(diff[:, :3, 3].max(axis=1) <= err[:, 1] + 1e-300)
+    assert np.all(diff[:, 3, 3] <= err[:, 2] + 1e-300)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=ROUND * np.abs(ctrl).max())
 
 
 @pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
-def test_pose_kernel_matches_mujoco(device, body, motion, rng):
+def test_prepare_kernel_equals_numpy(device, body, pieces):
+    ctrl, err = pieces
+    got = probes.prepare_rows(ctrl, err, body, device)
+    ref = probes.prepare_numpy(ctrl, err, body)
+    assert np.array_equal(got["ok"].astype(bool), ref["ok"])
+    scale = 1 + np.abs(ref["hi"]).max()
+    for key in ("lo", "hi", "extent"):
+        np.testing.assert_allclose(got[key], ref[key], rtol=0, atol=ROUND * scale)
+    np.testing.assert_allclose(got["margin"], ref["margin"], rtol=1e-9)
+    assert np.all(got["margin"] > 0)
+
+
+@pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
+def test_node_box_contains_sampled_positions(body, motion):
+    # the box `_prepare` computes (plus its margin) holds every position on the piece
+    t = motion.positive_pieces().halve()
+    got = probes.prepare_rows(t.ctrl, t.error, body)
+    pts = body.sample_points(100)
+    for a, b, lo, hi, m in zip(t.t0, t.t1, got["lo"], got["hi"], got["margin"], strict=True):
+        x = motion.transform(pts, np.linspace(a, b, 17)).reshape(-1, 3)
+        assert np.all(x >= lo - m) and np.all(x <= hi + m)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
+def test_hull_gap_kernel_is_the_oracle_gap(device, body, pieces):
+    ctrl, _ = pieces
+    for obstacle in OBSTACLES:
+        clear, gap, d = probes.hull_gap_rows(ctrl, body, obstacle, device=device)
+        oracle = probes.hull_gap_numpy(ctrl, body, obstacle, d)
+        np.testing.assert_allclose(gap, oracle, atol=1e-9)
+        assert np.all(oracle[clear] > 0), "a clear row must be separated along its direction"
+        clear_a, _gap_a, d_a = probes.hull_gap_rows(ctrl, body, obstacle, aabb=True, device=device)
+        lo = probes.prepare_numpy(ctrl, np.zeros((len(ctrl), 3)), body)["lo"]
+        hi = probes.prepare_numpy(ctrl, np.zeros((len(ctrl), 3)), body)["hi"]
+        box_h = np.where(d_a >= 0, hi, lo)
+        oracle_a = -obstacle.h(-d_a) - np.einsum("ij,ij->i", box_h, d_a)
+        assert np.all(oracle_a[clear_a] > 0)
+        assert np.all(clear_a <= clear), "the hull is inside the box: box-clear implies hull-clear"
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
+def test_pose_kernel_brackets_mujoco(device, body, motion):
     t = np.linspace(*motion.domain, 60)
     r, p = motion.pose(t)
-    table = ShapeTable.build([body, *OBSTACLES], device)
+    table = ShapeTable.build([body, *OBSTACLES])
     md = MujocoDistance(body, OBSTACLES)
     ref = md.distances(r, p)[:, 0, :]  # (T, obstacles)
-    poses = np.zeros((len(t), 1, 4, 4))
-    poses[:, 0, :3, :3], poses[:, 0, :3, 3], poses[:, 0, 3, 3] = r, p, 1.0
+    poses = pose_matrices(r, p)
+    b0 = table.offsets[0]
     for k in range(len(OBSTACLES)):
         # MuJoCo stores mesh vertices in float32 (~1e-7 relative); other pairs are exact
         eps = 1e-6 if "mesh" in (body.kind, OBSTACLES[k].kind) else 1e-9
-        ub, lb, ov, _ = pose_rows(
+        ub, lb, x, _ = pose_rows(
             poses,
-            0,
-            np.zeros(len(t), dtype=np.int32),
-            np.full(len(t), k + 1, dtype=np.int32),
+            np.full(len(t), b0),
+            np.full(len(t), table.offsets[k + 1]),
             table,
+            device=device,
         )
-        sep = ~ov
-        # separated poses: MuJoCo's distance lies in the kernel's bracket
-        assert np.all(lb[sep] <= ref[sep, k] + eps) and np.all(ref[sep, k] <= ub[sep] + eps)
-        np.testing.assert_allclose(
-            ub[sep & (ref[:, k] > 0)], ref[sep & (ref[:, k] > 0), k], atol=eps
-        )
-        # intersecting poses agree too
-        assert np.all(ref[ov, k] <= eps)
-        assert np.all((ub < 0) | ov | (ref[:, k] >= -eps))
+        assert np.all(lb <= ref[:, k] + eps) and np.all(ref[:, k] <= ub + eps)
+        sep = ref[:, k] > eps
+        np.testing.assert_allclose(ub[sep], ref[sep, k], atol=eps)
+        # a proven intersection is one for MuJoCo too
+        assert np.all(ref[x, k] <= eps)
 
 
 def test_swept_aabbs_contain_every_sampled_point(motion):
@@ -200,9 +213,38 @@ def test_hull_contains_sampled_positions(motion, rng):
             assert np.all(x @ d.T <= h[None, :] + 1e-12)
 
 
+def test_halving_keeps_error_bounds_valid(motion):
+    # children computed in float64 against the same children computed from exact
+    # fractions of the parent: the bound of BezierPieces.halve covers the difference
+    from fractions import Fraction
+
+    t = motion.positive_pieces()
+    h = t.halve()
+    c = t.ctrl[0]
+    exact = [[[Fraction(x) for x in row] for row in m] for m in c]
+    k = len(exact)
+    work = [m for m in exact]
+    left = [work[0]]
+    for _r in range(1, k):
+        work = [
+            [
+                [(a + b) / 2 for a, b in zip(ra, rb, strict=True)]
+                for ra, rb in zip(ma, mb, strict=True)
+            ]
+            for ma, mb in itertools.pairwise(work)
+        ]
+        left.append(work[0])
+    diff = np.abs(np.array(left, dtype=float) - h.ctrl[0])
+    assert diff[:, :3, :3].max() <= h.error[0, 0] - t.error[0, 0] + 1e-300
+    assert diff[:, :3, 3].max() <= h.error[0, 1] - t.error[0, 1] + 1e-300
+    assert diff[:, 3, 3].max() <= h.error[0, 2] - t.error[0, 2] + 1e-300
+
+
 def test_swept_aabbs_bad_input(motion):
     with pytest.raises(ValueError, match="depth"):
         swept_aabbs(motion, BODIES[0], -1)
+    with pytest.raises(ValueError, match="depth"):
+        swept_aabbs(motion, BODIES[0], 40)
     with pytest.raises(TypeError, match="body"):
         swept_aabbs(motion, "box", 1)
     slerp = motions.build("slerp", *demo_keyframes(5))

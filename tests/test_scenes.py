@@ -11,8 +11,8 @@ import pytest
 import harness
 import motions
 import scenes
-from harness.bounds import ShapeTable, pose_rows
-from harness.certify import _pose_ctrl
+from harness.certification.advance import pose_matrices, pose_rows
+from harness.certification.tables import ShapeTable
 from harness.sim import (
     DomainError,
     HeldJointsWarning,
@@ -83,16 +83,16 @@ def test_shapes_reproduce_mujoco_distances(name):
             for j, g in enumerate(geoms):
                 ref[k, i, j] = mujoco.mj_geomDistance(model, data, int(a), int(g), 50.0, None)
     table = ShapeTable.build([body, *obst])
-    bparts = np.flatnonzero(table.owner == 0)  # in subtree geom order
+    bparts = np.arange(table.offsets[0], table.offsets[1])  # in subtree geom order
     assert len(bparts) == len(mover)
-    poses = _pose_ctrl(r, p)
+    poses = pose_matrices(r, p)
     scale = 1 + np.abs(p).max() + body.bounding_radius
     mesh = model.geom_type == mujoco.mjtGeom.mjGEOM_MESH
     for i, a in enumerate(mover):
         for j, g in enumerate(geoms):
-            opart = np.flatnonzero(table.owner == j + 1)[0]
+            opart = table.offsets[j + 1]
             ub, _, ov, _ = pose_rows(
-                poses, 0, np.full(len(t), bparts[i]), np.full(len(t), opart), table
+                poses, np.full(len(t), bparts[i]), np.full(len(t), opart), table
             )
             # meshes: MuJoCo's CCD stops at its ccd_tolerance
             tol = (model.opt.ccd_tolerance if mesh[a] or mesh[g] else EXACT_PAIR_TOL) * scale

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import motions
 
-from ...certify import BOUNDS, certify_many
+from ...certification import BOUNDS, certify_many
 from ..fields import names, need, numbers, scene_names
 from .context import Context, accuracy_cols, cert_cols, smoothness_cols, truth_cols
 

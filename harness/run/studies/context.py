@@ -12,7 +12,7 @@ import numpy as np
 import motions
 import scenes as scenes_pkg
 
-from ...certify import Certificate
+from ...certification import Certificate
 
 __all__ = ["Context", "accuracy_cols", "cert_cols", "smoothness_cols", "truth_cols"]
 

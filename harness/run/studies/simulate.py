@@ -8,7 +8,7 @@ from pathlib import Path
 
 import motions
 
-from ...certify import certify_many
+from ...certification import certify_many
 from ..fields import names, numbers, scene_names
 from .context import Context, smoothness_cols
 

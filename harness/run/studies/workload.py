@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...certify import BOUNDS, certify_many
+from ...certification import BOUNDS, certify_many
 from ..fields import names, need, numbers
 from .context import Context, accuracy_cols, cert_cols
 

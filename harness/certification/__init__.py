@@ -1,0 +1,15 @@
+"""Certified collision queries (DESIGN §4): the public API, the in-kernel refinement
+(``hull``, ``aabb``), conservative advancement and grid sampling, and swept boxes."""
+
+from .api import BOUNDS, REASONS, Certificate, QueryError, certify, certify_many
+from .device import DeviceError
+
+__all__ = [
+    "BOUNDS",
+    "REASONS",
+    "Certificate",
+    "DeviceError",
+    "QueryError",
+    "certify",
+    "certify_many",
+]

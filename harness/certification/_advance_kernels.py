@@ -1,0 +1,431 @@
+"""Warp kernels of conservative advancement (``lipschitz``), grid sampling (``sampled``)
+and batched pose distances. Kernels and ``@wp.func``s only; host wrappers in
+:mod:`harness.certification.advance`.
+
+The rational-motion kernels evaluate poses inside the kernel from the motion's positive
+Bézier pieces (``sum_i B_i(u) C_i``, then the pose's own margin as in
+:mod:`._refine_kernels`), one lane per motion, tracks in (body part, obstacle part)
+order, so that they run at the same implementation level as the hull. Each piece carries
+a proven speed bound ``p_speed`` for points within the body's radius.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ._geometry import F0, F1, HUGE, Shape, _core_radius, _gjk
+from ._refine_kernels import GAMMA_C, R_BUDGET, R_TOL, UNIT, _prepare
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.func
+def _eval_pose(
+    ctrl: wp.array(dtype=wp.mat44d),
+    start: wp.int32,
+    k: wp.int32,
+    u: wp.float64,
+    err: wp.vec3d,
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    lane: wp.int32,
+) -> wp.vec3d:
+    """Write ``M_h(u) = sum_i B_i^{k-1}(u) C_i`` to st_ctrl[lane, 0, 0]; return its error
+    bound: the piece's, plus the evaluation's rounding: each Bernstein value comes from
+    at most 5k roundings (s^n, then a ratio of 4 roundings per index), all are
+    non-negative and sum to 1, and the sum of k terms adds γ_k; γ_{8k} of the largest
+    magnitude covers it all."""
+    n = k - 1
+    s = F1 - u
+    acc = wp.mat44d()
+    ma = F0
+    mb = F0
+    mw = F0
+    # B_i = C(n, i) u^i s^(n-i), built by the ratio B_{i+1} / B_i = (n - i)/(i + 1) u/s
+    # when s > 0; at u = 1 only the last term is 1.
+    if s <= F0:
+        acc = ctrl[start + n]
+    else:
+        b = F1
+        for _i in range(n):
+            b = b * s
+        for i in range(k):
+            m = ctrl[start + i]
+            acc = acc + b * m
+            ma = wp.max(ma, wp.max(wp.abs(m[0, 0]), wp.max(wp.abs(m[1, 1]), wp.abs(m[2, 2]))))
+            ma = wp.max(ma, wp.max(wp.abs(m[0, 1]), wp.max(wp.abs(m[0, 2]), wp.abs(m[1, 0]))))
+            ma = wp.max(ma, wp.max(wp.abs(m[1, 2]), wp.max(wp.abs(m[2, 0]), wp.abs(m[2, 1]))))
+            mb = wp.max(mb, wp.max(wp.abs(m[0, 3]), wp.max(wp.abs(m[1, 3]), wp.abs(m[2, 3]))))
+            mw = wp.max(mw, wp.abs(m[3, 3]))
+            if i < n:
+                b = b * (wp.float64(n - i) / wp.float64(i + 1)) * (u / s)
+    st_ctrl[lane, 0, 0] = acc
+    g = wp.float64(8 * k) * UNIT / (F1 - wp.float64(8 * k) * UNIT)
+    return err + g * (wp.vec3d(ma, mb, mw) + err)
+
+
+@wp.func
+def _pose_bracket(
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    lane: wp.int32,
+    part: Shape,
+    obst: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+    err: wp.vec3d,
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    warm: wp.vec3d,
+    max_iter: wp.int32,
+) -> tuple[wp.float64, wp.float64, wp.int32, wp.vec3d]:
+    """(ub, lb, intersects, direction) of the signed distance of the part at the pose
+    st_ctrl[lane, 0, 0] to the obstacle, widened by the pose's margin (see
+    ``_refine_kernels._pose_test``)."""
+    prep = _prepare(st_ctrl, lane, 0, 0, 1, part, verts, err, pre_m, pre_c, 0)
+    if prep.ok == 0:
+        return HUGE, -HUGE, 0, warm
+    margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
+    z = wp.vec3d(F0, F0, F0)
+    ub, gap, d, overlap, depth = _gjk(
+        0, pre_m, pre_c, lane, 0, 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE
+    )
+    radii = _core_radius(part) + _core_radius(obst)
+    hi = ub - radii + margin
+    lb = gap - radii - margin
+    if overlap == 1:
+        hi = -(radii + depth) + margin
+        lb = -HUGE
+    x = wp.int32(0)
+    if hi < F0:
+        x = 1
+    return hi, lb, x, d
+
+
+@wp.kernel
+def _advance(
+    # In: pieces
+    ctrl: wp.array(dtype=wp.mat44d),
+    p_start: wp.array(dtype=wp.int32),
+    p_k: wp.array(dtype=wp.int32),
+    p_t: wp.array(dtype=wp.vec2d),
+    p_err: wp.array(dtype=wp.vec3d),
+    p_speed: wp.array(dtype=wp.float64),
+    # In: motions
+    m_pieces: wp.array(dtype=wp.vec2i),
+    m_parts: wp.array(dtype=wp.vec2i),
+    m_obst: wp.array(dtype=wp.vec2i),
+    o_idx: wp.array(dtype=wp.int32),
+    shapes: wp.array(dtype=Shape),
+    verts: wp.array(dtype=wp.vec3d),
+    # In: parameters
+    tol: wp.float64,
+    max_nodes: wp.int32,
+    max_iter: wp.int32,
+    first: wp.int32,
+    stride: wp.int32,
+    n_motions: wp.int32,
+    # Scratch
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    # Out:
+    out_t: wp.array2d(dtype=wp.float64),
+    out_n: wp.array2d(dtype=wp.int32),
+):
+    """Conservative advancement ``t += d / V`` (V a proven speed bound over the step's
+    window, d a certified lower bound of the distance) along every (part, obstacle)
+    track of motions first + tid, first + tid + stride, ...; outputs as ``_refine``.
+
+    A pose closer than `tolerance` ends the proof there (toi_lo) but not the search: the
+    track goes on in steps of at least tolerance / V, which can still find a contact.
+    """
+    lane = first + wp.tid()
+    m = lane
+    while m < n_motions:
+        nodes = wp.int32(0)
+        deepest = wp.int32(0)
+        toi_lo = HUGE
+        tcoll = HUGE
+        wit_t = HUGE
+        wit_d = HUGE
+        unk_t = HUGE
+        unk_r = wp.int32(0)
+        n_tol = wp.int32(0)
+        n_budget = wp.int32(0)
+        stopped = wp.int32(0)
+        pr = m_pieces[m]
+        br = m_parts[m]
+        orng = m_obst[m]
+        t_start = p_t[pr[0]][0]
+        t_end = p_t[pr[1] - 1][1]
+        for b in range(br[0], br[1]):
+            part = shapes[b]
+            for oo in range(orng[0], orng[1]):
+                if stopped == 1:
+                    break
+                obst = shapes[o_idx[oo]]
+                t = t_start
+                pi = pr[0]
+                near = wp.int32(0)
+                steps = wp.int32(0)
+                warm = wp.vec3d(F0, F0, F0)
+                while t < tcoll:
+                    if nodes >= max_nodes:
+                        toi_lo = wp.min(toi_lo, t)
+                        n_budget += 1
+                        if t < unk_t:
+                            unk_t = t
+                            unk_r = R_BUDGET
+                        stopped = 1
+                        break
+                    while pi + 1 < pr[1] and t >= p_t[pi][1]:
+                        pi += 1
+                    tp = p_t[pi]
+                    u = wp.min(F1, wp.max(F0, (t - tp[0]) / (tp[1] - tp[0])))
+                    err = _eval_pose(ctrl, p_start[pi], p_k[pi], u, p_err[pi], st_ctrl, lane)
+                    nodes += 1
+                    steps += 1
+                    ub, lb, x, warm = _pose_bracket(
+                        st_ctrl, lane, part, obst, verts, err, pre_m, pre_c, warm, max_iter
+                    )
+                    if x == 1:
+                        tcoll = wp.min(tcoll, t)
+                        toi_lo = wp.min(toi_lo, t)
+                        break
+                    if (ub < tol or lb <= F0) and near == 0:
+                        near = 1
+                        n_tol += 1
+                        toi_lo = wp.min(toi_lo, t)
+                        if t < wit_t:
+                            wit_t = t
+                            wit_d = ub
+                        if t < unk_t:
+                            unk_t = t
+                            unk_r = R_TOL
+                    gap = wp.max(lb, F0)
+                    if near == 1:
+                        gap = wp.max(lb, tol)
+                    # the largest speed over the pieces the step reaches
+                    q = pi
+                    v = p_speed[q]
+                    reach = tp[1]
+                    if v > F0:
+                        reach = t + gap / v
+                    while q + 1 < pr[1] and reach > p_t[q][1]:
+                        q += 1
+                        v = wp.max(v, p_speed[q])
+                        if v > F0:
+                            reach = t + gap / v
+                    if reach >= t_end:
+                        break
+                    t = reach
+                deepest = wp.max(deepest, steps)
+        out_t[m, 0] = toi_lo
+        out_t[m, 1] = tcoll
+        out_t[m, 2] = wit_t
+        out_t[m, 3] = wit_d
+        out_t[m, 4] = unk_t
+        out_n[m, 0] = nodes
+        out_n[m, 1] = nodes
+        out_n[m, 2] = deepest
+        out_n[m, 3] = unk_r
+        out_n[m, 4] = n_tol
+        out_n[m, 5] = 0
+        out_n[m, 6] = n_budget
+        m += stride
+
+
+@wp.kernel
+def _sample(
+    # In: pieces
+    ctrl: wp.array(dtype=wp.mat44d),
+    p_start: wp.array(dtype=wp.int32),
+    p_k: wp.array(dtype=wp.int32),
+    p_t: wp.array(dtype=wp.vec2d),
+    p_err: wp.array(dtype=wp.vec3d),
+    p_speed: wp.array(dtype=wp.float64),
+    # In: motions
+    m_pieces: wp.array(dtype=wp.vec2i),
+    m_parts: wp.array(dtype=wp.vec2i),
+    m_obst: wp.array(dtype=wp.vec2i),
+    m_samples: wp.array(dtype=wp.int32),
+    o_idx: wp.array(dtype=wp.int32),
+    shapes: wp.array(dtype=Shape),
+    verts: wp.array(dtype=wp.vec3d),
+    # In: parameters
+    tol: wp.float64,
+    max_iter: wp.int32,
+    first: wp.int32,
+    stride: wp.int32,
+    n_motions: wp.int32,
+    # Scratch
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    # Out:
+    out_t: wp.array2d(dtype=wp.float64),
+    out_n: wp.array2d(dtype=wp.int32),
+):
+    """Poses on a grid, in time order per track, stopping at the first contact.
+
+    ``m_samples[m] = 0``: the fair grid, each piece cut into ``ceil(duration V / (2 tol))``
+    cells whose centres are sampled (a body point moves at most `tol` within a cell);
+    ``m_samples[m] = N``: N poses evenly spaced over the domain, ends included. A sample
+    proves its cell free when its certified distance exceeds ``V h / 2`` (h the cell
+    length, V the largest speed bound of the pieces the cell overlaps); out_n[m, 5] counts
+    cells not proven. out_t[m, 0] is the start of the first unproven cell.
+    """
+    lane = first + wp.tid()
+    m = lane
+    while m < n_motions:
+        nodes = wp.int32(0)
+        toi_lo = HUGE
+        tcoll = HUGE
+        wit_t = HUGE
+        wit_d = HUGE
+        unk_t = HUGE
+        unk_r = wp.int32(0)
+        n_tol = wp.int32(0)
+        unproven = wp.int32(0)
+        pr = m_pieces[m]
+        br = m_parts[m]
+        orng = m_obst[m]
+        t_start = p_t[pr[0]][0]
+        t_end = p_t[pr[1] - 1][1]
+        ns = m_samples[m]
+        for b in range(br[0], br[1]):
+            part = shapes[b]
+            for oo in range(orng[0], orng[1]):
+                obst = shapes[o_idx[oo]]
+                warm = wp.vec3d(F0, F0, F0)
+                near = wp.int32(0)
+                pi = pr[0]
+                cell_p = pr[0]  # piece whose cells are walked (fair grid)
+                j = wp.int32(0)  # sample index within the grid or the piece
+                done = wp.int32(0)
+                while done == 0:
+                    # next sample time t and its cell [c0, c1]
+                    t = F0
+                    c0 = F0
+                    c1 = F0
+                    if ns > 0:
+                        if j >= ns:
+                            break
+                        h = (t_end - t_start) / wp.float64(ns - 1)
+                        t = t_start + wp.float64(j) * h
+                        if j == ns - 1:
+                            t = t_end
+                        c0 = wp.max(t_start, t - wp.float64(0.5) * h)
+                        c1 = wp.min(t_end, t + wp.float64(0.5) * h)
+                    else:
+                        if cell_p >= pr[1]:
+                            break
+                        tp = p_t[cell_p]
+                        cells = wp.int32(
+                            wp.max(
+                                F1,
+                                wp.ceil(
+                                    (tp[1] - tp[0]) * p_speed[cell_p] / (wp.float64(2.0) * tol)
+                                ),
+                            )
+                        )
+                        if j >= cells:
+                            cell_p += 1
+                            j = 0
+                            continue
+                        h = (tp[1] - tp[0]) / wp.float64(cells)
+                        c0 = tp[0] + wp.float64(j) * h
+                        c1 = tp[0] + wp.float64(j + 1) * h
+                        if j == cells - 1:
+                            c1 = tp[1]
+                        t = wp.float64(0.5) * (c0 + c1)
+                    j += 1
+                    if c0 >= tcoll:
+                        break
+                    while pi + 1 < pr[1] and t >= p_t[pi][1]:
+                        pi += 1
+                    tp = p_t[pi]
+                    u = wp.min(F1, wp.max(F0, (t - tp[0]) / (tp[1] - tp[0])))
+                    err = _eval_pose(ctrl, p_start[pi], p_k[pi], u, p_err[pi], st_ctrl, lane)
+                    nodes += 1
+                    ub, lb, x, warm = _pose_bracket(
+                        st_ctrl, lane, part, obst, verts, err, pre_m, pre_c, warm, max_iter
+                    )
+                    if x == 1:
+                        tcoll = wp.min(tcoll, t)
+                        toi_lo = wp.min(toi_lo, c0)
+                        done = 1
+                        continue
+                    if ub < tol and near == 0:
+                        near = 1
+                        n_tol += 1
+                        if t < wit_t:
+                            wit_t = t
+                            wit_d = ub
+                        if c0 < unk_t:
+                            unk_t = c0
+                            unk_r = R_TOL
+                    # the largest speed of the pieces the cell overlaps
+                    v = F0
+                    q = pr[0]
+                    while q < pr[1]:
+                        tq = p_t[q]
+                        if tq[1] >= c0 and tq[0] <= c1:
+                            v = wp.max(v, p_speed[q])
+                        q += 1
+                    cover = v * wp.max(t - c0, c1 - t)
+                    if lb <= cover:
+                        unproven += 1
+                        toi_lo = wp.min(toi_lo, c0)
+        out_t[m, 0] = toi_lo
+        out_t[m, 1] = tcoll
+        out_t[m, 2] = wit_t
+        out_t[m, 3] = wit_d
+        out_t[m, 4] = unk_t
+        out_n[m, 0] = nodes
+        out_n[m, 1] = nodes
+        out_n[m, 2] = 0
+        out_n[m, 3] = unk_r
+        out_n[m, 4] = n_tol
+        out_n[m, 5] = unproven
+        out_n[m, 6] = 0
+        m += stride
+
+
+@wp.kernel
+def _pose_rows(
+    # In:
+    poses: wp.array(dtype=wp.mat44d),
+    body_idx: wp.array(dtype=wp.int32),
+    obst_idx: wp.array(dtype=wp.int32),
+    shapes: wp.array(dtype=Shape),
+    verts: wp.array(dtype=wp.vec3d),
+    warm: wp.array(dtype=wp.vec3d),
+    max_iter: wp.int32,
+    first: wp.int32,
+    stride: wp.int32,
+    n_rows: wp.int32,
+    # Scratch
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    # Out:
+    ub_out: wp.array(dtype=wp.float64),
+    lb_out: wp.array(dtype=wp.float64),
+    x_out: wp.array(dtype=wp.int32),
+    dir_out: wp.array(dtype=wp.vec3d),
+):
+    """Signed distance bracket of body part body_idx[r] at pose poses[r] (exact input, no
+    error) to obstacle part obst_idx[r], for rows first + tid, first + tid + stride, ..."""
+    lane = first + wp.tid()
+    r = lane
+    zero = wp.vec3d(F0, F0, F0)
+    while r < n_rows:
+        st_ctrl[lane, 0, 0] = poses[r]
+        ub, lb, x, d = _pose_bracket(
+            st_ctrl, lane, shapes[body_idx[r]], shapes[obst_idx[r]], verts, zero, pre_m,
+            pre_c, warm[r], max_iter,
+        )  # fmt: skip
+        ub_out[r] = ub
+        lb_out[r] = lb
+        x_out[r] = x
+        dir_out[r] = d
+        r += stride

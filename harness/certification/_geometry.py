@@ -1,0 +1,421 @@
+"""Warp functions shared by the certification kernels (float64): shapes, supports of
+affine images, simplex reduction and GJK. ``@wp.func``s and structs only.
+
+Conventions:
+
+- Shapes are ``Shape`` records (kind 0 box, 1 sphere, 2 capsule, 3 mesh) placed by a
+  position and rotation in their owner's frame (body coordinates for body parts, world
+  coordinates for obstacles); meshes carry a vertex range into ``verts``.
+- A *core* is a shape without its radius (sphere: its centre, capsule: its segment); GJK on
+  cores plus radii gives exact distances for spheres and capsules.
+- An affine image of a body part under a control matrix ``[[A, b], [0, 0, 0, w]]`` is kept
+  as ``M = A R / w`` and ``c = (A p + b) / w`` (R, p the part's rotation and position), so
+  that its support function is ``h(d) = d.c + h_local(M^T d)``: the per-row precomputation
+  that makes one support cost ~30 flops per control matrix (DESIGN §4, "cheap tests first").
+
+The float64 arithmetic is kept simple (scalar branches, small helper functions): Warp
+1.19 has aborted while compiling float64 kernels that build vectors in complicated loops;
+a test compiles the kernel modules in a subprocess.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+F0 = wp.constant(wp.float64(0.0))
+F1 = wp.constant(wp.float64(1.0))
+HUGE = wp.constant(wp.float64(1.0e300))
+GJK_REL_TOL = wp.constant(wp.float64(1.0e-13))
+"""GJK stops when an iteration improves |v|^2 by less than this fraction: a stopping rule
+only; the bounds it returns are certified whatever the iteration count."""
+FLAT_REL = wp.constant(wp.float64(1.0e-13))
+"""A tetrahedron whose volume is below this fraction of its size is treated as flat (its
+faces cannot decide inside/outside reliably); GJK then continues with its faces."""
+
+
+@wp.struct
+class Shape:
+    kind: wp.int32
+    pos: wp.vec3d
+    rot: wp.mat33d
+    size: wp.vec3d
+    vstart: wp.int32
+    vcount: wp.int32
+    rho: wp.float64  # radius of a ball about the owner's frame origin containing the shape
+    rloc: wp.float64  # radius of a ball about `pos` containing the shape
+    lo: wp.vec3d  # axis-aligned box of the shape in its owner's frame
+    hi: wp.vec3d
+
+
+# --------------------------------------------------------------------------- supports
+@wp.func
+def _sgn(x: wp.float64) -> wp.float64:
+    if x < F0:
+        return -F1
+    return F1
+
+
+@wp.func
+def _local_support(
+    sh: Shape, verts: wp.array(dtype=wp.vec3d), e: wp.vec3d, core: wp.int32
+) -> wp.vec3d:
+    """Support point of the shape in its own frame for direction e (any length)."""
+    if sh.kind == 0:
+        return wp.vec3d(_sgn(e[0]) * sh.size[0], _sgn(e[1]) * sh.size[1], _sgn(e[2]) * sh.size[2])
+    if sh.kind == 3:
+        best = -HUGE
+        out = verts[sh.vstart]
+        for k in range(sh.vcount):
+            v = verts[sh.vstart + k]
+            val = wp.dot(v, e)
+            if val > best:
+                best = val
+                out = v
+        return out
+    ball = wp.vec3d(F0, F0, F0)
+    if core == 0:
+        n = wp.length(e)
+        if n > F0:
+            ball = e * (sh.size[0] / n)
+    if sh.kind == 2:
+        return wp.vec3d(F0, F0, _sgn(e[2]) * sh.size[1]) + ball
+    return ball
+
+
+@wp.func
+def _local_h(sh: Shape, verts: wp.array(dtype=wp.vec3d), e: wp.vec3d, core: wp.int32) -> wp.float64:
+    """Support function of the shape in its own frame: max over the shape of x.e."""
+    if sh.kind == 0:
+        return wp.abs(e[0]) * sh.size[0] + wp.abs(e[1]) * sh.size[1] + wp.abs(e[2]) * sh.size[2]
+    if sh.kind == 3:
+        best = -HUGE
+        for k in range(sh.vcount):
+            best = wp.max(best, wp.dot(verts[sh.vstart + k], e))
+        return best
+    r = F0
+    if core == 0:
+        r = sh.size[0] * wp.length(e)
+    if sh.kind == 2:
+        return r + wp.abs(e[2]) * sh.size[1]
+    return r
+
+
+@wp.func
+def _placed_support(
+    sh: Shape, verts: wp.array(dtype=wp.vec3d), d: wp.vec3d, core: wp.int32
+) -> wp.vec3d:
+    """Support point of a placed shape (its position and rotation) in direction d."""
+    e = wp.transpose(sh.rot) * d
+    return sh.pos + sh.rot * _local_support(sh, verts, e, core)
+
+
+@wp.func
+def _core_radius(sh: Shape) -> wp.float64:
+    if sh.kind == 1 or sh.kind == 2:
+        return sh.size[0]
+    return F0
+
+
+@wp.func
+def _affine_h(
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    lane: wp.int32,
+    i0: wp.int32,
+    i1: wp.int32,
+    part: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+    d: wp.vec3d,
+) -> wp.float64:
+    """Support function of the hull of the affine images i0 <= i < i1 of a body part."""
+    best = -HUGE
+    for i in range(i0, i1):
+        val = wp.dot(d, pre_c[lane, i]) + _local_h(part, verts, wp.transpose(pre_m[lane, i]) * d, 0)
+        best = wp.max(best, val)
+    return best
+
+
+@wp.func
+def _affine_support(
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    lane: wp.int32,
+    i0: wp.int32,
+    i1: wp.int32,
+    part: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+    d: wp.vec3d,
+    core: wp.int32,
+) -> wp.vec3d:
+    """Support point of the hull of the affine images i0 <= i < i1 (see module doc)."""
+    best = -HUGE
+    bi = i0
+    for i in range(i0, i1):
+        val = wp.dot(d, pre_c[lane, i]) + _local_h(
+            part, verts, wp.transpose(pre_m[lane, i]) * d, core
+        )
+        if val > best:
+            best = val
+            bi = i
+    m = pre_m[lane, bi]
+    return pre_c[lane, bi] + m * _local_support(part, verts, wp.transpose(m) * d, core)
+
+
+@wp.func
+def _box_support(lo: wp.vec3d, hi: wp.vec3d, d: wp.vec3d) -> wp.vec3d:
+    x = lo[0]
+    if d[0] >= F0:
+        x = hi[0]
+    y = lo[1]
+    if d[1] >= F0:
+        y = hi[1]
+    z = lo[2]
+    if d[2] >= F0:
+        z = hi[2]
+    return wp.vec3d(x, y, z)
+
+
+@wp.func
+def _box_h(lo: wp.vec3d, hi: wp.vec3d, d: wp.vec3d) -> wp.float64:
+    return wp.dot(_box_support(lo, hi, d), d)
+
+
+@wp.func
+def _boxes_apart(
+    lo: wp.vec3d, hi: wp.vec3d, olo: wp.vec3d, ohi: wp.vec3d, m: wp.float64
+) -> wp.int32:
+    """1 if the boxes [lo - m, hi + m] and [olo, ohi] are disjoint."""
+    if lo[0] - m > ohi[0] or olo[0] > hi[0] + m:
+        return 1
+    if lo[1] - m > ohi[1] or olo[1] > hi[1] + m:
+        return 1
+    if lo[2] - m > ohi[2] or olo[2] > hi[2] + m:
+        return 1
+    return 0
+
+
+# --------------------------------------------------------------------------- simplex
+@wp.func
+def _closest_segment(a: wp.vec3d, b: wp.vec3d) -> tuple[wp.vec3d, wp.int32, wp.vec3d, wp.vec3d]:
+    """Closest point to the origin on [a, b] and the vertices of its feature."""
+    ab = b - a
+    den = wp.dot(ab, ab)
+    t = F0
+    if den > F0:
+        t = -wp.dot(a, ab) / den
+    if t <= F0:
+        return a, 1, a, b
+    if t >= F1:
+        return b, 1, b, a
+    return a + t * ab, 2, a, b
+
+
+@wp.func
+def _closest_triangle(
+    a: wp.vec3d, b: wp.vec3d, c: wp.vec3d
+) -> tuple[wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d]:
+    """Closest point to the origin on triangle abc (Ericson, Voronoi regions)."""
+    ab = b - a
+    ac = c - a
+    d1 = -wp.dot(ab, a)
+    d2 = -wp.dot(ac, a)
+    if d1 <= F0 and d2 <= F0:
+        return a, 1, a, b, c
+    d3 = -wp.dot(ab, b)
+    d4 = -wp.dot(ac, b)
+    if d3 >= F0 and d4 <= d3:
+        return b, 1, b, a, c
+    vc = d1 * d4 - d3 * d2
+    if vc <= F0 and d1 >= F0 and d3 <= F0 and d1 - d3 > F0:
+        return a + (d1 / (d1 - d3)) * ab, 2, a, b, c
+    d5 = -wp.dot(ab, c)
+    d6 = -wp.dot(ac, c)
+    if d6 >= F0 and d5 <= d6:
+        return c, 1, c, a, b
+    vb = d5 * d2 - d1 * d6
+    if vb <= F0 and d2 >= F0 and d6 <= F0 and d2 - d6 > F0:
+        return a + (d2 / (d2 - d6)) * ac, 2, a, c, b
+    va = d3 * d6 - d5 * d4
+    e1 = d4 - d3
+    e2 = d5 - d6
+    if va <= F0 and e1 >= F0 and e2 >= F0 and e1 + e2 > F0:
+        return b + (e1 / (e1 + e2)) * (c - b), 2, b, c, a
+    den = va + vb + vc
+    if den > F0:
+        return a + (vb / den) * ab + (vc / den) * ac, 3, a, b, c
+    # degenerate (collinear) triangle: the best of its edges
+    p1, n1, x1, y1 = _closest_segment(a, b)
+    p2, n2, x2, y2 = _closest_segment(a, c)
+    p3, n3, x3, y3 = _closest_segment(b, c)
+    if wp.dot(p1, p1) <= wp.dot(p2, p2) and wp.dot(p1, p1) <= wp.dot(p3, p3):
+        return p1, n1, x1, y1, c
+    if wp.dot(p2, p2) <= wp.dot(p3, p3):
+        return p2, n2, x2, y2, b
+    return p3, n3, x3, y3, a
+
+
+@wp.func
+def _plane_depth(p0: wp.vec3d, p1: wp.vec3d, p2: wp.vec3d, opp: wp.vec3d) -> wp.float64:
+    """Signed distance of the origin from plane p0p1p2, positive on opp's side; -HUGE for
+    a flat tetrahedron (the plane cannot decide)."""
+    n = wp.cross(p1 - p0, p2 - p0)
+    nn = wp.length(n)
+    sd = wp.dot(opp - p0, n)
+    scale = nn * (wp.length(opp - p0) + wp.length(p0))
+    if wp.abs(sd) <= FLAT_REL * scale or nn <= F0:
+        return -HUGE
+    so = -wp.dot(p0, n) / nn
+    if sd < F0:
+        so = -so
+    return so
+
+
+@wp.func
+def _face_candidate(
+    p0: wp.vec3d,
+    p1: wp.vec3d,
+    p2: wp.vec3d,
+    opp: wp.vec3d,
+    best: wp.float64,
+    bv: wp.vec3d,
+    bn: wp.int32,
+    q0: wp.vec3d,
+    q1: wp.vec3d,
+    q2: wp.vec3d,
+    depth: wp.float64,
+) -> tuple[wp.float64, wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d, wp.float64]:
+    """Keep face p0p1p2's closest feature if the origin is beyond it and it is closer;
+    track the smallest depth of the origin inside the faces."""
+    dp = _plane_depth(p0, p1, p2, opp)
+    depth = wp.min(depth, dp)
+    if dp < F0:
+        v, n, x, y, z = _closest_triangle(p0, p1, p2)
+        if wp.dot(v, v) < best:
+            return wp.dot(v, v), v, n, x, y, z, depth
+    return best, bv, bn, q0, q1, q2, depth
+
+
+@wp.func
+def _closest_tetra(
+    a: wp.vec3d, b: wp.vec3d, c: wp.vec3d, d: wp.vec3d
+) -> tuple[wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d, wp.float64]:
+    """Closest point to the origin on tetrahedron abcd; count 4 means the origin is inside,
+    at least the returned depth from every face (a lower bound of the penetration depth of
+    the two shapes whose Minkowski difference contains the tetrahedron)."""
+    best = HUGE
+    bv = wp.vec3d(F0, F0, F0)
+    bn = wp.int32(4)
+    q0 = a
+    q1 = b
+    q2 = c
+    depth = HUGE
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, b, c, d, best, bv, bn, q0, q1, q2, depth)
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, c, d, b, best, bv, bn, q0, q1, q2, depth)
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, d, b, c, best, bv, bn, q0, q1, q2, depth)
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(b, d, c, a, best, bv, bn, q0, q1, q2, depth)
+    if bn == 4 and depth <= F0:
+        # flat: no face decided; fall back to the closest face feature
+        v, n, x, y, z = _closest_triangle(a, b, c)
+        return v, n, x, y, z, F0
+    return bv, bn, q0, q1, q2, depth
+
+
+# --------------------------------------------------------------------------- GJK
+@wp.func
+def _support_diff(
+    mode: wp.int32,
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    lane: wp.int32,
+    i0: wp.int32,
+    i1: wp.int32,
+    part: Shape,
+    obst: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+    lo: wp.vec3d,
+    hi: wp.vec3d,
+    core: wp.int32,
+    d: wp.vec3d,
+) -> wp.vec3d:
+    """Support of the Minkowski difference A - B in direction d.
+
+    A: mode 0 the hull of the affine images pre[lane, i0:i1] of the body part; mode 1 the
+    box [lo, hi]. B: the obstacle. `core` drops the radii of spheres and capsules.
+    """
+    sa = wp.vec3d(F0, F0, F0)
+    if mode == 0:
+        sa = _affine_support(pre_m, pre_c, lane, i0, i1, part, verts, d, core)
+    else:
+        sa = _box_support(lo, hi, d)
+    return sa - _placed_support(obst, verts, -d, core)
+
+
+@wp.func
+def _gjk(
+    mode: wp.int32,
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    lane: wp.int32,
+    i0: wp.int32,
+    i1: wp.int32,
+    part: Shape,
+    obst: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+    lo: wp.vec3d,
+    hi: wp.vec3d,
+    core: wp.int32,
+    d0: wp.vec3d,
+    max_iter: wp.int32,
+    stop_gap: wp.float64,
+) -> tuple[wp.float64, wp.float64, wp.vec3d, wp.int32, wp.float64]:
+    """GJK distance between A and B (see `_support_diff`).
+
+    Returns (upper bound |v| of the distance, best separation gap found, its unit
+    direction pointing from A to B, overlap flag, penetration lower bound when overlapping).
+    The gap along a unit n is ``min_b n.b - max_a n.a``: a lower bound of the distance
+    (up to the rounding the caller's margin covers); iteration stops once it reaches
+    `stop_gap`.
+    """
+    dir0 = d0
+    if wp.dot(dir0, dir0) <= F0:
+        dir0 = wp.vec3d(F1, F0, F0)
+    s0 = _support_diff(mode, pre_m, pre_c, lane, i0, i1, part, obst, verts, lo, hi, core, -dir0)
+    s1 = s0
+    s2 = s0
+    ns = wp.int32(1)
+    v = s0
+    best_gap = -HUGE
+    best_dir = dir0 / wp.length(dir0)
+    overlap = wp.int32(0)
+    depth = F0
+    for _it in range(max_iter):
+        vv = wp.dot(v, v)
+        if vv <= F0:
+            overlap = 1
+            break
+        vn = wp.sqrt(vv)
+        w = _support_diff(mode, pre_m, pre_c, lane, i0, i1, part, obst, verts, lo, hi, core, -v)
+        vw = wp.dot(v, w)
+        gap = vw / vn
+        if gap > best_gap:
+            best_gap = gap
+            best_dir = -v / vn
+        if gap >= stop_gap:
+            break
+        if vv - vw <= GJK_REL_TOL * vv:
+            break
+        # add w (newest first) and reduce to the closest feature
+        if ns == 1:
+            v, ns, s0, s1 = _closest_segment(w, s0)
+        elif ns == 2:
+            v, ns, s0, s1, s2 = _closest_triangle(w, s0, s1)
+        else:
+            v, ns, s0, s1, s2, depth = _closest_tetra(w, s0, s1, s2)
+            if ns == 4:
+                overlap = 1
+                break
+        if wp.dot(v, v) >= vv:
+            break
+    if overlap == 1:
+        return F0, -HUGE, best_dir, overlap, depth
+    return wp.sqrt(wp.dot(v, v)), best_gap, best_dir, overlap, F0

@@ -1,0 +1,499 @@
+"""Warp kernels of the in-kernel refinement (DESIGN §4 "The engine"). Kernels and
+``@wp.func``s only; host wrappers in :mod:`harness.certification.refine`.
+
+One lane refines every (piece, body part, obstacle part) pair of one motion at a time,
+depth first with an explicit stack of control matrices, in time order, so a motion's
+certificate never depends on the rest of the batch. Layout:
+
+- ``ctrl``: flat array of ``mat44d`` control matrices ``[[A, b], [0, 0, 0, w]]`` (weight
+  last); piece p owns ``ctrl[p_start[p] : p_start[p] + p_k[p]]``.
+- scratch per lane: the stack ``st_*[lane, slot]`` (slot 0 the piece, each split adds one
+  slot: at most ``max_depth + 2``) and the precomputed affine images ``pre_*[lane, i]``
+  (columns ``0..K-1`` the node's hull, column ``K_MAX`` a pose).
+
+The round-off margin of a node (``_prepare``) is derived from its conditioning: with the
+node's error bounds ``E = (E_A, E_b, E_w)`` on its control matrices (propagated from the
+motion's ``ctrl_error`` through every halving), ``rho`` the body part's radius about the
+body origin, and for each control matrix ``N = rho |A|_F + |b|``,
+
+    |h_exact(n) - h_computed(n)| <= (rho 3 E_A + sqrt(3) E_b + N E_w / w) / (w - E_w)
+                                    + GAMMA_C N / w
+
+for every unit n (support functions of the exact and computed affine images of the part:
+``|h_B(A*^T n) - h_B(A^T n)| <= rho |A* - A|_2``, then the quotient rule with
+``w* >= w - E_w > 0``; the last term is the rounding of the support evaluation). The
+largest over the node's control matrices, plus ``GAMMA_C`` times the size of the support
+points (the GJK gap's own arithmetic), is the margin a separation must exceed.
+"""
+
+from __future__ import annotations
+
+import warp as wp
+
+from ._geometry import (
+    F0,
+    F1,
+    HUGE,
+    Shape,
+    _affine_h,
+    _boxes_apart,
+    _core_radius,
+    _gjk,
+    _local_h,
+    _placed_support,
+)
+
+wp.set_module_options({"enable_backward": False})
+
+UNIT = wp.constant(wp.float64(2.0**-53))
+GAMMA_C = wp.constant(wp.float64(64.0 * 2.0**-53 / (1.0 - 64.0 * 2.0**-53)))
+"""γ_64: relative rounding of one support evaluation (M^T d, |.|, dot products, the
+precomputation A R / w: fewer than 64 roundings of terms bounded by the support's size)."""
+SQRT3 = wp.constant(wp.float64(1.7320508075688772))
+
+# outcome codes (also in refine.py)
+R_CLEAR = wp.constant(0)
+R_TOL = wp.constant(2)
+R_DEPTH = wp.constant(3)
+R_BUDGET = wp.constant(4)
+
+
+@wp.struct
+class Prep:
+    ok: wp.int32  # every weight provably positive (w_i > E_w)
+    margin: wp.float64  # bound on |exact - computed| of the hull's support function
+    scale: wp.float64  # bound on the size of the hull's support points
+    mag: wp.vec3d  # largest |entry| of A, b, w over the node's control matrices
+    lo: wp.vec3d  # axis-aligned box of the control positions (no margin)
+    hi: wp.vec3d
+    extent: wp.float64  # bound on how far any point of the part moves within the node
+
+
+@wp.func
+def _prepare(
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    lane: wp.int32,
+    sp: wp.int32,
+    i0: wp.int32,
+    i1: wp.int32,
+    part: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+    err: wp.vec3d,
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    slot0: wp.int32,
+) -> Prep:
+    """Precompute ``M = A R / w``, ``c = (A p + b) / w`` of st_ctrl[lane, sp, i0:i1] into
+    pre[lane, slot0:], with the node's margin, box and extent (see module doc)."""
+    out = Prep()
+    out.ok = 1
+    out.margin = F0
+    out.scale = F0
+    out.extent = F0
+    lo = wp.vec3d(HUGE, HUGE, HUGE)
+    hi = wp.vec3d(-HUGE, -HUGE, -HUGE)
+    ma = F0
+    mb = F0
+    mw = F0
+    m0 = wp.mat33d()
+    c0 = wp.vec3d()
+    for i in range(i0, i1):
+        m = st_ctrl[lane, sp, i]
+        w = m[3, 3]
+        a = wp.mat33d(
+            m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2]
+        )
+        b = wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
+        for r in range(3):
+            mb = wp.max(mb, wp.abs(b[r]))
+            for q in range(3):
+                ma = wp.max(ma, wp.abs(a[r, q]))
+        mw = wp.max(mw, wp.abs(w))
+        el = w - err[2]
+        if el <= F0:
+            out.ok = 0
+        else:
+            amag = wp.sqrt(wp.ddot(a, a))
+            nm = part.rho * amag + wp.length(b)
+            delta = (part.rho * wp.float64(3.0) * err[0] + SQRT3 * err[1] + nm * err[2] / w) / el
+            delta = delta + GAMMA_C * nm / w
+            out.margin = wp.max(out.margin, delta)
+            out.scale = wp.max(out.scale, nm / w)
+            inv = F1 / w
+            mm = (a * part.rot) * inv
+            cc = (a * part.pos + b) * inv
+            pre_m[lane, slot0 + i - i0] = mm
+            pre_c[lane, slot0 + i - i0] = cc
+            r0 = wp.vec3d(mm[0, 0], mm[0, 1], mm[0, 2])
+            r1 = wp.vec3d(mm[1, 0], mm[1, 1], mm[1, 2])
+            r2 = wp.vec3d(mm[2, 0], mm[2, 1], mm[2, 2])
+            up = cc + wp.vec3d(
+                _local_h(part, verts, r0, 0),
+                _local_h(part, verts, r1, 0),
+                _local_h(part, verts, r2, 0),
+            )
+            dn = cc - wp.vec3d(
+                _local_h(part, verts, -r0, 0),
+                _local_h(part, verts, -r1, 0),
+                _local_h(part, verts, -r2, 0),
+            )
+            lo = wp.min(lo, dn)
+            hi = wp.max(hi, up)
+            if i == i0:
+                m0 = mm
+                c0 = cc
+            else:
+                dm = mm - m0
+                out.extent = wp.max(
+                    out.extent, wp.length(cc - c0) + part.rloc * wp.sqrt(wp.ddot(dm, dm))
+                )
+    out.mag = wp.vec3d(ma, mb, mw)
+    out.lo = lo
+    out.hi = hi
+    if out.ok == 0:
+        out.margin = HUGE
+    return out
+
+
+@wp.func
+def _halve(st_ctrl: wp.array3d(dtype=wp.mat44d), lane: wp.int32, sp: wp.int32, k: wp.int32):
+    """De Casteljau at 1/2 (seed §6.4): the right half replaces slot sp, the left half
+    goes to slot sp + 1."""
+    half = wp.float64(0.5)
+    st_ctrl[lane, sp + 1, 0] = st_ctrl[lane, sp, 0]
+    for r in range(1, k):
+        for i in range(k - r):
+            st_ctrl[lane, sp, i] = half * (st_ctrl[lane, sp, i] + st_ctrl[lane, sp, i + 1])
+        st_ctrl[lane, sp + 1, r] = st_ctrl[lane, sp, 0]
+
+
+@wp.func
+def _pose_test(
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    lane: wp.int32,
+    sp: wp.int32,
+    col: wp.int32,
+    part: Shape,
+    obst: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+    err: wp.vec3d,
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    slot: wp.int32,
+    warm: wp.vec3d,
+    max_iter: wp.int32,
+    use_aabb: wp.int32,
+) -> tuple[wp.float64, wp.int32, wp.int32]:
+    """Signed distance of the part at the pose st_ctrl[lane, sp, col] (an end of a Bézier
+    piece is its pose there) to the obstacle, widened by the pose's own margin.
+
+    Returns (ub, intersects, hopeless): ub an upper bound of the exact signed distance;
+    intersects = 1 when ub < 0 (a proven intersection: overlapping shapes count by the
+    depth of the origin inside GJK's tetrahedron, a lower bound of the penetration);
+    hopeless = 1 when the bound of the pose itself (the pose for "hull", its box for
+    "aabb") does not clear, so that no piece containing this pose can ever clear.
+    """
+    prep = _prepare(st_ctrl, lane, sp, col, col + 1, part, verts, err, pre_m, pre_c, slot)
+    if prep.ok == 0:
+        return HUGE, 0, 1
+    margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
+    z = wp.vec3d(F0, F0, F0)
+    ub, gap, _d, overlap, depth = _gjk(
+        0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE
+    )
+    radii = _core_radius(part) + _core_radius(obst)
+    hi = ub - radii + margin
+    lb = gap - radii - margin
+    if overlap == 1:
+        hi = -(radii + depth) + margin
+        lb = -HUGE
+    x = wp.int32(0)
+    if hi < F0:
+        x = 1
+    hopeless = wp.int32(0)
+    if lb <= F0:
+        hopeless = 1
+    elif use_aabb == 1:
+        _u, bgap, _bd, bov, _bp = _gjk(
+            1, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, prep.lo, prep.hi, 0,
+            warm, max_iter, wp.float64(2.0) * margin,
+        )  # fmt: skip
+        if bov == 1 or bgap <= margin:
+            hopeless = 1
+    return hi, x, hopeless
+
+
+@wp.kernel
+def _refine(
+    # In: pieces
+    ctrl: wp.array(dtype=wp.mat44d),
+    p_start: wp.array(dtype=wp.int32),
+    p_k: wp.array(dtype=wp.int32),
+    p_t: wp.array(dtype=wp.vec2d),
+    p_err: wp.array(dtype=wp.vec3d),
+    # In: motions (ranges of pieces, body parts in `shapes`, obstacle parts in `o_idx`)
+    m_pieces: wp.array(dtype=wp.vec2i),
+    m_parts: wp.array(dtype=wp.vec2i),
+    m_obst: wp.array(dtype=wp.vec2i),
+    m_nodes0: wp.array(dtype=wp.int32),
+    o_idx: wp.array(dtype=wp.int32),
+    shapes: wp.array(dtype=Shape),
+    verts: wp.array(dtype=wp.vec3d),
+    # In: parameters
+    tol: wp.float64,
+    max_depth: wp.int32,
+    max_nodes: wp.int32,
+    max_iter: wp.int32,
+    use_aabb: wp.int32,
+    first: wp.int32,
+    stride: wp.int32,
+    n_motions: wp.int32,
+    # Scratch (per lane)
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    st_t: wp.array2d(dtype=wp.vec2d),
+    st_err: wp.array2d(dtype=wp.vec3d),
+    st_warm: wp.array2d(dtype=wp.vec3d),
+    st_ub: wp.array2d(dtype=wp.vec2d),
+    st_flags: wp.array2d(dtype=wp.int32),
+    st_depth: wp.array2d(dtype=wp.int32),
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    # Out:
+    out_t: wp.array2d(dtype=wp.float64),
+    out_n: wp.array2d(dtype=wp.int32),
+):
+    """Certify motions first + tid, first + tid + stride, ... (DESIGN §4 rules (a)-(d)).
+
+    out_t[m] = (toi_lo, toi_hi, witness time, witness distance, first unknown time);
+    out_n[m] = (nodes, pose tests, deepest depth, first unknown reason, #tolerance,
+    #depth, #budget).
+    """
+    lane = first + wp.tid()
+    pose_slot = st_ctrl.shape[2]
+    m = lane
+    while m < n_motions:
+        nodes = m_nodes0[m]
+        tests = wp.int32(0)
+        deepest = wp.int32(0)
+        toi_lo = HUGE
+        tcoll = HUGE
+        wit_t = HUGE
+        wit_d = HUGE
+        unk_t = HUGE
+        unk_r = wp.int32(0)
+        n_tol = wp.int32(0)
+        n_depth = wp.int32(0)
+        n_budget = wp.int32(0)
+        stopped = wp.int32(0)
+        pr = m_pieces[m]
+        br = m_parts[m]
+        orng = m_obst[m]
+        for pi in range(pr[0], pr[1]):
+            if stopped == 1:
+                break
+            k = p_k[pi]
+            start = p_start[pi]
+            for b in range(br[0], br[1]):
+                if stopped == 1:
+                    break
+                part = shapes[b]
+                # the piece's box against each obstacle's: pairs that miss never refine
+                for i in range(k):
+                    st_ctrl[lane, 0, i] = ctrl[start + i]
+                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0)
+                for oo in range(orng[0], orng[1]):
+                    if stopped == 1:
+                        break
+                    obst = shapes[o_idx[oo]]
+                    if root.ok == 1:
+                        rm = root.margin + GAMMA_C * (root.scale + obst.rho)
+                        if _boxes_apart(root.lo, root.hi, obst.lo, obst.hi, rm) == 1:
+                            continue
+                    for i in range(k):
+                        st_ctrl[lane, 0, i] = ctrl[start + i]
+                    st_t[lane, 0] = p_t[pi]
+                    st_err[lane, 0] = p_err[pi]
+                    st_warm[lane, 0] = wp.vec3d(F0, F0, F0)
+                    st_ub[lane, 0] = wp.vec2d(F0, F0)
+                    st_flags[lane, 0] = 0
+                    st_depth[lane, 0] = 0
+                    carry_t = -HUGE
+                    carry_ub = F0
+                    carry_x = wp.int32(0)
+                    carry_h = wp.int32(0)
+                    sp = wp.int32(0)
+                    while sp >= 0:
+                        tt = st_t[lane, sp]
+                        t0 = tt[0]
+                        t1 = tt[1]
+                        if t0 >= tcoll:  # after a proven contact: moot
+                            sp -= 1
+                            continue
+                        depth = st_depth[lane, sp]
+                        if nodes >= max_nodes:
+                            # budget: this node and every pair after it stay unresolved
+                            cand = t0
+                            if oo + 1 < orng[1] or b + 1 < br[1]:
+                                cand = wp.min(cand, p_t[pi][0])
+                            elif pi + 1 < pr[1]:
+                                cand = wp.min(cand, p_t[pi + 1][0])
+                            toi_lo = wp.min(toi_lo, cand)
+                            n_budget += 1
+                            if cand < unk_t:
+                                unk_t = cand
+                                unk_r = R_BUDGET
+                            stopped = 1
+                            break
+                        nodes += 1
+                        deepest = wp.max(deepest, depth)
+                        err = st_err[lane, sp]
+                        warm = st_warm[lane, sp]
+                        prep = _prepare(st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0)
+                        clear = wp.int32(0)
+                        if prep.ok == 1:
+                            margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
+                            if _boxes_apart(prep.lo, prep.hi, obst.lo, obst.hi, margin) == 1:
+                                clear = 1
+                            elif use_aabb == 1:
+                                _u, gap, dirn, ov, _dp = _gjk(
+                                    1, pre_m, pre_c, lane, 0, k, part, obst, verts,
+                                    prep.lo, prep.hi, 0, warm, max_iter, wp.float64(2.0) * margin,
+                                )  # fmt: skip
+                                warm = dirn
+                                if ov == 0 and gap > margin:
+                                    clear = 1
+                            else:
+                                if wp.dot(warm, warm) > F0:
+                                    # the inherited direction as a separating axis first
+                                    sb = _placed_support(obst, verts, -warm, 0)
+                                    gap = wp.dot(warm, sb) - _affine_h(
+                                        pre_m, pre_c, lane, 0, k, part, verts, warm
+                                    )
+                                    if gap > margin:
+                                        clear = 1
+                                if clear == 0:
+                                    _u, gap, dirn, ov, _dp = _gjk(
+                                        0, pre_m, pre_c, lane, 0, k, part, obst, verts,
+                                        prep.lo, prep.hi, 0, warm, max_iter,
+                                        wp.float64(2.0) * margin,
+                                    )  # fmt: skip
+                                    warm = dirn
+                                    if ov == 0 and gap > margin:
+                                        clear = 1
+                        if clear == 1:
+                            sp -= 1
+                            continue
+                        # the bound does not clear: the node's end poses decide
+                        flags = st_flags[lane, sp]
+                        ubs = st_ub[lane, sp]
+                        ub0 = ubs[0]
+                        ub1 = ubs[1]
+                        x0 = (flags >> 1) & 1
+                        x1 = (flags >> 3) & 1
+                        h0 = (flags >> 4) & 1
+                        h1 = (flags >> 5) & 1
+                        if (flags & 1) == 0:
+                            if carry_t == t0:
+                                ub0 = carry_ub
+                                x0 = carry_x
+                                h0 = carry_h
+                            else:
+                                ub0, x0, h0 = _pose_test(
+                                    st_ctrl, lane, sp, 0, part, obst, verts, err, pre_m,
+                                    pre_c, pose_slot, warm, max_iter, use_aabb,
+                                )  # fmt: skip
+                                tests += 1
+                        if (flags & 4) == 0:
+                            ub1, x1, h1 = _pose_test(
+                                st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
+                                pre_c, pose_slot, warm, max_iter, use_aabb,
+                            )  # fmt: skip
+                            tests += 1
+                            carry_t = t1
+                            carry_ub = ub1
+                            carry_x = x1
+                            carry_h = h1
+                        if x1 == 1:
+                            tcoll = wp.min(tcoll, t1)
+                        if x0 == 1:  # (b) contact at the left end
+                            tcoll = wp.min(tcoll, t0)
+                            toi_lo = wp.min(toi_lo, t0)
+                            sp -= 1
+                            continue
+                        if x1 == 1 and ub0 < tol:  # (b) contact at the right end, left near
+                            toi_lo = wp.min(toi_lo, t0)
+                            sp -= 1
+                            continue
+                        if x1 == 0:
+                            dmin = ub0
+                            tmin = t0
+                            if ub1 < ub0:
+                                dmin = ub1
+                                tmin = t1
+                            if dmin < tol and prep.ok == 1 and prep.extent <= tol:
+                                # (c) a pose within tolerance on a piece shorter than it
+                                toi_lo = wp.min(toi_lo, t0)
+                                n_tol += 1
+                                if tmin < wit_t:
+                                    wit_t = tmin
+                                    wit_d = dmin
+                                if t0 < unk_t:
+                                    unk_t = t0
+                                    unk_r = R_TOL
+                                sp -= 1
+                                continue
+                        if t0 >= tcoll:
+                            sp -= 1
+                            continue
+                        # (d'): no depth would clear a piece whose end poses' own bounds
+                        # overlap; once it is shorter than `tolerance` (its ends would show
+                        # any penetration deeper than that) refining it is pointless
+                        hopeless = (
+                            h0 == 1
+                            and h1 == 1
+                            and x1 == 0
+                            and ub0 >= tol
+                            and ub1 >= tol
+                            and prep.ok == 1
+                            and prep.extent <= tol
+                        )
+                        if depth >= max_depth or hopeless:  # (d)
+                            toi_lo = wp.min(toi_lo, t0)
+                            if x1 == 0:
+                                n_depth += 1
+                                if t0 < unk_t:
+                                    unk_t = t0
+                                    unk_r = R_DEPTH
+                            sp -= 1
+                            continue
+                        # split: right half stays in slot sp, left half on top
+                        _halve(st_ctrl, lane, sp, k)
+                        ek = wp.float64(k) * UNIT / (F1 - wp.float64(k) * UNIT)
+                        e2 = err + ek * (prep.mag + err)
+                        tm = wp.float64(0.5) * (t0 + t1)
+                        st_t[lane, sp] = wp.vec2d(tm, t1)
+                        st_t[lane, sp + 1] = wp.vec2d(t0, tm)
+                        st_err[lane, sp] = e2
+                        st_err[lane, sp + 1] = e2
+                        st_warm[lane, sp] = warm
+                        st_warm[lane, sp + 1] = warm
+                        st_ub[lane, sp] = wp.vec2d(F0, ub1)
+                        st_ub[lane, sp + 1] = wp.vec2d(ub0, F0)
+                        st_flags[lane, sp] = 4 | (x1 << 3) | (h1 << 5)
+                        st_flags[lane, sp + 1] = 1 | (x0 << 1) | (h0 << 4)
+                        st_depth[lane, sp] = depth + 1
+                        st_depth[lane, sp + 1] = depth + 1
+                        sp += 1
+        out_t[m, 0] = toi_lo
+        out_t[m, 1] = tcoll
+        out_t[m, 2] = wit_t
+        out_t[m, 3] = wit_d
+        out_t[m, 4] = unk_t
+        out_n[m, 0] = nodes
+        out_n[m, 1] = tests
+        out_n[m, 2] = deepest
+        out_n[m, 3] = unk_r
+        out_n[m, 4] = n_tol
+        out_n[m, 5] = n_depth
+        out_n[m, 6] = n_budget
+        m += stride

@@ -1,0 +1,549 @@
+"""``lipschitz`` (conservative advancement) and ``sampled`` (grid) certification, and
+batched pose distances.
+
+Rational motions step inside one kernel launch per chunk, with poses evaluated in the
+kernel from their positive Bézier pieces and proven speed bounds per piece
+(:func:`motions.pieces.speed_bounds`): the same implementation level as the hull, so the
+harness compares algorithms, not implementations. Other motions (the slerp family) have
+no Bézier form: their poses are evaluated on the host, vectorised over all live tracks,
+and tested in one launch per step.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+
+import numpy as np
+
+from motions import Motion, RationalMotion
+from motions.pieces import speed_bounds
+
+from ..shapes import Shape
+from .api import MAX_SAMPLES, Certificate, QueryError, assemble
+from .device import buffers, is_cpu, run_lanes, warp
+from .refine import GPU_LANES, MOTIONS_PER_CHUNK, Outcome, pack_shapes
+from .tables import ShapeTable
+
+__all__ = ["advance_many", "default_samples", "pose_matrices", "pose_rows", "sample_many"]
+
+SAMPLE_ROWS = 1 << 16
+"""(sample, body part, obstacle part) rows per host-evaluated launch."""
+
+
+def pose_matrices(r: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """(T, 4, 4) pose matrices ``[[R, p], [0, 0, 0, 1]]`` from rotations (T, 3, 3) and
+    origins (T, 3)."""
+    out = np.zeros((len(r), 4, 4))
+    out[:, :3, :3] = r
+    out[:, :3, 3] = p
+    out[:, 3, 3] = 1.0
+    return out
+
+
+def pose_rows(
+    poses: np.ndarray,
+    body_idx: np.ndarray,
+    obst_idx: np.ndarray,
+    table: ShapeTable,
+    warm: np.ndarray | None = None,
+    *,
+    max_iter: int = 64,
+    threads: int = 2,
+    device: str = "cpu",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Signed-distance brackets of body parts at poses to obstacle parts (one launch).
+
+    Args:
+        poses: (R, 4, 4) pose matrices (exact input).
+        body_idx, obst_idx: (R,) part indices into `table`.
+        warm: (R, 3) GJK start directions (zero: none).
+
+    Returns:
+        ub (R,) an upper bound of the signed distance (negative: proven intersecting),
+        lb (R,) a lower bound (a separating plane; -inf when overlapping), intersects
+        (R,) bool, direction (R, 3) of separation.
+    """
+    from ._advance_kernels import _pose_rows
+    from ._geometry import Shape as WpShape
+
+    wp = warp()
+    n = len(poses)
+    if n == 0:
+        z = np.zeros(0)
+        return z, z, z.astype(bool), np.zeros((0, 3))
+    buf = buffers(device, "pose_rows")
+    lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
+    args = [
+        buf.put("poses", np.ascontiguousarray(poses), wp.mat44d),
+        buf.put("bi", np.asarray(body_idx, dtype=np.int32), wp.int32),
+        buf.put("oi", np.asarray(obst_idx, dtype=np.int32), wp.int32),
+        buf.put("shapes", table.records, WpShape),
+        buf.put("verts", table.verts, wp.vec3d),
+        buf.put("warm", np.zeros((n, 3)) if warm is None else np.asarray(warm, float), wp.vec3d),
+        int(max_iter),
+        0,
+        lanes,
+        n,
+        buf.scratch("st_ctrl", (lanes, 1, 1, 4, 4), np.float64, wp.mat44d),
+        buf.scratch("pre_m", (lanes, 1, 3, 3), np.float64, wp.mat33d),
+        buf.scratch("pre_c", (lanes, 1, 3), np.float64, wp.vec3d),
+        buf.out("ub", (n,), np.float64, wp.float64)[1],
+        buf.out("lb", (n,), np.float64, wp.float64)[1],
+        buf.out("x", (n,), np.int32, wp.int32)[1],
+        buf.out("dir", (n, 3), np.float64, wp.vec3d)[1],
+    ]
+    _launch(_pose_rows, args, 7, lanes, device)
+    ub, lb = buf.fetch("ub", n), buf.fetch("lb", n)
+    lb = np.where(lb < -1e299, -np.inf, lb)
+    return ub, lb, buf.fetch("x", n).astype(bool), buf.fetch("dir", n)
+
+
+def _launch(kernel, args: list, first_index: int, lanes: int, device: str) -> None:
+    wp = warp()
+    if is_cpu(device):
+
+        def launch(first: int) -> None:
+            a = list(args)
+            a[first_index] = first
+            wp.launch(kernel, dim=1, inputs=a, device=device)
+
+        run_lanes(lanes, launch)
+    else:
+        wp.launch(kernel, dim=lanes, inputs=args, device=device)
+        wp.synchronize_device(device)
+
+
+# ----------------------------------------------------------------------------- speeds
+SPEED_HALVINGS = 2
+"""Advancement and sampling use each positive piece halved this often, with a speed
+bound per quarter: local bounds are tighter, so steps are longer (measured: 0 halvings
+took more steps per pair than 2; see the note of issue 11)."""
+
+
+def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
+    """(packed pieces as in refine._packed, speed bounds (P,)) for stepping: the positive
+    pieces halved SPEED_HALVINGS times, speed bounds for points within `radius` (cached
+    on the motion per radius)."""
+    cache = getattr(m, "_certify_speeds", None)
+    if cache is None:
+        cache = {}
+        m._certify_speeds = cache
+    hit = cache.get(radius)
+    if hit is None:
+        pc = m.positive_pieces()
+        for _ in range(SPEED_HALVINGS):
+            pc = pc.halve()
+        packed = (
+            np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
+            np.full(len(pc), pc.n_ctrl, dtype=np.int32),
+            np.stack([pc.t0, pc.t1], axis=1),
+            np.ascontiguousarray(pc.error),
+            0,
+        )
+        hit = (packed, speed_bounds(pc, radius))
+        cache[radius] = hit
+    return hit
+
+
+def _interval_speeds(m: Motion, radius: float, index: int, bound: str) -> tuple:
+    """(knots (K,), proven speed bounds (K-1,)) per knot interval of a non-rational motion."""
+    k = m.knots
+    try:
+        return k, np.array([m.speed_bound(a, b, radius) for a, b in itertools.pairwise(k)])
+    except NotImplementedError as e:
+        raise QueryError(
+            f"Bound {bound!r} needs a proven speed bound; motions[{index}] ({m.scheme!r}) has"
+            f" none: {e}"
+        ) from None
+
+
+# ----------------------------------------------------------------------------- in-kernel
+def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome, float]:
+    from . import _advance_kernels as K
+    from ._geometry import Shape as WpShape
+
+    wp = warp()
+    start = time.perf_counter()
+    device, threads = o["device"], o["threads"]
+    outs = []
+    for c in range(0, len(ms), MOTIONS_PER_CHUNK):
+        cm, cb, co = (x[c : c + MOTIONS_PER_CHUNK] for x in (ms, bodies, obst))
+        n = len(cm)
+        stepping = [_stepping_pieces(m, b.bounding_radius) for m, b in zip(cm, cb, strict=True)]
+        packs = [x[0] for x in stepping]
+        speeds = np.concatenate([x[1] for x in stepping])
+        table, m_parts, m_obst, o_idx, _ = pack_shapes(cb, co)
+        p_k = np.concatenate([p[1] for p in packs])
+        counts = np.array([len(p[1]) for p in packs])
+        p_start = np.zeros(len(p_k), dtype=np.int32)
+        np.cumsum(p_k[:-1], out=p_start[1:])
+        bounds = np.zeros(n + 1, dtype=np.int32)
+        np.cumsum(counts, out=bounds[1:])
+        buf = buffers(device, kernel_name)
+        lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
+        kmax = int(p_k.max())
+        head = [
+            buf.put("ctrl", np.concatenate([p[0] for p in packs]), wp.mat44d),
+            buf.put("p_start", p_start, wp.int32),
+            buf.put("p_k", p_k, wp.int32),
+            buf.put("p_t", np.concatenate([p[2] for p in packs]), wp.vec2d),
+            buf.put("p_err", np.concatenate([p[3] for p in packs]), wp.vec3d),
+            buf.put("p_speed", speeds, wp.float64),
+            buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
+            buf.put("m_parts", m_parts, wp.vec2i),
+            buf.put("m_obst", m_obst, wp.vec2i),
+        ]
+        if kernel_name == "sample":
+            head.append(buf.put("m_samples", samples[c : c + n].astype(np.int32), wp.int32))
+        head += [
+            buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
+            buf.put("shapes", table.records, WpShape),
+            buf.put("verts", table.verts, wp.vec3d),
+            float(o["tol"]),
+        ]
+        if kernel_name == "advance":
+            head.append(int(min(o["max_nodes"], 2**31 - 1)))
+        head.append(int(o["max_iter"]))
+        first_index = len(head)
+        args = head + [
+            0,
+            lanes,
+            n,
+            buf.scratch("st_ctrl", (lanes, 1, kmax, 4, 4), np.float64, wp.mat44d),
+            buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
+            buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
+            buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
+            buf.out("out_n", (n, 7), np.int32, wp.int32)[1],
+        ]
+        kernel = K._advance if kernel_name == "advance" else K._sample
+        _launch(kernel, args, first_index, lanes, device)
+        outs.append(_outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
+    out = Outcome(
+        *(np.concatenate([getattr(x, f) for x in outs]) for f in Outcome.__dataclass_fields__)
+    )
+    return out, time.perf_counter() - start
+
+
+def _outcome(t: np.ndarray, c: np.ndarray) -> Outcome:
+    big = 1e299
+    fix = lambda x: np.where(x > big, math.inf, x)  # noqa: E731
+    return Outcome(
+        toi_lo=fix(t[:, 0]),
+        toi_hi=fix(t[:, 1]),
+        witness_time=np.where(t[:, 2] > big, math.nan, t[:, 2]),
+        witness_distance=np.where(t[:, 2] > big, math.nan, t[:, 3]),
+        unknown_time=fix(t[:, 4]),
+        unknown_reason=c[:, 3].astype(np.int64),
+        nodes=c[:, 0].astype(np.int64),
+        tests=c[:, 1].astype(np.int64),
+        depth=c[:, 2].astype(np.int64),
+        counts=c[:, 4:7].astype(np.int64),
+    )
+
+
+# ----------------------------------------------------------------------------- lipschitz
+def advance_many(ms, bodies, obst, o) -> list[Certificate]:
+    """Conservative advancement for every motion (DESIGN §4, ``bound="lipschitz"``)."""
+    rational = [i for i, m in enumerate(ms) if isinstance(m, RationalMotion)]
+    other = [i for i, m in enumerate(ms) if not isinstance(m, RationalMotion)]
+    specs = {i: _interval_speeds(ms[i], bodies[i].bounding_radius, i, "lipschitz") for i in other}
+    res: list[Certificate | None] = [None] * len(ms)
+    if rational:
+        out, elapsed = _kernel_run(
+            "advance", [ms[i] for i in rational], [bodies[i] for i in rational],
+            [obst[i] for i in rational], o,
+        )  # fmt: skip
+        ends = [ms[i].domain for i in rational]
+        for i, c in zip(
+            rational,
+            assemble(out, elapsed, "lipschitz", o["tol"], certified=True, ends=ends),
+            strict=True,
+        ):
+            res[i] = c
+    if other:
+        sub = [ms[i] for i in other]
+        certs = _advance_host(
+            sub, [bodies[i] for i in other], [obst[i] for i in other],
+            [specs[i] for i in other], o,
+        )  # fmt: skip
+        for i, c in zip(other, certs, strict=True):
+            res[i] = c
+    return res
+
+
+def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
+    """Conservative advancement of motions without a Bézier form: poses on the host,
+    vectorised over all live tracks per step, distances in one launch per step."""
+    start = time.perf_counter()
+    tol, max_nodes = o["tol"], o["max_nodes"]
+    table, m_parts, m_obst, o_idx, _ = pack_shapes(bodies, obst)
+    mt, bp, op = _tracks(m_parts, m_obst, o_idx)
+    n_m = len(ms)
+    lmax = max(len(k) for k, _ in speeds)
+    knots_pad = np.full((n_m, lmax), np.inf)
+    v_pad = np.zeros((n_m, lmax - 1))
+    nseg = np.array([len(v) for _, v in speeds])
+    for i, (k, v) in enumerate(speeds):
+        knots_pad[i, : len(k)] = k
+        v_pad[i, : len(v)] = v
+    t = np.array([ms[i].domain[0] for i in mt], dtype=float)
+    tend = np.array([ms[i].domain[1] for i in mt], dtype=float)
+    live = np.ones(len(mt), dtype=bool)
+    tcoll = np.full(n_m, np.inf)
+    toi_lo = np.full(n_m, np.inf)
+    near_t = np.full(len(mt), np.inf)
+    near_d = np.full(len(mt), np.nan)
+    nodes = np.zeros(n_m, dtype=np.int64)
+    steps = np.zeros(len(mt), dtype=np.int64)
+    budget = np.zeros(n_m, dtype=np.int64)
+    warm = np.zeros((len(mt), 3))
+    while live.any():
+        live &= t < tcoll[mt]
+        over = live & (nodes[mt] >= max_nodes)
+        if over.any():
+            for j in np.flatnonzero(over):
+                toi_lo[mt[j]] = min(toi_lo[mt[j]], t[j])
+                budget[mt[j]] += 1
+            live &= ~over
+        idx = np.flatnonzero(live)
+        if not idx.size:
+            break
+        poses = np.zeros((idx.size, 4, 4))
+        for i in np.unique(mt[idx]):
+            sel = mt[idx] == i
+            poses[sel] = pose_matrices(*ms[i].pose(t[idx[sel]]))
+        ub, lb, x, d = pose_rows(
+            poses, bp[idx], op[idx], table, warm[idx], threads=o["threads"], device=o["device"]
+        )
+        warm[idx] = d
+        np.add.at(nodes, mt[idx], 1)
+        steps[idx] += 1
+        hit = idx[x]
+        np.minimum.at(tcoll, mt[hit], t[hit])
+        np.minimum.at(toi_lo, mt[hit], t[hit])
+        live[hit] = False
+        go = ~x
+        g = idx[go]
+        newly = ((ub[go] < tol) | (lb[go] <= 0)) & np.isinf(near_t[g])
+        near_t[g[newly]] = t[g[newly]]
+        near_d[g[newly]] = ub[go][newly]
+        np.minimum.at(toi_lo, mt[g[newly]], t[g[newly]])
+        gaps = np.where(np.isfinite(near_t[g]), np.maximum(lb[go], tol), np.maximum(lb[go], 0.0))
+        kn, vv = knots_pad[mt[g]], v_pad[mt[g]]
+        s = np.clip((kn <= t[g, None]).sum(axis=1) - 1, 0, nseg[mt[g]] - 1)
+        v_here = vv[np.arange(len(g)), s]
+        reach = t[g] + gaps / np.maximum(v_here, 1e-300)
+        e = np.clip((kn <= reach[:, None]).sum(axis=1) - 1, s, nseg[mt[g]] - 1)
+        cols = np.arange(vv.shape[1])
+        window = (cols[None, :] >= s[:, None]) & (cols[None, :] <= e[:, None])
+        vmax = np.where(window, vv, 0.0).max(axis=1)
+        t[g] = np.where(
+            vmax > 0, t[g] + gaps / np.maximum(vmax, 1e-300), kn[np.arange(len(g)), e + 1]
+        )
+        live[g[t[g] >= tend[g]]] = False
+    # per-motion outcome
+    wit_t = np.full(n_m, np.inf)
+    wit_d = np.full(n_m, np.nan)
+    for j in np.flatnonzero(np.isfinite(near_t)):
+        if near_t[j] < wit_t[mt[j]]:
+            wit_t[mt[j]], wit_d[mt[j]] = near_t[j], near_d[j]
+    n_tol = np.bincount(mt[np.isfinite(near_t)], minlength=n_m)
+    unk_r = np.where(budget > 0, 4, np.where(n_tol > 0, 2, 0))
+    both = (budget > 0) & (n_tol > 0)
+    unk_r[both] = np.where(wit_t[both] <= toi_lo[both], 2, 4)
+    deepest = np.zeros(n_m, dtype=np.int64)
+    np.maximum.at(deepest, mt, steps)
+    out = Outcome(
+        toi_lo=toi_lo,
+        toi_hi=tcoll,
+        witness_time=np.where(np.isfinite(wit_t), wit_t, np.nan),
+        witness_distance=wit_d,
+        unknown_time=toi_lo,
+        unknown_reason=unk_r,
+        nodes=nodes,
+        tests=nodes,
+        depth=deepest,
+        counts=np.stack([n_tol, np.zeros(n_m, np.int64), budget], axis=1),
+    )
+    return assemble(
+        out, time.perf_counter() - start, "lipschitz", tol, certified=True,
+        ends=[m.domain for m in ms],
+    )  # fmt: skip
+
+
+def _tracks(m_parts, m_obst, o_idx) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(motion, body part, obstacle part) of every track."""
+    mt, bp, op = [], [], []
+    for i, ((b0, b1), (o0, o1)) in enumerate(zip(m_parts, m_obst, strict=True)):
+        for b in range(b0, b1):
+            mt.extend([i] * (o1 - o0))
+            bp.extend([b] * (o1 - o0))
+            op.extend(o_idx[o0:o1])
+    return (np.asarray(x, dtype=np.int64) for x in (mt, bp, op))
+
+
+# ----------------------------------------------------------------------------- sampled
+def default_samples(m: Motion, body: Shape, tol: float, cap: int = 2_000_000) -> int:
+    """``ceil(speed * duration / tolerance)`` with the largest speed of any body point on
+    a 2001-sample grid: the sampling rule for motions without a proven speed bound."""
+    t0, t1 = m.domain
+    r = body.bounding_radius
+    x = np.linspace(t0, t1, 2001)
+    v = float(
+        (
+            np.linalg.norm(m.velocity(x), axis=1)
+            + r * np.linalg.norm(m.angular_velocity(x), axis=1)
+        ).max()
+    )
+    return int(min(cap, max(2, math.ceil(v * (t1 - t0) / tol))))
+
+
+def sample_many(ms, bodies, obst, o) -> list[Certificate]:
+    """Grid sampling (``bound="sampled"``). Rational motions: in the kernel, on the fair
+    grid (``samples=None``) or `samples` evenly spaced poses; a verdict is certified when
+    every cell is proven. Other motions: host poses, not a proof."""
+    tol = o["tol"]
+    rational = [i for i, m in enumerate(ms) if isinstance(m, RationalMotion)]
+    other = [i for i, m in enumerate(ms) if not isinstance(m, RationalMotion)]
+    res: list[Certificate | None] = [None] * len(ms)
+    if rational:
+        rm = [ms[i] for i in rational]
+        rb = [bodies[i] for i in rational]
+        if o["samples"] is None:
+            counts = np.zeros(len(rm), dtype=np.int64)
+            for j, (m, b) in enumerate(zip(rm, rb, strict=True)):
+                (_c, _k, tt, _e, _x), v = _stepping_pieces(m, b.bounding_radius)
+                total = int(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
+                if total > MAX_SAMPLES:
+                    raise QueryError(
+                        f"The fair grid of motions[{rational[j]}] needs {total} samples at"
+                        f" `tolerance` {tol!r} (more than {MAX_SAMPLES}); raise `tolerance`."
+                    )
+        else:
+            counts = np.full(len(rm), o["samples"], dtype=np.int64)
+        out, elapsed = _kernel_run("sample", rm, rb, [obst[i] for i in rational], o, samples=counts)
+        for i, c in zip(rational, _sampled_certs(out, elapsed, tol, rm), strict=True):
+            res[i] = c
+    if other:
+        certs = _sample_host(
+            [ms[i] for i in other], [bodies[i] for i in other], [obst[i] for i in other], o
+        )
+        for i, c in zip(other, certs, strict=True):
+            res[i] = c
+    return res
+
+
+def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms) -> list[Certificate]:
+    """Sampling verdicts: collision at a proven contact; free and certified when every
+    cell is proven; else unknown ("tolerance") when a sample came closer than `tol`, or
+    free but not certified."""
+    n = len(ms)
+    share = elapsed * out.nodes / max(1, int(out.nodes.sum()))
+    res = []
+    for i in range(n):
+        all_proven = out.counts[i, 1] == 0  # the kernel's count of unproven cells
+        common = dict(
+            nodes=int(out.nodes[i]),
+            depth=0,
+            seconds=float(share[i]),
+            bound="sampled",
+            tolerance=tol,
+            pose_tests=int(out.tests[i]),
+        )
+        lo = float(out.toi_lo[i])
+        if math.isfinite(out.toi_hi[i]):
+            res.append(
+                Certificate(
+                    "collision", "contact", lo, float(out.toi_hi[i]), certified=True, **common
+                )
+            )
+        elif all_proven:
+            res.append(Certificate("free", "clear", math.inf, math.inf, certified=True, **common))
+        elif out.counts[i, 0] > 0:
+            res.append(
+                Certificate(
+                    "unknown",
+                    "tolerance",
+                    lo,
+                    math.inf,
+                    certified=True,
+                    witness_time=float(out.witness_time[i]),
+                    witness_distance=float(out.witness_distance[i]),
+                    unresolved={"tolerance": int(out.counts[i, 0])},
+                    **common,
+                )
+            )
+        else:
+            res.append(Certificate("free", "clear", math.inf, math.inf, certified=False, **common))
+    return res
+
+
+def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
+    """Poses on a uniform grid for motions without a Bézier form, in time order and in
+    chunks, stopping at the first intersecting sample. Not a proof."""
+    start = time.perf_counter()
+    tol = o["tol"]
+    table, m_parts, m_obst, o_idx, _ = pack_shapes(bodies, obst)
+    nodes = np.zeros(len(ms), dtype=np.int64)
+    results = []
+    for i, m in enumerate(ms):
+        n = default_samples(m, bodies[i], tol) if o["samples"] is None else int(o["samples"])
+        t = np.linspace(*m.domain, n)
+        (b0, b1), (o0, o1) = m_parts[i], m_obst[i]
+        bp = np.repeat(np.arange(b0, b1), o1 - o0)
+        op = np.tile(o_idx[o0:o1], b1 - b0)
+        per = max(1, SAMPLE_ROWS // max(1, len(bp)))
+        first_coll = first_near = math.inf
+        near_d = math.nan
+        for a in range(0, n, per):
+            tc = t[a : a + per]
+            poses = pose_matrices(*m.pose(tc))
+            rows_t = np.repeat(np.arange(len(tc)), len(bp))
+            ub, _, x, _ = pose_rows(
+                poses[rows_t], np.tile(bp, len(tc)), np.tile(op, len(tc)), table,
+                threads=o["threads"], device=o["device"],
+            )  # fmt: skip
+            nodes[i] += len(tc)
+            tt = tc[rows_t]
+            near = ~x & (ub < tol)
+            if np.any(near) and not math.isfinite(first_near):
+                j = np.flatnonzero(near)[np.argmin(tt[near])]
+                first_near, near_d = float(tt[j]), float(ub[j])
+            if np.any(x):
+                first_coll = float(tt[x].min())
+                break
+        before = t[t < first_coll]
+        results.append(
+            (first_coll, float(before.max()) if before.size else first_coll, first_near, near_d)
+        )
+    elapsed = time.perf_counter() - start
+    out = []
+    for i, (tc, tb, tn, dn) in enumerate(results):
+        common = dict(
+            nodes=int(nodes[i]),
+            pose_tests=int(nodes[i]),
+            depth=0,
+            seconds=float(elapsed * nodes[i] / max(1, nodes.sum())),
+            certified=False,
+            bound="sampled",
+            tolerance=tol,
+        )
+        if math.isfinite(tc):
+            out.append(Certificate("collision", "contact", tb, tc, **common))
+        elif math.isfinite(tn):
+            out.append(
+                Certificate(
+                    "unknown",
+                    "tolerance",
+                    tn,
+                    math.inf,
+                    witness_time=tn,
+                    witness_distance=dn,
+                    **common,
+                )
+            )
+        else:
+            out.append(Certificate("free", "clear", math.inf, math.inf, **common))
+    return out

@@ -1,0 +1,323 @@
+"""Certified collision queries of moving convex bodies against static convex obstacles
+(DESIGN §4): the public entry points, their validation and the certificates.
+
+``hull``/``aabb`` refine the motion's Bézier pieces inside a kernel
+(:mod:`.refine`); ``lipschitz`` advances conservatively with a proven speed bound and
+``sampled`` tests poses on a grid (:mod:`.advance`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from motions import Motion, RationalMotion
+from motions.pieces import UNIT_ROUNDOFF
+
+from ..errors import HarnessError
+from ..shapes import Shape, as_obstacles, as_shape
+from .device import resolve_device
+
+__all__ = [
+    "BOUNDS",
+    "DEFAULT_MAX_NODES",
+    "MAX_DEPTH_LIMIT",
+    "MAX_SAMPLES",
+    "REASONS",
+    "Certificate",
+    "certify",
+    "certify_many",
+]
+
+BOUNDS = ("hull", "aabb", "lipschitz", "sampled")
+REASONS = ("clear", "contact", "tolerance", "depth", "budget")
+DEFAULT_MAX_NODES = 200_000  # per motion
+MAX_DEPTH_LIMIT = 60
+"""Deeper halvings of a segment reach the spacing of doubles: nothing left to refine."""
+MAX_SAMPLES = 100_000_000
+"""Samples per motion for ``bound="sampled"`` (about 10 s of pose tests here)."""
+TIME_ULPS = 64.0
+"""A reported ``toi_lo`` is lowered by this many units of round-off of the time scale: the
+times of halved pieces are computed by repeated averaging (one rounding per level)."""
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """Result of a collision query.
+
+    Attributes:
+        verdict: "free", "collision" or "unknown".
+        reason: "clear" (free), "contact" (an intersecting pose was found), "tolerance"
+            (a pose closer than `tolerance` was found, none intersecting), "depth" or
+            "budget" (a limit was hit).
+        toi_lo: earliest time not certified free (+inf when free); a certified lower
+            bound on the first contact when `certified`.
+        toi_hi: time of the first intersecting pose found (+inf if none).
+        nodes: bound evaluations of (segment piece, obstacle part), positivity splits
+            included (Lipschitz: distance evaluations; sampling: samples).
+        pose_tests: exact distance evaluations of poses.
+        depth: deepest subdivision level reached.
+        seconds: wall time (for a batch: its share by nodes).
+        certified: whether `free` and `toi_lo` are proofs.
+        bound: the query method.
+        tolerance: the length tolerance used.
+        witness_time, witness_distance: for "tolerance", the pose time and an upper
+            bound of its exact distance (NaN otherwise).
+        unresolved: counts of unresolved pieces by reason.
+        clearance: ground truth only: proven lower bound on the distance over the whole
+            motion (when free), else NaN.
+        penetration: ground truth only: largest proven penetration depth among samples.
+    """
+
+    verdict: str
+    reason: str
+    toi_lo: float
+    toi_hi: float
+    nodes: int
+    depth: int
+    seconds: float
+    certified: bool
+    bound: str = "hull"
+    tolerance: float = 1e-3
+    witness_time: float = math.nan
+    witness_distance: float = math.nan
+    unresolved: dict = field(default_factory=dict)
+    clearance: float = math.nan
+    penetration: float = math.nan
+    pose_tests: int = 0
+
+
+class QueryError(HarnessError):
+    """A certification query got arguments it cannot use."""
+
+
+# ----------------------------------------------------------------------------- validation
+def _integer(value: Any, name: str, lo: int, hi: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise TypeError(f"Expected `{name}` to be an integer, got {value!r}.")
+    v = int(value)
+    if v < lo or (hi is not None and v > hi):
+        rng = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
+        raise QueryError(f"Expected `{name}` to be an integer {rng}, got {v}.")
+    return v
+
+
+def check_options(
+    bound: Any,
+    tolerance: Any,
+    max_depth: Any,
+    samples: Any,
+    max_nodes: Any,
+    threads: Any,
+    device: Any,
+    max_iter: Any,
+) -> dict:
+    """Validate the common query options; returns them normalised."""
+    if not isinstance(bound, str) or bound not in BOUNDS:
+        raise QueryError(f"Unknown `bound` {bound!r}; expected one of {list(BOUNDS)}.")
+    if isinstance(tolerance, bool) or not isinstance(
+        tolerance, int | float | np.floating | np.integer
+    ):
+        raise TypeError(f"Expected `tolerance` to be a number (a length), got {tolerance!r}.")
+    tol = float(tolerance)
+    if not math.isfinite(tol) or tol <= 0:
+        raise QueryError(f"Expected `tolerance` > 0 (a length in scene units), got {tol!r}.")
+    return {
+        "bound": bound,
+        "tol": tol,
+        "max_depth": _integer(max_depth, "max_depth", 0, MAX_DEPTH_LIMIT),
+        "samples": None if samples is None else _integer(samples, "samples", 2, MAX_SAMPLES),
+        "max_nodes": _integer(max_nodes, "max_nodes", 1),
+        "threads": _integer(threads, "threads", 1, 64),
+        "device": resolve_device(device),
+        "max_iter": _integer(max_iter, "max_iter", 1, 1000),
+    }
+
+
+def check_motions(motions: Any, bound: str) -> list[Motion]:
+    if isinstance(motions, Motion) or not isinstance(motions, Sequence):
+        raise TypeError(
+            f"Expected `motions` to be a sequence of motions, got {type(motions).__name__}."
+        )
+    out = []
+    for i, m in enumerate(motions):
+        if not isinstance(m, Motion):
+            raise TypeError(
+                f"Expected `motions[{i}]` to be a motions.Motion, got {type(m).__name__}."
+            )
+        if bound in ("hull", "aabb") and not isinstance(m, RationalMotion):
+            raise QueryError(
+                f"Bound {bound!r} needs a rational motion's control structure; motions[{i}] is"
+                f" {m.scheme!r}. Use bound='lipschitz' (proven speed bound) or 'sampled'."
+            )
+        out.append(m)
+    return out
+
+
+def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
+    """One shared obstacle list (the same list object for every motion), or one per motion."""
+    if (
+        isinstance(obstacles, Sequence)
+        and not isinstance(obstacles, Shape | str)
+        and len(obstacles)
+        and all(isinstance(o, Sequence) and not isinstance(o, Shape | str) for o in obstacles)
+    ):
+        if len(obstacles) != n:
+            raise QueryError(f"Expected one obstacle list per motion ({n}), got {len(obstacles)}.")
+        return [as_obstacles(o, f"obstacles[{i}]") for i, o in enumerate(obstacles)]
+    shared = as_obstacles(obstacles)
+    return [shared] * n
+
+
+def body_list(body: Any, n: int) -> list[Shape]:
+    """One body shared by all motions, or one per motion."""
+    if isinstance(body, Shape):
+        return [body] * n
+    if isinstance(body, Sequence) and not isinstance(body, str):
+        if len(body) != n:
+            raise QueryError(f"Expected one body per motion ({n}), got {len(body)}.")
+        return [as_shape(b, f"body[{i}]") for i, b in enumerate(body)]
+    return [as_shape(body)]
+
+
+# ----------------------------------------------------------------------------- public API
+def certify(
+    motion: Motion,
+    body: Shape,
+    obstacles: Any,
+    *,
+    bound: str = "hull",
+    tolerance: float = 1e-3,
+    max_depth: int = 24,
+    samples: int | None = None,
+    **options: Any,
+) -> Certificate:
+    """Certify that `motion` moves `body` clear of every obstacle (DESIGN §4).
+
+    Args:
+        motion: a motion (rational for "hull"/"aabb"; with a proven ``speed_bound`` for
+            "lipschitz"; any for "sampled").
+        body: a shape in body coordinates.
+        obstacles: shapes in world coordinates.
+        bound: "hull", "aabb", "lipschitz" or "sampled".
+        tolerance: length (scene units): a pose closer than this ends refinement there.
+        max_depth: subdivision depth limit ("hull"/"aabb"), at most 60.
+        samples: poses for "sampled" (default: the fair grid, see :mod:`.advance`).
+        options: ``max_nodes`` (per motion), ``threads``, ``device``, ``max_iter``.
+    """
+    if not isinstance(motion, Motion):
+        raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    return certify_many(
+        [motion],
+        body,
+        obstacles,
+        bound=bound,
+        tolerance=tolerance,
+        max_depth=max_depth,
+        samples=samples,
+        **options,
+    )[0]
+
+
+def certify_many(
+    motions: Sequence[Motion],
+    body: Any,
+    obstacles: Any,
+    *,
+    bound: str = "hull",
+    tolerance: float = 1e-3,
+    max_depth: int = 24,
+    samples: int | None = None,
+    max_nodes: int = DEFAULT_MAX_NODES,
+    threads: int = 2,
+    device: str | None = None,
+    max_iter: int = 32,
+) -> list[Certificate]:
+    """:func:`certify` for a batch; all motions go through the kernels together, and
+    ``certify_many(ms)[i]`` equals ``certify(ms[i])`` in every field but ``seconds``.
+
+    `obstacles` is one sequence shared by all motions, or one sequence per motion;
+    `body` is one shape, or one shape per motion.
+    """
+    o = check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)
+    ms = check_motions(motions, o["bound"])
+    bodies = body_list(body, len(ms))
+    obst = obstacle_lists(obstacles, len(ms))
+    if not ms:
+        return []
+    if o["bound"] in ("hull", "aabb"):
+        from .refine import refine_many
+
+        out, elapsed = refine_many(
+            ms,
+            bodies,
+            obst,
+            aabb=o["bound"] == "aabb",
+            tol=o["tol"],
+            max_depth=o["max_depth"],
+            max_nodes=o["max_nodes"],
+            max_iter=o["max_iter"],
+            threads=o["threads"],
+            device=o["device"],
+        )
+        return assemble(
+            out, elapsed, o["bound"], o["tol"], certified=True, ends=[m.domain for m in ms]
+        )
+    from .advance import advance_many, sample_many
+
+    if o["bound"] == "lipschitz":
+        return advance_many(ms, bodies, obst, o)
+    return sample_many(ms, bodies, obst, o)
+
+
+def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) -> list[Certificate]:
+    """Certificates from per-motion outcome arrays (see :class:`.refine.Outcome`).
+
+    `certified` is a bool or a per-motion bool array (sampling proves some and not others).
+    """
+    from .refine import REASONS as UNK
+
+    n = len(out.nodes)
+    share = elapsed * out.nodes / max(1, int(out.nodes.sum()))
+    cert = np.broadcast_to(np.asarray(certified, dtype=bool), (n,))
+    res = []
+    for i in range(n):
+        unresolved = {
+            name: int(c) for name, c in zip(UNK.values(), out.counts[i], strict=True) if c
+        }
+        common = dict(
+            nodes=int(out.nodes[i]),
+            depth=int(out.depth[i]),
+            seconds=float(share[i]),
+            certified=bool(cert[i]),
+            bound=bound,
+            tolerance=tol,
+            pose_tests=int(out.tests[i]),
+            unresolved=unresolved,
+        )
+        lo = float(out.toi_lo[i])
+        if math.isfinite(lo):
+            # halved pieces' times are computed by averaging: lower by their round-off
+            scale = max(abs(lo), abs(ends[i][0]), abs(ends[i][1]))
+            lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0]) if lo > ends[i][0] else lo
+        if math.isfinite(out.toi_hi[i]):
+            res.append(Certificate("collision", "contact", lo, float(out.toi_hi[i]), **common))
+        elif out.unknown_reason[i]:
+            res.append(
+                Certificate(
+                    "unknown",
+                    UNK[int(out.unknown_reason[i])],
+                    lo,
+                    math.inf,
+                    witness_time=float(out.witness_time[i]),
+                    witness_distance=float(out.witness_distance[i]),
+                    **common,
+                )
+            )
+        else:
+            res.append(Certificate("free", "clear", math.inf, math.inf, **common))
+    return res

@@ -1,0 +1,168 @@
+"""Warp start-up, device choice and the persistent launch buffers of the certifiers.
+
+Building a ``wp.array`` costs microseconds and a launch tens of microseconds (measured on
+this kind of machine), so a query does not build arrays per call: each kernel input lives
+in a grow-only buffer per (device, name), written through its numpy view (shared memory
+on the CPU; copied to the device elsewhere). Python packs once, launches once per chunk
+(two host threads on the CPU, where one launch runs on one thread), and unpacks once.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from ..errors import HarnessError
+
+__all__ = [
+    "Buffers",
+    "DeviceError",
+    "buffers",
+    "default_device",
+    "resolve_device",
+    "run_lanes",
+    "warp",
+]
+
+_wp = None
+_lock = threading.Lock()
+
+
+class DeviceError(HarnessError):
+    """An unknown or unavailable Warp device."""
+
+
+def warp():
+    """The initialised ``warp`` module (quiet; initialised once)."""
+    global _wp
+    with _lock:
+        if _wp is None:
+            import warp as wp
+
+            wp.config.quiet = True
+            wp.init()
+            _wp = wp
+    return _wp
+
+
+def default_device() -> str:
+    """``$RSMBENCH_DEVICE`` if set, else ``"cpu"``."""
+    return os.environ.get("RSMBENCH_DEVICE", "cpu")
+
+
+def resolve_device(device: Any) -> str:
+    """Validate a device name ("cpu", "cuda", "cuda:N"); None means the default."""
+    name = default_device() if device is None else device
+    if not isinstance(name, str):
+        raise TypeError(
+            f"Expected `device` to be a string such as 'cpu' or 'cuda:0', got {device!r}."
+        )
+    if name != "cpu" and not (name == "cuda" or name.startswith("cuda:")):
+        raise DeviceError(f"Unknown `device` {name!r}; expected 'cpu', 'cuda' or 'cuda:N'.")
+    wp = warp()
+    if name == "cpu":
+        return name
+    if not wp.is_cuda_available():
+        raise DeviceError(f"`device` {name!r} is not available: this machine has no CUDA device.")
+    try:
+        return str(wp.get_device(name))
+    except (RuntimeError, ValueError):
+        n = wp.get_cuda_device_count()
+        raise DeviceError(
+            f"`device` {name!r} is not available; CUDA devices: {[f'cuda:{i}' for i in range(n)]}."
+        ) from None
+
+
+def is_cpu(device: str) -> bool:
+    return device == "cpu"
+
+
+class Buffers:
+    """Grow-only kernel buffers of one device: ``put`` writes an input, ``out`` gives an
+    output; both return (numpy view, warp array). Arrays keep their trailing dimensions;
+    the first dimension only grows (kernels index within what the call wrote)."""
+
+    def __init__(self, device: str):
+        self.device = device
+        self._arrays: dict[str, tuple[np.ndarray, Any]] = {}
+
+    def _get(self, name: str, shape: tuple, np_dtype, wp_dtype, exact: bool = False):
+        cur = self._arrays.get(name)
+        fits = (
+            cur is not None
+            and cur[0].dtype == np_dtype
+            and cur[0].shape[1:] == shape[1:]
+            and cur[0].shape[0] >= shape[0]
+        )
+        if exact and cur is not None:
+            fits = fits and cur[0].shape == shape
+        if not fits:
+            wp = warp()
+            rows = (
+                max(shape[0], 1)
+                if exact
+                else max(shape[0], 64, 0 if cur is None else 2 * cur[0].shape[0])
+            )
+            full = (rows,) + tuple(shape[1:])
+            host = np.zeros(full, dtype=np_dtype)
+            if is_cpu(self.device):
+                arr = wp.array(host, dtype=wp_dtype, device=self.device, copy=False)
+            else:
+                arr = wp.array(host, dtype=wp_dtype, device=self.device)
+            cur = (host, arr)
+            self._arrays[name] = cur
+        return cur
+
+    def put(self, name: str, data: np.ndarray, wp_dtype, inner: int = 0):
+        """Write `data` into buffer `name` (its first axis grows; `inner` trailing axes of
+        `data` belong to the Warp dtype, e.g. 2 for mat44d)."""
+        data = np.asarray(data)
+        host, arr = self._get(name, data.shape, data.dtype, wp_dtype)
+        host[: len(data)] = data
+        if not is_cpu(self.device):
+            arr.assign(host)
+        return arr
+
+    def scratch(self, name: str, shape: tuple, np_dtype, wp_dtype):
+        """A scratch array of exactly `shape` (kept between calls)."""
+        return self._get(name, shape, np_dtype, wp_dtype, exact=True)[1]
+
+    def out(self, name: str, shape: tuple, np_dtype, wp_dtype):
+        host, arr = self._get(name, shape, np_dtype, wp_dtype)
+        return host, arr
+
+    def fetch(self, name: str, n: int) -> np.ndarray:
+        """The first `n` rows of output buffer `name`, as a new numpy array."""
+        host, arr = self._arrays[name]
+        if not is_cpu(self.device):
+            return arr.numpy()[:n].copy()
+        return host[:n].copy()
+
+
+_buffers: dict[tuple[str, str], Buffers] = {}
+
+
+def buffers(device: str, owner: str) -> Buffers:
+    """The buffers of one certifier (`owner`) on `device` (one set per thread of calls)."""
+    key = (device, owner + ":" + str(threading.get_ident()))
+    with _lock:
+        if key not in _buffers:
+            _buffers[key] = Buffers(device)
+        return _buffers[key]
+
+
+def run_lanes(n_lanes: int, launch: Callable[[int], None]) -> None:
+    """Run ``launch(first)`` for first in range(n_lanes), one host thread each (a Warp
+    CPU launch runs on the calling thread and releases the GIL)."""
+    if n_lanes <= 1:
+        launch(0)
+        return
+    ts = [threading.Thread(target=launch, args=(i,)) for i in range(n_lanes)]
+    for t in ts:
+        t.start()
+    for t in ts:
+        t.join()

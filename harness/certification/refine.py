@@ -1,0 +1,244 @@
+"""``hull`` and ``aabb`` certification: the refinement runs inside one kernel launch per
+chunk of motions (DESIGN §4 "The engine"); Python validates, packs once, launches and
+unpacks once.
+
+Each motion is refined by one kernel lane, depth first and in time order over its
+(piece, body part, obstacle part) pairs, so its certificate is the same whatever else is
+in the batch and however the batch is chunked or threaded.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from motions import RationalMotion
+
+from ..shapes import Shape
+from .device import buffers, is_cpu, run_lanes, warp
+from .tables import ShapeTable
+
+__all__ = ["MOTIONS_PER_CHUNK", "Outcome", "refine_many"]
+
+MOTIONS_PER_CHUNK = 4096
+"""Motions packed per launch: bounds the packed copies of their control matrices."""
+GPU_LANES = 65536
+"""Lanes of one launch on a CUDA device (scratch memory grows with lanes x depth x K)."""
+REASONS = {2: "tolerance", 3: "depth", 4: "budget"}
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """Per-motion results of a refinement launch (arrays of length M).
+
+    Attributes:
+        toi_lo, toi_hi: earliest time not certified free; first proven contact (inf: none).
+        witness_time, witness_distance: the earliest pose closer than `tolerance`.
+        unknown_time, unknown_reason: the earliest unresolved piece and why (0: none).
+        nodes, tests, depth: bound evaluations, pose tests, deepest level.
+        counts: (M, 3) unresolved pieces by reason (tolerance, depth, budget).
+    """
+
+    toi_lo: np.ndarray
+    toi_hi: np.ndarray
+    witness_time: np.ndarray
+    witness_distance: np.ndarray
+    unknown_time: np.ndarray
+    unknown_reason: np.ndarray
+    nodes: np.ndarray
+    tests: np.ndarray
+    depth: np.ndarray
+    counts: np.ndarray
+
+
+def _packed(m: RationalMotion) -> tuple:
+    """(ctrl (sum K, 4, 4), k (P,), t (P, 2), err (P, 3), extra pieces) of a motion's
+    positive pieces, cached on the motion (it is immutable)."""
+    cached = getattr(m, "_certify_packed", None)
+    if cached is None:
+        pc = m.positive_pieces()
+        cached = (
+            np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
+            np.full(len(pc), pc.n_ctrl, dtype=np.int32),
+            np.stack([pc.t0, pc.t1], axis=1),
+            np.ascontiguousarray(pc.error),
+            len(pc) - m.segments,
+        )
+        m._certify_packed = cached
+    return cached
+
+
+def refine_many(
+    ms: list[RationalMotion],
+    bodies: list[Shape],
+    obst: list[list[Shape]],
+    *,
+    aabb: bool,
+    tol: float,
+    max_depth: int,
+    max_nodes: int,
+    max_iter: int,
+    threads: int,
+    device: str,
+) -> tuple[Outcome, float]:
+    """Refine every motion; returns the outcomes and the elapsed wall time."""
+    start = time.perf_counter()
+    packs = [_packed(m) for m in ms]
+    parts = []
+    for i in range(0, len(ms), MOTIONS_PER_CHUNK):
+        sl = slice(i, i + MOTIONS_PER_CHUNK)
+        parts.append(
+            _chunk(
+                packs[sl],
+                bodies[sl],
+                obst[sl],
+                aabb,
+                tol,
+                max_depth,
+                max_nodes,
+                max_iter,
+                threads,
+                device,
+            )
+        )
+    out = Outcome(
+        *(np.concatenate([getattr(p, f) for p in parts]) for f in Outcome.__dataclass_fields__)
+    )
+    return out, time.perf_counter() - start
+
+
+def pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
+    """Shape table of the distinct bodies and obstacles (by identity; a list shared by
+    several motions is packed once), and per motion its body-part range, obstacle-part
+    range into `o_idx`, and number of obstacles."""
+    index: dict[int, int] = {}
+    shapes: list[Shape] = []
+    body_ix = []
+    for s in bodies:
+        k = id(s)
+        if k not in index:
+            index[k] = len(shapes)
+            shapes.append(s)
+        body_ix.append(index[k])
+    list_ix: dict[int, int] = {}
+    list_start: list[int] = []
+    flat: list[int] = []
+    for lst in obst:
+        if id(lst) in list_ix:
+            continue
+        list_ix[id(lst)] = len(list_start)
+        list_start.append(len(flat))
+        for o in lst:
+            k = id(o)
+            if k not in index:
+                index[k] = len(shapes)
+                shapes.append(o)
+            flat.append(index[k])
+    list_start.append(len(flat))
+    table = ShapeTable.build(shapes)
+    off = table.offsets
+    flat_a = np.asarray(flat, dtype=np.int64)
+    counts = off[flat_a + 1] - off[flat_a]
+    part_start = np.zeros(len(flat_a) + 1, dtype=np.int64)
+    np.cumsum(counts, out=part_start[1:])
+    # ragged aranges: the parts of every flat entry
+    o_idx = (np.repeat(off[flat_a] - part_start[:-1], counts) + np.arange(part_start[-1])).astype(
+        np.int32
+    )
+    ls = np.asarray(list_start, dtype=np.int64)
+    lists = np.asarray([list_ix[id(lst)] for lst in obst], dtype=np.int64)
+    m_obst = np.stack([part_start[ls[lists]], part_start[ls[lists + 1]]], axis=1).astype(np.int32)
+    bix = np.asarray(body_ix, dtype=np.int64)
+    m_parts = np.stack([off[bix], off[bix + 1]], axis=1).astype(np.int32)
+    n_obst = ls[lists + 1] - ls[lists]
+    return table, m_parts, m_obst, o_idx, n_obst
+
+
+def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threads, device):
+    from ._geometry import Shape as WpShape
+    from ._refine_kernels import _refine
+
+    wp = warp()
+    n = len(packs)
+    table, m_parts, m_obst, o_idx, n_obst = pack_shapes(bodies, obst)
+    ctrl = np.concatenate([p[0] for p in packs])
+    p_k = np.concatenate([p[1] for p in packs])
+    p_t = np.concatenate([p[2] for p in packs])
+    p_err = np.concatenate([p[3] for p in packs])
+    counts = np.array([len(p[1]) for p in packs])
+    p_start = np.zeros(len(p_k), dtype=np.int32)
+    np.cumsum(p_k[:-1], out=p_start[1:])
+    bounds = np.zeros(n + 1, dtype=np.int32)
+    np.cumsum(counts, out=bounds[1:])
+    m_pieces = np.stack([bounds[:-1], bounds[1:]], axis=1)
+    extra = np.array([p[4] for p in packs])
+    m_nodes0 = (extra * np.maximum(1, n_obst)).astype(np.int32)
+
+    buf = buffers(device, "refine")
+    cpu = is_cpu(device)
+    lanes = max(1, min(threads if cpu else GPU_LANES, n))
+    kmax = int(p_k.max())
+    slots = max_depth + 2
+    args = [
+        buf.put("ctrl", ctrl, wp.mat44d),
+        buf.put("p_start", p_start, wp.int32),
+        buf.put("p_k", p_k, wp.int32),
+        buf.put("p_t", p_t, wp.vec2d),
+        buf.put("p_err", p_err, wp.vec3d),
+        buf.put("m_pieces", m_pieces, wp.vec2i),
+        buf.put("m_parts", m_parts, wp.vec2i),
+        buf.put("m_obst", m_obst, wp.vec2i),
+        buf.put("m_nodes0", m_nodes0, wp.int32),
+        buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
+        buf.put("shapes", table.records, WpShape),
+        buf.put("verts", table.verts, wp.vec3d),
+        float(tol),
+        int(max_depth),
+        int(min(max_nodes, 2**31 - 1)),
+        int(max_iter),
+        int(aabb),
+        0,
+        lanes,
+        n,
+        buf.scratch("st_ctrl", (lanes, slots, kmax, 4, 4), np.float64, wp.mat44d),
+        buf.scratch("st_t", (lanes, slots, 2), np.float64, wp.vec2d),
+        buf.scratch("st_err", (lanes, slots, 3), np.float64, wp.vec3d),
+        buf.scratch("st_warm", (lanes, slots, 3), np.float64, wp.vec3d),
+        buf.scratch("st_ub", (lanes, slots, 2), np.float64, wp.vec2d),
+        buf.scratch("st_flags", (lanes, slots), np.int32, wp.int32),
+        buf.scratch("st_depth", (lanes, slots), np.int32, wp.int32),
+        buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
+        buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
+        buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
+        buf.out("out_n", (n, 7), np.int32, wp.int32)[1],
+    ]
+    if cpu:
+
+        def launch(first: int) -> None:
+            a = list(args)
+            a[17] = first
+            wp.launch(_refine, dim=1, inputs=a, device=device)
+
+        run_lanes(lanes, launch)
+    else:
+        wp.launch(_refine, dim=lanes, inputs=args, device=device)
+        wp.synchronize_device(device)
+    t = buf.fetch("out_t", n)
+    c = buf.fetch("out_n", n)
+    big = 1e299
+    fix = lambda x: np.where(x > big, math.inf, x)  # noqa: E731
+    return Outcome(
+        toi_lo=fix(t[:, 0]),
+        toi_hi=fix(t[:, 1]),
+        witness_time=np.where(t[:, 2] > big, math.nan, t[:, 2]),
+        witness_distance=np.where(t[:, 2] > big, math.nan, t[:, 3]),
+        unknown_time=fix(t[:, 4]),
+        unknown_reason=c[:, 3].astype(np.int64),
+        nodes=c[:, 0].astype(np.int64),
+        tests=c[:, 1].astype(np.int64),
+        depth=c[:, 2].astype(np.int64),
+        counts=c[:, 4:7].astype(np.int64),
+    )

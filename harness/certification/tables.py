@@ -1,0 +1,131 @@
+"""Shapes packed for the kernels: one record per convex part, built once per shape.
+
+A record holds the part's kind, placement (position, rotation in its owner's frame),
+size, vertex range (meshes), the radii the round-off margins use (``rho`` about the
+owner's origin, ``rloc`` about the part's position) and its axis-aligned box in its
+owner's frame, padded outward by the rounding of computing it.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from motions.pieces import gamma
+
+from ..shapes import Shape, parts
+
+__all__ = ["ShapeTable", "part_aabb", "record_dtype"]
+
+_RECORDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_DTYPE = None
+
+
+def record_dtype() -> np.dtype:
+    """numpy dtype of the kernels' ``Shape`` struct."""
+    global _DTYPE
+    if _DTYPE is None:
+        from ._geometry import Shape as WpShape
+
+        _DTYPE = np.dtype(WpShape.numpy_dtype())
+    return _DTYPE
+
+
+def part_aabb(p: Shape) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned box (lo, hi) of a convex part in its owner's frame (closed forms)."""
+    if p.kind == "mesh":
+        v = p.vertices_
+        return v.min(axis=0), v.max(axis=0)
+    if p.kind == "box":
+        ext = np.abs(p.rotation) @ p.half_extents
+    elif p.kind == "sphere":
+        ext = np.full(3, p.radius)
+    else:
+        ext = p.half_length * np.abs(p.rotation[:, 2]) + p.radius
+    return p.center - ext, p.center + ext
+
+
+def _part_record(p: Shape, rec) -> np.ndarray | None:
+    """Fill `rec` for part p; return its vertices (meshes) or None."""
+    lo, hi = part_aabb(p)
+    pad = gamma(16) * (np.abs(lo).max() + np.abs(hi).max())
+    rec["lo"], rec["hi"] = lo - pad, hi + pad
+    rec["rho"] = p.bounding_radius
+    rec["vstart"], rec["vcount"] = 0, 0
+    rec["rot"] = np.eye(3)
+    rec["pos"] = np.zeros(3)
+    rec["size"] = np.zeros(3)
+    if p.kind == "box":
+        rec["kind"], rec["pos"], rec["rot"], rec["size"] = 0, p.center, p.rotation, p.half_extents
+        rec["rloc"] = float(np.linalg.norm(p.half_extents))
+    elif p.kind == "sphere":
+        rec["kind"], rec["pos"], rec["size"] = 1, p.center, (p.radius, 0.0, 0.0)
+        rec["rloc"] = p.radius
+    elif p.kind == "capsule":
+        rec["kind"], rec["pos"], rec["rot"] = 2, p.center, p.rotation
+        rec["size"] = (p.radius, p.half_length, 0.0)
+        rec["rloc"] = p.radius + p.half_length
+    else:
+        rec["kind"] = 3
+        rec["vcount"] = len(p.vertices_)
+        rec["rloc"] = p.bounding_radius
+        return p.vertices_
+    return None
+
+
+def _records(shape: Shape) -> tuple[bytes, int, np.ndarray]:
+    """(records as bytes, number of parts, vertices (V, 3)) of a shape, built once;
+    the records' vertex starts are relative to the shape's own vertices."""
+    hit = _RECORDS.get(shape)
+    if hit is None:
+        ps = parts(shape)
+        recs = np.zeros(len(ps), dtype=record_dtype())
+        verts, start = [], 0
+        for i, p in enumerate(ps):
+            v = _part_record(p, recs[i : i + 1])
+            if v is not None:
+                recs[i]["vstart"] = start
+                verts.append(v)
+                start += len(v)
+        hit = (recs.tobytes(), len(ps), np.concatenate(verts) if verts else np.zeros((0, 3)))
+        _RECORDS[shape] = hit
+    return hit
+
+
+@dataclass(frozen=True)
+class ShapeTable:
+    """Convex parts of several shapes packed for the kernels.
+
+    Attributes:
+        records: (P,) kernel records (``record_dtype()``), shapes' parts in order.
+        verts: (V, 3) mesh vertices (at least one row).
+        offsets: (S + 1,) the parts of shape s are ``records[offsets[s]:offsets[s+1]]``.
+        parts: the convex parts, in table order.
+    """
+
+    records: np.ndarray
+    verts: np.ndarray
+    offsets: np.ndarray
+    parts: tuple
+
+    @classmethod
+    def build(cls, shapes: Sequence[Shape]) -> ShapeTable:
+        got = [_records(s) for s in shapes]
+        nparts = np.array([g[1] for g in got], dtype=np.int64)
+        offsets = np.zeros(len(got) + 1, dtype=np.int64)
+        np.cumsum(nparts, out=offsets[1:])
+        records = np.frombuffer(b"".join(g[0] for g in got), dtype=record_dtype()).copy()
+        nv = np.array([len(g[2]) for g in got], dtype=np.int64)
+        if nv.any():
+            # mesh parts index one shared vertex array (row 0 is padding)
+            vbase = 1 + np.concatenate([[0], np.cumsum(nv)[:-1]])
+            meshes = records["kind"] == 3
+            records["vstart"][meshes] += np.repeat(vbase, nparts)[meshes]
+            verts = np.concatenate([np.zeros((1, 3))] + [g[2] for g in got])
+        else:
+            verts = np.zeros((1, 3))
+        ps = tuple(p for s in shapes for p in parts(s))
+        return cls(records, verts, offsets, ps)
