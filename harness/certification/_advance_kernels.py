@@ -79,13 +79,13 @@ def _pose_bracket(
     """(ub, lb, intersects, direction) of the signed distance of the part at the pose
     st_ctrl[lane, 0, 0] to the obstacle, widened by the pose's margin (see
     ``_refine_kernels._pose_test``)."""
-    prep = _prepare(st_ctrl, lane, 0, 0, 1, part, verts, err, pre_m, pre_c, 0)
+    prep = _prepare(st_ctrl, lane, 0, 0, 1, part, verts, err, pre_m, pre_c, 0, 0)
     if prep.ok == 0:
         return HUGE, -HUGE, 0, warm
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
     ub, gap, d, overlap, depth = _gjk(
-        0, pre_m, pre_c, lane, 0, 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE
+        0, pre_m, pre_c, lane, 0, 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE, F0
     )
     radii = _core_radius(part) + _core_radius(obst)
     hi = ub - radii + margin

@@ -367,6 +367,7 @@ def _gjk(
     d0: wp.vec3d,
     max_iter: wp.int32,
     stop_gap: wp.float64,
+    floor: wp.float64,
 ) -> tuple[wp.float64, wp.float64, wp.vec3d, wp.int32, wp.float64]:
     """GJK distance between A and B (see `_support_diff`).
 
@@ -374,7 +375,7 @@ def _gjk(
     direction pointing from A to B, overlap flag, penetration lower bound when overlapping).
     The gap along a unit n is ``min_b n.b - max_a n.a``: a lower bound of the distance
     (up to the rounding the caller's margin covers); iteration stops once it reaches
-    `stop_gap`.
+    `stop_gap`, or once the upper bound |v| falls to `floor` (no gap above it exists).
     """
     dir0 = d0
     if wp.dot(dir0, dir0) <= F0:
@@ -394,6 +395,8 @@ def _gjk(
             overlap = 1
             break
         vn = wp.sqrt(vv)
+        if vn <= floor:
+            break
         w = _support_diff(mode, pre_m, pre_c, lane, i0, i1, part, obst, verts, lo, hi, core, -v)
         vw = wp.dot(v, w)
         gap = vw / vn

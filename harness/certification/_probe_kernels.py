@@ -34,7 +34,7 @@ def _prepare_rows(
 ):
     """`_prepare` of row tid's control matrices ctrl[tid, 0, :k] for body part part_idx[tid]."""
     tid = wp.tid()
-    p = _prepare(ctrl, tid, 0, 0, k, shapes[part_idx[tid]], verts, err[tid], pre_m, pre_c, 0)
+    p = _prepare(ctrl, tid, 0, 0, k, shapes[part_idx[tid]], verts, err[tid], pre_m, pre_c, 0, 1)
     ok_out[tid] = p.ok
     margin_out[tid] = p.margin
     lo_out[tid] = p.lo
@@ -67,11 +67,11 @@ def _hull_gap_rows(
     part = shapes[part_idx[tid]]
     obst = shapes[obst_idx[tid]]
     z = wp.vec3d(F0, F0, F0)
-    p = _prepare(ctrl, tid, 0, 0, k, part, verts, z, pre_m, pre_c, 0)
+    p = _prepare(ctrl, tid, 0, 0, k, part, verts, z, pre_m, pre_c, 0, 1)
     margin = p.margin + GAMMA_C * (p.scale + obst.rho)
     _u, gap, d, ov, _dp = _gjk(
         use_aabb, pre_m, pre_c, tid, 0, k, part, obst, verts, p.lo, p.hi, 0, z, max_iter,
-        HUGE,
+        HUGE, F0,
     )  # fmt: skip
     gap_out[tid] = gap
     dir_out[tid] = d

@@ -82,9 +82,14 @@ def _prepare(
     pre_m: wp.array2d(dtype=wp.mat33d),
     pre_c: wp.array2d(dtype=wp.vec3d),
     slot0: wp.int32,
+    exact_box: wp.int32,
 ) -> Prep:
     """Precompute ``M = A R / w``, ``c = (A p + b) / w`` of st_ctrl[lane, sp, i0:i1] into
-    pre[lane, slot0:], with the node's margin, box and extent (see module doc)."""
+    pre[lane, slot0:], with the node's margin, box and extent (see module doc).
+
+    The box is exact (the closed forms of each control position's box: six support
+    evaluations per control matrix) when `exact_box`, else the cheap box of balls
+    ``c_i ± |M_i|_F rloc`` that contains it (a pre-test only needs to be cheap)."""
     out = Prep()
     out.ok = 1
     out.margin = F0
@@ -124,21 +129,27 @@ def _prepare(
             cc = (a * part.pos + b) * inv
             pre_m[lane, slot0 + i - i0] = mm
             pre_c[lane, slot0 + i - i0] = cc
-            r0 = wp.vec3d(mm[0, 0], mm[0, 1], mm[0, 2])
-            r1 = wp.vec3d(mm[1, 0], mm[1, 1], mm[1, 2])
-            r2 = wp.vec3d(mm[2, 0], mm[2, 1], mm[2, 2])
-            up = cc + wp.vec3d(
-                _local_h(part, verts, r0, 0),
-                _local_h(part, verts, r1, 0),
-                _local_h(part, verts, r2, 0),
-            )
-            dn = cc - wp.vec3d(
-                _local_h(part, verts, -r0, 0),
-                _local_h(part, verts, -r1, 0),
-                _local_h(part, verts, -r2, 0),
-            )
-            lo = wp.min(lo, dn)
-            hi = wp.max(hi, up)
+            if exact_box == 1:
+                r0 = wp.vec3d(mm[0, 0], mm[0, 1], mm[0, 2])
+                r1 = wp.vec3d(mm[1, 0], mm[1, 1], mm[1, 2])
+                r2 = wp.vec3d(mm[2, 0], mm[2, 1], mm[2, 2])
+                up = cc + wp.vec3d(
+                    _local_h(part, verts, r0, 0),
+                    _local_h(part, verts, r1, 0),
+                    _local_h(part, verts, r2, 0),
+                )
+                dn = cc - wp.vec3d(
+                    _local_h(part, verts, -r0, 0),
+                    _local_h(part, verts, -r1, 0),
+                    _local_h(part, verts, -r2, 0),
+                )
+                lo = wp.min(lo, dn)
+                hi = wp.max(hi, up)
+            else:
+                rad = part.rloc * amag * inv
+                ball = wp.vec3d(rad, rad, rad)
+                lo = wp.min(lo, cc - ball)
+                hi = wp.max(hi, cc + ball)
             if i == i0:
                 m0 = mm
                 c0 = cc
@@ -193,13 +204,13 @@ def _pose_test(
     hopeless = 1 when the bound of the pose itself (the pose for "hull", its box for
     "aabb") does not clear, so that no piece containing this pose can ever clear.
     """
-    prep = _prepare(st_ctrl, lane, sp, col, col + 1, part, verts, err, pre_m, pre_c, slot)
+    prep = _prepare(st_ctrl, lane, sp, col, col + 1, part, verts, err, pre_m, pre_c, slot, use_aabb)
     if prep.ok == 0:
         return HUGE, 0, 1
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
     ub, gap, _d, overlap, depth = _gjk(
-        0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE
+        0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE, F0
     )
     radii = _core_radius(part) + _core_radius(obst)
     hi = ub - radii + margin
@@ -216,7 +227,7 @@ def _pose_test(
     elif use_aabb == 1:
         _u, bgap, _bd, bov, _bp = _gjk(
             1, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, prep.lo, prep.hi, 0,
-            warm, max_iter, wp.float64(2.0) * margin,
+            warm, max_iter, wp.float64(2.0) * margin, margin,
         )  # fmt: skip
         if bov == 1 or bgap <= margin:
             hopeless = 1
@@ -300,7 +311,9 @@ def _refine(
                 # the piece's box against each obstacle's: pairs that miss never refine
                 for i in range(k):
                     st_ctrl[lane, 0, i] = ctrl[start + i]
-                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0)
+                root = _prepare(
+                    st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, use_aabb
+                )
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break
@@ -348,7 +361,9 @@ def _refine(
                         deepest = wp.max(deepest, depth)
                         err = st_err[lane, sp]
                         warm = st_warm[lane, sp]
-                        prep = _prepare(st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0)
+                        prep = _prepare(
+                            st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0, use_aabb
+                        )
                         clear = wp.int32(0)
                         if prep.ok == 1:
                             margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
@@ -358,6 +373,7 @@ def _refine(
                                 _u, gap, dirn, ov, _dp = _gjk(
                                     1, pre_m, pre_c, lane, 0, k, part, obst, verts,
                                     prep.lo, prep.hi, 0, warm, max_iter, wp.float64(2.0) * margin,
+                                    margin,
                                 )  # fmt: skip
                                 warm = dirn
                                 if ov == 0 and gap > margin:
@@ -375,7 +391,7 @@ def _refine(
                                     _u, gap, dirn, ov, _dp = _gjk(
                                         0, pre_m, pre_c, lane, 0, k, part, obst, verts,
                                         prep.lo, prep.hi, 0, warm, max_iter,
-                                        wp.float64(2.0) * margin,
+                                        wp.float64(2.0) * margin, margin,
                                     )  # fmt: skip
                                     warm = dirn
                                     if ov == 0 and gap > margin:

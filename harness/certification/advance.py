@@ -22,7 +22,7 @@ from motions.pieces import speed_bounds
 
 from ..shapes import Shape
 from .api import MAX_SAMPLES, Certificate, QueryError, assemble
-from .device import buffers, is_cpu, run_lanes, warp
+from .device import buffers, is_cpu, warp
 from .refine import GPU_LANES, MOTIONS_PER_CHUNK, Outcome, pack_shapes
 from .tables import ShapeTable
 
@@ -94,25 +94,10 @@ def pose_rows(
         buf.out("x", (n,), np.int32, wp.int32)[1],
         buf.out("dir", (n, 3), np.float64, wp.vec3d)[1],
     ]
-    _launch(_pose_rows, args, 7, lanes, device)
+    buf.launch(_pose_rows, args, 7, lanes)
     ub, lb = buf.fetch("ub", n), buf.fetch("lb", n)
     lb = np.where(lb < -1e299, -np.inf, lb)
     return ub, lb, buf.fetch("x", n).astype(bool), buf.fetch("dir", n)
-
-
-def _launch(kernel, args: list, first_index: int, lanes: int, device: str) -> None:
-    wp = warp()
-    if is_cpu(device):
-
-        def launch(first: int) -> None:
-            a = list(args)
-            a[first_index] = first
-            wp.launch(kernel, dim=1, inputs=a, device=device)
-
-        run_lanes(lanes, launch)
-    else:
-        wp.launch(kernel, dim=lanes, inputs=args, device=device)
-        wp.synchronize_device(device)
 
 
 # ----------------------------------------------------------------------------- speeds
@@ -218,7 +203,7 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
             buf.out("out_n", (n, 7), np.int32, wp.int32)[1],
         ]
         kernel = K._advance if kernel_name == "advance" else K._sample
-        _launch(kernel, args, first_index, lanes, device)
+        buf.launch(kernel, args, first_index, lanes)
         outs.append(_outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
     out = Outcome(
         *(np.concatenate([getattr(x, f) for x in outs]) for f in Outcome.__dataclass_fields__)

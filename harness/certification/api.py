@@ -274,6 +274,23 @@ def certify_many(
     return sample_many(ms, bodies, obst, o)
 
 
+_DEFAULTS = {
+    "witness_time": math.nan,
+    "witness_distance": math.nan,
+    "clearance": math.nan,
+    "penetration": math.nan,
+}
+
+
+def _certificate(fields: dict) -> Certificate:
+    """A Certificate from a complete field dict, without the frozen dataclass's
+    per-field ``object.__setattr__`` (a batch builds thousands)."""
+    c = object.__new__(Certificate)
+    c.__dict__.update(_DEFAULTS)
+    c.__dict__.update(fields)
+    return c
+
+
 def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) -> list[Certificate]:
     """Certificates from per-motion outcome arrays (see :class:`.refine.Outcome`).
 
@@ -282,42 +299,42 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
     from .refine import REASONS as UNK
 
     n = len(out.nodes)
-    share = elapsed * out.nodes / max(1, int(out.nodes.sum()))
-    cert = np.broadcast_to(np.asarray(certified, dtype=bool), (n,))
+    share = (elapsed * out.nodes / max(1, int(out.nodes.sum()))).tolist()
+    cert = np.broadcast_to(np.asarray(certified, dtype=bool), (n,)).tolist()
+    nodes, depth, tests = out.nodes.tolist(), out.depth.tolist(), out.tests.tolist()
+    toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
+    reason = out.unknown_reason.tolist()
+    counts = out.counts.tolist()
+    names = list(UNK.values())
     res = []
     for i in range(n):
-        unresolved = {
-            name: int(c) for name, c in zip(UNK.values(), out.counts[i], strict=True) if c
-        }
-        common = dict(
-            nodes=int(out.nodes[i]),
-            depth=int(out.depth[i]),
-            seconds=float(share[i]),
-            certified=bool(cert[i]),
-            bound=bound,
-            tolerance=tol,
-            pose_tests=int(out.tests[i]),
-            unresolved=unresolved,
-        )
-        lo = float(out.toi_lo[i])
-        if math.isfinite(lo):
+        lo = toi_lo[i]
+        if lo != math.inf and lo > ends[i][0]:
             # halved pieces' times are computed by averaging: lower by their round-off
             scale = max(abs(lo), abs(ends[i][0]), abs(ends[i][1]))
-            lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0]) if lo > ends[i][0] else lo
-        if math.isfinite(out.toi_hi[i]):
-            res.append(Certificate("collision", "contact", lo, float(out.toi_hi[i]), **common))
-        elif out.unknown_reason[i]:
-            res.append(
-                Certificate(
-                    "unknown",
-                    UNK[int(out.unknown_reason[i])],
-                    lo,
-                    math.inf,
-                    witness_time=float(out.witness_time[i]),
-                    witness_distance=float(out.witness_distance[i]),
-                    **common,
-                )
+            lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0])
+        f = {
+            "nodes": nodes[i],
+            "depth": depth[i],
+            "seconds": share[i],
+            "certified": cert[i],
+            "bound": bound,
+            "tolerance": tol,
+            "pose_tests": tests[i],
+            "unresolved": {k: c for k, c in zip(names, counts[i], strict=True) if c},
+        }
+        if toi_hi[i] != math.inf:
+            f.update(verdict="collision", reason="contact", toi_lo=lo, toi_hi=toi_hi[i])
+        elif reason[i]:
+            f.update(
+                verdict="unknown",
+                reason=UNK[reason[i]],
+                toi_lo=lo,
+                toi_hi=math.inf,
+                witness_time=float(out.witness_time[i]),
+                witness_distance=float(out.witness_distance[i]),
             )
         else:
-            res.append(Certificate("free", "clear", math.inf, math.inf, **common))
+            f.update(verdict="free", reason="clear", toi_lo=math.inf, toi_hi=math.inf)
+        res.append(_certificate(f))
     return res

@@ -18,7 +18,7 @@ import numpy as np
 from motions import RationalMotion
 
 from ..shapes import Shape
-from .device import buffers, is_cpu, run_lanes, warp
+from .device import buffers, is_cpu, warp
 from .tables import ShapeTable
 
 __all__ = ["MOTIONS_PER_CHUNK", "Outcome", "refine_many"]
@@ -215,17 +215,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 7), np.int32, wp.int32)[1],
     ]
-    if cpu:
-
-        def launch(first: int) -> None:
-            a = list(args)
-            a[17] = first
-            wp.launch(_refine, dim=1, inputs=a, device=device)
-
-        run_lanes(lanes, launch)
-    else:
-        wp.launch(_refine, dim=lanes, inputs=args, device=device)
-        wp.synchronize_device(device)
+    buf.launch(_refine, args, 17, lanes)
     t = buf.fetch("out_t", n)
     c = buf.fetch("out_n", n)
     big = 1e299

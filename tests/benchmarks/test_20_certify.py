@@ -33,7 +33,7 @@ def test_cold_start_kernel_load(benchmark, tmp_path):
     import subprocess
     import sys
 
-    code = "import warp as wp; wp.config.quiet=True; wp.init(); import harness.certification._refine_kernels as k; wp.load_module(k, device=\"cpu\")"
+    code = 'import warp as wp; wp.config.quiet=True; wp.init(); import harness.certification._refine_kernels as k; wp.load_module(k, device="cpu")'
     env = {**os.environ, "WARP_CACHE_PATH": str(tmp_path)}
     benchmark.pedantic(
         lambda: subprocess.run([sys.executable, "-c", code], env=env, check=True),

@@ -1,0 +1,258 @@
+"""The certification engine's contract beyond verdicts (DESIGN §4 "The engine"): a
+certificate never depends on the batch, budgets are never exceeded, one positivity
+splitter everywhere, named errors for devices and limits, and sampling on the fair grid
+with its proof check."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+import harness
+import motions
+from harness import Box, Capsule, Sphere, certify, certify_many, ground_truth, swept_aabbs
+from harness.certification import DeviceError, QueryError
+from motions import DegenerateMotionError
+from motions.pieces import BezierPieces, speed_bounds
+from motions.schemes import demo_keyframes
+
+TOL = 1e-3
+
+
+def _motions():
+    """Motions of different degrees: cubic (n = 9), minimal (n = 6), Hermite (n = 9 with
+    spherical degree 6), a two-segment motion and one with many keyframes."""
+    out = []
+    for seed in range(4):
+        q, p = demo_keyframes(7, seed=seed)
+        out.append(motions.interpolate(q, p))
+        out.append(motions.interpolate(q, p, translation="minimal"))
+        out.append(motions.hermite(q, p))
+    q, p = demo_keyframes(12, seed=9)
+    out.append(motions.interpolate(q, p))
+    return out
+
+
+@pytest.fixture(scope="module")
+def scene():
+    ms = _motions()
+    rng = np.random.default_rng(11)
+    bodies, obstacles = [], []
+    for m in ms:
+        bodies.append(
+            [
+                Box([0.2, 0.1, 0.05], center=[0.05, 0, 0], rotation=[0.9, 0.1, 0.2, 0.3]),
+                Sphere(0.12),
+                Capsule(0.05, 0.2, rotation=[0.7, 0.7, 0, 0]),
+            ][len(bodies) % 3]
+        )
+        t = rng.uniform(*m.domain, 3)
+        _, pos = m.pose(t)
+        spread = (0.4, 1.0, 2.5)[len(obstacles) % 3]  # near, grazing and far scenes
+        obstacles.append(
+            [
+                Sphere(0.2, center=pos[0] + rng.normal(size=3) * spread),
+                Box([0.3, 0.2, 0.1], center=pos[1] + rng.normal(size=3) * spread),
+                Capsule(0.1, 0.4, center=pos[2] + rng.normal(size=3) * spread),
+            ]
+        )
+    return ms, bodies, obstacles
+
+
+def _same(a: harness.Certificate, b: harness.Certificate) -> bool:
+    da, db = dataclasses.asdict(a), dataclasses.asdict(b)
+    da.pop("seconds"), db.pop("seconds")
+    for k in da:
+        x, y = da[k], db[k]
+        if isinstance(x, float) and math.isnan(x) and math.isnan(y):
+            continue
+        if x != y:
+            return False
+    return True
+
+
+@pytest.mark.parametrize(
+    ("bound", "kw"),
+    [
+        ("hull", {}),
+        ("hull", {"max_nodes": 12}),
+        ("aabb", {"max_nodes": 300}),
+        ("lipschitz", {}),
+        ("lipschitz", {"max_nodes": 40}),
+        ("sampled", {}),
+    ],
+)
+def test_batch_never_changes_a_certificate(scene, bound, kw):
+    ms, bodies, obstacles = scene
+    batch = certify_many(ms, bodies, obstacles, bound=bound, **kw)
+    one_thread = certify_many(ms, bodies, obstacles, bound=bound, threads=1, **kw)
+    reversed_ = certify_many(ms[::-1], bodies[::-1], obstacles[::-1], bound=bound, **kw)[::-1]
+    verdicts = set()
+    for i, m in enumerate(ms):
+        alone = certify(m, bodies[i], obstacles[i], bound=bound, **kw)
+        verdicts.add(alone.verdict)
+        for other in (batch[i], one_thread[i], reversed_[i]):
+            assert _same(alone, other), (i, alone, other)
+    assert len(verdicts) >= 2, verdicts  # the scene is not trivial
+
+
+def test_node_budget_is_never_exceeded(scene):
+    ms, bodies, obstacles = scene
+    hit = 0
+    for bound, budget in (("hull", 5), ("hull", 17), ("aabb", 50), ("lipschitz", 9)):
+        for c in certify_many(ms, bodies, obstacles, bound=bound, max_nodes=budget):
+            assert c.nodes <= budget, (bound, budget, c)
+            if c.verdict == "unknown" and c.reason == "budget":
+                hit += 1
+                assert math.isfinite(c.toi_lo)
+    assert hit > 0, "the budgets are small enough to bind"
+
+
+def test_budget_stop_keeps_a_sound_toi_lo(scene):
+    # with a tiny budget, toi_lo never passes the unlimited run's first contact
+    ms, bodies, obstacles = scene
+    full = certify_many(ms, bodies, obstacles)
+    cut = certify_many(ms, bodies, obstacles, max_nodes=6)
+    for f, c in zip(full, cut, strict=True):
+        if f.verdict == "collision":
+            assert c.verdict != "free"
+            assert c.toi_lo <= f.toi_hi
+        if c.verdict == "free":
+            assert f.verdict == "free"
+
+
+def test_positivity_splitter_is_shared():
+    # one splitter: split_positive, the certifier's pieces and swept_aabbs' pieces agree
+    t = np.array([0.0, 0, 0, 0, 1, 1, 1, 1])
+    q = np.array([[1.0, 0, 0, 0], [-0.2, 0.9, 0, 0], [-0.9, -0.3, 0.4, 0], [0.1, -1, 0, 0.2]])
+    m = motions.RationalMotion.from_preimage(3, t, q, (1, [0.0, 0, 1, 1], [[0, 0, 0], [1, 2, 0]]))
+    iv, ctrl, _ = m.split_positive()
+    pc = m.positive_pieces()
+    assert len(pc) > 1, "this preimage needs splitting"
+    np.testing.assert_array_equal(iv[:, 0], pc.t0)
+    np.testing.assert_array_equal(ctrl, pc.ctrl)
+    assert np.all(pc.weight_lower() > 0)
+    table = BezierPieces.from_motion(m)
+    again = table.positive()
+    np.testing.assert_array_equal(again.ctrl, pc.ctrl)
+    # swept boxes exist and contain the motion although the segment needed splitting
+    body = Box([0.1, 0.1, 0.1])
+    iv0, lo, hi = swept_aabbs(m, body, 0)
+    x = m.transform(body.vertices(), np.linspace(*m.domain, 200)).reshape(-1, 3)
+    assert np.all(x >= lo[0]) and np.all(x <= hi[0])
+    assert certify(m, body, [Sphere(0.1, center=[5, 5, 5])]).verdict == "free"
+
+
+def test_all_negative_segment_is_negated_not_rejected():
+    q, p = demo_keyframes(6, seed=2)
+    m = motions.interpolate(q, p)
+    breaks, ctrl = m.bezier_form()
+    ctrl[1] *= -1.0  # the same motion: M_h and -M_h give one matrix
+    neg = motions.RationalMotion.from_bezier(breaks, ctrl)
+    x = np.linspace(*m.domain, 50)
+    np.testing.assert_allclose(neg.matrix(x), m.matrix(x), atol=1e-12)
+    body = Box([0.1, 0.2, 0.1])
+    far = [Sphere(0.3, center=[40.0, 0, 0])]
+    assert certify(neg, body, far).verdict == "free"
+    _, lo, hi = swept_aabbs(neg, body, 1)
+    _, lo2, hi2 = swept_aabbs(m, body, 1)
+    np.testing.assert_allclose(lo, lo2, atol=1e-9)
+    np.testing.assert_allclose(hi, hi2, atol=1e-9)
+
+
+def test_root_of_u0_is_reported_where_it_is():
+    # a weight that changes sign: w(t) = 1 - t on [0, 2] (root at t = 1)
+    ctrl = np.zeros((1, 2, 4, 4))
+    ctrl[0, 0] = np.eye(4)
+    ctrl[0, 1] = -np.eye(4)
+    table = BezierPieces(
+        ctrl, np.array([0.0]), np.array([2.0]), np.array([0]), np.array([0]), np.array([0]),
+        np.zeros((1, 3)),
+    )  # fmt: skip
+    with pytest.raises(DegenerateMotionError, match=r"t = 1\.0") as e:
+        table.positive()
+    assert e.value.time == pytest.approx(1.0)
+
+
+def test_ill_conditioned_piece_margin_grows_with_one_over_w():
+    # nearly antipodal control quaternions: u0 dips to ~1e-12 of its maximum inside the
+    # segment; the certifier either refuses or certifies with a margin that covers it
+    eps = 2e-6
+    q = np.array([[1.0, 0.0, 0.0, 0.0], [-1.0, eps, 0.0, 0.0]])
+    m = motions.RationalMotion.from_preimage(1, [0.0, 0.0, 1.0, 1.0], q)
+    pc = m.positive_pieces()
+    w = pc.ctrl[:, :, 3, 3]
+    assert w.min() / w.max() < 1e-10
+    err = pc.error[:, 2]
+    assert np.all(w.min(axis=1) > err)
+    # the error bound of the deepest pieces is a sizeable fraction of their weight
+    assert (err / w.min(axis=1)).max() > 1e-8
+
+
+def test_speed_bounds_cover_difference_quotients():
+    q, p = demo_keyframes(8, seed=4)
+    m = motions.interpolate(q, p)
+    pc = m.positive_pieces().halve()
+    r = 0.7
+    v = speed_bounds(pc, r)
+    rng = np.random.default_rng(0)
+    y = rng.normal(size=(16, 3))
+    y *= r / np.linalg.norm(y, axis=1, keepdims=True)
+    for a, b, vb in zip(pc.t0, pc.t1, v, strict=True):
+        t = np.linspace(a, b, 400)
+        x = m.transform(y, t)
+        dq = np.linalg.norm(np.diff(x, axis=0), axis=-1) / np.diff(t)[:, None]
+        assert dq.max() <= vb
+
+
+def test_sampled_fair_grid_is_certified_and_counts_cells():
+    q, p = demo_keyframes(6, seed=5)
+    m = motions.interpolate(q, p)
+    body = Box([0.1, 0.05, 0.05])
+    far = [Sphere(0.2, center=[30.0, 0, 0])]
+    c = certify(m, body, far, bound="sampled", tolerance=0.01)
+    assert c.verdict == "free" and c.certified
+    # the grid: ceil(duration V / (2 tol)) cells per stepping piece
+    coarse = certify(m, body, far, bound="sampled", tolerance=0.02)
+    assert coarse.nodes < c.nodes <= 2 * coarse.nodes + 64
+    # an explicit coarse grid of 5 poses cannot prove anything near an obstacle
+    _, pos = m.pose(np.array([np.mean(m.domain)]))
+    near = [Sphere(0.05, center=pos[0] + [0.0, 0.0, 0.2])]
+    truth = ground_truth(m, body, near, resolution=TOL)
+    k = certify(m, body, near, bound="sampled", samples=5)
+    if truth.verdict == "collision":
+        assert k.verdict != "free" or not k.certified
+
+
+def test_device_and_limit_errors():
+    q, p = demo_keyframes(5)
+    m = motions.interpolate(q, p)
+    box = Box([0.1, 0.1, 0.1])
+    with pytest.raises(DeviceError, match="tpu"):
+        certify(m, box, [box], device="tpu")
+    import warp as wp
+
+    if not wp.is_cuda_available():
+        with pytest.raises(DeviceError, match="no CUDA device"):
+            certify(m, box, [box], device="cuda:0")
+    with pytest.raises(TypeError, match="device"):
+        certify(m, box, [box], device=3)
+    with pytest.raises(QueryError, match="samples"):
+        certify(m, box, [box], bound="sampled", samples=10**12)
+    with pytest.raises(QueryError, match="max_depth"):
+        certify(m, box, [box], max_depth=99)
+    with pytest.raises(QueryError, match="max_nodes"):
+        certify(m, box, [box], max_nodes=0)
+    with pytest.raises(TypeError, match="max_depth"):
+        certify(m, box, [box], max_depth=1.5)
+    with pytest.raises(TypeError, match="threads"):
+        certify(m, box, [box], threads="2")
+    with pytest.raises(QueryError, match="tolerance"):
+        certify(m, box, [box], tolerance=float("nan"))
+    with pytest.raises(TypeError, match="motion"):
+        certify("m", box, [box])
+    with pytest.raises(QueryError, match="fair grid"):
+        certify(m, box, [box], bound="sampled", tolerance=1e-12)
