@@ -140,7 +140,7 @@ def test_positivity_splitter_is_shared():
     np.testing.assert_array_equal(again.ctrl, pc.ctrl)
     # swept boxes exist and contain the motion although the segment needed splitting
     body = Box([0.1, 0.1, 0.1])
-    iv0, lo, hi = swept_aabbs(m, body, 0)
+    _, lo, hi = swept_aabbs(m, body, 0)
     x = m.transform(body.vertices(), np.linspace(*m.domain, 200)).reshape(-1, 3)
     assert np.all(x >= lo[0]) and np.all(x <= hi[0])
     assert certify(m, body, [Sphere(0.1, center=[5, 5, 5])]).verdict == "free"
