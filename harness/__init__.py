@@ -2,7 +2,15 @@
 the MuJoCo driver, the benchmark runner, reports and the CLI."""
 
 # No import side effects: harness.render chooses the OpenGL backend when it draws.
-from .certification import BOUNDS, Certificate, certify, certify_many
+from .certification import (
+    BOUNDS,
+    Certificate,
+    Clearance,
+    certify,
+    certify_many,
+    clearance,
+    clearance_many,
+)
 from .certification.swept import swept_aabbs
 from .errors import (
     DegenerateMeshError,
@@ -24,6 +32,7 @@ __all__ = [
     "Box",
     "Capsule",
     "Certificate",
+    "Clearance",
     "Compound",
     "ConvexMesh",
     "DegenerateMeshError",
@@ -38,6 +47,8 @@ __all__ = [
     "body_from_model",
     "certify",
     "certify_many",
+    "clearance",
+    "clearance_many",
     "ground_truth",
     "obstacles_from_model",
     "physics_smoothness",

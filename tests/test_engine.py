@@ -256,3 +256,28 @@ def test_device_and_limit_errors():
         certify("m", box, [box])
     with pytest.raises(QueryError, match="fair grid"):
         certify(m, box, [box], bound="sampled", tolerance=1e-12)
+
+
+def test_clearance_brackets_the_minimum_distance(scene):
+    from harness.mjdistance import MujocoDistance
+
+    ms, bodies, obstacles = scene
+    got = harness.clearance_many(ms, bodies, obstacles, tolerance=TOL)
+    for i in range(0, len(ms), 4):  # one at a time: the same brackets
+        alone = harness.clearance(ms[i], bodies[i], obstacles[i], tolerance=TOL)
+        assert dataclasses.replace(alone, seconds=0.0) == dataclasses.replace(got[i], seconds=0.0)
+    kinds = set()
+    for m, b, o, c in zip(ms, bodies, obstacles, got, strict=True):
+        md = MujocoDistance(b, o)
+        t = np.linspace(*m.domain, 1500)
+        sampled = md.distances(*m.pose(t)).reshape(len(t), -1).min(axis=1)
+        at = md.distances(*m.pose(np.array([c.time]))).min()
+        if c.penetrating:
+            kinds.add("penetrating")
+            assert at < 1e-9 and c.lower == -math.inf
+            continue
+        kinds.add("clear")
+        assert c.width_ok and c.upper - c.lower <= TOL
+        assert c.lower <= sampled.min() + 1e-9  # a lower bound of the minimum
+        assert at <= c.upper + 1e-9  # upper is a pose's distance bound
+    assert kinds == {"penetrating", "clear"}

@@ -2,14 +2,18 @@
 (``hull``, ``aabb``), conservative advancement and grid sampling, and swept boxes."""
 
 from .api import BOUNDS, REASONS, Certificate, QueryError, certify, certify_many
+from .clearance import Clearance, clearance, clearance_many
 from .device import DeviceError
 
 __all__ = [
     "BOUNDS",
     "REASONS",
     "Certificate",
+    "Clearance",
     "DeviceError",
     "QueryError",
     "certify",
     "certify_many",
+    "clearance",
+    "clearance_many",
 ]

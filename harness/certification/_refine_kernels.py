@@ -194,11 +194,12 @@ def _pose_test(
     warm: wp.vec3d,
     max_iter: wp.int32,
     use_aabb: wp.int32,
-) -> tuple[wp.float64, wp.int32, wp.int32]:
+) -> tuple[wp.float64, wp.float64, wp.int32, wp.int32]:
     """Signed distance of the part at the pose st_ctrl[lane, sp, col] (an end of a Bézier
     piece is its pose there) to the obstacle, widened by the pose's own margin.
 
-    Returns (ub, intersects, hopeless): ub an upper bound of the exact signed distance;
+    Returns (ub, lb, intersects, hopeless): ub an upper bound of the exact signed
+    distance, lb a lower bound (-HUGE when the shapes overlap);
     intersects = 1 when ub < 0 (a proven intersection: overlapping shapes count by the
     depth of the origin inside GJK's tetrahedron, a lower bound of the penetration);
     hopeless = 1 when the bound of the pose itself (the pose for "hull", its box for
@@ -206,7 +207,7 @@ def _pose_test(
     """
     prep = _prepare(st_ctrl, lane, sp, col, col + 1, part, verts, err, pre_m, pre_c, slot, use_aabb)
     if prep.ok == 0:
-        return HUGE, 0, 1
+        return HUGE, -HUGE, 0, 1
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
     ub, gap, _d, overlap, depth = _gjk(
@@ -231,7 +232,7 @@ def _pose_test(
         )  # fmt: skip
         if bov == 1 or bgap <= margin:
             hopeless = 1
-    return hi, x, hopeless
+    return hi, lb, x, hopeless
 
 
 @wp.kernel
@@ -414,13 +415,13 @@ def _refine(
                                 x0 = carry_x
                                 h0 = carry_h
                             else:
-                                ub0, x0, h0 = _pose_test(
+                                ub0, _l0, x0, h0 = _pose_test(
                                     st_ctrl, lane, sp, 0, part, obst, verts, err, pre_m,
                                     pre_c, pose_slot, warm, max_iter, use_aabb,
                                 )  # fmt: skip
                                 tests += 1
                         if (flags & 4) == 0:
-                            ub1, x1, h1 = _pose_test(
+                            ub1, _l1, x1, h1 = _pose_test(
                                 st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
                                 pre_c, pose_slot, warm, max_iter, use_aabb,
                             )  # fmt: skip
@@ -512,4 +513,231 @@ def _refine(
         out_n[m, 4] = n_tol
         out_n[m, 5] = n_depth
         out_n[m, 6] = n_budget
+        m += stride
+
+
+@wp.func
+def _box_gap(lo: wp.vec3d, hi: wp.vec3d, olo: wp.vec3d, ohi: wp.vec3d) -> wp.float64:
+    """Euclidean distance between two axis-aligned boxes (0 when they meet)."""
+    g = wp.max(wp.max(olo - hi, lo - ohi), wp.vec3d(F0, F0, F0))
+    return wp.length(g)
+
+
+@wp.kernel
+def _clearance(
+    # In: pieces
+    ctrl: wp.array(dtype=wp.mat44d),
+    p_start: wp.array(dtype=wp.int32),
+    p_k: wp.array(dtype=wp.int32),
+    p_t: wp.array(dtype=wp.vec2d),
+    p_err: wp.array(dtype=wp.vec3d),
+    # In: motions
+    m_pieces: wp.array(dtype=wp.vec2i),
+    m_parts: wp.array(dtype=wp.vec2i),
+    m_obst: wp.array(dtype=wp.vec2i),
+    m_nodes0: wp.array(dtype=wp.int32),
+    o_idx: wp.array(dtype=wp.int32),
+    shapes: wp.array(dtype=Shape),
+    verts: wp.array(dtype=wp.vec3d),
+    # In: parameters
+    tol: wp.float64,
+    max_depth: wp.int32,
+    max_nodes: wp.int32,
+    max_iter: wp.int32,
+    first: wp.int32,
+    stride: wp.int32,
+    n_motions: wp.int32,
+    # Scratch (per lane)
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    st_t: wp.array2d(dtype=wp.vec2d),
+    st_err: wp.array2d(dtype=wp.vec3d),
+    st_warm: wp.array2d(dtype=wp.vec3d),
+    st_ends: wp.array2d(dtype=wp.vec4d),
+    st_flags: wp.array2d(dtype=wp.int32),
+    st_depth: wp.array2d(dtype=wp.int32),
+    st_lb: wp.array2d(dtype=wp.float64),
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    # Out:
+    out_t: wp.array2d(dtype=wp.float64),
+    out_n: wp.array2d(dtype=wp.int32),
+):
+    """Certified bracket of the minimum distance over each motion and its obstacles
+    (branch and bound on the same pieces as ``_refine``, DESIGN §4 "Certified clearance").
+
+    The upper bound U is the smallest certified upper bound of an evaluated pose's
+    distance; a node is a leaf once a lower bound of its distance (its hull's separation,
+    or an end pose's lower bound less the node's extent) is at least U - tol, so the
+    smallest leaf lower bound L satisfies U - L <= tol unless a limit was hit. A proven
+    penetration (U < 0) ends the motion with L = -inf.
+
+    out_t[m] = (lower, upper, time of upper); out_n[m] = (nodes, pose tests, depth,
+    flags: 1 penetrating, 2 a depth or node limit cut the search).
+    """
+    lane = first + wp.tid()
+    pose_slot = st_ctrl.shape[2]
+    m = lane
+    while m < n_motions:
+        nodes = m_nodes0[m]
+        tests = wp.int32(0)
+        deepest = wp.int32(0)
+        up = HUGE
+        up_t = F0
+        low = HUGE
+        flags_m = wp.int32(0)
+        stopped = wp.int32(0)
+        pr = m_pieces[m]
+        br = m_parts[m]
+        orng = m_obst[m]
+        up_t = p_t[pr[0]][0]
+        for pi in range(pr[0], pr[1]):
+            if stopped == 1:
+                break
+            k = p_k[pi]
+            start = p_start[pi]
+            for b in range(br[0], br[1]):
+                if stopped == 1:
+                    break
+                part = shapes[b]
+                for i in range(k):
+                    st_ctrl[lane, 0, i] = ctrl[start + i]
+                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 0)
+                for oo in range(orng[0], orng[1]):
+                    if stopped == 1:
+                        break
+                    obst = shapes[o_idx[oo]]
+                    box_lb = -HUGE
+                    if root.ok == 1:
+                        rm = root.margin + GAMMA_C * (root.scale + obst.rho)
+                        box_lb = _box_gap(root.lo, root.hi, obst.lo, obst.hi) - rm
+                        if box_lb >= up - tol:
+                            low = wp.min(low, box_lb)
+                            continue
+                    for i in range(k):
+                        st_ctrl[lane, 0, i] = ctrl[start + i]
+                    st_t[lane, 0] = p_t[pi]
+                    st_err[lane, 0] = p_err[pi]
+                    st_warm[lane, 0] = wp.vec3d(F0, F0, F0)
+                    st_ends[lane, 0] = wp.vec4d(F0, F0, F0, F0)
+                    st_flags[lane, 0] = 0
+                    st_depth[lane, 0] = 0
+                    st_lb[lane, 0] = box_lb
+                    carry_t = -HUGE
+                    carry_ub = F0
+                    carry_lb = F0
+                    sp = wp.int32(0)
+                    while sp >= 0:
+                        tt = st_t[lane, sp]
+                        t0 = tt[0]
+                        t1 = tt[1]
+                        depth = st_depth[lane, sp]
+                        if nodes >= max_nodes:
+                            # unevaluated nodes keep their parents' lower bounds
+                            for s in range(sp + 1):
+                                low = wp.min(low, st_lb[lane, s])
+                            if oo + 1 < orng[1] or b + 1 < br[1] or pi + 1 < pr[1]:
+                                low = -HUGE
+                            flags_m = flags_m | 2
+                            stopped = 1
+                            break
+                        nodes += 1
+                        deepest = wp.max(deepest, depth)
+                        err = st_err[lane, sp]
+                        warm = st_warm[lane, sp]
+                        prep = _prepare(
+                            st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0, 0
+                        )
+                        lbn = st_lb[lane, sp]
+                        if prep.ok == 1:
+                            margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
+                            _u, gap, dirn, ov, _dp = _gjk(
+                                0, pre_m, pre_c, lane, 0, k, part, obst, verts, prep.lo,
+                                prep.hi, 0, warm, max_iter, HUGE, F0,
+                            )  # fmt: skip
+                            warm = dirn
+                            if ov == 0:
+                                lbn = wp.max(lbn, gap - margin)
+                        if lbn >= up - tol:
+                            low = wp.min(low, lbn)
+                            sp -= 1
+                            continue
+                        fl = st_flags[lane, sp]
+                        ends = st_ends[lane, sp]
+                        ub0 = ends[0]
+                        lb0 = ends[1]
+                        ub1 = ends[2]
+                        lb1 = ends[3]
+                        if (fl & 1) == 0:
+                            if carry_t == t0:
+                                ub0 = carry_ub
+                                lb0 = carry_lb
+                            else:
+                                ub0, lb0, _x0, _h0 = _pose_test(
+                                    st_ctrl, lane, sp, 0, part, obst, verts, err, pre_m,
+                                    pre_c, pose_slot, warm, max_iter, 0,
+                                )  # fmt: skip
+                                tests += 1
+                        if (fl & 4) == 0:
+                            ub1, lb1, _x1, _h1 = _pose_test(
+                                st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
+                                pre_c, pose_slot, warm, max_iter, 0,
+                            )  # fmt: skip
+                            tests += 1
+                            carry_t = t1
+                            carry_ub = ub1
+                            carry_lb = lb1
+                        if ub0 < up:
+                            up = ub0
+                            up_t = t0
+                        if ub1 < up:
+                            up = ub1
+                            up_t = t1
+                        if up < F0:  # a proven penetration: no lower bound
+                            flags_m = flags_m | 1
+                            stopped = 1
+                            break
+                        # every point of the part stays within `extent` of its place at t0
+                        # (so within twice that of its place at t1): the end poses' lower
+                        # bounds, less that, bound the whole node's distance from below
+                        leaf = lbn
+                        if prep.ok == 1:
+                            x2 = wp.float64(2.0) * prep.extent
+                            leaf = wp.max(leaf, wp.max(lb0 - prep.extent, lb1 - x2))
+                        if leaf >= up - tol:
+                            low = wp.min(low, leaf)
+                            sp -= 1
+                            continue
+                        if depth >= max_depth:
+                            low = wp.min(low, leaf)
+                            flags_m = flags_m | 2
+                            sp -= 1
+                            continue
+                        _halve(st_ctrl, lane, sp, k)
+                        ek = wp.float64(k) * UNIT / (F1 - wp.float64(k) * UNIT)
+                        e2 = err + ek * (prep.mag + err)
+                        tm = wp.float64(0.5) * (t0 + t1)
+                        st_t[lane, sp] = wp.vec2d(tm, t1)
+                        st_t[lane, sp + 1] = wp.vec2d(t0, tm)
+                        st_err[lane, sp] = e2
+                        st_err[lane, sp + 1] = e2
+                        st_warm[lane, sp] = warm
+                        st_warm[lane, sp + 1] = warm
+                        st_ends[lane, sp] = wp.vec4d(F0, F0, ub1, lb1)
+                        st_ends[lane, sp + 1] = wp.vec4d(ub0, lb0, F0, F0)
+                        st_flags[lane, sp] = 4
+                        st_flags[lane, sp + 1] = 1
+                        st_depth[lane, sp] = depth + 1
+                        st_depth[lane, sp + 1] = depth + 1
+                        st_lb[lane, sp] = lbn
+                        st_lb[lane, sp + 1] = lbn
+                        sp += 1
+        if (flags_m & 1) == 1:
+            low = -HUGE
+        out_t[m, 0] = low
+        out_t[m, 1] = up
+        out_t[m, 2] = up_t
+        out_n[m, 0] = nodes
+        out_n[m, 1] = tests
+        out_n[m, 2] = deepest
+        out_n[m, 3] = flags_m
         m += stride

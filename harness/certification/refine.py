@@ -157,44 +157,48 @@ def pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     return table, m_parts, m_obst, o_idx, n_obst
 
 
-def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threads, device):
+def pack_inputs(buf, packs, bodies, obst) -> tuple[list, int]:
+    """The kernels' leading inputs (pieces, motions, shapes) written to `buf`; returns
+    them and K_max."""
     from ._geometry import Shape as WpShape
-    from ._refine_kernels import _refine
 
     wp = warp()
     n = len(packs)
     table, m_parts, m_obst, o_idx, n_obst = pack_shapes(bodies, obst)
-    ctrl = np.concatenate([p[0] for p in packs])
     p_k = np.concatenate([p[1] for p in packs])
-    p_t = np.concatenate([p[2] for p in packs])
-    p_err = np.concatenate([p[3] for p in packs])
     counts = np.array([len(p[1]) for p in packs])
     p_start = np.zeros(len(p_k), dtype=np.int32)
     np.cumsum(p_k[:-1], out=p_start[1:])
     bounds = np.zeros(n + 1, dtype=np.int32)
     np.cumsum(counts, out=bounds[1:])
-    m_pieces = np.stack([bounds[:-1], bounds[1:]], axis=1)
     extra = np.array([p[4] for p in packs])
-    m_nodes0 = (extra * np.maximum(1, n_obst)).astype(np.int32)
-
-    buf = buffers(device, "refine")
-    cpu = is_cpu(device)
-    lanes = max(1, min(threads if cpu else GPU_LANES, n))
-    kmax = int(p_k.max())
-    slots = max_depth + 2
     args = [
-        buf.put("ctrl", ctrl, wp.mat44d),
+        buf.put("ctrl", np.concatenate([p[0] for p in packs]), wp.mat44d),
         buf.put("p_start", p_start, wp.int32),
         buf.put("p_k", p_k, wp.int32),
-        buf.put("p_t", p_t, wp.vec2d),
-        buf.put("p_err", p_err, wp.vec3d),
-        buf.put("m_pieces", m_pieces, wp.vec2i),
+        buf.put("p_t", np.concatenate([p[2] for p in packs]), wp.vec2d),
+        buf.put("p_err", np.concatenate([p[3] for p in packs]), wp.vec3d),
+        buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
         buf.put("m_parts", m_parts, wp.vec2i),
         buf.put("m_obst", m_obst, wp.vec2i),
-        buf.put("m_nodes0", m_nodes0, wp.int32),
+        buf.put("m_nodes0", (extra * np.maximum(1, n_obst)).astype(np.int32), wp.int32),
         buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
         buf.put("shapes", table.records, WpShape),
         buf.put("verts", table.verts, wp.vec3d),
+    ]
+    return args, int(p_k.max())
+
+
+def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threads, device):
+    from ._refine_kernels import _refine
+
+    wp = warp()
+    n = len(packs)
+    buf = buffers(device, "refine")
+    lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
+    head, kmax = pack_inputs(buf, packs, bodies, obst)
+    slots = max_depth + 2
+    args = head + [
         float(tol),
         int(max_depth),
         int(min(max_nodes, 2**31 - 1)),
@@ -232,3 +236,38 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         depth=c[:, 2].astype(np.int64),
         counts=c[:, 4:7].astype(np.int64),
     )
+
+
+def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, threads, device):
+    """One launch of the clearance kernel: (out_t (n, 3), out_n (n, 4)) arrays."""
+    from ._refine_kernels import _clearance
+
+    wp = warp()
+    n = len(packs)
+    buf = buffers(device, "clearance")
+    lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
+    head, kmax = pack_inputs(buf, packs, bodies, obst)
+    slots = max_depth + 2
+    args = head + [
+        float(tol),
+        int(max_depth),
+        int(min(max_nodes, 2**31 - 1)),
+        int(max_iter),
+        0,
+        lanes,
+        n,
+        buf.scratch("st_ctrl", (lanes, slots, kmax, 4, 4), np.float64, wp.mat44d),
+        buf.scratch("st_t", (lanes, slots, 2), np.float64, wp.vec2d),
+        buf.scratch("st_err", (lanes, slots, 3), np.float64, wp.vec3d),
+        buf.scratch("st_warm", (lanes, slots, 3), np.float64, wp.vec3d),
+        buf.scratch("st_ends", (lanes, slots, 4), np.float64, wp.vec4d),
+        buf.scratch("st_flags", (lanes, slots), np.int32, wp.int32),
+        buf.scratch("st_depth", (lanes, slots), np.int32, wp.int32),
+        buf.scratch("st_lb", (lanes, slots), np.float64, wp.float64),
+        buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
+        buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
+        buf.out("out_t", (n, 3), np.float64, wp.float64)[1],
+        buf.out("out_n", (n, 4), np.int32, wp.int32)[1],
+    ]
+    buf.launch(_clearance, args, 16, lanes)
+    return buf.fetch("out_t", n), buf.fetch("out_n", n)

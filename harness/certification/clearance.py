@@ -1,0 +1,148 @@
+"""Certified clearance (DESIGN §4 "Certified clearance"): a bracket of the minimum
+distance between a moving body and static obstacles over a rational motion.
+
+The hull support function bounds a piece's distance from below, an evaluated pose bounds
+the minimum from above; branch and bound on the motion's Bézier pieces (in the kernel,
+like the certifier) refines until the two are within `tolerance`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from motions import Motion, RationalMotion
+
+from .api import DEFAULT_MAX_NODES, QueryError, body_list, check_options, obstacle_lists
+from .refine import MOTIONS_PER_CHUNK, _packed, clearance_chunk
+
+__all__ = ["Clearance", "clearance", "clearance_many"]
+
+
+@dataclass(frozen=True)
+class Clearance:
+    """A certified bracket of ``min over t and obstacles`` of the body's distance.
+
+    Attributes:
+        lower: a proven lower bound of the minimum distance (``-inf`` when a pose was
+            proven to penetrate: the engine does not bound penetration depth).
+        upper: a proven upper bound: the exact distance of some pose is at most this
+            (negative: a proven penetration of at least ``-upper``).
+        time: a time whose pose is within ``upper`` of an obstacle.
+        width_ok: ``upper - lower <= tolerance`` (False when a depth or node limit, or a
+            penetration, cut the search).
+        nodes, pose_tests, depth, seconds: cost, as in :class:`Certificate`.
+        tolerance: the requested width.
+    """
+
+    lower: float
+    upper: float
+    time: float
+    width_ok: bool
+    nodes: int
+    pose_tests: int
+    depth: int
+    seconds: float
+    tolerance: float
+
+    @property
+    def penetrating(self) -> bool:
+        """True when a pose was proven to intersect an obstacle."""
+        return self.upper < 0
+
+
+def clearance(
+    motion: Motion,
+    body: Any,
+    obstacles: Any,
+    *,
+    tolerance: float = 1e-3,
+    max_depth: int = 24,
+    **options: Any,
+) -> Clearance:
+    """Certified bracket of the minimum distance of `body` moved by `motion` to
+    `obstacles` (world coordinates): ``lower <= min_t d(t) <= upper`` with
+    ``upper - lower <= tolerance`` unless a limit is hit (``width_ok``).
+
+    Args:
+        motion: a rational motion.
+        body: a shape in body coordinates.
+        obstacles: shapes in world coordinates.
+        tolerance: the bracket's width (a length).
+        max_depth: subdivision depth limit.
+        options: ``max_nodes``, ``threads``, ``device``, ``max_iter`` as for ``certify``.
+    """
+    if not isinstance(motion, Motion):
+        raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    return clearance_many(
+        [motion], body, obstacles, tolerance=tolerance, max_depth=max_depth, **options
+    )[0]
+
+
+def clearance_many(
+    motions: Sequence[Motion],
+    body: Any,
+    obstacles: Any,
+    *,
+    tolerance: float = 1e-3,
+    max_depth: int = 24,
+    max_nodes: int = DEFAULT_MAX_NODES,
+    threads: int = 2,
+    device: str | None = None,
+    max_iter: int = 32,
+) -> list[Clearance]:
+    """:func:`clearance` for a batch (one lane per motion: a bracket never depends on the
+    batch). `body` and `obstacles` as for ``certify_many``."""
+    o = check_options("hull", tolerance, max_depth, None, max_nodes, threads, device, max_iter)
+    if isinstance(motions, Motion) or not isinstance(motions, Sequence):
+        raise TypeError(
+            f"Expected `motions` to be a sequence of motions, got {type(motions).__name__}."
+        )
+    for i, m in enumerate(motions):
+        if not isinstance(m, RationalMotion):
+            raise QueryError(
+                f"Clearance needs a rational motion's control structure; motions[{i}] is"
+                f" {getattr(m, 'scheme', type(m).__name__)!r}."
+            )
+    ms = list(motions)
+    bodies = body_list(body, len(ms))
+    obst = obstacle_lists(obstacles, len(ms))
+    if not ms:
+        return []
+    start = time.perf_counter()
+    ts, ns = [], []
+    for c in range(0, len(ms), MOTIONS_PER_CHUNK):
+        sl = slice(c, c + MOTIONS_PER_CHUNK)
+        t, n = clearance_chunk(
+            [_packed(m) for m in ms[sl]], bodies[sl], obst[sl], o["tol"], o["max_depth"],
+            o["max_nodes"], o["max_iter"], o["threads"], o["device"],
+        )  # fmt: skip
+        ts.append(t)
+        ns.append(n)
+    t, n = np.concatenate(ts), np.concatenate(ns)
+    elapsed = time.perf_counter() - start
+    share = elapsed * n[:, 0] / max(1, int(n[:, 0].sum()))
+    big = 1e299
+    out = []
+    for i in range(len(ms)):
+        lo = -math.inf if t[i, 0] < -big else (math.inf if t[i, 0] > big else float(t[i, 0]))
+        up = math.inf if t[i, 1] > big else float(t[i, 1])
+        out.append(
+            Clearance(
+                lower=lo,
+                upper=up,
+                time=float(t[i, 2]),
+                width_ok=bool(n[i, 3] == 0 and up - lo <= o["tol"]),
+                nodes=int(n[i, 0]),
+                pose_tests=int(n[i, 1]),
+                depth=int(n[i, 2]),
+                seconds=float(share[i]),
+                tolerance=o["tol"],
+            )
+        )
+    return out
