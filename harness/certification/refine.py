@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -110,10 +111,33 @@ def refine_many(
     return out, time.perf_counter() - start
 
 
+SHAPE_CACHE = 32
+"""Packed shape tables kept for small batches (a few motions, the same shapes again: the
+single-query path), keyed by the shapes' identities and holding them alive."""
+_shape_cache: OrderedDict = OrderedDict()
+
+
 def pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     """Shape table of the distinct bodies and obstacles (by identity; a list shared by
     several motions is packed once), and per motion its body-part range, obstacle-part
-    range into `o_idx`, and number of obstacles."""
+    range into `o_idx`, and number of obstacles. Small batches reuse a recent packing
+    of the very same shape objects (shapes are immutable)."""
+    if len(bodies) > 8:
+        return _pack_shapes(bodies, obst)
+    items = tuple(bodies) + tuple(o for lst in obst for o in lst)
+    key = (tuple(map(id, items)), tuple(map(len, obst)), tuple(map(id, obst)))
+    hit = _shape_cache.get(key)
+    if hit is not None and all(a is b for a, b in zip(hit[0], items, strict=True)):
+        _shape_cache.move_to_end(key)
+        return hit[1]
+    out = _pack_shapes(bodies, obst)
+    _shape_cache[key] = (items, out)
+    if len(_shape_cache) > SHAPE_CACHE:
+        _shape_cache.popitem(last=False)
+    return out
+
+
+def _pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     index: dict[int, int] = {}
     shapes: list[Shape] = []
     body_ix = []

@@ -1,0 +1,323 @@
+"""The certification engine against the honest compiled competitor (DESIGN §9).
+
+Workload: 1,000 (motion, obstacle) pairs, 8-keyframe C² motions, clearance log-uniform in
+[1 mm, 10 cm] (70 %) or penetrating (30 %), tolerance 1e-3 (``certify_workload``).
+Contenders run interleaved (A B A B ...), rounds >= 5, medians of process CPU time and of
+wall time; every ratio is from one run. Figures go to ``benchmark.extra_info`` and are
+printed (run with ``-s``)::
+
+    .venv/bin/python -m pytest tests/benchmarks/test_25_engine.py --benchmark-only -s
+
+The compiled competitor is ``tests/benchmarks/compiled_ca`` (a C++ loop of conservative
+advancement around coal's distance, built with g++ when coal's headers and Eigen are
+present; these benchmarks skip without it), given the very speed bounds the in-kernel
+``lipschitz`` uses (per quarter of each positive Bézier piece), so that both advance by
+the same rule.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import harness
+from harness.certification.device import buffers
+from harness.workloads import certify_workload
+
+TOL = 1e-3
+ROUNDS = 7
+CACHE = Path(os.environ.get("RSMBENCH_BENCH_CACHE", Path.home() / ".cache" / "rsmbench"))
+
+
+def _medians(samples: dict[str, list[tuple[float, float]]]) -> dict[str, dict[str, float]]:
+    out = {}
+    for k, v in samples.items():
+        a = np.array(v)
+        q = np.percentile(a, [25, 50, 75], axis=0)
+        out[k] = {"cpu": q[1, 0], "wall": q[1, 1], "cpu_iqr": q[2, 0] - q[0, 0]}
+    return out
+
+
+def interleave(contenders: dict, rounds: int = ROUNDS) -> dict[str, dict[str, float]]:
+    """CPU and wall seconds of each contender, A B A B ..., medians over rounds."""
+    samples: dict[str, list] = {k: [] for k in contenders}
+    for fn in contenders.values():  # warm-up round, not counted
+        fn()
+    for _ in range(rounds):
+        for k, fn in contenders.items():
+            c, w = time.process_time(), time.perf_counter()
+            fn()
+            samples[k].append((time.process_time() - c, time.perf_counter() - w))
+    return _medians(samples)
+
+
+@pytest.fixture(scope="module")
+def workload():
+    CACHE.mkdir(parents=True, exist_ok=True)
+    path = CACHE / "certify_workload_1000_seed0.pkl"
+    if path.exists():
+        w = pickle.loads(path.read_bytes())
+    else:
+        w = certify_workload(1000, seed=0)
+        path.write_bytes(pickle.dumps(w))
+    harness.certify_many(w.motions, w.bodies, w.obstacles)  # kernels compiled, caches warm
+    return w
+
+
+@pytest.fixture(scope="module")
+def compiled():
+    from tests.benchmarks import compiled_ca
+
+    if compiled_ca.build() is None:
+        pytest.skip("the compiled competitor needs g++, coal's headers and Eigen")
+    return compiled_ca
+
+
+def _stepping_speeds(ms, bodies):
+    """The in-kernel lipschitz's pieces and speed bounds, for the compiled competitor:
+    per motion (breakpoints (P+1,), speed bounds (P,))."""
+    from harness.certification.advance import _stepping_pieces
+
+    out = []
+    for m, b in zip(ms, bodies, strict=True):
+        (_c, _k, t, _e, _x), v = _stepping_pieces(m, b.bounding_radius)
+        out.append((np.append(t[:, 0], t[-1, 1]), v))
+    return out
+
+
+def test_batch_against_compiled_ca(benchmark, workload, compiled):
+    w = workload
+    prep = compiled.prepare(
+        w.motions, w.bodies, w.obstacles, speeds=_stepping_speeds(w.motions, w.bodies)
+    )
+    n = len(w.motions)
+    hull = lambda: harness.certify_many(w.motions, w.bodies, w.obstacles, tolerance=TOL)  # noqa: E731
+    lip = lambda: harness.certify_many(  # noqa: E731
+        w.motions, w.bodies, w.obstacles, bound="lipschitz", tolerance=TOL
+    )
+    fair = lambda: harness.certify_many(  # noqa: E731
+        w.motions, w.bodies, w.obstacles, bound="sampled", tolerance=TOL
+    )
+    ca = lambda: compiled.run(prep, tolerance=TOL)  # noqa: E731
+    med = interleave({"hull": hull, "compiled_ca": ca, "lipschitz": lip, "sampled_fair": fair})
+    certs = hull()
+    ca_out = ca()
+    evals = sum(c.nodes + c.pose_tests for c in certs)
+    per_pair = {k: {x: v[x] / n * 1e6 for x in ("cpu", "wall", "cpu_iqr")} for k, v in med.items()}
+    info = {
+        "pairs": n,
+        "us_per_pair": per_pair,
+        "compiled_ca_over_hull_cpu": med["compiled_ca"]["cpu"] / med["hull"]["cpu"],
+        "compiled_ca_over_hull_wall": med["compiled_ca"]["wall"] / med["hull"]["wall"],
+        "lipschitz_over_hull_cpu": med["lipschitz"]["cpu"] / med["hull"]["cpu"],
+        "sampled_fair_over_hull_cpu": med["sampled_fair"]["cpu"] / med["hull"]["cpu"],
+        "hull_evaluations_per_pair": evals / n,
+        "hull_evaluations_per_second_wall": evals / med["hull"]["wall"],
+        "compiled_ca_calls_per_pair": float(np.mean(ca_out["calls"])),
+        "verdicts_agree_with_ca": float(
+            np.mean([c.verdict == v for c, v in zip(certs, ca_out["verdict"], strict=True)])
+        ),
+    }
+    benchmark.extra_info.update(info)
+    print("\n" + json.dumps(info, indent=1, default=float))
+    benchmark.pedantic(hull, rounds=3, iterations=1)
+
+
+def test_single_query_against_compiled_ca(benchmark, workload, compiled):
+    w = workload
+    idx = range(0, len(w.motions), 50)
+    preps = [
+        compiled.prepare(
+            [w.motions[i]],
+            [w.bodies[i]],
+            [w.obstacles[i]],
+            speeds=_stepping_speeds([w.motions[i]], [w.bodies[i]]),
+        )
+        for i in idx
+    ]
+
+    def one():
+        for i in idx:
+            harness.certify(w.motions[i], w.bodies[i], w.obstacles[i], tolerance=TOL)
+
+    def ca_python():
+        for p in preps:
+            compiled.run(p, tolerance=TOL)
+
+    med = interleave({"certify": one, "compiled_ca": ca_python})
+    inner = np.mean([compiled.run(p, tolerance=TOL)["cpu_seconds"] for p in preps])
+    k = len(preps)
+    info = {
+        "certify_us": med["certify"]["cpu"] / k * 1e6,
+        "certify_wall_us": med["certify"]["wall"] / k * 1e6,
+        "compiled_ca_call_us": med["compiled_ca"]["cpu"] / k * 1e6,
+        "compiled_ca_inner_us": inner * 1e6,
+        "certify_over_compiled_ca_inner": med["certify"]["cpu"] / k / inner,
+        "certify_over_compiled_ca_call": med["certify"]["cpu"] / med["compiled_ca"]["cpu"],
+    }
+    benchmark.extra_info.update(info)
+    print("\n" + json.dumps(info, indent=1))
+    benchmark.pedantic(one, rounds=3, iterations=1)
+
+
+def test_two_threads(benchmark, workload):
+    w = workload
+    med = interleave(
+        {
+            t: (lambda t=t: harness.certify_many(w.motions, w.bodies, w.obstacles, threads=t))
+            for t in (1, 2)
+        }
+    )
+    info = {
+        "wall_one_over_two": med[1]["wall"] / med[2]["wall"],
+        "cpu": {t: med[t]["cpu"] for t in (1, 2)},
+    }
+    benchmark.extra_info.update(info)
+    print("\n" + json.dumps(info, indent=1, default=float))
+    benchmark.pedantic(lambda: None, rounds=1, iterations=1)
+
+
+def test_kernel_time_per_evaluation(benchmark, workload):
+    """Kernel CPU time (the launch alone, one thread) per bound evaluation and pose test."""
+    w = workload
+    harness.certify_many(w.motions, w.bodies, w.obstacles, threads=1)
+    buf = buffers("cpu", "refine")
+    (_key, (_arrays, cmds)) = next(iter(buf._launches.items()))
+    times = []
+    for _ in range(ROUNDS):
+        c = time.process_time()
+        cmds[0].launch()
+        times.append(time.process_time() - c)
+    certs = harness.certify_many(w.motions, w.bodies, w.obstacles, threads=1)
+    nodes = sum(c.nodes for c in certs)
+    tests = sum(c.pose_tests for c in certs)
+    sec = float(np.median(times))
+    info = {
+        "kernel_cpu_s": sec,
+        "nodes": nodes,
+        "pose_tests": tests,
+        "ns_per_evaluation": sec / (nodes + tests) * 1e9,
+        "evaluations_per_second_one_thread": (nodes + tests) / sec,
+    }
+    benchmark.extra_info.update(info)
+    print("\n" + json.dumps(info, indent=1))
+    benchmark.pedantic(lambda: None, rounds=1, iterations=1)
+
+
+_BATCH_SCRIPT = """
+import pickle, resource, sys, time, numpy as np, harness, motions
+w = pickle.loads(open(sys.argv[1], 'rb').read())
+reps = int(sys.argv[2])
+rebuild = lambda m: motions.RationalMotion.from_bezier(*m.bezier_form())
+ms = [rebuild(m) for _ in range(reps) for m in w.motions]
+bs = [b for _ in range(reps) for b in w.bodies]
+os_ = [o for _ in range(reps) for o in w.obstacles]
+harness.certify_many(ms[:50], bs[:50], os_[:50])
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+harness.certify_many(ms, bs, os_)  # first pass: per-motion caches
+mid = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+cpu = []
+for _ in range(3):
+    c = time.process_time(); harness.certify_many(ms, bs, os_); cpu.append(time.process_time() - c)
+after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(len(ms), np.median(cpu) / len(ms), before, mid, after)
+"""
+
+
+def test_batch_size_scaling(benchmark, workload, tmp_path):
+    """Per-pair cost at 1e3, 1e4, 1e5 pairs (the workload repeated, motions rebuilt so that
+    no cache is shared), each in a fresh process; peak RSS before and after."""
+    path = tmp_path / "w.pkl"
+    path.write_bytes(pickle.dumps(workload))
+    rows = {}
+    for reps in (1, 10, 100):
+        out = subprocess.run(
+            [sys.executable, "-c", _BATCH_SCRIPT, str(path), str(reps)],
+            capture_output=True, text=True, check=True,
+        ).stdout.split()  # fmt: skip
+        n, per, before, _first, after = int(out[0]), float(out[1]), *map(int, out[2:])
+        rows[n] = {
+            "us_per_pair_cpu": per * 1e6,
+            "maxrss_mb": after / 1024,
+            "engine_mb": (after - before) / 1024,
+        }
+    info = {
+        "rows": rows,
+        "ratio_1e5_over_1e3": rows[100_000]["us_per_pair_cpu"] / rows[1000]["us_per_pair_cpu"],
+    }
+    benchmark.extra_info.update(info)
+    print("\n" + json.dumps(info, indent=1))
+    benchmark.pedantic(lambda: None, rounds=1, iterations=1)
+
+
+def scattered(m, k: int, rng: np.random.Generator, tube: float = 0.35) -> list:
+    """k boxes, spheres and capsules of sizes 1 cm - 1 m scattered around a motion's path
+    (its bounding box grown by 1 m), kept `tube` clear of sampled origins."""
+    from harness import Box, Capsule, Sphere
+
+    t = np.linspace(*m.domain, 400)
+    _, p = m.pose(t)
+    lo, hi = p.min(axis=0) - 1.0, p.max(axis=0) + 1.0
+    out = []
+    while len(out) < k:
+        c = rng.uniform(lo, hi)
+        s = 10 ** rng.uniform(-2, 0) / 2
+        if np.linalg.norm(p - c, axis=1).min() < tube + s:
+            continue
+        kind = len(out) % 3
+        if kind == 0:
+            out.append(Box(rng.uniform(0.4, 1.0, 3) * s, center=c, rotation=rng.normal(size=4)))
+        elif kind == 1:
+            out.append(Sphere(s, center=c))
+        else:
+            out.append(Capsule(0.4 * s, s, center=c, rotation=rng.normal(size=4)))
+    return out
+
+
+def test_obstacles_per_motion_slope(benchmark, workload):
+    """Time against obstacles per motion (1 -> 1,000 scattered): fitted log-log slope."""
+    from harness import Box
+
+    w = workload
+    rng = np.random.default_rng(5)
+    ms = w.motions[:40]
+    body = Box([0.1, 0.06, 0.04])
+    ks = (1, 10, 100, 1000)
+    fields = {k: [scattered(m, k, rng) for m in ms] for k in ks}
+    med = interleave(
+        {k: (lambda k=k: harness.certify_many(ms, body, fields[k], tolerance=TOL)) for k in ks},
+        rounds=5,
+    )
+    x = np.log(np.array(ks, dtype=float))
+    y = np.log(np.array([med[k]["cpu"] for k in ks]))
+    slope = float(np.polyfit(x, y, 1)[0])
+    info = {"slope": slope, "cpu_per_motion_us": {k: med[k]["cpu"] / len(ms) * 1e6 for k in ks}}
+    benchmark.extra_info.update(info)
+    print("\n" + json.dumps(info, indent=1))
+    benchmark.pedantic(lambda: None, rounds=1, iterations=1)
+
+
+def test_cold_start_compile(benchmark, tmp_path):
+    """Compiling the engine's kernel modules with an empty cache (a fresh process)."""
+    code = (
+        "import warp as wp; wp.config.quiet=True; wp.init();"
+        "import harness.certification._refine_kernels as a, harness.certification._advance_kernels as b;"
+        "wp.load_module(a, device='cpu'); wp.load_module(b, device='cpu')"
+    )
+    secs = []
+    for i in range(3):
+        env = {**os.environ, "WARP_CACHE_PATH": str(tmp_path / str(i))}
+        c = time.perf_counter()
+        subprocess.run([sys.executable, "-c", code], env=env, check=True)
+        secs.append(time.perf_counter() - c)
+    benchmark.extra_info.update(compile_seconds=secs, median=float(np.median(secs)))
+    print("\ncompile seconds", secs)
+    benchmark.pedantic(lambda: None, rounds=1, iterations=1)
