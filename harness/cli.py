@@ -22,7 +22,7 @@ class UsageError(ValueError):
 
 def _schemes() -> int:
     """Every scheme with its measured continuity class and invariance errors."""
-    from motions.schemes import scheme_table
+    from motions.demo import scheme_table
 
     rows = scheme_table()
     head = f"{'scheme':20s} {'continuity':>10s} {'world inv.':>11s} {'body inv.':>11s} {'speed bound':>12s} {'solve iters':>11s}"

@@ -6,8 +6,10 @@ Quaternions are scalar first ``(w, x, y, z)`` everywhere (DESIGN §1).
 from . import (
     baselines,
     bernstein,
+    demo,
     quaternion,
 )
+from ._checks import ROTATION_TOL
 from .errors import DegenerateMotionError, MotionError
 from .frames import (
     PHCurve,
@@ -19,7 +21,7 @@ from .frames import (
     sweep_surface,
 )
 from .interpolation import FitResult, fit, hermite, interpolate, parameter_times
-from .motion import Motion, Recipe
+from .motion import Kinematics, Motion, Recipe
 from .quaternion import (
     U,
     qconj,
@@ -33,24 +35,16 @@ from .quaternion import (
     u0,
 )
 from .rational import RationalMotion
-from .schemes import build
+from .schemes import SCHEMES, build
 from .smoothness import smoothness
 from .special import darboux, elliptic, planar
 
-
-def __getattr__(name: str):
-    # SCHEMES grows as modules register schemes; read it live.
-    if name == "SCHEMES":
-        from . import schemes
-
-        return schemes.SCHEMES
-    raise AttributeError(name)
-
-
 __all__ = [
+    "ROTATION_TOL",
     "SCHEMES",
     "DegenerateMotionError",
     "FitResult",
+    "Kinematics",
     "Motion",
     "MotionError",
     "PHCurve",
@@ -62,6 +56,7 @@ __all__ = [
     "bernstein",
     "build",
     "darboux",
+    "demo",
     "elliptic",
     "fit",
     "hermite",

@@ -10,18 +10,26 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "ROTATION_TOL",
     "as_array",
+    "as_bspline",
     "as_points",
     "as_quaternions",
     "as_rotations",
     "as_times",
     "check_choice",
     "short",
+    "unit_quaternions",
 ]
 
 
 def short(x: Any, limit: int = 6) -> str:
-    """A compact repr of an argument for error messages."""
+    """A compact repr of an argument for error messages.
+
+    numpy scalars print as plain numbers (``0.5``, not ``np.float64(0.5)``, numpy 2's repr).
+    """
+    if isinstance(x, np.generic):
+        x = x.item()
     try:
         a = np.asarray(x)
     except Exception:  # pragma: no cover - exotic objects
@@ -58,20 +66,32 @@ def as_array(
 
 
 def as_quaternions(x: Any, name: str = "quaternions") -> np.ndarray:
-    """Finite, non-zero quaternions, scalar first, shape (..., 4)."""
+    """Finite, non-zero quaternions (any norm, however small or large), scalar first,
+    shape (..., 4)."""
     q = as_array(x, name)
     if q.ndim == 0 or q.shape[-1] != 4:
         raise ValueError(f"Expected `{name}` to have shape (..., 4) (w, x, y, z), got {q.shape}.")
-    norms = np.linalg.norm(q, axis=-1)
-    if np.any(norms <= 1e-300):
-        bad = np.argwhere(np.atleast_1d(norms) <= 1e-300)[0]
+    # The largest component, not the norm: |q|² underflows for |q| ~ 1e-200.
+    zero = np.atleast_1d(np.abs(q).max(axis=-1) == 0)
+    if np.any(zero):
+        bad = np.argwhere(zero)[0]
         raise ValueError(
             f"Expected `{name}` to be non-zero quaternions, got a zero one at index {tuple(bad.tolist())}."
         )
     return q
 
 
-ROTATION_TOL = 1e-6  # |R^T R - I| allowed in user-given rotation matrices
+def unit_quaternions(q: np.ndarray) -> np.ndarray:
+    """``q / |q|`` for non-zero quaternions (..., 4) of any norm, without under- or overflow."""
+    q = q / np.abs(q).max(axis=-1, keepdims=True)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+ROTATION_TOL = 1e-6
+"""Largest ``|R^T R - I|`` entry accepted for a user-given rotation matrix (``det R > 0``
+too). Matrices written with 7 significant digits pass; anything further from a rotation
+is refused rather than silently re-orthonormalised. ``harness`` shapes use the same
+constant."""
 
 
 def as_rotations(x: Any, name: str = "rotations") -> np.ndarray:
@@ -80,8 +100,7 @@ def as_rotations(x: Any, name: str = "rotations") -> np.ndarray:
 
     a = as_array(x, name)
     if a.ndim == 2 and a.shape[1] == 4:
-        q = as_quaternions(a, name)
-        return q / np.linalg.norm(q, axis=-1, keepdims=True)
+        return unit_quaternions(as_quaternions(a, name))
     if a.ndim == 3 and a.shape[1:] == (3, 3):
         err = np.abs(np.einsum("nji,njk->nik", a, a) - np.eye(3)).max(axis=(1, 2))
         det = np.linalg.det(a)
@@ -121,5 +140,46 @@ def as_times(x: Any, name: str = "times", n: int | None = None) -> np.ndarray:
 def check_choice(value: Any, name: str, choices) -> str:
     """`value` must be one of `choices` (strings)."""
     if not isinstance(value, str) or value not in choices:
-        raise ValueError(f"Unknown `{name}` {value!r}; expected one of {sorted(choices)}.")
+        raise ValueError(f"Unknown `{name}` {short(value)}; expected one of {sorted(choices)}.")
     return value
+
+
+def as_bspline(degree: Any, knots: Any, dname: str, kname: str) -> tuple[int, np.ndarray]:
+    """A B-spline's degree and full clamped knot vector (K,), validated.
+
+    Interior knots lie strictly inside the domain with multiplicity at most `degree` (a
+    continuous spline); `dname` and `kname` name the arguments in messages.
+    """
+    if isinstance(degree, bool) or not isinstance(degree, int | np.integer):
+        raise TypeError(f"Expected `{dname}` to be an integer, got {short(degree)}.")
+    d = int(degree)
+    if d < 0:
+        raise ValueError(f"Expected `{dname}` >= 0, got {d}.")
+    t = as_array(knots, kname, ndim=1)
+    if t.size < 2 * (d + 1):
+        raise ValueError(
+            f"Expected `{kname}` to have at least {2 * (d + 1)} entries for degree {d}, got {t.size}."
+        )
+    if np.any(np.diff(t) < 0):
+        raise ValueError(f"Expected `{kname}` to be non-decreasing, got {short(t, 10)}.")
+    if not (np.all(t[: d + 1] == t[0]) and np.all(t[-d - 1 :] == t[-1])):
+        raise ValueError(
+            f"Expected `{kname}` to be clamped (first and last knot repeated {d + 1} times), got {short(t, 10)}."
+        )
+    if t[-1] <= t[0]:
+        raise ValueError(
+            f"Expected `{kname}` to span a non-empty domain, got [{short(t[0])}, {short(t[-1])}]."
+        )
+    inner = t[d + 1 : t.size - d - 1]
+    if inner.size:
+        _, counts = np.unique(inner, return_counts=True)
+        if counts.max() > d:
+            raise ValueError(
+                f"Expected interior knots of `{kname}` with multiplicity <= {d} (a continuous motion),"
+                f" got multiplicity {counts.max()}."
+            )
+        if inner.min() <= t[0] or inner.max() >= t[-1]:
+            raise ValueError(
+                f"Expected `{kname}` to be clamped: interior knots strictly inside the domain, got {short(t, 10)}."
+            )
+    return d, t

@@ -35,7 +35,7 @@ from .errors import MotionError
 from .interpolation import keyframes
 from .motion import Motion, Recipe
 from .quaternion import preimage_kinematics, qconj, qexp, qlog, qmul, rotation_matrix
-from .schemes import register
+from .rational import SPEED_MARGIN
 
 __all__ = [
     "BezierSlerpMotion",
@@ -44,11 +44,16 @@ __all__ = [
     "ScLerpMotion",
     "SlerpMotion",
     "SquadMotion",
+    "build_bezier_slerp",
+    "build_cumulative_bspline",
+    "build_rotation_spline",
+    "build_sclerp",
+    "build_slerp",
+    "build_squad",
 ]
 
 CUMULATIVE_TOL = 1e-12  # interpolation residual (quaternion angle) of the cumulative solve
 CUMULATIVE_MAX_ITER = 200
-SPEED_MARGIN = 1e-9  # relative outward margin on proven speed bounds (round-off)
 
 
 def spline_speed_bound(spline: BSpline, t0: float, t1: float) -> float:
@@ -229,55 +234,16 @@ class BezierSlerpMotion(_JetRotationMotion):
 
 
 # --------------------------------------------------------------------------- cumulative B-spline
-def _basis_windows(
-    knots: np.ndarray, k: int, x: np.ndarray, nd: int = 2
-) -> tuple[np.ndarray, list[np.ndarray]]:
-    """Span index mu (T,) and the non-zero B-spline basis windows with derivatives.
+def _residue_splines(knots: np.ndarray, k: int) -> BSpline:
+    """Splines ``S_r = sum_{l = r mod (k+1)} B_l`` (r = 0..k), one per column.
 
-    Returns mu and [values, first, second] derivatives, each (T, k+1) for the basis
-    functions mu-k .. mu (Cox–de Boor table; derivatives from the lower-degree rows).
+    On a knot span the k+1 non-zero basis functions ``B_{mu-k} .. B_mu`` have distinct
+    indices mod k+1, so ``S_r(x)`` *is* the one of them with index = r mod (k+1), and
+    ``S_r(x, nu)`` its nu-th derivative: scipy evaluates all windows at once.
     """
     n = knots.size - k - 1
-    mu = np.clip(np.searchsorted(knots, x, side="right") - 1, k, n - 1)
-    table = [np.ones((x.size, 1))]
-    for p in range(1, k + 1):
-        prev = table[-1]
-        cur = np.zeros((x.size, p + 1))
-        for m in range(p + 1):
-            i = mu - p + m
-            if m >= 1:
-                den = knots[i + p] - knots[i]
-                cur[:, m] += (
-                    np.where(den > 0, (x - knots[i]) / np.where(den > 0, den, 1), 0)
-                    * prev[:, m - 1]
-                )
-            if m <= p - 1:
-                den = knots[i + p + 1] - knots[i + 1]
-                cur[:, m] += (
-                    np.where(den > 0, (knots[i + p + 1] - x) / np.where(den > 0, den, 1), 0)
-                    * prev[:, m]
-                )
-        table.append(cur)
-
-    def deriv(w: np.ndarray, p: int) -> np.ndarray:
-        # Window of degree p-1 (T, p) -> derivative combination for degree p (T, p+1).
-        out = np.zeros((x.size, p + 1))
-        for m in range(p + 1):
-            i = mu - p + m
-            if m >= 1:
-                den = knots[i + p] - knots[i]
-                out[:, m] += np.where(den > 0, p / np.where(den > 0, den, 1), 0) * w[:, m - 1]
-            if m <= p - 1:
-                den = knots[i + p + 1] - knots[i + 1]
-                out[:, m] -= np.where(den > 0, p / np.where(den > 0, den, 1), 0) * w[:, m]
-        return out
-
-    ders = [table[k]]
-    if nd >= 1:
-        ders.append(deriv(table[k - 1], k) if k >= 1 else np.zeros_like(table[k]))
-    if nd >= 2:
-        ders.append(deriv(deriv(table[k - 2], k - 1), k) if k >= 2 else np.zeros_like(table[k]))
-    return mu, ders
+    c = (np.arange(n)[:, None] % (k + 1) == np.arange(k + 1)[None, :]).astype(float)
+    return BSpline(knots, c, k)
 
 
 class CumulativeBSplineMotion(_JetRotationMotion):
@@ -296,6 +262,7 @@ class CumulativeBSplineMotion(_JetRotationMotion):
         super().__init__(q, p, t)
         self._k = min(3, t.size - 1)
         self._knots = make_interp_spline(t, np.zeros(t.size), k=self._k).t
+        self._windows = _residue_splines(self._knots, self._k)
         t_start = time.perf_counter()
         _, it, res = self._solve_controls(q, t)
         self.solve_info = {
@@ -403,8 +370,13 @@ class CumulativeBSplineMotion(_JetRotationMotion):
         self._omega = omega
 
     def _quaternion_jet(self, t, order=2):
-        k = self._k
-        mu, bs = _basis_windows(self._knots, k, t, order)
+        k, knots = self._k, self._knots
+        n = knots.size - k - 1
+        mu = np.clip(np.searchsorted(knots, t, side="right") - 1, k, n - 1)
+        # window column m holds B_{mu-k+m}: residue (mu-k+m) mod (k+1)
+        cols = (mu[:, None] - k + np.arange(k + 1)[None, :]) % (k + 1)
+        rows = np.arange(t.size)[:, None]
+        bs = [self._windows(t, nu)[rows, cols] for nu in range(order + 1)]
         # cumulative sums from the right: B~_{mu-k+m} = sum_{m'>=m} B_{mu-k+m'}
         cum = [np.cumsum(b[:, ::-1], axis=1)[:, ::-1] for b in bs] + [None, None]
         out = _const(self._c[mu - k])
@@ -527,10 +499,10 @@ class ScLerpMotion(Motion):
         )
 
 
-# --------------------------------------------------------------------------- registry
-def _builder(cls: type, min_count: int = 2):
+# --------------------------------------------------------------------------- builders
+def _builder(cls: type):
     def build(rotations: Any, positions: Any, times: Any = None, *, omega: float = 1.0) -> Motion:
-        q, p, t = keyframes(rotations, positions, times, omega=omega, min_count=min_count)
+        q, p, t = keyframes(rotations, positions, times, omega=omega)
         motion = cls(q, p, t)
         motion.recipe = Recipe(
             cls.scheme,
@@ -546,14 +518,9 @@ def _builder(cls: type, min_count: int = 2):
     return build
 
 
-for _cls in (
-    SlerpMotion,
-    BezierSlerpMotion,
-    SquadMotion,
-    CumulativeBSplineMotion,
-    RotationSplineMotion,
-    ScLerpMotion,
-):
-    register(_cls.scheme, _builder(_cls))
-
-del _cls
+build_slerp = _builder(SlerpMotion)
+build_bezier_slerp = _builder(BezierSlerpMotion)
+build_squad = _builder(SquadMotion)
+build_cumulative_bspline = _builder(CumulativeBSplineMotion)
+build_rotation_spline = _builder(RotationSplineMotion)
+build_sclerp = _builder(ScLerpMotion)

@@ -19,13 +19,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import BSpline, PPoly
+from scipy.interpolate import BPoly, BSpline, PPoly
 
-from ._checks import as_array, short
+from ._checks import as_array, as_bspline, short
+from .errors import MotionError
 from .interpolation import hermite
 from .motion import Motion
 from .quaternion import quat_from_matrix
-from .rational import RationalMotion, _check_bspline, _ppoly, control_matrices
+from .rational import RationalMotion
 
 __all__ = [
     "PHCurve",
@@ -36,6 +37,14 @@ __all__ = [
     "rmf_reference",
     "sweep_surface",
 ]
+
+MAX_MESH_VERTICES = 4_000_000
+"""Largest grid :meth:`SweepSurface.to_mesh` builds (~100 MB of float64 vertices)."""
+
+
+def _ppoly(pieces: np.ndarray, breaks: np.ndarray) -> PPoly:
+    """scipy PPoly of Bézier pieces (S, k+1, ...) on `breaks` (S+1,)."""
+    return PPoly.from_bernstein_basis(BPoly(np.moveaxis(pieces, 1, 0), breaks))
 
 
 # ----------------------------------------------------------------------------- PH curves
@@ -65,6 +74,10 @@ class PHCurve:
     def _curve(self) -> PPoly:
         return _ppoly(self.pieces, self.breaks)
 
+    @cached_property
+    def _preimage(self) -> PPoly:
+        return _ppoly(self.preimage, self.breaks)
+
     def point(self, t: Any) -> np.ndarray:
         """Curve points (..., 3); ``x(t_start) = 0``."""
         return self._eval(t, 0)
@@ -80,7 +93,7 @@ class PHCurve:
     def speed(self, t: Any) -> np.ndarray:
         """Parametric speed ``u0(Q(t))`` (a polynomial), (...)."""
         tt, shape = self._motion._check_t(t)
-        q = self._motion._evaluator()(tt)[:, :4]  # the preimage, as the frame evaluates it
+        q = self._preimage(tt)
         return np.einsum("ti,ti->t", q, q).reshape(shape)
 
     def frame(self) -> RationalMotion:
@@ -99,7 +112,7 @@ def ph_curve(degree: int, knots: Any, quaternions: Any) -> PHCurve:
     qb = base.preimage_pieces
     br = base.breaks
     d = qb.shape[1] - 1
-    hod = control_matrices(qb, None, None)[:, :, :3, 0]  # (S, 2d+1, 3): U(Q) e1
+    hod = base.ctrl[:, :, :3, 0]  # (S, 2d+1, 3): U(Q) e1 (no translation: degree 2d)
     m = 2 * d
     s_count = len(br) - 1
     pieces = np.empty((s_count, m + 2, 3))
@@ -144,7 +157,7 @@ def rmf_reference(spine: Any, t: Any, normal0: Any = None) -> np.ndarray:
     bad = np.flatnonzero(speed <= 1e-12 * (1 + np.abs(x).max()))
     if bad.size:
         raise ValueError(
-            f"The spine's tangent vanishes at t = {tt[bad[0]]!r} (a degenerate spine); an RMF needs x'(t) != 0."
+            f"The spine's tangent vanishes at t = {short(tt[bad[0]])} (a degenerate spine); an RMF needs x'(t) != 0."
         )
     tan = dx / speed[:, None]
     if normal0 is None:
@@ -190,7 +203,7 @@ def rmf_motion(
     ``ω = T x T'`` (no twist about the tangent). Spherical degree 6.
     """
     if isinstance(segments, bool) or not isinstance(segments, int | np.integer) or segments < 1:
-        raise ValueError(f"Expected `segments` to be a positive integer, got {segments!r}.")
+        raise ValueError(f"Expected `segments` to be a positive integer, got {short(segments)}.")
     t0, t1 = _spine_domain(spine, domain)
     fine = np.linspace(t0, t1, max(reference_steps, 8 * segments) + 1)
     ref = rmf_reference(spine, fine, normal0)
@@ -271,7 +284,9 @@ class SweepSurface:
         ):
             lo, hi = kn[k], kn[-k - 1]
             if x.size and (x.min() < lo - 1e-12 * (hi - lo) or x.max() > hi + 1e-12 * (hi - lo)):
-                raise ValueError(f"Expected `{name}` within [{lo!r}, {hi!r}], got {short(x)}.")
+                raise ValueError(
+                    f"Expected `{name}` within [{short(lo)}, {short(hi)}], got {short(x)}."
+                )
         bs = BSpline.design_matrix(
             np.clip(ss, self.knots_s[self.degree_s], self.knots_s[-self.degree_s - 1]),
             self.knots_s,
@@ -285,35 +300,68 @@ class SweepSurface:
         h = np.einsum("ti,ijk,sj->tsk", bt, self.homogeneous, bs)
         return h[..., :3] / h[..., 3:]
 
-    def to_mesh(self, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-        """Triangle mesh whose midpoints deviate from the surface by less than `tolerance`.
+    def to_mesh(
+        self, tolerance: float, *, max_vertices: int = MAX_MESH_VERTICES
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Triangle mesh whose cell centres deviate from the surface by less than `tolerance`.
 
         A uniform parameter grid is refined (doubling along s and t) until the surface at
-        the grid's cell centres lies within `tolerance` of the two triangles' average.
+        the grid's cell centres lies within `tolerance` of the average of the cell's four
+        corners. The deviation of a smooth surface shrinks 4x per doubling, so the work
+        is predicted from the first grid and refused up front when it would exceed
+        `max_vertices`.
 
         Returns:
             vertices (V, 3), faces (F, 3) (0-based indices).
+
+        Raises:
+            MotionError: if `tolerance` needs more than `max_vertices` grid points, or is
+                still missed (round-off) on the finest grid allowed.
         """
+        if isinstance(tolerance, bool | str | bytes):
+            raise TypeError(f"Expected `tolerance` to be a number, got {short(tolerance)}.")
         try:
             tol = float(tolerance)
         except (TypeError, ValueError):
-            raise TypeError(f"Expected `tolerance` to be a number, got {tolerance!r}.") from None
+            raise TypeError(
+                f"Expected `tolerance` to be a number, got {short(tolerance)}."
+            ) from None
         if not np.isfinite(tol) or tol <= 0:
-            raise ValueError(f"Expected `tolerance` > 0, got {tolerance!r}.")
+            raise ValueError(f"Expected `tolerance` > 0, got {short(tolerance)}.")
+        if isinstance(max_vertices, bool) or not isinstance(max_vertices, int | np.integer):
+            raise TypeError(f"Expected `max_vertices` to be an integer, got {short(max_vertices)}.")
+        if max_vertices < 9:
+            raise ValueError(f"Expected `max_vertices` >= 9, got {int(max_vertices)}.")
         s0, s1 = self.knots_s[self.degree_s], self.knots_s[-self.degree_s - 1]
         t0, t1 = self.knots_t[self.degree_t], self.knots_t[-self.degree_t - 1]
         ns = max(2, len(np.unique(self.knots_s)) * 2)
         nt = max(2, len(np.unique(self.knots_t)) * 2)
-        for _ in range(12):
+        err = None
+        while True:
+            if (ns + 1) * (nt + 1) > max_vertices:
+                got = "" if err is None else f"; the last grid allowed deviates by {err:.3g}"
+                raise MotionError(
+                    f"Expected a `tolerance` reachable with at most {int(max_vertices)} grid"
+                    f" points (`max_vertices`), got {short(tol)}{got}."
+                )
             s = np.linspace(s0, s1, ns + 1)
             t = np.linspace(t0, t1, nt + 1)
             p = self.evaluate(s, t)
             sm, tm = 0.5 * (s[1:] + s[:-1]), 0.5 * (t[1:] + t[:-1])
             centre = self.evaluate(sm, tm)
             avg = 0.25 * (p[:-1, :-1] + p[1:, :-1] + p[:-1, 1:] + p[1:, 1:])
-            err = np.linalg.norm(centre - avg, axis=-1).max()
+            err = float(np.linalg.norm(centre - avg, axis=-1).max())
             if err < tol:
                 break
+            # Second order: each doubling divides the deviation by ~4; predict the grid.
+            doublings = max(1, int(np.ceil(0.5 * np.log2(err / tol))))
+            want = (ns * 2**doublings + 1) * (nt * 2**doublings + 1)
+            if want > max_vertices:
+                raise MotionError(
+                    f"Expected a `tolerance` reachable with at most {int(max_vertices)} grid"
+                    f" points (`max_vertices`), got {short(tol)}: the {nt + 1} x {ns + 1} grid"
+                    f" deviates by {err:.3g}, so about {want:.3g} points would be needed."
+                )
             ns, nt = ns * 2, nt * 2
         nt1, ns1 = p.shape[:2]
         idx = np.arange(nt1 * ns1).reshape(nt1, ns1)
@@ -369,7 +417,7 @@ def sweep_surface(profile: Any, motion: RationalMotion) -> SweepSurface:
         raise TypeError(
             f"Expected `profile` = (degree, knots, points, weights or None), got {short(profile)}."
         )
-    deg, kn = _check_bspline(profile[0], profile[1], "profile[0]", "profile[1]")
+    deg, kn = as_bspline(profile[0], profile[1], "profile[0]", "profile[1]")
     pts = as_array(profile[2], "profile[2]")
     if pts.ndim != 2 or pts.shape != (kn.size - deg - 1, 3):
         raise ValueError(
@@ -380,17 +428,7 @@ def sweep_surface(profile: Any, motion: RationalMotion) -> SweepSurface:
         raise ValueError(
             f"Expected `profile[3]` to be {len(pts)} positive weights, got {short(w)}."
         )
-    breaks, ctrl = motion.bezier_form()
-    n = ctrl.shape[1] - 1
-    # scale segments so that their joint control matrices coincide (a C0 B-spline)
-    scale = np.ones(len(ctrl))
-    for s in range(1, len(ctrl)):
-        scale[s] = scale[s - 1] * ctrl[s - 1, -1, 3, 3] / ctrl[s, 0, 3, 3]
-    ctrl = ctrl * scale[:, None, None, None]
-    mats = np.concatenate([ctrl[0], *[c[1:] for c in ctrl[1:]]])  # (S n + 1, 4, 4)
+    n, knots_t, mats = motion.bspline_form()  # mats (S n + 1, 4, 4)
     hp = np.concatenate([pts * w[:, None], w[:, None]], axis=1)  # (m, 4)
     homog = np.einsum("iab,jb->ija", mats, hp)
-    knots_t = np.concatenate(
-        [[breaks[0]] * (n + 1), np.repeat(breaks[1:-1], n), [breaks[-1]] * (n + 1)]
-    )
     return SweepSurface(deg, kn, n, knots_t, homog)

@@ -17,10 +17,11 @@ from scipy.interpolate import BSpline, make_interp_spline
 from scipy.sparse.linalg import spsolve
 
 from ._checks import as_points, as_rotations, as_times, check_choice, short
+from ._spline import clamped_knots, gauss_nodes
 from .errors import DegenerateMotionError, MotionError
 from .motion import Recipe
-from .quaternion import qconj, qmul, sign_continuity
-from .rational import RationalMotion
+from .quaternion import qmul, sign_continuity
+from .rational import RationalMotion, bezier_minimum
 
 __all__ = [
     "PARAMETRIZATIONS",
@@ -63,11 +64,19 @@ def parameter_times(
     dq = np.linalg.norm(quaternions[1:] - quaternions[:-1], axis=1)
     sq = np.linalg.norm(quaternions[1:] + quaternions[:-1], axis=1)
     alpha = 2.0 * np.arctan2(dq, sq)
-    inc = np.linalg.norm(np.diff(positions, axis=0), axis=1) + omega * alpha
+    inc = _distances(positions) + omega * alpha
     if scheme == "uniform":
         inc = np.ones_like(inc)
     elif scheme == "centripetal":
         inc = np.sqrt(inc)
+    huge = np.flatnonzero(~np.isfinite(np.cumsum(inc)))
+    if huge.size:
+        i = int(huge[0])
+        raise ValueError(
+            f"Expected `positions` whose {scheme} keyframe times are finite, got an overflow"
+            f" at keyframe {i + 1} (positions up to {np.abs(positions).max():.3g});"
+            " rescale the positions or pass `times`."
+        )
     zero = np.flatnonzero(~(inc > 0))
     if zero.size:
         i = int(zero[0])
@@ -76,6 +85,14 @@ def parameter_times(
             " remove the duplicate or pass `times`."
         )
     return np.concatenate([[0.0], np.cumsum(inc)])
+
+
+def _distances(p: np.ndarray) -> np.ndarray:
+    """``|p_{i+1} - p_i|`` (N-1,) without overflow in the difference or the squares."""
+    scale = np.abs(p).max()
+    if scale == 0 or not np.isfinite(scale):
+        return np.linalg.norm(np.diff(p, axis=0), axis=1)
+    return scale * np.linalg.norm(np.diff(p / scale, axis=0), axis=1)
 
 
 def keyframes(
@@ -94,13 +111,15 @@ def keyframes(
         )
     if n < min_count:
         raise ValueError(f"Expected at least {min_count} keyframes, got {n}.")
+    if isinstance(omega, bool | str | bytes):
+        raise TypeError(f"Expected `omega` to be a number, got {short(omega)}.")
     try:
         om = float(omega)
     except (TypeError, ValueError):
-        raise TypeError(f"Expected `omega` to be a number, got {omega!r}.") from None
+        raise TypeError(f"Expected `omega` to be a number, got {short(omega)}.") from None
     if not np.isfinite(om) or om < 0:
         raise ValueError(
-            f"Expected `omega` to be finite and >= 0 (length per radian), got {omega!r}."
+            f"Expected `omega` to be finite and >= 0 (length per radian), got {short(omega)}."
         )
     q = sign_continuity(q)
     if times is None or isinstance(times, str):
@@ -129,21 +148,6 @@ def _design(knots: np.ndarray, k: int, x: np.ndarray, nu: int = 0) -> sp.csr_arr
         shape=(n + 1, n),
     )
     return sp.csr_array(_design(knots, k - 1, x, nu - 1) @ d)
-
-
-def _gauss(breaks: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss–Legendre nodes and weights, `m` per interval of `breaks`."""
-    xg, wg = np.polynomial.legendre.leggauss(m)
-    a, b = breaks[:-1, None], breaks[1:, None]
-    x = 0.5 * (a + b) + 0.5 * (b - a) * xg
-    w = 0.5 * (b - a) * wg
-    return x.ravel(), w.ravel()
-
-
-def _clamped(breaks: np.ndarray, k: int, mult: int) -> np.ndarray:
-    return np.concatenate(
-        [[breaks[0]] * (k + 1), np.repeat(breaks[1:-1], mult), [breaks[-1]] * (k + 1)]
-    )
 
 
 # ---------------------------------------------------------------------- interpolation
@@ -203,10 +207,22 @@ def interpolate(
 
 
 def _check_weight(motion: RationalMotion, t: np.ndarray) -> None:
-    """Refuse a preimage whose norm nearly vanishes; name the keyframe pair."""
-    vals, where = motion.weight_minimum()
+    """Refuse a preimage whose norm nearly vanishes; name the keyframe pair.
+
+    ``u0 = |Q|²`` at its own degree 2d (not raised to the motion's degree, where the
+    leading power coefficients are round-off): segments whose Bernstein coefficients all
+    exceed the threshold are clear (the coefficients bound u0 from below); the exact
+    minimum is computed on the others only.
+    """
+    u0c = motion.u0_pieces
+    wmax = u0c.max()
+    low = np.flatnonzero(u0c.min(axis=1) <= MIN_WEIGHT_RATIO * wmax)
+    if low.size == 0:
+        return
+    vals, u = bezier_minimum(u0c[low])
     i = int(np.argmin(vals))
-    wmax = np.abs(motion.weights()).max()
+    br = motion.breakpoints
+    where = br[:-1][low] + u * np.diff(br)[low]
     if vals[i] <= MIN_WEIGHT_RATIO * wmax:
         k = int(np.clip(np.searchsorted(t, where[i], side="right") - 1, 0, t.size - 2))
         raise DegenerateMotionError(
@@ -221,8 +237,8 @@ def _minimal_numerator(sq: BSpline, t: np.ndarray, p: np.ndarray) -> tuple[np.nd
     d = sq.k
     k = 2 * d
     breaks = np.unique(sq.t)
-    knots = _clamped(breaks, k, d + 1)  # C^{d-1} like u0 and U
-    xg, wg = _gauss(breaks, 2 * k + 4)
+    knots = clamped_knots(breaks, k, d + 1)  # C^{d-1} like u0 and U
+    xg, wg = gauss_nodes(breaks, 2 * k + 4)
     q0, q1, q2 = sq(xg), sq(xg, 1), sq(xg, 2)
     u = np.einsum("ti,ti->t", q0, q0)
     du = 2 * np.einsum("ti,ti->t", q0, q1)
@@ -303,9 +319,13 @@ def hermite(
     motion = RationalMotion(t, preimage=pieces(q, dq), origin=pieces(p, dp), keyframe_times=t)
     motion.scheme = "rational-hermite"
     _check_weight(motion, t)
-    opts = {"omega": omega}
-    if velocities is not None or angular_velocities is not None:
-        opts["derivatives_given"] = True
+    # Given derivatives go into the recipe (world frame), so that the motion can be
+    # rebuilt from moved keyframes (motions.smoothness rotates them with the world).
+    opts = {
+        "omega": omega,
+        "velocities": None if velocities is None else dp,
+        "angular_velocities": None if angular_velocities is None else w,
+    }
     motion.recipe = Recipe(
         "rational-hermite",
         q,
@@ -314,11 +334,6 @@ def hermite(
         opts,
     )
     return motion
-
-
-def angular_velocities_from_preimage(q: np.ndarray, dq: np.ndarray) -> np.ndarray:
-    """World angular velocities ``2 vec(Q' conj(Q)) / |Q|²`` (DESIGN §1)."""
-    return 2 * qmul(dq, qconj(q))[..., 1:] / np.einsum("...i,...i->...", q, q)[..., None]
 
 
 # ---------------------------------------------------------------------- fitting
@@ -406,7 +421,7 @@ def fit(
     n = q.shape[0]
     s = max(1, n // 8) if segments is None else segments
     if isinstance(s, bool) or not isinstance(s, int | np.integer) or s < 1:
-        raise ValueError(f"Expected `segments` to be a positive integer, got {segments!r}.")
+        raise ValueError(f"Expected `segments` to be a positive integer, got {short(segments)}.")
     if n < s + 3:
         raise ValueError(
             f"Expected at least segments + 3 = {s + 3} poses to fit {s} segments, got {n}."
@@ -419,9 +434,9 @@ def fit(
         if not isinstance(val, int | float | np.floating) or not np.isfinite(val) or val < 0:
             raise ValueError(f"Expected `{name}` to be a finite number >= 0, got {short(val)}.")
     breaks = np.linspace(t[0], t[-1], int(s) + 1)
-    knots = _clamped(breaks, 3, 1)
+    knots = clamped_knots(breaks, 3, 1)
     a = _design(knots, 3, t)
-    xg, wg = _gauss(breaks, 6)
+    xg, wg = gauss_nodes(breaks, 6)
     b2 = _design(knots, 3, xg, 2)
     pen = (b2.T @ sp.diags(wg) @ b2).tocsc()
     ata = (a.T @ a).tocsc()
@@ -450,7 +465,7 @@ def fit(
     )
     ang = 2 * ang  # quaternion angle -> rotation angle
     dist = np.linalg.norm(pos - p, axis=1)
-    xq, wq = _gauss(breaks, 8)
+    xq, wq = gauss_nodes(breaks, 8)
     spl = BSpline(knots, cq, 3)
     proxy = float(np.sum(wq * np.einsum("ti,ti->t", spl(xq, 2), spl(xq, 2))))
     wd = motion.angular_acceleration(xq)

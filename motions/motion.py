@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from ._checks import as_points, short
 
-__all__ = ["DOMAIN_SLACK", "Motion", "Recipe", "skew", "vee"]
+__all__ = ["DOMAIN_SLACK", "Kinematics", "Motion", "Recipe", "skew", "vee"]
 
 DOMAIN_SLACK = 1e-12
 """Times outside the domain by at most this fraction of its length are clamped (linspace
@@ -38,6 +38,24 @@ class Recipe:
     positions: np.ndarray
     times: Any
     options: dict = field(default_factory=dict)
+
+
+class Kinematics(NamedTuple):
+    """World-frame kinematics at times of shape (...) (DESIGN §1).
+
+    Attributes:
+        rotation: (..., 3, 3) body -> world rotations.
+        position: (..., 3) origins.
+        angular_velocity, velocity: (..., 3), or None below order 1.
+        angular_acceleration, acceleration: (..., 3), or None below order 2.
+    """
+
+    rotation: np.ndarray
+    position: np.ndarray
+    angular_velocity: np.ndarray | None = None
+    velocity: np.ndarray | None = None
+    angular_acceleration: np.ndarray | None = None
+    acceleration: np.ndarray | None = None
 
 
 def skew(w: np.ndarray) -> np.ndarray:
@@ -104,7 +122,9 @@ class Motion(abc.ABC):
     def _check_t(self, t: Any, name: str = "t") -> tuple[np.ndarray, tuple]:
         """Flattened times within the domain, and the shape to restore."""
         if isinstance(t, str | bytes) or t is None:
-            raise TypeError(f"Expected `{name}` to be a number or an array of numbers, got {t!r}.")
+            raise TypeError(
+                f"Expected `{name}` to be a number or an array of numbers, got {short(t)}."
+            )
         try:
             a = np.asarray(t, dtype=np.float64)
         except (TypeError, ValueError):
@@ -131,10 +151,17 @@ class Motion(abc.ABC):
         order 2; all world frame: R (T, 3, 3), vectors (T, 3).
         """
 
-    def _eval(self, t: Any, order: int, index: int):
+    def kinematics(self, t: Any, order: int = 2) -> Kinematics:
+        """Pose and world-frame rates up to `order` (0, 1 or 2) at `t`, from one evaluation.
+
+        Cheaper than calling :meth:`velocity`, :meth:`acceleration` ... one by one, which
+        each evaluate the motion again.
+        """
+        if isinstance(order, bool) or order not in (0, 1, 2):
+            raise ValueError(f"Expected `order` to be 0, 1 or 2, got {short(order)}.")
         tt, shape = self._check_t(t)
-        out = self._kinematics(tt, order)[index]
-        return out.reshape(shape + out.shape[1:])
+        out = self._kinematics(tt, order)
+        return Kinematics(*(x.reshape(shape + x.shape[1:]) for x in out))
 
     def pose(self, t: Any) -> tuple[np.ndarray, np.ndarray]:
         """Rotation (..., 3, 3) and origin (..., 3) at `t`."""
@@ -165,19 +192,19 @@ class Motion(abc.ABC):
 
     def velocity(self, t: Any) -> np.ndarray:
         """World-frame ``dp/dt`` of the body origin, (..., 3)."""
-        return self._eval(t, 1, 3)
+        return self.kinematics(t, 1).velocity
 
     def angular_velocity(self, t: Any) -> np.ndarray:
         """World-frame angular velocity ω with ``dR/dt R^T = [ω]_x``, (..., 3)."""
-        return self._eval(t, 1, 2)
+        return self.kinematics(t, 1).angular_velocity
 
     def acceleration(self, t: Any) -> np.ndarray:
         """World-frame ``d²p/dt²`` of the body origin, (..., 3)."""
-        return self._eval(t, 2, 5)
+        return self.kinematics(t, 2).acceleration
 
     def angular_acceleration(self, t: Any) -> np.ndarray:
         """World-frame ``dω/dt``, (..., 3)."""
-        return self._eval(t, 2, 4)
+        return self.kinematics(t, 2).angular_acceleration
 
     def speed_bound(self, t0: float, t1: float, radius: float) -> float:
         """Proven bound on the speed of every point within `radius` of the body origin."""
@@ -193,10 +220,12 @@ class Motion(abc.ABC):
         a, b = float(a[0]), float(b[0])
         if b < a:
             raise ValueError(f"Expected `t0` <= `t1`, got t0={a!r}, t1={b!r}.")
+        if isinstance(radius, str | bytes):
+            raise TypeError(f"Expected `radius` to be a number, got {short(radius)}.")
         try:
             r = float(radius)
         except (TypeError, ValueError):
-            raise TypeError(f"Expected `radius` to be a number, got {radius!r}.") from None
+            raise TypeError(f"Expected `radius` to be a number, got {short(radius)}.") from None
         if not np.isfinite(r) or r < 0:
-            raise ValueError(f"Expected `radius` to be finite and >= 0, got {radius!r}.")
+            raise ValueError(f"Expected `radius` to be finite and >= 0, got {short(radius)}.")
         return a, b, r

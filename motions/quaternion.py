@@ -155,16 +155,22 @@ def sign_continuity(q: np.ndarray) -> np.ndarray:
     before, ``<Q_{i-1}, Q_{i+1}> >= 0`` (a frame-invariant rule), when there is one.
     """
     q = np.array(q, dtype=float, copy=True)
-    if q.shape[0] < 2:
+    n = q.shape[0]
+    if n < 2:
         return q
-    n = np.linalg.norm(q, axis=1)
-    for i in range(1, q.shape[0]):
-        d = float(q[i] @ q[i - 1]) / (n[i] * n[i - 1])
-        if abs(d) < SIGN_TIE and i >= 2:
-            d = float(q[i] @ q[i - 2])
-        if d < 0:
-            q[i] = -q[i]
-    return q
+    unit = q / np.abs(q).max(axis=1, keepdims=True)
+    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
+    dot = np.einsum("ij,ij->i", unit[1:], unit[:-1])  # <Q_i, Q_{i-1}> for i = 1..n-1
+    # rel[i] = sign of Q_i relative to Q_{i-1} after fixing: the flips compound
+    rel = np.where(dot < 0, -1.0, 1.0)
+    ties = np.flatnonzero(np.abs(dot) < SIGN_TIE) + 1
+    for i in ties[ties >= 2]:  # rare: a Python step per exact 180° turn only
+        # Q_i against the fixed Q_{i-2}: sign(<Q_i, Q_{i-2}>) * s_{i-2} = rel_i * s_{i-1}
+        # with s_{i-1} = rel_{i-1} s_{i-2}
+        d2 = float(unit[i] @ unit[i - 2])
+        rel[i - 1] = (-1.0 if d2 < 0 else 1.0) * rel[i - 2]
+    sign = np.concatenate([[1.0], np.cumprod(rel)])
+    return q * sign[:, None]
 
 
 def qexp(v: np.ndarray) -> np.ndarray:

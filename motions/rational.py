@@ -4,7 +4,9 @@ A :class:`RationalMotion` holds its **piecewise Bézier** form on the true break
 either the generating parts (preimage quaternion pieces ``Q``, plus origin pieces ``p``
 with ``v = u0 p``, or numerator pieces ``v``) or, when rebuilt from control matrices, the
 homogeneous control matrices alone. Poses are evaluated through the preimage when it is
-known (cheaper than the degree-n matrices, DESIGN §9).
+known (cheaper than the degree-n matrices, DESIGN §9), by Horner's rule in numpy on the
+local power form: every array operation releases the GIL, so ``pose(t, threads=2)`` runs
+on two cores (scipy's ``PPoly`` evaluation holds the GIL for its whole loop).
 
 Matrix layout is weight last (DESIGN §1): ``M_h = [[U, v], [0, 0, 0, u0]]``. Seed index
 translation: seed ``m_{0,0}`` -> ``M[3, 3]``; ``m_{i,0}`` -> ``M[i-1, 3]``; ``m_{i,j}`` ->
@@ -19,7 +21,8 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import BPoly, PPoly
 
-from ._checks import as_array, as_quaternions, short
+from ._checks import as_array, as_bspline, as_quaternions, short
+from ._spline import clamped_knots
 from .bernstein import (
     bernstein_basis,
     bernstein_to_power,
@@ -46,15 +49,56 @@ from .quaternion import U_TENSOR, preimage_kinematics, rotation_matrix
 
 __all__ = ["RationalMotion", "bezier_minimum", "control_matrices"]
 
-_CHUNK = 32768  # times per evaluation chunk: temporaries stay in cache
+_CHUNK = 16384  # times per evaluation chunk: temporaries stay in cache
 FROM_BEZIER_TOL = 1e-10
+"""Relative tolerance of :meth:`RationalMotion.from_bezier`'s rigidity (``A A^T = w² I``)
+and continuity checks at sample points."""
+PREIMAGE_ZERO_TOL = 1e-12
+"""A preimage value ``|Q(t)|`` at most this fraction of its segment's largest control
+quaternion norm is a root of Q (all four components vanish together). Evaluating Q by de
+Casteljau errs by ~d·eps of that norm, so a real root lands far below; a near-root this
+deep has ``u0 <= 1e-24`` of its maximum, beyond any certification margin."""
+_U0_BOUND_SLACK = 64 * np.finfo(float).eps
+"""Round-off allowance (relative to the squared control norm) on the Bernstein
+coefficients of ``u0 = |Q|²`` when they are used as a lower bound."""
 SPEED_MAX_PIECES = 4096
 """Pieces a speed bound may split into near a weight dip before it gives up."""
 
 
-def _ppoly(pieces: np.ndarray, breaks: np.ndarray) -> PPoly:
-    """PPoly (local power basis, fast Horner evaluation) of Bézier pieces (S, k+1, ...)."""
-    return PPoly.from_bernstein_basis(BPoly(np.moveaxis(pieces, 1, 0), breaks))
+class _PowerPieces:
+    """Piecewise polynomials (S pieces, D components) in the local power basis.
+
+    Evaluated by Horner's rule with numpy (searchsorted, one gather, multiply-adds), so
+    every step releases the GIL; built from Bézier pieces through scipy's exact
+    Bernstein-to-power conversion (``PPoly.from_bernstein_basis``).
+    """
+
+    def __init__(self, pieces: np.ndarray, breaks: np.ndarray):
+        pp = PPoly.from_bernstein_basis(BPoly(np.moveaxis(pieces, 1, 0), breaks))
+        self.breaks = breaks
+        # (S, k+1, D): coefficient of (t - breaks[s])**j at [s, j]
+        self.coef = np.ascontiguousarray(np.moveaxis(pp.c[::-1], 0, 1))
+
+    def __call__(self, t: np.ndarray, order: int = 0) -> list[np.ndarray]:
+        """Values and derivatives up to `order` at flat times (T,): a list of (T, D)."""
+        k = self.coef.shape[1] - 1
+        s = np.searchsorted(self.breaks, t, side="right") - 1
+        np.clip(s, 0, self.coef.shape[0] - 1, out=s)
+        x = (t - self.breaks[s])[:, None]
+        c = self.coef[s]  # (T, k+1, D)
+        out = []
+        for nu in range(order + 1):
+            if nu > k:
+                out.append(np.zeros((t.size, c.shape[2])))
+                continue
+            # d^nu/dx^nu sum_j c_j x^j = sum_{j>=nu} j!/(j-nu)! c_j x^(j-nu)
+            fall = [float(np.prod(np.arange(j - nu + 1, j + 1))) for j in range(k + 1)]
+            y = c[:, k] * fall[k]
+            for j in range(k - 1, nu - 1, -1):
+                y *= x
+                y += c[:, j] * fall[j] if fall[j] != 1.0 else c[:, j]
+            out.append(y)
+        return out
 
 
 POWER_TRIM = 1e-11
@@ -143,6 +187,7 @@ class RationalMotion(Motion):
         )
         self._ctrl_error = None
         self._positive = None
+        self._u0c = None
         if preimage is None and ctrl is None:
             raise MotionError("A RationalMotion needs preimage pieces or control matrices.")
 
@@ -173,7 +218,7 @@ class RationalMotion(Motion):
         Returns:
             The motion; degree 2d + degree_o (origin), max(2d, degree_v) (numerator) or 2d.
         """
-        d, t = _check_bspline(degree, knots, "degree", "knots")
+        d, t = as_bspline(degree, knots, "degree", "knots")
         q = as_quaternions(quaternions, "quaternions")
         if q.ndim != 2 or q.shape[0] != t.size - d - 1:
             raise ValueError(
@@ -190,7 +235,7 @@ class RationalMotion(Motion):
                 raise TypeError(
                     f"Expected `{name}` to be a tuple (degree, knots, points), got {short(spec)}."
                 )
-            dk, tk = _check_bspline(spec[0], spec[1], f"{name}[0]", f"{name}[1]")
+            dk, tk = as_bspline(spec[0], spec[1], f"{name}[0]", f"{name}[1]")
             pts = as_array(spec[2], f"{name}[2]")
             if pts.ndim != 2 or pts.shape != (tk.size - dk - 1, 3):
                 raise ValueError(
@@ -199,8 +244,8 @@ class RationalMotion(Motion):
                 )
             if tk[0] != t[0] or tk[-1] != t[-1]:
                 raise ValueError(
-                    f"Expected `{name}` on the preimage's domain [{t[0]!r}, {t[-1]!r}],"
-                    f" got [{tk[0]!r}, {tk[-1]!r}]."
+                    f"Expected `{name}` on the preimage's domain [{short(t[0])}, {short(t[-1])}],"
+                    f" got [{short(tk[0])}, {short(tk[-1])}]."
                 )
             trans = (name, dk, tk, pts)
         breaks = np.unique(t)
@@ -213,8 +258,24 @@ class RationalMotion(Motion):
         if trans is not None:
             kwargs[trans[0]] = bspline_bezier_pieces(trans[2], trans[3], trans[1], breaks)
             err[:, 1] = bspline_bezier_error(trans[2], trans[3], trans[1], breaks)
+        # Homogeneous: rescale Q by a power of two (exact) where |Q|² would under- or
+        # overflow; a numerator v scales with u0 so that the origin v/u0 stays put.
+        _, e = np.frexp(np.abs(qb).max())
+        if not -200 < e < 200:
+            qb = np.ldexp(qb, -int(e))
+            err[:, 0] = np.ldexp(err[:, 0], -int(e))
+            if "numerator" in kwargs:
+                kwargs["numerator"] = np.ldexp(kwargs["numerator"], -2 * int(e))
+                err[:, 1] = np.ldexp(err[:, 1], -2 * int(e))
+                if not np.all(np.isfinite(kwargs["numerator"])):
+                    raise ValueError(
+                        "Expected `quaternions` and `numerator` of compatible magnitudes"
+                        f" (v ~ |Q|²), got |Q| ~ 2**{int(e)} and a numerator that overflows."
+                    )
         kt = None if keyframe_times is None else as_array(keyframe_times, "keyframe_times", ndim=1)
-        return cls(breaks, preimage=qb, keyframe_times=kt, piece_error=err, **kwargs)
+        motion = cls(breaks, preimage=qb, keyframe_times=kt, piece_error=err, **kwargs)
+        _refuse_preimage_roots(qb, motion.u0_pieces, breaks)
+        return motion
 
     @classmethod
     def from_bezier(cls, breaks: Any, ctrl: Any, *, keyframe_times: Any = None) -> RationalMotion:
@@ -259,6 +320,16 @@ class RationalMotion(Motion):
             raise ValueError(
                 f"Expected `ctrl` to describe rigid motions (A A^T = w^2 I within {FROM_BEZIER_TOL:g}"
                 f" relative), got an error of {err:.3g}."
+            )
+        # A A^T = w² I also holds for reflections; det(A)/w³ = det R must be +1, not -1.
+        det = np.linalg.det(a) / w**3
+        if np.any(det <= 0):
+            s_bad, u_bad = np.argwhere(det <= 0)[0]
+            t_bad = br[s_bad] + u[u_bad] * (br[s_bad + 1] - br[s_bad])
+            raise ValueError(
+                "Expected `ctrl` to describe proper rotations (det(A)/w^3 = +1), got a mirror"
+                f" image (det(A)/w^3 = {det[s_bad, u_bad]:.6g}) at t = {short(t_bad)}"
+                f" (segment {int(s_bad)})."
             )
         cart = m[..., :3, :] / w[..., None, None]
         if c.shape[0] > 1:
@@ -363,6 +434,38 @@ class RationalMotion(Motion):
             self._positive = BezierPieces.from_motion(self).positive(names=["the motion"])
         return self._positive
 
+    @property
+    def u0_pieces(self) -> np.ndarray | None:
+        """(S, 2d+1) Bernstein coefficients of the weight ``u0 = |Q(t)|²`` per segment at its
+        own degree 2d (not raised to n), or None when the preimage is unknown (read-only).
+
+        ``sum_{i+j=k} C(d,i) C(d,j) / C(2d,k) <B_i, B_j>`` for control quaternions ``B_i``.
+        """
+        if self._q is None:
+            return None
+        if self._u0c is None:
+            d = self._q.shape[1] - 1
+            gram = np.einsum("sia,sja->sij", self._q, self._q)
+            self._u0c = np.einsum("ijk,sij->sk", bezier_product_weights(d, d), gram)
+            self._u0c.setflags(write=False)
+        return self._u0c
+
+    def bspline_form(self) -> tuple[int, np.ndarray, np.ndarray]:
+        """The Bézier form as one B-spline: ``(n, knots (S n + n + 2,), ctrl (S n + 1, 4, 4))``.
+
+        Interior breaks are knots of multiplicity n. Each segment's homogeneous control
+        matrices are scaled (a homogeneous factor, the motion is unchanged) so that
+        neighbours share their joint matrix; requires non-zero joint weights.
+        """
+        c = self.ctrl
+        n = c.shape[1] - 1
+        w = c[:, :, 3, 3]
+        # scale[s] = prod_{j<s} w[j, -1] / w[j+1, 0]: segment s starts where s-1 ends
+        scale = np.concatenate([[1.0], np.cumprod(w[:-1, -1] / w[1:, 0])])
+        c = c * scale[:, None, None, None]
+        mats = np.concatenate([c[0], c[1:, 1:].reshape(-1, 4, 4)])
+        return n, clamped_knots(self._breaks, n, n), mats
+
     def bezier_form(self) -> tuple[np.ndarray, np.ndarray]:
         """``(breaks (S+1,), ctrl (S, n+1, 4, 4))``, exact control matrices (eq. (27)–(28)).
 
@@ -372,7 +475,9 @@ class RationalMotion(Motion):
         return self._breaks.copy(), np.array(self.ctrl)
 
     # ------------------------------------------------------------------ evaluation
-    def _evaluator(self) -> PPoly:
+    def _evaluator(self) -> _PowerPieces:
+        """Preimage and translation pieces ``[Q | p or v]`` (D = 4 or 7), or the flattened
+        control matrices ``[A | b | w]`` (D = 13) when the preimage is unknown."""
         if self._pp is None:
             if self._q is not None:
                 parts = [self._q]
@@ -383,13 +488,13 @@ class RationalMotion(Motion):
                         elevate(self._q, k - self._q.shape[1] + 1, axis=1),
                         elevate(trans, k - trans.shape[1] + 1, axis=1),
                     ]
-                self._pp = _ppoly(np.concatenate(parts, axis=2), self._breaks)
+                self._pp = _PowerPieces(np.concatenate(parts, axis=2), self._breaks)
             else:
                 c = self.ctrl
                 flat = np.concatenate(
                     [c[:, :, :3, :].reshape(c.shape[0], c.shape[1], 12), c[:, :, 3:, 3]], axis=2
                 )
-                self._pp = _ppoly(flat, self._breaks)
+                self._pp = _PowerPieces(flat, self._breaks)
         return self._pp
 
     def _kinematics(self, t: np.ndarray, order: int) -> tuple[np.ndarray, ...]:
@@ -403,8 +508,9 @@ class RationalMotion(Motion):
         Large batches are evaluated in cache-sized chunks; ``threads > 1`` spreads the
         chunks over Python threads (numpy and scipy release the GIL).
         """
-        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
-            raise ValueError(f"Expected `threads` to be a positive integer, got {threads!r}.")
+        if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
+            raise ValueError(f"Expected `threads` to be a positive integer, got {short(threads)}.")
+        threads = int(threads)
         tt, shape = self._check_t(t)
         r = np.empty((tt.size, 3, 3))
         p = np.empty((tt.size, 3))
@@ -426,12 +532,11 @@ class RationalMotion(Motion):
         if self._q is None:
             return super().quaternion(t)
         tt, shape = self._check_t(t)
-        q = self._evaluator()(tt)[:, :4]
+        q = self._evaluator()(tt)[0][:, :4]
         return (q / np.linalg.norm(q, axis=1, keepdims=True)).reshape(shape + (4,))
 
     def _kin_preimage(self, t: np.ndarray, order: int):
-        pp = self._evaluator()
-        fs = [pp(t, nu) for nu in range(order + 1)]
+        fs = self._evaluator()(t, order)
         q = fs[0][:, :4]
         r, w, wd = preimage_kinematics(q, *(f[:, :4] for f in fs[1:]))
         mode = "p" if self._p is not None else ("v" if self._v is not None else None)
@@ -463,25 +568,25 @@ class RationalMotion(Motion):
         return r, lin[0], w, lin[1], wd, lin[2]
 
     def _kin_matrix(self, t: np.ndarray, order: int):
-        pp = self._evaluator()
+        fs = self._evaluator()(t, order)
 
         def split(f):
             m = f[:, :12].reshape(-1, 3, 4)
             return m[:, :, :3], m[:, :, 3], f[:, 12]
 
-        a0, b0, w0 = split(pp(t))
+        a0, b0, w0 = split(fs[0])
         r = a0 / w0[:, None, None]
         p = b0 / w0[:, None]
         if order == 0:
             return r, p
-        a1, b1, w1 = split(pp(t, 1))
+        a1, b1, w1 = split(fs[1])
         r1 = (a1 - r * w1[:, None, None]) / w0[:, None, None]
         p1 = (b1 - p * w1[:, None]) / w0[:, None]
         rt = np.swapaxes(r, 1, 2)
         w = vee(r1 @ rt)
         if order == 1:
             return r, p, w, p1
-        a2, b2, w2 = split(pp(t, 2))
+        a2, b2, w2 = split(fs[2])
         r2 = (a2 - 2.0 * r1 * w1[:, None, None] - r * w2[:, None, None]) / w0[:, None, None]
         p2 = (b2 - 2.0 * p1 * w1[:, None] - p * w2[:, None]) / w0[:, None]
         wd = vee((r2 - skew(w) @ r1) @ rt)
@@ -626,26 +731,10 @@ class RationalMotion(Motion):
             knots have multiplicity n (the piecewise Bézier form as a B-spline).
         """
         x = as_array(point, "point", shape=(3,))
-        c = self.ctrl
-        h = c[..., :3, :3] @ x + c[..., :3, 3]  # (S, n+1, 3)
-        w = c[..., 3, 3]
-        # Segments may be scaled differently; rescale so that joints share weights.
-        scale = np.ones(self.segments)
-        for s in range(1, self.segments):
-            scale[s] = scale[s - 1] * w[s - 1, -1] / w[s, 0]
-        h = h * scale[:, None, None]
-        w = w * scale[:, None]
-        n = c.shape[1] - 1
-        pts = np.concatenate([h[0], *[hh[1:] for hh in h[1:]]])
-        ws = np.concatenate([w[0], *[ww[1:] for ww in w[1:]]])
-        knots = np.concatenate(
-            [
-                [self._breaks[0]] * (n + 1),
-                np.repeat(self._breaks[1:-1], n),
-                [self._breaks[-1]] * (n + 1),
-            ]
-        )
-        return n, knots, pts / ws[:, None], ws
+        n, knots, mats = self.bspline_form()
+        h = mats[:, :3, :3] @ x + mats[:, :3, 3]  # (S n + 1, 3)
+        ws = mats[:, 3, 3]
+        return n, knots, h / ws[:, None], ws
 
     # ------------------------------------------------------------------ bounds
     def speed_bound(self, t0: float, t1: float, radius: float) -> float:
@@ -797,37 +886,47 @@ def control_matrices(
     return out
 
 
-def _check_bspline(degree: Any, knots: Any, dname: str, kname: str) -> tuple[int, np.ndarray]:
-    if isinstance(degree, bool) or not isinstance(degree, int | np.integer):
-        raise TypeError(f"Expected `{dname}` to be an integer, got {degree!r}.")
-    d = int(degree)
-    if d < 0:
-        raise ValueError(f"Expected `{dname}` >= 0, got {d}.")
-    t = as_array(knots, kname, ndim=1)
-    if t.size < 2 * (d + 1):
-        raise ValueError(
-            f"Expected `{kname}` to have at least {2 * (d + 1)} entries for degree {d}, got {t.size}."
-        )
-    if np.any(np.diff(t) < 0):
-        raise ValueError(f"Expected `{kname}` to be non-decreasing, got {short(t, 10)}.")
-    if not (np.all(t[: d + 1] == t[0]) and np.all(t[-d - 1 :] == t[-1])):
-        raise ValueError(
-            f"Expected `{kname}` to be clamped (first and last knot repeated {d + 1} times), got {short(t, 10)}."
-        )
-    if t[-1] <= t[0]:
-        raise ValueError(
-            f"Expected `{kname}` to span a non-empty domain, got [{t[0]!r}, {t[-1]!r}]."
-        )
-    inner = t[d + 1 : t.size - d - 1]
-    if inner.size:
-        _, counts = np.unique(inner, return_counts=True)
-        if counts.max() > d:
-            raise ValueError(
-                f"Expected interior knots of `{kname}` with multiplicity <= {d} (a continuous motion),"
-                f" got multiplicity {counts.max()}."
+def _refuse_preimage_roots(qb: np.ndarray, u0c: np.ndarray, breaks: np.ndarray) -> None:
+    """Raise DegenerateMotionError where the preimage pieces qb (S, d+1, 4) have a real root.
+
+    A root of Q is a zero of ``u0 = |Q|²``, where the rotation ``U/u0`` is undefined.
+    Segments whose Bernstein coefficients of u0 (u0c (S, 2d+1)) bound it away from zero
+    are clear. On the others the minimum of |Q| is at an end or at a real root of
+    ``<Q, Q'>`` (companion eigenvalues, refined by two Gauss–Newton steps on |Q|), and Q
+    vanishes there when ``|Q| <= PREIMAGE_ZERO_TOL`` times the largest control norm.
+    """
+    norm2 = np.einsum("sia,sia->si", qb, qb).max(axis=1)  # largest squared control norm
+    floor = (PREIMAGE_ZERO_TOL**2 + _U0_BOUND_SLACK) * norm2
+    d = qb.shape[1] - 1
+    for s in np.flatnonzero(u0c.min(axis=1) <= floor):
+        cand = [0.0, 1.0]
+        if d >= 1:
+            pw = bernstein_to_power(qb[s], axis=0)  # (d+1, 4), ascending powers of u
+            g = sum(
+                np.polynomial.polynomial.polymul(
+                    pw[:, a], np.polynomial.polynomial.polyder(pw[:, a])
+                )
+                for a in range(4)
             )
-        if inner.min() <= t[0] or inner.max() >= t[-1]:
-            raise ValueError(
-                f"Expected `{kname}` to be clamped: interior knots strictly inside the domain, got {short(t, 10)}."
+            g = np.trim_zeros(np.atleast_1d(g), "b")
+            if g.size > 1:
+                r = np.polynomial.polynomial.polyroots(g)
+                # near-double roots come out as close complex pairs: keep their real part
+                cand += [float(x.real) for x in r if abs(x.imag) <= 1e-6 and -0.5 < x.real < 1.5]
+        u = np.clip(np.array(cand), 0.0, 1.0)
+        dq = bezier_derivative(qb[s], axis=0) if d >= 1 else np.zeros((1, 4))
+        for _ in range(2):  # Gauss–Newton on |Q(u)|²
+            qv, dv = bezier_eval(qb[s], u), bezier_eval(dq, u)
+            den = np.einsum("ua,ua->u", dv, dv)
+            step = np.where(den > 0, np.einsum("ua,ua->u", qv, dv) / np.where(den > 0, den, 1), 0)
+            u = np.clip(u - step, 0.0, 1.0)
+        size = np.linalg.norm(bezier_eval(qb[s], u), axis=1)
+        i = int(np.argmin(size))
+        if size[i] <= PREIMAGE_ZERO_TOL * np.sqrt(norm2[s]):
+            t = breaks[s] + u[i] * (breaks[s + 1] - breaks[s])
+            raise DegenerateMotionError(
+                f"The preimage Q(t) vanishes at t = {short(t)} (segment {int(s)}): all four"
+                f" components have a common root (|Q| = {size[i]:.3g}, control norms up to"
+                f" {np.sqrt(norm2[s]):.3g}), so the weight u0 = |Q|^2 is 0 and the rotation"
+                " U/u0 is undefined there."
             )
-    return d, t

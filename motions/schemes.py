@@ -1,8 +1,8 @@
-"""The scheme registry: one name per motion construction, one `build` for all.
+"""The scheme table: one name per motion construction, one `build` for all (DESIGN §8).
 
 Every scheme takes keyframes (rotations (N, 4) scalar-first quaternions or (N, 3, 3)
 matrices, positions (N, 3)) and times ((N,) or a parametrisation name) and returns a
-:class:`motions.Motion`.
+:class:`motions.Motion`. The table is static: importing a module registers nothing.
 """
 
 from __future__ import annotations
@@ -11,20 +11,24 @@ import inspect
 from collections.abc import Callable
 from typing import Any
 
+from . import baselines
 from .interpolation import hermite, interpolate
 from .motion import Motion
 
-__all__ = ["SCHEMES", "build", "register"]
+__all__ = ["SCHEMES", "build"]
 
-_BUILDERS: dict[str, Callable[..., Motion]] = {}
-SCHEMES: tuple[str, ...] = ()
-
-
-def register(name: str, builder: Callable[..., Motion]) -> None:
-    """Add a scheme (internal: the baselines module registers itself)."""
-    global SCHEMES
-    _BUILDERS[name] = builder
-    SCHEMES = tuple(_BUILDERS)
+_BUILDERS: dict[str, Callable[..., Motion]] = {
+    "rational": interpolate,
+    "rational-hermite": hermite,
+    "slerp": baselines.build_slerp,
+    "bezier-slerp": baselines.build_bezier_slerp,
+    "squad": baselines.build_squad,
+    "cumulative-bspline": baselines.build_cumulative_bspline,
+    "rotation-spline": baselines.build_rotation_spline,
+    "sclerp": baselines.build_sclerp,
+}
+SCHEMES: tuple[str, ...] = tuple(_BUILDERS)
+"""Names accepted by :func:`build`, rational schemes first."""
 
 
 def build(scheme: str, rotations: Any, positions: Any, times: Any = None, **options: Any) -> Motion:
@@ -49,42 +53,3 @@ def build(scheme: str, rotations: Any, positions: Any, times: Any = None, **opti
             f"Unknown option(s) {unknown} for scheme {scheme!r}; valid options: {allowed}."
         )
     return builder(rotations, positions, times, **options)
-
-
-register("rational", interpolate)
-register("rational-hermite", hermite)
-
-
-def demo_keyframes(n: int = 8, seed: int = 0) -> tuple:
-    """A reproducible keyframe set (rotations (n, 4), positions (n, 3)) with uneven
-    spacing, so that chordal times are non-uniform and continuity is really tested."""
-    import numpy as np
-
-    from .quaternion import qexp, qmul
-
-    rng = np.random.default_rng(seed)
-    q = [np.array([1.0, 0.0, 0.0, 0.0])]
-    for step in rng.normal(size=(n - 1, 3)) * rng.uniform(0.1, 0.3, size=(n - 1, 1)):
-        q.append(qmul(qexp(step), q[-1]))
-    p = np.cumsum(rng.normal(size=(n, 3)) * rng.uniform(0.3, 1.5, size=(n, 1)), axis=0)
-    return np.array(q), p
-
-
-def scheme_table(rotations: Any = None, positions: Any = None) -> list[dict[str, Any]]:
-    """Every scheme built on the same keyframes (chordal times) with its *measured*
-    continuity class, invariance errors and whether it has a proven speed bound."""
-    from .smoothness import smoothness
-
-    if rotations is None:
-        rotations, positions = demo_keyframes()
-    rows = []
-    for name in SCHEMES:
-        m = build(name, rotations, positions)
-        row = smoothness(m)
-        try:
-            m.speed_bound(*m.domain, 1.0)
-            row["speed_bound"] = "proven"
-        except NotImplementedError:
-            row["speed_bound"] = "none"
-        rows.append(row)
-    return rows

@@ -15,21 +15,24 @@ from typing import Any
 
 import numpy as np
 
+from ._checks import as_points, short
+from ._spline import gauss_nodes
 from .motion import Motion
 from .quaternion import quat_from_matrix, rotation_matrix
+from .schemes import build
 
-__all__ = ["DECAY_PER_DECADE", "continuity_order", "knot_jumps", "smoothness"]
+__all__ = ["DECAY_PER_DECADE", "continuity_order", "invariance_errors", "knot_jumps", "smoothness"]
 
 DECAY_PER_DECADE = 5.0
 ROUNDOFF_FLOOR = 1e-9
 """Jumps below this fraction of (1 + the quantity's size near the knot) count as zero:
 evaluation round-off of derivatives is ~1e-12 relative, so this leaves a wide margin."""
 QUANTITIES = ("velocity", "angular_velocity", "acceleration", "angular_acceleration")
-
-
-def _interior_knots(motion: Motion) -> np.ndarray:
-    k = motion.knots
-    return k[1:-1]
+WORLD_VECTOR_OPTIONS = ("velocities", "angular_velocities")
+"""Builder options holding world-frame vectors per keyframe (N, 3): a change of world frame
+rotates them with the keyframes; a change of body orientation leaves them alone."""
+ENERGY_NODES = 8
+"""Gauss–Legendre nodes per knot interval for the energies (exact to degree 15)."""
 
 
 def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarray]:
@@ -42,7 +45,12 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
         {quantity: (K, len(offsets)) jumps, quantity + "_scale": (K,) sizes}, for the four
         quantities velocity, angular_velocity, acceleration, angular_acceleration.
     """
-    offs = np.asarray(offsets, dtype=float)
+    try:
+        offs = np.asarray(offsets, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"Expected `offsets` to be a sequence of numbers, got {short(offsets)}."
+        ) from None
     if (
         offs.ndim != 1
         or offs.size < 2
@@ -51,7 +59,7 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
         or np.any(np.diff(offs) >= 0)
     ):
         raise ValueError(
-            f"Expected `offsets` decreasing in (0, 0.5) with at least 2 entries, got {offsets!r}."
+            f"Expected `offsets` decreasing in (0, 0.5) with at least 2 entries, got {short(offs)}."
         )
     knots = motion.knots
     inner = knots[1:-1]
@@ -65,9 +73,9 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
     delta = h[:, None] * offs[None, :]  # (K, O)
     lo = inner[:, None] - delta
     hi = inner[:, None] + delta
+    ka, kb = motion.kinematics(lo, 2), motion.kinematics(hi, 2)
     for q in QUANTITIES:
-        f = getattr(motion, q)
-        a, b = f(lo), f(hi)
+        a, b = getattr(ka, q), getattr(kb, q)
         out[q] = np.linalg.norm(b - a, axis=-1)
         out[q + "_scale"] = np.maximum(np.linalg.norm(a, axis=-1), np.linalg.norm(b, axis=-1)).max(
             axis=1
@@ -104,23 +112,26 @@ def continuity_order(jumps: dict[str, np.ndarray]) -> int:
     return 2
 
 
-def _gauss(knots: np.ndarray, m: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    xg, wg = np.polynomial.legendre.leggauss(m)
-    a, b = knots[:-1, None], knots[1:, None]
-    return (0.5 * (a + b) + 0.5 * (b - a) * xg).ravel(), (0.5 * (b - a) * wg).ravel()
-
-
 def _body_points(body: Any) -> np.ndarray | None:
+    """Finite body points (V, 3) of `body` (points, or a shape with ``sample_points()``)."""
     if body is None:
         return None
     if hasattr(body, "sample_points"):
-        return np.asarray(body.sample_points(), dtype=float)
-    pts = np.asarray(body, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 3:
-        raise ValueError(
-            f"Expected `body` to be points (V, 3) or a shape with sample_points(), got shape {pts.shape}."
+        return as_points(body.sample_points(), "body.sample_points()")
+    if isinstance(body, str | bytes):
+        raise TypeError(
+            f"Expected `body` to be points (V, 3) or a shape with sample_points(), got {short(body)}."
         )
-    return pts
+    return as_points(body, "body")
+
+
+def _moved_options(options: dict, rotation: np.ndarray) -> dict:
+    """Builder options after a change of world frame by `rotation` (3, 3)."""
+    out = dict(options)
+    for key in WORLD_VECTOR_OPTIONS:
+        if out.get(key) is not None:
+            out[key] = np.asarray(out[key]) @ rotation.T
+    return out
 
 
 def _random_transform(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -139,8 +150,6 @@ def invariance_errors(
     recipe = motion.recipe
     if recipe is None:
         return float("nan"), float("nan")
-    from .schemes import build
-
     rng = np.random.default_rng(2024) if rng is None else rng
     t = np.linspace(*motion.domain, samples)
     m0 = motion.matrix(t)
@@ -151,7 +160,7 @@ def invariance_errors(
         quat_from_matrix(g_r @ rk),
         recipe.positions @ g_r.T + g_p,
         recipe.times,
-        **recipe.options,
+        **_moved_options(recipe.options, g_r),
     )
     g = np.eye(4)
     g[:3, :3], g[:3, 3] = g_r, g_p
@@ -205,21 +214,23 @@ def smoothness(
         j = jumps[q]
         row[f"jump_{q}"] = float(j[:, -1].max()) if j.size else 0.0
     knots = motion.knots
-    xg, wg = _gauss(knots)
-    wd = motion.angular_acceleration(xg)
-    row["angular_acceleration_energy"] = float(np.sum(wg * np.einsum("ti,ti->t", wd, wd)))
-    # Jerk by a central difference of the analytic acceleration at interior Gauss points.
+    xg, wg = gauss_nodes(knots, ENERGY_NODES)
+    # Jerk by a central difference of the analytic acceleration at interior Gauss points;
+    # one evaluation for the nodes and both offsets.
     h = 1e-5 * np.min(np.diff(knots))
-    jerk = (motion.acceleration(xg + h) - motion.acceleration(xg - h)) / (2 * h)
+    kin = motion.kinematics(np.stack([xg, xg + h, xg - h]), 2)
+    wd = kin.angular_acceleration[0]
+    row["angular_acceleration_energy"] = float(np.sum(wg * np.einsum("ti,ti->t", wd, wd)))
+    jerk = (kin.acceleration[1] - kin.acceleration[2]) / (2 * h)
     row["jerk_energy"] = float(np.sum(wg * np.einsum("ti,ti->t", jerk, jerk)))
     dense = np.unique(np.concatenate([np.linspace(a, b, 65) for a, b in itertools.pairwise(knots)]))
-    w = motion.angular_velocity(dense)
+    kin = motion.kinematics(dense, 1)
+    w, v = kin.angular_velocity, kin.velocity
     row["peak_angular_velocity"] = float(np.linalg.norm(w, axis=1).max())
-    v = motion.velocity(dense)
     if pts is None:
         row["peak_vertex_speed"] = float(np.linalg.norm(v, axis=1).max())
     else:
-        r, _ = motion.pose(dense)
+        r = kin.rotation
         vel = v[:, None, :] + np.cross(w[:, None, :], np.einsum("tij,vj->tvi", r, pts))
         row["peak_vertex_speed"] = float(np.linalg.norm(vel, axis=-1).max())
     row["invariance_world"], row["invariance_body"] = (

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation, Slerp
 
 import motions
+from motions.demo import demo_keyframes, scheme_table
 from motions.motion import vee
-from motions.schemes import demo_keyframes, scheme_table
 
 EXPECTED_CLASS = {
     "rational": "C2",

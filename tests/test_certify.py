@@ -16,7 +16,7 @@ import harness
 import motions
 from harness import Box, Compound, Sphere, certify, certify_many, ground_truth
 from harness.mjdistance import MujocoDistance
-from motions.schemes import demo_keyframes
+from motions.demo import demo_keyframes
 
 from .cases import TOL, make_cases
 

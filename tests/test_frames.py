@@ -136,5 +136,5 @@ def test_bad_input(preimage):
     with pytest.raises(TypeError, match="RationalMotion"):
         motions.sweep_surface(
             (1, [0, 0, 1, 1.0], np.eye(3)[:2], None),
-            motions.build("slerp", *motions.schemes.demo_keyframes(4)),
+            motions.build("slerp", *motions.demo.demo_keyframes(4)),
         )

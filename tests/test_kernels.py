@@ -18,7 +18,7 @@ from harness.certification import probes
 from harness.certification.advance import pose_matrices, pose_rows
 from harness.certification.tables import ShapeTable
 from harness.mjdistance import MujocoDistance
-from motions.schemes import demo_keyframes
+from motions.demo import demo_keyframes
 
 KERNEL_MODULES = (
     "harness.certification._refine_kernels",

@@ -184,8 +184,11 @@ def test_split_positive_makes_weights_positive():
 
 
 def test_degenerate_weight_raises():
-    # Q(t) = (1 - 2t, 0, 0, 0) vanishes at t = 1/2.
-    m = RationalMotion.from_preimage(1, [0.0, 0.0, 1.0, 1.0], [[1.0, 0, 0, 0], [-1.0, 0, 0, 0]])
+    # Q(t) = (1 - 2t, 0, 0, 0) vanishes at t = 1/2: from_preimage refuses it; the internal
+    # constructor still builds it for the weight machinery.
+    with pytest.raises(DegenerateMotionError, match=r"vanishes at t = 0\.5"):
+        RationalMotion.from_preimage(1, [0.0, 0.0, 1.0, 1.0], [[1.0, 0, 0, 0], [-1.0, 0, 0, 0]])
+    m = RationalMotion(np.array([0.0, 1.0]), preimage=np.array([[[1.0, 0, 0, 0], [-1.0, 0, 0, 0]]]))
     with pytest.raises(DegenerateMotionError, match="vanishes"):
         m.split_positive()
     vals, times = m.weight_minimum()

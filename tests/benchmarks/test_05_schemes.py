@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
 import motions
-from motions.schemes import demo_keyframes
+from motions.demo import demo_keyframes
 
 N_TIMES = 10**6
 
