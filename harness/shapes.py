@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from motions import ROTATION_TOL
 from motions._checks import as_array as _as_array
 from motions._checks import short
 from motions.quaternion import quat_from_matrix, rotation_matrix
@@ -59,7 +60,7 @@ def _rotation(rotation: Any, name: str = "rotation") -> np.ndarray:
             )
         return rotation_matrix(r / n)
     if r.shape == (3, 3):
-        if np.abs(r.T @ r - np.eye(3)).max() > 1e-9 or np.linalg.det(r) <= 0:
+        if np.abs(r.T @ r - np.eye(3)).max() > ROTATION_TOL or np.linalg.det(r) <= 0:
             raise ShapeError(f"Expected `{name}` to be a rotation matrix, got {short(r)}.")
         # re-orthonormalise round-off so that supports are exact rotations
         return rotation_matrix(quat_from_matrix(r))
