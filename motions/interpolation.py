@@ -64,12 +64,14 @@ def parameter_times(
     dq = np.linalg.norm(quaternions[1:] - quaternions[:-1], axis=1)
     sq = np.linalg.norm(quaternions[1:] + quaternions[:-1], axis=1)
     alpha = 2.0 * np.arctan2(dq, sq)
-    inc = _distances(positions) + omega * alpha
+    with np.errstate(over="ignore"):  # an overflow is refused below, naming `positions`
+        inc = _distances(positions) + omega * alpha
     if scheme == "uniform":
         inc = np.ones_like(inc)
     elif scheme == "centripetal":
         inc = np.sqrt(inc)
-    huge = np.flatnonzero(~np.isfinite(np.cumsum(inc)))
+    with np.errstate(over="ignore"):
+        huge = np.flatnonzero(~np.isfinite(np.cumsum(inc)))
     if huge.size:
         i = int(huge[0])
         raise ValueError(

@@ -19,7 +19,6 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
-from scipy.interpolate import BPoly, PPoly
 
 from ._checks import as_array, as_bspline, as_quaternions, short
 from ._spline import clamped_knots
@@ -66,37 +65,41 @@ SPEED_MAX_PIECES = 4096
 
 
 class _PowerPieces:
-    """Piecewise polynomials (S pieces, D components) in the local power basis.
+    """Piecewise polynomials (S pieces, D components) in the power basis of each piece's
+    own parameter ``u = (t - breaks[s]) / h_s`` in [0, 1].
 
     Evaluated by Horner's rule with numpy (searchsorted, one gather, multiply-adds), so
-    every step releases the GIL; built from Bézier pieces through scipy's exact
-    Bernstein-to-power conversion (``PPoly.from_bernstein_basis``).
+    every step releases the GIL. The local parameter keeps the coefficients free of
+    powers of h (no overflow for huge or tiny spans, unlike scipy's PPoly in time units).
     """
 
     def __init__(self, pieces: np.ndarray, breaks: np.ndarray):
-        pp = PPoly.from_bernstein_basis(BPoly(np.moveaxis(pieces, 1, 0), breaks))
         self.breaks = breaks
-        # (S, k+1, D): coefficient of (t - breaks[s])**j at [s, j]
-        self.coef = np.ascontiguousarray(np.moveaxis(pp.c[::-1], 0, 1))
+        self.h = np.diff(breaks)
+        # (S, k+1, D): coefficient of u**j at [s, j]
+        self.coef = np.ascontiguousarray(bernstein_to_power(pieces, axis=1))
 
     def __call__(self, t: np.ndarray, order: int = 0) -> list[np.ndarray]:
-        """Values and derivatives up to `order` at flat times (T,): a list of (T, D)."""
+        """Values and time derivatives up to `order` at flat times (T,): a list of (T, D)."""
         k = self.coef.shape[1] - 1
         s = np.searchsorted(self.breaks, t, side="right") - 1
         np.clip(s, 0, self.coef.shape[0] - 1, out=s)
-        x = (t - self.breaks[s])[:, None]
+        h = self.h[s][:, None]
+        u = (t[:, None] - self.breaks[s][:, None]) / h
         c = self.coef[s]  # (T, k+1, D)
         out = []
         for nu in range(order + 1):
             if nu > k:
                 out.append(np.zeros((t.size, c.shape[2])))
                 continue
-            # d^nu/dx^nu sum_j c_j x^j = sum_{j>=nu} j!/(j-nu)! c_j x^(j-nu)
+            # d^nu/du^nu sum_j c_j u^j = sum_{j>=nu} j!/(j-nu)! c_j u^(j-nu)
             fall = [float(np.prod(np.arange(j - nu + 1, j + 1))) for j in range(k + 1)]
             y = c[:, k] * fall[k]
             for j in range(k - 1, nu - 1, -1):
-                y *= x
+                y *= u
                 y += c[:, j] * fall[j] if fall[j] != 1.0 else c[:, j]
+            for _ in range(nu):  # d/dt = (1/h) d/du, one factor at a time (h**2 may overflow)
+                y /= h
             out.append(y)
         return out
 
@@ -265,7 +268,8 @@ class RationalMotion(Motion):
             qb = np.ldexp(qb, -int(e))
             err[:, 0] = np.ldexp(err[:, 0], -int(e))
             if "numerator" in kwargs:
-                kwargs["numerator"] = np.ldexp(kwargs["numerator"], -2 * int(e))
+                with np.errstate(over="ignore"):  # checked just below
+                    kwargs["numerator"] = np.ldexp(kwargs["numerator"], -2 * int(e))
                 err[:, 1] = np.ldexp(err[:, 1], -2 * int(e))
                 if not np.all(np.isfinite(kwargs["numerator"])):
                     raise ValueError(
@@ -902,13 +906,9 @@ def _refuse_preimage_roots(qb: np.ndarray, u0c: np.ndarray, breaks: np.ndarray) 
         cand = [0.0, 1.0]
         if d >= 1:
             pw = bernstein_to_power(qb[s], axis=0)  # (d+1, 4), ascending powers of u
-            g = sum(
-                np.polynomial.polynomial.polymul(
-                    pw[:, a], np.polynomial.polynomial.polyder(pw[:, a])
-                )
-                for a in range(4)
-            )
-            g = np.trim_zeros(np.atleast_1d(g), "b")
+            dpw = pw[1:] * np.arange(1, d + 1)[:, None]
+            g = sum(np.convolve(pw[:, a], dpw[:, a]) for a in range(4))  # <Q, Q'>
+            g = np.trim_zeros(g, "b")
             if g.size > 1:
                 r = np.polynomial.polynomial.polyroots(g)
                 # near-double roots come out as close complex pairs: keep their real part
@@ -925,7 +925,7 @@ def _refuse_preimage_roots(qb: np.ndarray, u0c: np.ndarray, breaks: np.ndarray) 
         if size[i] <= PREIMAGE_ZERO_TOL * np.sqrt(norm2[s]):
             t = breaks[s] + u[i] * (breaks[s + 1] - breaks[s])
             raise DegenerateMotionError(
-                f"The preimage Q(t) vanishes at t = {short(t)} (segment {int(s)}): all four"
+                f"The preimage Q(t) vanishes at t = {t:.6g} (segment {int(s)}): all four"
                 f" components have a common root (|Q| = {size[i]:.3g}, control norms up to"
                 f" {np.sqrt(norm2[s]):.3g}), so the weight u0 = |Q|^2 is 0 and the rotation"
                 " U/u0 is undefined there."

@@ -12,6 +12,7 @@ from collections.abc import Callable
 from typing import Any
 
 from . import baselines
+from ._checks import short
 from .interpolation import hermite, interpolate
 from .motion import Motion
 
@@ -43,7 +44,7 @@ def build(scheme: str, rotations: Any, positions: Any, times: Any = None, **opti
             ``angular_velocities`` for "rational-hermite").
     """
     if not isinstance(scheme, str) or scheme not in _BUILDERS:
-        raise ValueError(f"Unknown `scheme` {scheme!r}; expected one of {list(SCHEMES)}.")
+        raise ValueError(f"Unknown `scheme` {short(scheme)}; expected one of {list(SCHEMES)}.")
     builder = _BUILDERS[scheme]
     params = inspect.signature(builder).parameters
     allowed = [n for n, p in params.items() if p.kind == p.KEYWORD_ONLY]

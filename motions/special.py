@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
-from ._checks import as_array
+from ._checks import as_array, short
 from .interpolation import interpolate
 from .rational import RationalMotion
 
@@ -30,7 +30,7 @@ __all__ = ["darboux", "elliptic", "planar"]
 def _interval(t_range: Any) -> tuple[float, float]:
     a = as_array(t_range, "t_range", shape=(2,))
     if not a[0] < a[1]:
-        raise ValueError(f"Expected `t_range` = (t0, t1) with t0 < t1, got {tuple(a)}.")
+        raise ValueError(f"Expected `t_range` = (t0, t1) with t0 < t1, got {short(a)}.")
     return float(a[0]), float(a[1])
 
 
@@ -38,10 +38,10 @@ def _positive(x: Any, name: str, allow_zero: bool = False) -> float:
     try:
         v = float(x)
     except (TypeError, ValueError):
-        raise TypeError(f"Expected `{name}` to be a number, got {x!r}.") from None
+        raise TypeError(f"Expected `{name}` to be a number, got {short(x)}.") from None
     if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         raise ValueError(
-            f"Expected `{name}` to be finite and {'>=' if allow_zero else '>'} 0, got {x!r}."
+            f"Expected `{name}` to be finite and {'>=' if allow_zero else '>'} 0, got {short(x)}."
         )
     return v
 
@@ -60,7 +60,7 @@ def darboux(
     try:
         ph = float(phase)
     except (TypeError, ValueError):
-        raise TypeError(f"Expected `phase` to be a number, got {phase!r}.") from None
+        raise TypeError(f"Expected `phase` to be a number, got {short(phase)}.") from None
     a, b = _interval(t_range)
     knots = np.array([a, a, b, b])
     quats = np.array([[1.0, 0.0, 0.0, -a], [1.0, 0.0, 0.0, -b]])

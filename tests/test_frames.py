@@ -121,6 +121,48 @@ def test_sweep_surface_is_the_moved_profile(preimage, tmp_path):
     assert d["degree_t"] == f.degree and d["degree_s"] == 2
 
 
+def test_to_mesh_meets_its_tolerance_and_bounds_its_work(preimage, rng):
+    f = motions.ph_curve(3, preimage.t, preimage.c).frame()
+    w = np.array([1.0, np.sqrt(0.5), 1.0])
+    pts = np.array([[0.0, 0.2, 0.0], [0.0, 0.2, 0.2], [0.0, 0.0, 0.2]])
+    surf = motions.sweep_surface((2, [0, 0, 0, 1, 1, 1.0], pts, w), f)
+    tol = 1e-3
+    v, faces = surf.to_mesh(tol)
+    # Independent check: the vertices form a regular (n_t x n_s) parameter grid (found
+    # from V = n_t n_s and F = 2 (n_t - 1)(n_s - 1)); at random parameters the surface
+    # lies near the bilinear patch through the cell's four corners.
+    (s0, s1), (t0, t1) = (0.0, 1.0), f.domain
+    total = len(v) - 1 - len(faces) // 2  # (n_t - 1) + (n_s - 1)
+    root = np.sqrt(total**2 - 2 * len(faces))
+    sizes = {int(np.rint((total + root) / 2)) + 1, int(np.rint((total - root) / 2)) + 1}
+    grid = None
+    for n_s in sizes:
+        n_t = len(v) // n_s
+        want = surf.evaluate(np.linspace(s0, s1, n_s), np.linspace(t0, t1, n_t))
+        if want.shape == (n_t, n_s, 3) and np.array_equal(want.reshape(-1, 3), v):
+            grid = want
+            break
+    assert grid is not None, "the mesh vertices are not the surface on a regular grid"
+    i, j = rng.integers(0, n_t - 1, 200), rng.integers(0, n_s - 1, 200)
+    a, b = rng.uniform(size=200), rng.uniform(size=200)
+    s = s0 + (j + b) * (s1 - s0) / (n_s - 1)
+    t = t0 + (i + a) * (t1 - t0) / (n_t - 1)
+    patch = (
+        (1 - a)[:, None] * (1 - b)[:, None] * grid[i, j]
+        + (1 - a)[:, None] * b[:, None] * grid[i, j + 1]
+        + a[:, None] * (1 - b)[:, None] * grid[i + 1, j]
+        + a[:, None] * b[:, None] * grid[i + 1, j + 1]
+    )
+    exact = np.array([surf.evaluate([si], [ti])[0, 0] for si, ti in zip(s, t, strict=True)])
+    # the centre deviation bounds a smooth cell's bilinear error up to higher-order terms
+    assert np.linalg.norm(exact - patch, axis=1).max() < 1.5 * tol
+    # A tolerance the grid cannot reach within the vertex budget is refused up front.
+    with pytest.raises(motions.MotionError, match="max_vertices"):
+        surf.to_mesh(1e-12)
+    with pytest.raises(motions.MotionError, match="max_vertices"):
+        surf.to_mesh(tol, max_vertices=100)
+
+
 def test_bad_input(preimage):
     f = motions.ph_curve(3, preimage.t, preimage.c).frame()
     with pytest.raises(ValueError, match="clamped"):

@@ -103,6 +103,37 @@ def test_sign_continuity(rng):
     np.testing.assert_array_equal(fixed[0], q[0] * signs[0])
 
 
+def _sign_continuity_reference(q):
+    """Seed eq. (30) step by step, ties (|<Q_i, Q_{i-1}>| < SIGN_TIE) broken by Q_{i-2}."""
+    from motions.quaternion import SIGN_TIE
+
+    q = np.array(q, dtype=float)
+    u = q / np.abs(q).max(axis=1, keepdims=True)  # |q|² of 1e-200 would underflow
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    for i in range(1, len(q)):
+        d = u[i] @ u[i - 1]
+        if abs(d) < SIGN_TIE and i >= 2:
+            d = u[i] @ u[i - 2]
+        if d < 0:
+            q[i], u[i] = -q[i], -u[i]
+    return q
+
+
+@pytest.mark.parametrize("ties", [0, 1, 3])
+def test_sign_continuity_matches_the_sequential_rule(ties, rng):
+    # The vectorised fix equals the step-by-step rule, with 180° ties (exactly orthogonal
+    # neighbours, some consecutive) and norms from 1e-200 to 1e200.
+    q = rng.normal(size=(40, 4))
+    for i in rng.choice(np.arange(2, 38), size=ties, replace=False):
+        v = rng.normal(size=4)
+        q[i] = v - (v @ q[i - 1]) / (q[i - 1] @ q[i - 1]) * q[i - 1]  # <Q_i, Q_{i-1}> = 0
+        if ties == 3:
+            v = rng.normal(size=4)
+            q[i + 1] = v - (v @ q[i]) / (q[i] @ q[i]) * q[i]
+    q *= 10.0 ** rng.uniform(-200, 200, size=(40, 1))
+    np.testing.assert_array_equal(sign_continuity(q), _sign_continuity_reference(q))
+
+
 def test_exp_log_inverse(rng):
     v = rng.normal(size=(100, 3))
     v *= rng.uniform(0, 3.1, size=(100, 1)) / np.linalg.norm(v, axis=1, keepdims=True)  # angle < pi

@@ -1,0 +1,269 @@
+"""Bad input and degenerate data across `motions` (issue 17): named errors, never NaN."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.interpolate import make_interp_spline
+
+import motions
+from motions import DegenerateMotionError, RationalMotion
+from motions.demo import demo_keyframes
+
+Q4 = np.tile([1.0, 0, 0, 0], (4, 1))
+P4 = np.arange(12.0).reshape(4, 3)
+
+
+def bezier_from_values(f0, fh, f1):
+    """Bernstein coefficients (3, ...) of the quadratic through f(0), f(1/2), f(1)."""
+    return np.stack([f0, 2 * fh - 0.5 * (f0 + f1), f1])
+
+
+# ----------------------------------------------------------------------------- preimage roots
+def test_preimage_through_zero_is_refused():
+    # Q(t) = (1 - 2t, 0, 0, 0): the issue's example, pose(0.5) used to be NaN.
+    with pytest.raises(DegenerateMotionError, match=r"vanishes at t = 0\.5 "):
+        RationalMotion.from_preimage(1, [0, 0, 1, 1], [[1, 0, 0, 0], [-1, 0, 0, 0]])
+
+
+@pytest.mark.parametrize("root", [1e-3, 0.318309886, 0.75, 0.999])
+def test_preimage_common_root_anywhere_is_refused(root, rng):
+    # Q(t) = (t - root) (a + b t): all four components vanish together at `root` only.
+    a, b = rng.normal(size=4), rng.normal(size=4)
+
+    def q(x):
+        return (x - root) * (a + b * x)
+
+    ctrl = bezier_from_values(q(0.0), q(0.5), q(1.0))
+    with pytest.raises(DegenerateMotionError, match=f"vanishes at t = {root:.6g} "):
+        RationalMotion.from_preimage(2, [0, 0, 0, 1, 1, 1], ctrl)
+
+
+def test_preimage_zero_at_an_end_is_refused():
+    # Q(0) = 0 is a zero control quaternion (the end control point is the end value)
+    with pytest.raises(ValueError, match="non-zero quaternions, got a zero one at index"):
+        RationalMotion.from_preimage(1, [0, 0, 1, 1], [[0, 0, 0, 0], [1, 0, 0, 0]])
+
+
+def test_preimage_double_root_is_refused(rng):
+    # Q(t) = (t - 1/3)^2 a: u0 touches zero without a sign change in any component.
+    a = rng.normal(size=4)
+    ctrl = bezier_from_values(a / 9, a / 36, 4 * a / 9)
+    with pytest.raises(DegenerateMotionError, match=r"vanishes at t = 0\.333"):
+        RationalMotion.from_preimage(2, [0, 0, 0, 1, 1, 1], ctrl)
+
+
+def test_preimage_root_in_a_later_segment_is_found(rng):
+    # A cubic B-spline through keyframes whose fourth segment passes through zero.
+    t = np.arange(8.0)
+    vals = np.abs(rng.normal(size=(8, 4))) + 0.5
+    vals[5] = 0.0  # the spline interpolates 0 at t = 5: a common root of all components
+    s = make_interp_spline(t, vals, k=3)
+    with pytest.raises(DegenerateMotionError, match=r"vanishes at t = 5(\.0)? "):
+        RationalMotion.from_preimage(3, s.t, s.c)
+
+
+def test_near_root_is_accepted_and_finite(rng):
+    # |Q| >= 1e-6 everywhere: a legitimate (if badly conditioned) motion, not a root.
+    a = rng.normal(size=4)
+    e = np.linalg.svd(a[None, :])[2][1]  # a unit vector orthogonal to a
+    ctrl = bezier_from_values(-0.5 * a + 1e-6 * e, 1e-6 * e, 0.5 * a + 1e-6 * e)
+    m = RationalMotion.from_preimage(2, [0, 0, 0, 1, 1, 1], ctrl)
+    r, p = m.pose(np.linspace(0, 1, 101))
+    assert np.all(np.isfinite(r)) and np.all(np.isfinite(p))
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e200])
+def test_control_quaternions_of_any_norm(scale, rng):
+    q, p = demo_keyframes(6, seed=3)
+    t = np.arange(6.0)
+    sq, sp = make_interp_spline(t, q, k=3), make_interp_spline(t, p, k=3)
+    ref = RationalMotion.from_preimage(3, sq.t, sq.c, (3, sp.t, sp.c))
+    m = RationalMotion.from_preimage(3, sq.t, sq.c * scale, (3, sp.t, sp.c))
+    x = np.linspace(0, 5, 41)
+    np.testing.assert_allclose(m.matrix(x), ref.matrix(x), atol=1e-12)
+    np.testing.assert_allclose(m.velocity(x), ref.velocity(x), atol=1e-12)
+
+
+def test_numerator_that_cannot_follow_a_tiny_preimage_is_refused():
+    with pytest.raises(ValueError, match="numerator"):
+        RationalMotion.from_preimage(
+            1,
+            [0, 0, 1, 1],
+            [[1e-200, 0, 0, 0], [1e-200, 0, 0, 0]],
+            numerator=(1, [0, 0, 1, 1], [[1e300, 0, 0], [1e300, 0, 0]]),
+        )
+
+
+# ----------------------------------------------------------------------------- from_bezier
+def test_from_bezier_refuses_mirror_images():
+    q, p = demo_keyframes(6)
+    breaks, ctrl = motions.interpolate(q, p).bezier_form()
+    mirror = ctrl.copy()
+    mirror[:, :, 0, :] *= -1  # negate one row of every control matrix: det R = -1
+    with pytest.raises(ValueError, match="mirror image"):
+        RationalMotion.from_bezier(breaks, mirror)
+
+
+def test_from_bezier_accepts_a_negated_segment():
+    # -C is the same motion (homogeneous matrices): det(-A)/(-w)^3 = det(A)/w^3.
+    q, p = demo_keyframes(6)
+    m = motions.interpolate(q, p)
+    breaks, ctrl = m.bezier_form()
+    ctrl[1] *= -1
+    back = RationalMotion.from_bezier(breaks, ctrl)
+    x = np.linspace(*m.domain, 57)
+    np.testing.assert_allclose(back.matrix(x), m.matrix(x), atol=1e-12)
+
+
+# ----------------------------------------------------------------------------- keyframes
+@pytest.mark.parametrize("scale", [1e-200, 1e-150, 1e150, 1e300])
+def test_keyframe_quaternions_of_any_norm(scale):
+    q, p = demo_keyframes(6)
+    ref = motions.interpolate(q, p)
+    m = motions.interpolate(q * scale, p)
+    x = np.linspace(*ref.domain, 31)
+    np.testing.assert_allclose(m.matrix(x), ref.matrix(x), atol=1e-13)
+
+
+def test_zero_quaternion_is_still_refused():
+    with pytest.raises(ValueError, match="non-zero quaternions, got a zero one at index"):
+        motions.interpolate(np.vstack([Q4[:3], np.zeros(4)]), P4)
+
+
+@pytest.mark.parametrize("times", [None, np.arange(6.0)])
+def test_huge_positions(times):
+    # |p| ~ 1e300: chordal distances without overflow, a finite motion (scipy used to
+    # raise from inside make_interp_spline)
+    q, p = demo_keyframes(6)
+    m = motions.interpolate(q, p * 1e300, times)
+    k = m.kinematics(np.linspace(*m.domain, 11), 2)
+    assert all(np.all(np.isfinite(x)) for x in k)
+    np.testing.assert_allclose(m.pose(m.keyframe_times)[1], p * 1e300, rtol=1e-12)
+
+
+def test_overflowing_chordal_times_are_refused():
+    q, _ = demo_keyframes(4)
+    p = np.zeros((4, 3))
+    p[1::2, 0] = 1.5e308  # keyframes 1.5e308 apart: the chordal times overflow
+    with pytest.raises(ValueError, match=r"`positions`.*finite"):
+        motions.interpolate(q, p)
+
+
+def test_numpy_scalars_print_as_numbers():
+    cases = [
+        lambda: motions.interpolate(Q4, P4, omega=np.float64(-0.5)),
+        lambda: motions.interpolate(Q4, P4).speed_bound(0.0, 1.0, np.float64(-0.5)),
+        lambda: motions.build(np.str_("nurbs"), Q4, P4),
+        lambda: motions.special.darboux(radius=np.float64(-0.5)),
+        lambda: RationalMotion.from_preimage(np.float64(1.0), [0, 0, 1, 1], Q4[:2]),
+    ]
+    for case in cases:
+        with pytest.raises((ValueError, TypeError)) as err:
+            case()
+        assert "np." not in str(err.value), str(err.value)
+
+
+def test_rotation_tolerance_is_shared_with_the_harness():
+    import harness
+
+    r = np.eye(3)
+    r[0, 1] = 0.5 * motions.ROTATION_TOL  # within the tolerance: accepted by both
+    motions.interpolate(np.stack([np.eye(3), r, np.eye(3), np.eye(3)]), P4)
+    harness.Box([1.0, 1.0, 1.0], rotation=r)
+    r[0, 1] = 2 * motions.ROTATION_TOL  # outside: refused by both
+    with pytest.raises(ValueError, match="rotation"):
+        motions.interpolate(np.stack([np.eye(3), r, np.eye(3), np.eye(3)]), P4)
+    with pytest.raises(ValueError, match="rotation"):
+        harness.Box([1.0, 1.0, 1.0], rotation=r)
+
+
+# ----------------------------------------------------------------------------- smoothness
+@pytest.mark.parametrize(
+    ("body", "exc", "match"),
+    [
+        ([[0, 0, np.nan]], ValueError, "`body` to be finite"),
+        ("box", TypeError, "`body`"),
+        ([1.0, 2.0, 3.0], ValueError, r"`body` to have shape \(N, 3\)"),
+        ([[0, 0, np.inf]], ValueError, "finite"),
+    ],
+)
+def test_smoothness_refuses_bad_bodies(body, exc, match):
+    m = motions.interpolate(*demo_keyframes(5))
+    with pytest.raises(exc, match=match):
+        motions.smoothness(m, body=body)
+
+
+def test_smoothness_of_hermite_with_given_derivatives(rng):
+    # The recipe keeps the given (world-frame) derivatives and the invariance rebuild
+    # rotates them with the world: the motion is invariant, as the scheme is.
+    q, p = demo_keyframes(6)
+    m = motions.hermite(
+        q, p, velocities=rng.normal(size=(6, 3)), angular_velocities=rng.normal(size=(6, 3))
+    )
+    row = motions.smoothness(m)
+    assert row["continuity"] == "C1"
+    assert row["invariance_world"] < 1e-10 and row["invariance_body"] < 1e-10
+
+
+def test_smoothness_of_rmf_motion():
+    t = np.linspace(0, 2 * np.pi, 40)
+    spine = make_interp_spline(t, np.stack([np.cos(t), np.sin(t), 0.3 * t], 1), k=3)
+    row = motions.smoothness(motions.rmf_motion(spine, 6))
+    assert row["continuity"] == "C1"
+    assert row["invariance_world"] < 1e-10 and row["invariance_body"] < 1e-10
+
+
+def test_smoothness_body_points_give_the_rigid_speed(rng):
+    m = motions.interpolate(*demo_keyframes(5))
+    pts = rng.normal(size=(4, 3))
+    row = motions.smoothness(m, body=pts, invariance=False)
+    # independent: finite differences of the transformed points on a fine grid
+    x = np.linspace(*m.domain, 20001)
+    w = m.transform(pts, x)
+    fd = np.linalg.norm(np.diff(w, axis=0), axis=-1) / np.diff(x)[:, None]
+    assert row["peak_vertex_speed"] == pytest.approx(fd.max(), rel=1e-3)
+
+
+# ----------------------------------------------------------------------------- kinematics
+@pytest.mark.parametrize("scheme", motions.SCHEMES)
+def test_kinematics_is_every_rate_at_once(scheme):
+    m = motions.build(scheme, *demo_keyframes(6, seed=2))
+    x = np.linspace(*m.domain, 35).reshape(5, 7)
+    k = m.kinematics(x, 2)
+    assert k.rotation.shape == (5, 7, 3, 3) and k.acceleration.shape == (5, 7, 3)
+    np.testing.assert_array_equal(k.rotation, m.pose(x)[0])
+    np.testing.assert_array_equal(k.position, m.pose(x)[1])
+    for name in ("velocity", "angular_velocity", "acceleration", "angular_acceleration"):
+        np.testing.assert_array_equal(getattr(k, name), getattr(m, name)(x))
+    assert m.kinematics(x, 0).velocity is None
+    with pytest.raises(ValueError, match="`order`"):
+        m.kinematics(x, 3)
+
+
+# ----------------------------------------------------------------------------- structure
+def test_scheme_table_is_static_and_acyclic():
+    # Importing the scheme table alone (or smoothness alone) in a fresh interpreter gives
+    # every scheme: nothing depends on which module was imported first.
+    code = (
+        "import motions.smoothness as s, motions.schemes as t;"
+        "print(type(t.SCHEMES).__name__, len(t.SCHEMES))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["tuple", str(len(motions.SCHEMES))]
+    assert isinstance(motions.SCHEMES, tuple) and len(motions.SCHEMES) == 8
+
+
+def test_pose_threads_give_the_same_poses():
+    q, p = demo_keyframes(12)
+    m = motions.interpolate(q, p)
+    x = np.linspace(*m.domain, 40_000)
+    r1, p1 = m.pose(x)
+    r2, p2 = m.pose(x, threads=2)
+    np.testing.assert_array_equal(r1, r2)
+    np.testing.assert_array_equal(p1, p2)
+    with pytest.raises(ValueError, match="`threads`"):
+        m.pose(x, threads=0)
