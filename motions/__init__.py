@@ -1,6 +1,6 @@
 """rsmbench.motions — rational spline motions and their baselines (numpy + scipy only).
 
-Quaternions are scalar first ``(w, x, y, z)`` everywhere (DESIGN §1).
+Quaternions are scalar first ``(w, x, y, z)`` everywhere (docs/conventions.md).
 """
 
 from . import (

@@ -18,7 +18,7 @@ __all__ = ["DOMAIN_SLACK", "Kinematics", "Motion", "Recipe", "skew", "vee"]
 
 DOMAIN_SLACK = 1e-12
 """Times outside the domain by at most this fraction of its length are clamped (linspace
-round-off); further outside is an error (DESIGN §1)."""
+round-off); further outside is an error (docs/conventions.md)."""
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class Recipe:
 
 
 class Kinematics(NamedTuple):
-    """World-frame kinematics at times of shape (...) (DESIGN §1).
+    """World-frame kinematics at times of shape (...) (docs/conventions.md).
 
     Attributes:
         rotation: (..., 3, 3) body -> world rotations.

@@ -7,7 +7,7 @@ Quaternions are numpy arrays with the quaternion on the last axis, **scalar firs
 The kinematical image is seed eq. (19): ``U(Q) p = vec(Q * [0, p] * conj(Q))`` with
 ``u0(Q) = |Q|^2`` and no division, so ``U(Q1 * Q2) = U(Q1) U(Q2)``. The seed's eqs. (14)
 and (17) put the conjugate on the left, which yields the transpose; we follow (19)
-(DESIGN §1).
+(docs/conventions.md).
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def rotation_matrix(q: np.ndarray) -> np.ndarray:
 def quat_from_matrix(r: np.ndarray) -> np.ndarray:
     """Unit quaternions (..., 4), scalar first, of rotation matrices (..., 3, 3).
 
-    Seed eq. (9) in 0-based indices (DESIGN §1): the four rows
+    Seed eq. (9) in 0-based indices (docs/conventions.md): the four rows
     ``(1+R00+R11+R22, R21-R12, R02-R20, R10-R01)`` etc. are all proportional to q; the
     row of largest norm is the best conditioned. The sign has ``q0 >= 0`` only when the
     first row wins; use :func:`sign_continuity` for sequences.
@@ -190,7 +190,7 @@ def qlog(q: np.ndarray) -> np.ndarray:
 
 
 def preimage_kinematics(q: np.ndarray, dq: np.ndarray | None = None, ddq: np.ndarray | None = None):
-    """Rotation and world-frame rates of a homogeneous quaternion curve (DESIGN §1).
+    """Rotation and world-frame rates of a homogeneous quaternion curve (docs/conventions.md).
 
     ``R = U(Q)/|Q|²``, ``ω = 2 vec(Q' conj(Q)) / |Q|²`` and
     ``ω' = 2 vec(Q'' conj(Q)) / |Q|² - ω · 2<Q, Q'>/|Q|²`` (``Q' conj(Q')`` is real).

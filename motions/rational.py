@@ -8,7 +8,7 @@ known (cheaper than the degree-n matrices, DESIGN §9), by Horner's rule in nump
 local power form: every array operation releases the GIL, so ``pose(t, threads=2)`` runs
 on two cores (scipy's ``PPoly`` evaluation holds the GIL for its whole loop).
 
-Matrix layout is weight last (DESIGN §1): ``M_h = [[U, v], [0, 0, 0, u0]]``. Seed index
+Matrix layout is weight last (docs/conventions.md): ``M_h = [[U, v], [0, 0, 0, u0]]``. Seed index
 translation: seed ``m_{0,0}`` -> ``M[3, 3]``; ``m_{i,0}`` -> ``M[i-1, 3]``; ``m_{i,j}`` ->
 ``M[i-1, j-1]``.
 """
@@ -449,8 +449,9 @@ class RationalMotion(Motion):
             return None
         if self._u0c is None:
             d = self._q.shape[1] - 1
-            gram = np.einsum("sia,sja->sij", self._q, self._q)
-            self._u0c = np.einsum("ijk,sij->sk", bezier_product_weights(d, d), gram)
+            gram = self._q @ np.swapaxes(self._q, 1, 2)  # (S, d+1, d+1): <B_i, B_j>
+            w = bezier_product_weights(d, d).reshape((d + 1) ** 2, 2 * d + 1)
+            self._u0c = gram.reshape(gram.shape[0], -1) @ w
             self._u0c.setflags(write=False)
         return self._u0c
 

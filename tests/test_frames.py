@@ -163,6 +163,24 @@ def test_to_mesh_meets_its_tolerance_and_bounds_its_work(preimage, rng):
         surf.to_mesh(tol, max_vertices=100)
 
 
+def test_docs_sweep_example_runs_verbatim(tmp_path):
+    # README: `.venv/bin/python docs/sweep_example.py sweep.png`, from any directory
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = Path(__file__).resolve().parents[1] / "docs" / "sweep_example.py"
+    out = subprocess.run(
+        [sys.executable, str(script), "sweep.png"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert "sweep.png" in out.stdout
+    assert (tmp_path / "sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_bad_input(preimage):
     f = motions.ph_curve(3, preimage.t, preimage.c).frame()
     with pytest.raises(ValueError, match="clamped"):
