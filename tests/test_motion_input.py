@@ -267,3 +267,23 @@ def test_pose_threads_give_the_same_poses():
     np.testing.assert_array_equal(p1, p2)
     with pytest.raises(ValueError, match="`threads`"):
         m.pose(x, threads=0)
+
+
+@pytest.mark.parametrize("count", [7, 300, 30_000])
+def test_pose_paths_agree_with_the_control_matrices(count, rng):
+    # Sorted times in long runs (broadcast Horner per segment), sorted but fragmented
+    # and unsorted times (coefficient gathers) all equal the Bézier form evaluated
+    # independently by de Casteljau.
+    from motions.bernstein import bernstein_basis
+
+    m = motions.interpolate(*demo_keyframes(40, seed=5))
+    breaks, ctrl = m.bezier_form()
+    x = np.sort(rng.uniform(*m.domain, count))
+    s = np.clip(np.searchsorted(breaks, x, side="right") - 1, 0, len(ctrl) - 1)
+    u = (x - breaks[s]) / np.diff(breaks)[s]
+    mh = np.einsum("ti,tiab->tab", bernstein_basis(ctrl.shape[1] - 1, u), ctrl[s])
+    want = mh / mh[:, 3:, 3:]
+    np.testing.assert_allclose(m.matrix(x), want, atol=1e-11)
+    perm = rng.permutation(count)
+    np.testing.assert_allclose(m.matrix(x[perm]), want[perm], atol=1e-11)
+    np.testing.assert_allclose(m.velocity(x[perm]), m.velocity(x)[perm], atol=1e-11)
