@@ -73,8 +73,14 @@ def _u_tensor() -> np.ndarray:
     return t
 
 
-def _u_direct(q: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
-    """U(Q) entry by entry into a preallocated array (10 products, no nested stacks)."""
+def _u_direct(
+    q: np.ndarray, scale: np.ndarray | None = None, out: np.ndarray | None = None
+) -> np.ndarray:
+    """U(Q) entry by entry into a preallocated array (10 products, no nested stacks).
+
+    `scale` (...) multiplies Q first (``1/|Q|`` gives the rotation); `out` (..., 3, 3)
+    receives the result when given.
+    """
     q = np.asarray(q, dtype=float)
     c = np.moveaxis(q, -1, 0)
     if c.ndim > 1 and not c[0].flags.c_contiguous:
@@ -82,7 +88,8 @@ def _u_direct(q: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
     q0, q1, q2, q3 = c
     if scale is not None:
         q0, q1, q2, q3 = q0 * scale, q1 * scale, q2 * scale, q3 * scale
-    out = np.empty(q.shape[:-1] + (3, 3))
+    if out is None:
+        out = np.empty(q.shape[:-1] + (3, 3))
     a00, a11, a22, a33 = q0 * q0, q1 * q1, q2 * q2, q3 * q3
     a01, a02, a03 = q0 * q1, q0 * q2, q0 * q3
     a12, a13, a23 = q1 * q2, q1 * q3, q2 * q3
@@ -110,10 +117,13 @@ U_TENSOR = _u_tensor()
 """(3, 3, 4, 4): ``U(Q)[j, k] = einsum('jkab,a,b', U_TENSOR, Q, Q)``; polarises U."""
 
 
-def rotation_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix ``U(Q) / u0(Q)`` of quaternions (..., 4) of any non-zero norm."""
+def rotation_matrix(q: np.ndarray, *, out: np.ndarray | None = None) -> np.ndarray:
+    """Rotation matrix ``U(Q) / u0(Q)`` of quaternions (..., 4) of any non-zero norm.
+
+    `out` (..., 3, 3), when given, receives the result (no temporary for the output).
+    """
     q = np.asarray(q, dtype=float)
-    return _u_direct(q, 1.0 / np.sqrt(u0(q)))
+    return _u_direct(q, 1.0 / np.sqrt(u0(q)), out)
 
 
 def quat_from_matrix(r: np.ndarray) -> np.ndarray:

@@ -564,7 +564,8 @@ class RationalMotion(Motion):
         """Rotation (..., 3, 3) and origin (..., 3) at `t`, through the preimage.
 
         Large batches are evaluated in cache-sized chunks; ``threads > 1`` spreads the
-        chunks over Python threads (numpy and scipy release the GIL).
+        chunks over Python threads. Every step is a numpy array operation that releases
+        the GIL, so the threads run at once (measured in tests/benchmarks/test_00_pose.py).
         """
         if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
             raise ValueError(f"Expected `threads` to be a positive integer, got {short(threads)}.")
@@ -576,7 +577,7 @@ class RationalMotion(Motion):
 
         def work(first: int) -> None:
             for i in starts[first::threads]:
-                r[i : i + _CHUNK], p[i : i + _CHUNK] = self._kinematics(tt[i : i + _CHUNK], 0)
+                self._pose_into(tt[i : i + _CHUNK], r[i : i + _CHUNK], p[i : i + _CHUNK])
 
         if threads == 1 or tt.size <= _CHUNK:
             work(0)
@@ -584,6 +585,20 @@ class RationalMotion(Motion):
             with ThreadPoolExecutor(threads) as pool:
                 list(pool.map(work, range(threads)))
         return r.reshape(shape + (3, 3)), p.reshape(shape + (3,))
+
+    def _pose_into(self, t: np.ndarray, r: np.ndarray, p: np.ndarray) -> None:
+        """Poses at flat times (T,) written into r (T, 3, 3) and p (T, 3)."""
+        if self._q is None:
+            r[...], p[...] = self._kin_matrix(t, 0)
+            return
+        f = self._evaluator()(t, 0)[0]  # (D, T) planes: Q, then p or v
+        rotation_matrix(f[:4].T, out=r)
+        if self._p is not None:
+            p[...] = f[4:7].T
+        elif self._v is not None:
+            p[...] = (f[4:7] / np.einsum("it,it->t", f[:4], f[:4])).T
+        else:
+            p[...] = 0.0
 
     def quaternion(self, t: Any) -> np.ndarray:
         """Unit quaternions ``Q(t)/|Q(t)|`` straight from the preimage (scalar first)."""

@@ -8,6 +8,8 @@ threads running at once, which scipy's PPoly evaluation, holding the GIL, never 
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 from scipy.interpolate import make_interp_spline
@@ -41,13 +43,30 @@ def workload():
     return m, rs, cs, x
 
 
+def _control(x: np.ndarray, threads: int) -> None:
+    """A GIL-free reference load in the same chunks as pose (np.sin releases the GIL):
+    its two-thread gain is what the machine allows at the moment of measuring."""
+    chunks = [x[i : i + 16384] for i in range(0, x.size, 16384)]
+
+    def work(first: int) -> None:
+        for c in chunks[first::threads]:
+            for _ in range(6):
+                np.sin(c)
+
+    with ThreadPoolExecutor(threads) as pool:
+        list(pool.map(work, range(threads)))
+
+
 def test_pose_interleaved(benchmark, workload):
-    """One thread, two threads and RotationSpline, A B C A B C ...: CPU and wall medians."""
+    """One thread, two threads and RotationSpline, A B C A B C ...: CPU and wall medians;
+    a GIL-free control measures the two-thread gain the (shared) machine allows."""
     m, rs, cs, x = workload
     contenders = {
         "rational_1thread": lambda: m.pose(x),
         "rational_2threads": lambda: m.pose(x, threads=2),
         "rotationspline": lambda: (rs(x).as_matrix(), cs(x)),
+        "control_1thread": lambda: _control(x, 1),
+        "control_2threads": lambda: _control(x, 2),
     }
     figures = benchmark.pedantic(interleaved, args=(contenders, ROUNDS), rounds=1, iterations=1)
     record(
@@ -56,6 +75,7 @@ def test_pose_interleaved(benchmark, workload):
         {
             "speedup_vs_rotationspline": ("rotationspline", "rational_1thread"),
             "speedup_2threads": ("rational_1thread", "rational_2threads"),
+            "control_speedup_2threads": ("control_1thread", "control_2threads"),
         },
     )
     two = figures["rational_2threads"]
