@@ -57,6 +57,10 @@ PREIMAGE_ZERO_TOL = 1e-12
 quaternion norm is a root of Q (all four components vanish together). Evaluating Q by de
 Casteljau errs by ~d·eps of that norm, so a real root lands far below; a near-root this
 deep has ``u0 <= 1e-24`` of its maximum, beyond any certification margin."""
+WEIGHT_ZERO_TOL = 1024 * np.finfo(float).eps
+"""A Bézier weight whose range on a segment reaches within this fraction of its largest
+|w| of zero vanishes there (:meth:`RationalMotion.from_bezier`): evaluating w errs by
+~n·eps of that, so a touch of zero (the double root of ``w = |Q|²``) lands far below."""
 _U0_BOUND_SLACK = 64 * np.finfo(float).eps
 """Round-off allowance (relative to the squared control norm) on the Bernstein
 coefficients of ``u0 = |Q|²`` when they are used as a lower bound."""
@@ -395,6 +399,7 @@ class RationalMotion(Motion):
                 raise ValueError(
                     f"Expected `ctrl` to be continuous across `breaks`, got a jump of {jump:.3g}."
                 )
+        _refuse_weight_roots(c[:, :, 3, 3], br)
         kt = None if keyframe_times is None else as_array(keyframe_times, "keyframe_times", ndim=1)
         return cls(br, ctrl=c.copy(), keyframe_times=kt)
 
@@ -959,43 +964,96 @@ def control_matrices(
     return out
 
 
-def _refuse_preimage_roots(qb: np.ndarray, u0c: np.ndarray, breaks: np.ndarray) -> None:
-    """Raise DegenerateMotionError where the preimage pieces qb (S, d+1, 4) have a real root.
+def _vanishing_point(
+    pieces: np.ndarray, squares: np.ndarray, breaks: np.ndarray
+) -> tuple[int, float, float, float] | None:
+    """Where vector Bézier pieces (S, k+1, m) have a real root (all m components zero).
 
-    A root of Q is a zero of ``u0 = |Q|²``, where the rotation ``U/u0`` is undefined.
-    Segments whose Bernstein coefficients of u0 (u0c (S, 2d+1)) bound it away from zero
-    are clear. On the others the minimum of |Q| is at an end or at a real root of
-    ``<Q, Q'>`` (companion eigenvalues, refined by two Gauss–Newton steps on |Q|), and Q
-    vanishes there when ``|Q| <= PREIMAGE_ZERO_TOL`` times the largest control norm.
+    Segments whose Bernstein coefficients of ``|P|²`` (squares (S, 2k+1)) bound it away
+    from zero are clear. On the others the minimum of |P| is at an end or at a real root
+    of ``<P, P'>`` (companion eigenvalues, refined by two Gauss–Newton steps on |P|), and
+    P vanishes there when ``|P| <= PREIMAGE_ZERO_TOL`` times the largest control norm.
+
+    Returns:
+        (segment, t, |P(t)|, largest control norm) of the first root, or None.
     """
-    norm2 = np.einsum("sia,sia->si", qb, qb).max(axis=1)  # largest squared control norm
+    norm2 = np.einsum("sia,sia->si", pieces, pieces).max(axis=1)  # largest squared norm
     floor = (PREIMAGE_ZERO_TOL**2 + _U0_BOUND_SLACK) * norm2
-    d = qb.shape[1] - 1
-    for s in np.flatnonzero(u0c.min(axis=1) <= floor):
+    k, m = pieces.shape[1] - 1, pieces.shape[2]
+    for s in np.flatnonzero(squares.min(axis=1) <= floor):
         cand = [0.0, 1.0]
-        if d >= 1:
-            pw = bernstein_to_power(qb[s], axis=0)  # (d+1, 4), ascending powers of u
-            dpw = pw[1:] * np.arange(1, d + 1)[:, None]
-            g = sum(np.convolve(pw[:, a], dpw[:, a]) for a in range(4))  # <Q, Q'>
-            g = np.trim_zeros(g, "b")
+        if k >= 1:
+            pw = bernstein_to_power(pieces[s], axis=0)  # (k+1, m), ascending powers of u
+            dpw = pw[1:] * np.arange(1, k + 1)[:, None]
+            g = np.trim_zeros(sum(np.convolve(pw[:, a], dpw[:, a]) for a in range(m)), "b")
             if g.size > 1:
                 r = np.polynomial.polynomial.polyroots(g)
                 # near-double roots come out as close complex pairs: keep their real part
                 cand += [float(x.real) for x in r if abs(x.imag) <= 1e-6 and -0.5 < x.real < 1.5]
         u = np.clip(np.array(cand), 0.0, 1.0)
-        dq = bezier_derivative(qb[s], axis=0) if d >= 1 else np.zeros((1, 4))
-        for _ in range(2):  # Gauss–Newton on |Q(u)|²
-            qv, dv = bezier_eval(qb[s], u), bezier_eval(dq, u)
+        dp = bezier_derivative(pieces[s], axis=0) if k >= 1 else np.zeros((1, m))
+        for _ in range(2):  # Gauss–Newton on |P(u)|²
+            pv, dv = bezier_eval(pieces[s], u), bezier_eval(dp, u)
             den = np.einsum("ua,ua->u", dv, dv)
-            step = np.where(den > 0, np.einsum("ua,ua->u", qv, dv) / np.where(den > 0, den, 1), 0)
+            step = np.where(den > 0, np.einsum("ua,ua->u", pv, dv) / np.where(den > 0, den, 1), 0)
             u = np.clip(u - step, 0.0, 1.0)
-        size = np.linalg.norm(bezier_eval(qb[s], u), axis=1)
+        size = np.linalg.norm(bezier_eval(pieces[s], u), axis=1)
         i = int(np.argmin(size))
         if size[i] <= PREIMAGE_ZERO_TOL * np.sqrt(norm2[s]):
-            t = breaks[s] + u[i] * (breaks[s + 1] - breaks[s])
-            raise DegenerateMotionError(
-                f"The preimage Q(t) vanishes at t = {t:.6g} (segment {int(s)}): all four"
-                f" components have a common root (|Q| = {size[i]:.3g}, control norms up to"
-                f" {np.sqrt(norm2[s]):.3g}), so the weight u0 = |Q|^2 is 0 and the rotation"
-                " U/u0 is undefined there."
-            )
+            t = float(breaks[s] + u[i] * (breaks[s + 1] - breaks[s]))
+            return int(s), t, float(size[i]), float(np.sqrt(norm2[s]))
+    return None
+
+
+def _refuse_weight_roots(w: np.ndarray, breaks: np.ndarray) -> None:
+    """Raise DegenerateMotionError where Bézier weights w (S, n+1) reach zero on a segment.
+
+    A segment whose coefficients all exceed ``WEIGHT_ZERO_TOL`` times its largest |w| in
+    one sign is clear (Bernstein bound; a segment of negative weights is the same motion).
+    Otherwise the exact minimum and maximum (:func:`bezier_minimum`) decide: a sign
+    change, or a touch of zero (the double roots of ``w = |Q|²``), is a root.
+    """
+    scale = np.abs(w).max(axis=1)
+    tol = (WEIGHT_ZERO_TOL * scale)[:, None]
+    sus = np.flatnonzero(~(np.all(w > tol, axis=1) | np.all(w < -tol, axis=1)))
+    if sus.size == 0:
+        return
+    lo, ulo = bezier_minimum(w[sus])
+    neg_hi, uhi = bezier_minimum(-w[sus])
+    tol_s = WEIGHT_ZERO_TOL * scale[sus]
+    root = (lo <= tol_s) & (-neg_hi >= -tol_s)
+    if np.any(root):
+        i = int(np.flatnonzero(root)[0])
+        s = int(sus[i])
+        if lo[i] < -tol_s[i] and -neg_hi[i] > tol_s[i]:  # a sign change: bisect for the root
+            a, b = sorted((float(ulo[i]), float(uhi[i])))
+            fa = float(bezier_eval(w[s], a))
+            for _ in range(60):
+                mid = 0.5 * (a + b)
+                if (float(bezier_eval(w[s], mid)) > 0) == (fa > 0):
+                    a = mid
+                else:
+                    b = mid
+            u = 0.5 * (a + b)
+        else:  # a touch of zero: at the extremum nearest zero
+            u = ulo[i] if lo[i] >= -tol_s[i] else uhi[i]
+        t = breaks[s] + u * (breaks[s + 1] - breaks[s])
+        raise DegenerateMotionError(
+            f"The weight w of `ctrl` vanishes at t = {t:.6g} (segment {s}: w ranges over"
+            f" [{lo[i]:.3g}, {-neg_hi[i]:.3g}], |w| up to {scale[s]:.3g}): the motion is"
+            " undefined there."
+        )
+
+
+def _refuse_preimage_roots(qb: np.ndarray, u0c: np.ndarray, breaks: np.ndarray) -> None:
+    """Raise DegenerateMotionError where the preimage pieces qb (S, d+1, 4) have a real root:
+    a zero of ``u0 = |Q|²`` (Bernstein coefficients u0c (S, 2d+1)), where ``U/u0`` is
+    undefined."""
+    hit = _vanishing_point(qb, u0c, breaks)
+    if hit is not None:
+        s, t, size, scale = hit
+        raise DegenerateMotionError(
+            f"The preimage Q(t) vanishes at t = {t:.6g} (segment {s}): all four components"
+            f" have a common root (|Q| = {size:.3g}, control norms up to {scale:.3g}), so the"
+            " weight u0 = |Q|^2 is 0 and the rotation U/u0 is undefined there."
+        )

@@ -99,6 +99,36 @@ def test_numerator_that_cannot_follow_a_tiny_preimage_is_refused():
 
 
 # ----------------------------------------------------------------------------- from_bezier
+def test_from_bezier_refuses_a_weight_changing_sign():
+    # A valid motion times the scalar (0.3 - u) on its middle segment: rigid and proper at
+    # every sample point, but the whole matrix (so w) changes sign at u = 0.3.
+    from motions.bernstein import bezier_product
+
+    m = motions.interpolate(*demo_keyframes(6))
+    breaks, ctrl = m.bezier_form()
+    lam = np.array([0.3, -0.7])[:, None, None]  # Bernstein coefficients of 0.3 - u
+    bad = bezier_product(ctrl[1], lam, axis=0)
+    ctrl = np.concatenate([bezier_product(c, np.ones((2, 1, 1)), axis=0)[None] for c in ctrl])
+    ctrl[1] = bad
+    t_root = breaks[1] + 0.3 * (breaks[2] - breaks[1])
+    with pytest.raises(DegenerateMotionError, match=f"vanishes at t = {t_root:.6g} "):
+        RationalMotion.from_bezier(breaks, ctrl)
+
+
+def test_from_bezier_refuses_a_weight_through_zero(rng):
+    # The kinematic image of Q(t) = (t - 1/pi)(a + b t): rigid at every sample point
+    # (A Aᵀ = w² I holds exactly), but w = |Q|² vanishes between samples.
+    a, b = rng.normal(size=4), rng.normal(size=4)
+
+    def q(x):
+        return (x - 1 / np.pi) * (a + b * x)
+
+    pieces = bezier_from_values(q(0.0), q(0.5), q(1.0))[None]
+    ctrl = RationalMotion(np.array([0.0, 1.0]), preimage=pieces).ctrl
+    with pytest.raises(DegenerateMotionError, match=r"weight w of `ctrl` vanishes at t = 0\.31831"):
+        RationalMotion.from_bezier([0.0, 1.0], ctrl)
+
+
 def test_from_bezier_refuses_mirror_images():
     q, p = demo_keyframes(6)
     breaks, ctrl = motions.interpolate(q, p).bezier_form()
