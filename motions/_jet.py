@@ -172,12 +172,12 @@ def _cos_sinc_sqrt(y: np.ndarray):
     yp = y[..., None] ** k  # (..., 7)
     ypm1 = np.concatenate([np.zeros_like(yp[..., :1]), yp[..., :-1]], axis=-1)
     ypm2 = np.concatenate([np.zeros_like(yp[..., :2]), yp[..., :-2]], axis=-1)
-    cs = yp @ ac
-    ss = yp @ as_
-    cs1 = ypm1 @ (ac * k)
-    ss1 = ypm1 @ (as_ * k)
-    cs2 = ypm2 @ (ac * k * (k - 1))
-    ss2 = ypm2 @ (as_ * k * (k - 1))
+    cs = np.einsum("...k,k->...", yp, ac)  # not @: a threaded BLAS gemv spins under load
+    ss = np.einsum("...k,k->...", yp, as_)
+    cs1 = np.einsum("...k,k->...", ypm1, ac * k)
+    ss1 = np.einsum("...k,k->...", ypm1, as_ * k)
+    cs2 = np.einsum("...k,k->...", ypm2, ac * k * (k - 1))
+    ss2 = np.einsum("...k,k->...", ypm2, as_ * k * (k - 1))
     pick = lambda a, b: np.where(small, a, b)  # noqa: E731
     return (pick(cs, c), pick(cs1, c1), pick(cs2, c2)), (pick(ss, s), pick(ss1, s1), pick(ss2, s2))
 

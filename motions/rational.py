@@ -86,7 +86,8 @@ class _PowerPieces:
     def __init__(self, pieces: np.ndarray, breaks: np.ndarray):
         self.breaks = breaks
         self.h = np.diff(breaks)
-        coef = bernstein_to_power(pieces, axis=1)  # (S, k+1, D), coefficient of u**j
+        convert = bernstein_to_power(np.eye(pieces.shape[1]))  # (k+1, k+1), exact integers
+        coef = np.einsum("ji,sid->sjd", convert, pieces)  # (S, k+1, D): coefficient of u**j
         self.k = coef.shape[1] - 1
         self._segment_major: list[np.ndarray] = []  # per nu: (S, D, k+1-nu)
         self._power_major: list[np.ndarray] = []  # per nu: (k+1-nu, D, S)
@@ -507,9 +508,9 @@ class RationalMotion(Motion):
             return None
         if self._u0c is None:
             d = self._q.shape[1] - 1
-            gram = self._q @ np.swapaxes(self._q, 1, 2)  # (S, d+1, d+1): <B_i, B_j>
-            w = bezier_product_weights(d, d).reshape((d + 1) ** 2, 2 * d + 1)
-            self._u0c = gram.reshape(gram.shape[0], -1) @ w
+            gram = np.einsum("sia,sja->sij", self._q, self._q)  # <B_i, B_j>
+            # einsum, not a BLAS product: tiny inner dimensions (see interpolation)
+            self._u0c = np.einsum("ijk,sij->sk", bezier_product_weights(d, d), gram)
             self._u0c.setflags(write=False)
         return self._u0c
 
