@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ._checks import as_array, as_bspline, as_quaternions, short
-from ._spline import clamped_knots
+from ._spline import PowerPieces, clamped_knots
 from .bernstein import (
     bernstein_basis,
     bernstein_to_power,
@@ -66,100 +66,6 @@ _U0_BOUND_SLACK = 64 * np.finfo(float).eps
 coefficients of ``u0 = |Q|²`` when they are used as a lower bound."""
 SPEED_MAX_PIECES = 4096
 """Pieces a speed bound may split into near a weight dip before it gives up."""
-
-
-RUN_MIN_POINTS = 256
-"""Sorted times are evaluated one segment run at a time when the runs average at least this
-many points (broadcast Horner, no gather); otherwise coefficients are gathered per time."""
-
-
-class _PowerPieces:
-    """Piecewise polynomials (S pieces, D components) in the power basis of each piece's
-    own parameter ``u = (t - breaks[s]) / h_s`` in [0, 1].
-
-    Evaluated by Horner's rule with numpy in a component-major (D, T) layout: long
-    contiguous rows, and every array operation releases the GIL (scipy's PPoly evaluation
-    holds it for its whole loop, so threads could not help). The local parameter keeps
-    the coefficients free of powers of h (no overflow for huge or tiny spans).
-    """
-
-    def __init__(self, pieces: np.ndarray, breaks: np.ndarray):
-        self.breaks = breaks
-        self.h = np.diff(breaks)
-        convert = bernstein_to_power(np.eye(pieces.shape[1]))  # (k+1, k+1), exact integers
-        coef = np.einsum("ji,sid->sjd", convert, pieces)  # (S, k+1, D): coefficient of u**j
-        self.k = coef.shape[1] - 1
-        self._segment_major: list[np.ndarray] = []  # per nu: (S, D, k+1-nu)
-        self._power_major: list[np.ndarray] = []  # per nu: (k+1-nu, D, S)
-        for nu in range(self.k + 1):
-            j = np.arange(nu, self.k + 1)
-            fall = np.array([np.prod(np.arange(i - nu + 1, i + 1), dtype=float) for i in j])
-            c = coef[:, nu:] * fall[None, :, None]  # d^nu/du^nu, ascending powers
-            self._segment_major.append(np.ascontiguousarray(np.moveaxis(c, 2, 1)))
-            self._power_major.append(np.ascontiguousarray(np.transpose(c, (1, 2, 0))))
-
-    def __call__(self, t: np.ndarray, order: int = 0) -> list[np.ndarray]:
-        """Values and time derivatives up to `order` at flat times (T,) in the domain:
-        a list of (D, T) arrays (component-major)."""
-        n_t, n_s = t.size, self.h.size
-        if n_t > 1 and bool(np.all(t[1:] >= t[:-1])):
-            cuts = np.searchsorted(t, self.breaks[1:-1], side="left")
-            bounds = np.concatenate([[0], cuts, [n_t]])
-            runs = np.flatnonzero(bounds[1:] > bounds[:-1])
-            if runs.size * RUN_MIN_POINTS <= n_t:
-                return self._by_runs(t, order, bounds, runs)
-            s = np.repeat(np.arange(n_s), np.diff(bounds))
-        else:
-            s = np.searchsorted(self.breaks, t, side="right") - 1
-            np.clip(s, 0, n_s - 1, out=s)
-        return self._by_gather(t, order, s)
-
-    def _by_runs(self, t, order, bounds, runs) -> list[np.ndarray]:
-        d = self._segment_major[0].shape[1]
-        out = [np.empty((d, t.size)) for _ in range(order + 1)]
-        for s in runs.tolist():
-            a, b = int(bounds[s]), int(bounds[s + 1])
-            u = (t[a:b] - self.breaks[s]) / self.h[s]
-            for nu in range(order + 1):
-                y = out[nu][:, a:b]
-                if nu > self.k:
-                    y[:] = 0.0
-                    continue
-                c = self._segment_major[nu][s]  # (D, m+1)
-                m = c.shape[1] - 1
-                if m == 0:
-                    y[:] = c[:, :1]
-                else:
-                    np.multiply(c[:, m : m + 1], u, out=y)
-                    y += c[:, m - 1 : m]
-                    for j in range(m - 2, -1, -1):
-                        y *= u
-                        y += c[:, j : j + 1]
-                for _ in range(nu):  # d/dt = (1/h) d/du, one factor at a time
-                    y /= self.h[s]
-        return out
-
-    def _by_gather(self, t, order, s) -> list[np.ndarray]:
-        h = self.h[s]
-        u = (t - self.breaks[s]) / h
-        out = []
-        for nu in range(order + 1):
-            if nu > self.k:
-                out.append(np.zeros((self._power_major[0].shape[1], t.size)))
-                continue
-            c = self._power_major[nu]  # (m+1, D, S)
-            m = c.shape[0] - 1
-            y = np.take(c[m], s, axis=1)
-            if m:
-                tmp = np.empty_like(y)
-                for j in range(m - 1, -1, -1):
-                    y *= u
-                    np.take(c[j], s, axis=1, out=tmp)
-                    y += tmp
-            for _ in range(nu):
-                y /= h
-            out.append(y)
-        return out
 
 
 POWER_TRIM = 1e-11
@@ -278,6 +184,10 @@ class RationalMotion(Motion):
 
         Returns:
             The motion; degree 2d + degree_o (origin), max(2d, degree_v) (numerator) or 2d.
+
+        Raises:
+            DegenerateMotionError: if Q has a real root (all four components vanish at
+                once), naming where; u0 = |Q|² is zero there.
         """
         d, t = as_bspline(degree, knots, "degree", "knots")
         q = as_quaternions(quaternions, "quaternions")
@@ -349,7 +259,9 @@ class RationalMotion(Motion):
 
         Raises:
             ValueError: if the last row is not ``(0, 0, 0, w)``, if ``A A^T != w^2 I`` at
-                sample points (relative 1e-10), or if the motion is not continuous.
+                sample points (relative 1e-10), if ``det(A)/w^3 <= 0`` there (a mirror
+                image), or if the motion is not continuous.
+            DegenerateMotionError: if a weight reaches zero inside a segment.
         """
         br = as_array(breaks, "breaks", ndim=1)
         if br.size < 2 or np.any(np.diff(br) <= 0):
@@ -539,7 +451,7 @@ class RationalMotion(Motion):
         return self._breaks.copy(), np.array(self.ctrl)
 
     # ------------------------------------------------------------------ evaluation
-    def _evaluator(self) -> _PowerPieces:
+    def _evaluator(self) -> PowerPieces:
         """Preimage and translation pieces ``[Q | p or v]`` (D = 4 or 7), or the flattened
         control matrices ``[A | b | w]`` (D = 13) when the preimage is unknown."""
         if self._pp is None:
@@ -552,13 +464,13 @@ class RationalMotion(Motion):
                         elevate(self._q, k - self._q.shape[1] + 1, axis=1),
                         elevate(trans, k - trans.shape[1] + 1, axis=1),
                     ]
-                self._pp = _PowerPieces(np.concatenate(parts, axis=2), self._breaks)
+                self._pp = PowerPieces(np.concatenate(parts, axis=2), self._breaks)
             else:
                 c = self.ctrl
                 flat = np.concatenate(
                     [c[:, :, :3, :].reshape(c.shape[0], c.shape[1], 12), c[:, :, 3:, 3]], axis=2
                 )
-                self._pp = _PowerPieces(flat, self._breaks)
+                self._pp = PowerPieces(flat, self._breaks)
         return self._pp
 
     def _kinematics(self, t: np.ndarray, order: int) -> tuple[np.ndarray, ...]:
