@@ -17,7 +17,7 @@ from harness import Box, Capsule, Sphere, certify, certify_many, ground_truth, s
 from harness.certification import DeviceError, QueryError
 from motions import DegenerateMotionError
 from motions.pieces import BezierPieces, speed_bounds
-from motions.schemes import demo_keyframes
+from motions.demo import demo_keyframes
 
 TOL = 1e-3
 
