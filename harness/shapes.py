@@ -390,6 +390,8 @@ def as_obstacles(x: Any, name: str = "obstacles") -> list[Shape]:
         raise TypeError(
             f"Expected `{name}` to be a sequence of harness shapes, got {type(x).__name__}."
         )
+    if all(isinstance(o, Shape) for o in x):
+        return list(x)
     return [as_shape(o, f"{name}[{i}]") for i, o in enumerate(x)]
 
 

@@ -84,7 +84,7 @@ def _pose_bracket(
         return HUGE, -HUGE, 0, warm
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
-    ub, gap, d, overlap, depth = _gjk(
+    ub, gap, d, overlap, depth, _c = _gjk(
         0, pre_m, pre_c, lane, 0, 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE, F0
     )
     radii = _core_radius(part) + _core_radius(obst)

@@ -368,11 +368,12 @@ def _gjk(
     max_iter: wp.int32,
     stop_gap: wp.float64,
     floor: wp.float64,
-) -> tuple[wp.float64, wp.float64, wp.vec3d, wp.int32, wp.float64]:
+) -> tuple[wp.float64, wp.float64, wp.vec3d, wp.int32, wp.float64, wp.int32]:
     """GJK distance between A and B (see `_support_diff`).
 
     Returns (upper bound |v| of the distance, best separation gap found, its unit
-    direction pointing from A to B, overlap flag, penetration lower bound when overlapping).
+    direction pointing from A to B, overlap flag, penetration lower bound when overlapping,
+    support evaluations of A - B).
     The gap along a unit n is ``min_b n.b - max_a n.a``: a lower bound of the distance
     (up to the rounding the caller's margin covers); iteration stops once it reaches
     `stop_gap`, or once the upper bound |v| falls to `floor` (no gap above it exists).
@@ -389,6 +390,7 @@ def _gjk(
     best_dir = dir0 / wp.length(dir0)
     overlap = wp.int32(0)
     depth = F0
+    calls = wp.int32(1)
     for _it in range(max_iter):
         vv = wp.dot(v, v)
         if vv <= F0:
@@ -398,6 +400,7 @@ def _gjk(
         if vn <= floor:
             break
         w = _support_diff(mode, pre_m, pre_c, lane, i0, i1, part, obst, verts, lo, hi, core, -v)
+        calls += 1
         vw = wp.dot(v, w)
         gap = vw / vn
         if gap > best_gap:
@@ -420,5 +423,5 @@ def _gjk(
         if wp.dot(v, v) >= vv:
             break
     if overlap == 1:
-        return F0, -HUGE, best_dir, overlap, depth
-    return wp.sqrt(wp.dot(v, v)), best_gap, best_dir, overlap, F0
+        return F0, -HUGE, best_dir, overlap, depth, calls
+    return wp.sqrt(wp.dot(v, v)), best_gap, best_dir, overlap, F0, calls

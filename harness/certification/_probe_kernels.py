@@ -8,7 +8,7 @@ import warp as wp
 
 from ._advance_kernels import _eval_pose
 from ._geometry import F0, HUGE, Shape, _gjk
-from ._refine_kernels import GAMMA_C, _halve, _prepare
+from ._refine_kernels import GAMMA_C, _extent, _halve, _prepare
 
 wp.set_module_options({"enable_backward": False})
 
@@ -39,7 +39,7 @@ def _prepare_rows(
     margin_out[tid] = p.margin
     lo_out[tid] = p.lo
     hi_out[tid] = p.hi
-    extent_out[tid] = p.extent
+    extent_out[tid] = _extent(pre_m, pre_c, tid, k, shapes[part_idx[tid]].rloc)
 
 
 @wp.kernel
@@ -69,7 +69,7 @@ def _hull_gap_rows(
     z = wp.vec3d(F0, F0, F0)
     p = _prepare(ctrl, tid, 0, 0, k, part, verts, z, pre_m, pre_c, 0, 1)
     margin = p.margin + GAMMA_C * (p.scale + obst.rho)
-    _u, gap, d, ov, _dp = _gjk(
+    _u, gap, d, ov, _dp, _c = _gjk(
         use_aabb, pre_m, pre_c, tid, 0, k, part, obst, verts, p.lo, p.hi, 0, z, max_iter,
         HUGE, F0,
     )  # fmt: skip

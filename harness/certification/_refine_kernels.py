@@ -66,7 +66,6 @@ class Prep:
     mag: wp.vec3d  # largest |entry| of A, b, w over the node's control matrices
     lo: wp.vec3d  # axis-aligned box of the control positions (no margin)
     hi: wp.vec3d
-    extent: wp.float64  # bound on how far any point of the part moves within the node
 
 
 @wp.func
@@ -85,7 +84,7 @@ def _prepare(
     exact_box: wp.int32,
 ) -> Prep:
     """Precompute ``M = A R / w``, ``c = (A p + b) / w`` of st_ctrl[lane, sp, i0:i1] into
-    pre[lane, slot0:], with the node's margin, box and extent (see module doc).
+    pre[lane, slot0:], with the node's margin and box (see module doc).
 
     The box is exact (the closed forms of each control position's box: six support
     evaluations per control matrix) when `exact_box`, else the cheap box of balls
@@ -94,14 +93,11 @@ def _prepare(
     out.ok = 1
     out.margin = F0
     out.scale = F0
-    out.extent = F0
     lo = wp.vec3d(HUGE, HUGE, HUGE)
     hi = wp.vec3d(-HUGE, -HUGE, -HUGE)
     ma = F0
     mb = F0
     mw = F0
-    m0 = wp.mat33d()
-    c0 = wp.vec3d()
     for i in range(i0, i1):
         m = st_ctrl[lane, sp, i]
         w = m[3, 3]
@@ -150,19 +146,31 @@ def _prepare(
                 ball = wp.vec3d(rad, rad, rad)
                 lo = wp.min(lo, cc - ball)
                 hi = wp.max(hi, cc + ball)
-            if i == i0:
-                m0 = mm
-                c0 = cc
-            else:
-                dm = mm - m0
-                out.extent = wp.max(
-                    out.extent, wp.length(cc - c0) + part.rloc * wp.sqrt(wp.ddot(dm, dm))
-                )
     out.mag = wp.vec3d(ma, mb, mw)
     out.lo = lo
     out.hi = hi
     if out.ok == 0:
         out.margin = HUGE
+    return out
+
+
+@wp.func
+def _extent(
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    lane: wp.int32,
+    k: wp.int32,
+    rloc: wp.float64,
+) -> wp.float64:
+    """Bound on how far any point of the part moves within a node from its place at the
+    node's start: ``max_i |c_i - c_0| + rloc |M_i - M_0|_F`` over the prepared control
+    positions (the positions lie in their hull)."""
+    m0 = pre_m[lane, 0]
+    c0 = pre_c[lane, 0]
+    out = F0
+    for i in range(1, k):
+        dm = pre_m[lane, i] - m0
+        out = wp.max(out, wp.length(pre_c[lane, i] - c0) + rloc * wp.sqrt(wp.ddot(dm, dm)))
     return out
 
 
@@ -210,7 +218,7 @@ def _pose_test(
         return HUGE, -HUGE, 0, 1
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
-    ub, gap, _d, overlap, depth = _gjk(
+    ub, gap, _d, overlap, depth, _c = _gjk(
         0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE, F0
     )
     radii = _core_radius(part) + _core_radius(obst)
@@ -226,7 +234,7 @@ def _pose_test(
     if lb <= F0:
         hopeless = 1
     elif use_aabb == 1:
-        _u, bgap, _bd, bov, _bp = _gjk(
+        _u, bgap, _bd, bov, _bp, _bc = _gjk(
             1, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, prep.lo, prep.hi, 0,
             warm, max_iter, wp.float64(2.0) * margin, margin,
         )  # fmt: skip
@@ -278,7 +286,7 @@ def _refine(
 
     out_t[m] = (toi_lo, toi_hi, witness time, witness distance, first unknown time);
     out_n[m] = (nodes, pose tests, deepest depth, first unknown reason, #tolerance,
-    #depth, #budget).
+    #depth, #budget, support evaluations of the bound tests).
     """
     lane = first + wp.tid()
     pose_slot = st_ctrl.shape[2]
@@ -296,6 +304,7 @@ def _refine(
         n_tol = wp.int32(0)
         n_depth = wp.int32(0)
         n_budget = wp.int32(0)
+        supports = wp.int32(0)
         stopped = wp.int32(0)
         pr = m_pieces[m]
         br = m_parts[m]
@@ -371,12 +380,13 @@ def _refine(
                             if _boxes_apart(prep.lo, prep.hi, obst.lo, obst.hi, margin) == 1:
                                 clear = 1
                             elif use_aabb == 1:
-                                _u, gap, dirn, ov, _dp = _gjk(
+                                _u, gap, dirn, ov, _dp, calls = _gjk(
                                     1, pre_m, pre_c, lane, 0, k, part, obst, verts,
                                     prep.lo, prep.hi, 0, warm, max_iter, wp.float64(2.0) * margin,
                                     margin,
                                 )  # fmt: skip
                                 warm = dirn
+                                supports += calls
                                 if ov == 0 and gap > margin:
                                     clear = 1
                             else:
@@ -386,15 +396,17 @@ def _refine(
                                     gap = wp.dot(warm, sb) - _affine_h(
                                         pre_m, pre_c, lane, 0, k, part, verts, warm
                                     )
+                                    supports += 1
                                     if gap > margin:
                                         clear = 1
                                 if clear == 0:
-                                    _u, gap, dirn, ov, _dp = _gjk(
+                                    _u, gap, dirn, ov, _dp, calls = _gjk(
                                         0, pre_m, pre_c, lane, 0, k, part, obst, verts,
                                         prep.lo, prep.hi, 0, warm, max_iter,
                                         wp.float64(2.0) * margin, margin,
                                     )  # fmt: skip
                                     warm = dirn
+                                    supports += calls
                                     if ov == 0 and gap > margin:
                                         clear = 1
                         if clear == 1:
@@ -447,7 +459,11 @@ def _refine(
                             if ub1 < ub0:
                                 dmin = ub1
                                 tmin = t1
-                            if dmin < tol and prep.ok == 1 and prep.extent <= tol:
+                            if (
+                                dmin < tol
+                                and prep.ok == 1
+                                and _extent(pre_m, pre_c, lane, k, part.rloc) <= tol
+                            ):
                                 # (c) a pose within tolerance on a piece shorter than it
                                 toi_lo = wp.min(toi_lo, t0)
                                 n_tol += 1
@@ -472,7 +488,7 @@ def _refine(
                             and ub0 >= tol
                             and ub1 >= tol
                             and prep.ok == 1
-                            and prep.extent <= tol
+                            and _extent(pre_m, pre_c, lane, k, part.rloc) <= tol
                         )
                         if depth >= max_depth or hopeless:  # (d)
                             toi_lo = wp.min(toi_lo, t0)
@@ -513,6 +529,7 @@ def _refine(
         out_n[m, 4] = n_tol
         out_n[m, 5] = n_depth
         out_n[m, 6] = n_budget
+        out_n[m, 7] = supports
         m += stride
 
 
@@ -650,7 +667,7 @@ def _clearance(
                         lbn = st_lb[lane, sp]
                         if prep.ok == 1:
                             margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
-                            _u, gap, dirn, ov, _dp = _gjk(
+                            _u, gap, dirn, ov, _dp, calls = _gjk(
                                 0, pre_m, pre_c, lane, 0, k, part, obst, verts, prep.lo,
                                 prep.hi, 0, warm, max_iter, HUGE, F0,
                             )  # fmt: skip
@@ -701,8 +718,8 @@ def _clearance(
                         # bounds, less that, bound the whole node's distance from below
                         leaf = lbn
                         if prep.ok == 1:
-                            x2 = wp.float64(2.0) * prep.extent
-                            leaf = wp.max(leaf, wp.max(lb0 - prep.extent, lb1 - x2))
+                            ext = _extent(pre_m, pre_c, lane, k, part.rloc)
+                            leaf = wp.max(leaf, wp.max(lb0 - ext, lb1 - wp.float64(2.0) * ext))
                         if leaf >= up - tol:
                             low = wp.min(low, leaf)
                             sp -= 1

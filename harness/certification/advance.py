@@ -225,6 +225,7 @@ def _outcome(t: np.ndarray, c: np.ndarray) -> Outcome:
         tests=c[:, 1].astype(np.int64),
         depth=c[:, 2].astype(np.int64),
         counts=c[:, 4:7].astype(np.int64),
+        supports=np.zeros(len(c), dtype=np.int64),
     )
 
 
@@ -351,6 +352,7 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
         tests=nodes,
         depth=deepest,
         counts=np.stack([n_tol, np.zeros(n_m, np.int64), budget], axis=1),
+        supports=np.zeros(n_m, dtype=np.int64),
     )
     return assemble(
         out, time.perf_counter() - start, "lipschitz", tol, certified=True,

@@ -304,16 +304,34 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
     nodes, depth, tests = out.nodes.tolist(), out.depth.tolist(), out.tests.tolist()
     toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
     reason = out.unknown_reason.tolist()
+    any_counts = out.counts.any(axis=1).tolist()
     counts = out.counts.tolist()
     names = list(UNK.values())
+    wt, wd = out.witness_time.tolist(), out.witness_distance.tolist()
+    inf = math.inf
     res = []
     for i in range(n):
         lo = toi_lo[i]
-        if lo != math.inf and lo > ends[i][0]:
+        if lo != inf and lo > ends[i][0]:
             # halved pieces' times are computed by averaging: lower by their round-off
             scale = max(abs(lo), abs(ends[i][0]), abs(ends[i][1]))
             lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0])
+        unresolved = (
+            {k: c for k, c in zip(names, counts[i], strict=True) if c} if any_counts[i] else {}
+        )
+        if toi_hi[i] != inf:
+            head = ("collision", "contact", lo, toi_hi[i], math.nan, math.nan)
+        elif reason[i]:
+            head = ("unknown", UNK[reason[i]], lo, inf, wt[i], wd[i])
+        else:
+            head = ("free", "clear", inf, inf, math.nan, math.nan)
         f = {
+            "verdict": head[0],
+            "reason": head[1],
+            "toi_lo": head[2],
+            "toi_hi": head[3],
+            "witness_time": head[4],
+            "witness_distance": head[5],
             "nodes": nodes[i],
             "depth": depth[i],
             "seconds": share[i],
@@ -321,20 +339,7 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
             "bound": bound,
             "tolerance": tol,
             "pose_tests": tests[i],
-            "unresolved": {k: c for k, c in zip(names, counts[i], strict=True) if c},
+            "unresolved": unresolved,
         }
-        if toi_hi[i] != math.inf:
-            f.update(verdict="collision", reason="contact", toi_lo=lo, toi_hi=toi_hi[i])
-        elif reason[i]:
-            f.update(
-                verdict="unknown",
-                reason=UNK[reason[i]],
-                toi_lo=lo,
-                toi_hi=math.inf,
-                witness_time=float(out.witness_time[i]),
-                witness_distance=float(out.witness_distance[i]),
-            )
-        else:
-            f.update(verdict="free", reason="clear", toi_lo=math.inf, toi_hi=math.inf)
         res.append(_certificate(f))
     return res

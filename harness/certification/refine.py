@@ -41,6 +41,7 @@ class Outcome:
         unknown_time, unknown_reason: the earliest unresolved piece and why (0: none).
         nodes, tests, depth: bound evaluations, pose tests, deepest level.
         counts: (M, 3) unresolved pieces by reason (tolerance, depth, budget).
+        supports: (M,) support evaluations of the bound tests (hull, aabb; else 0).
     """
 
     toi_lo: np.ndarray
@@ -53,6 +54,7 @@ class Outcome:
     tests: np.ndarray
     depth: np.ndarray
     counts: np.ndarray
+    supports: np.ndarray
 
 
 def _packed(m: RationalMotion) -> tuple:
@@ -241,7 +243,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
         buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
-        buf.out("out_n", (n, 7), np.int32, wp.int32)[1],
+        buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
     ]
     buf.launch(_refine, args, 17, lanes)
     t = buf.fetch("out_t", n)
@@ -259,6 +261,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         tests=c[:, 1].astype(np.int64),
         depth=c[:, 2].astype(np.int64),
         counts=c[:, 4:7].astype(np.int64),
+        supports=c[:, 7].astype(np.int64),
     )
 
 

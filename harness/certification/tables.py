@@ -8,7 +8,6 @@ owner's frame, padded outward by the rounding of computing it.
 
 from __future__ import annotations
 
-import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -20,7 +19,6 @@ from ..shapes import Shape, parts
 
 __all__ = ["ShapeTable", "part_aabb", "record_dtype"]
 
-_RECORDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _DTYPE = None
 
 
@@ -79,7 +77,7 @@ def _part_record(p: Shape, rec) -> np.ndarray | None:
 def _records(shape: Shape) -> tuple[bytes, int, np.ndarray]:
     """(records as bytes, number of parts, vertices (V, 3)) of a shape, built once;
     the records' vertex starts are relative to the shape's own vertices."""
-    hit = _RECORDS.get(shape)
+    hit = shape.__dict__.get("_kernel_records")
     if hit is None:
         ps = parts(shape)
         recs = np.zeros(len(ps), dtype=record_dtype())
@@ -91,7 +89,8 @@ def _records(shape: Shape) -> tuple[bytes, int, np.ndarray]:
                 verts.append(v)
                 start += len(v)
         hit = (recs.tobytes(), len(ps), np.concatenate(verts) if verts else np.zeros((0, 3)))
-        _RECORDS[shape] = hit
+        # shapes are immutable: keep the records on the shape (one attribute lookup)
+        object.__setattr__(shape, "_kernel_records", hit)
     return hit
 
 
