@@ -238,7 +238,7 @@ class RationalMotion(Motion):
             if "numerator" in kwargs:
                 with np.errstate(over="ignore"):  # checked just below
                     kwargs["numerator"] = np.ldexp(kwargs["numerator"], -2 * int(e))
-                err[:, 1] = np.ldexp(err[:, 1], -2 * int(e))
+                    err[:, 1] = np.ldexp(err[:, 1], -2 * int(e))
                 if not np.all(np.isfinite(kwargs["numerator"])):
                     raise ValueError(
                         "Expected `quaternions` and `numerator` of compatible magnitudes"
@@ -526,6 +526,28 @@ class RationalMotion(Motion):
         q = self._evaluator()(tt)[0][:4].T
         return (q / np.linalg.norm(q, axis=1, keepdims=True)).reshape(shape + (4,))
 
+    def origin_and_quaternion(self, t: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Origins (..., 3) and unit quaternions ``Q/|Q|`` (..., 4, scalar first) at `t`
+        from one evaluation of the preimage and translation pieces: what a mocap body
+        needs, without forming rotation matrices."""
+        if self._q is None:
+            r, p = self.pose(t)
+            from .quaternion import quat_from_matrix
+
+            return p, quat_from_matrix(r)
+        tt, shape = self._check_t(t)
+        f = self._evaluator()(tt)[0]  # (D, T)
+        q = f[:4].T
+        n2 = np.einsum("ti,ti->t", q, q)
+        if self._p is not None:
+            p = f[4:7].T
+        elif self._v is not None:
+            p = f[4:7].T / n2[:, None]
+        else:
+            p = np.zeros((tt.size, 3))
+        quat = q / np.sqrt(n2)[:, None]
+        return p.reshape(shape + (3,)), quat.reshape(shape + (4,))
+
     def _kin_preimage(self, t: np.ndarray, order: int):
         fs = [f.T for f in self._evaluator()(t, order)]  # (T, D) views of (D, T) planes
         q = fs[0][:, :4]
@@ -665,10 +687,7 @@ class RationalMotion(Motion):
         found exactly (roots of its derivative); the control matrices' weights carry the
         same polynomial degree-elevated, whose leading power coefficients are round-off.
         """
-        if self._q is not None:
-            c = bezier_product(self._q, self._q, axis=1).sum(axis=2)
-        else:
-            c = self.ctrl[:, :, 3, 3]
+        c = self.u0_pieces if self._q is not None else self.ctrl[:, :, 3, 3]
         vals, u = bezier_minimum(c)
         h = np.diff(self._breaks)
         return vals, self._breaks[:-1] + u * h

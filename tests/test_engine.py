@@ -16,8 +16,8 @@ import motions
 from harness import Box, Capsule, Sphere, certify, certify_many, ground_truth, swept_aabbs
 from harness.certification import DeviceError, QueryError
 from motions import DegenerateMotionError
-from motions.pieces import BezierPieces, speed_bounds
 from motions.demo import demo_keyframes
+from motions.pieces import BezierPieces, speed_bounds
 
 TOL = 1e-3
 

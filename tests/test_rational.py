@@ -7,6 +7,7 @@ import pytest
 from scipy.interpolate import BSpline, make_interp_spline
 from scipy.spatial import ConvexHull
 
+import motions
 from motions import DegenerateMotionError, RationalMotion, U, rotation_matrix, sign_continuity, u0
 from motions.bernstein import bernstein_basis
 from motions.motion import vee
@@ -328,3 +329,18 @@ def test_vectorised_shapes(rng):
     assert m.matrix(t[0, 0]).shape == (4, 4)
     assert m.transform(np.zeros((5, 3)), t).shape == (3, 4, 5, 3)
     assert m.angular_acceleration(t).shape == (3, 4, 3)
+
+
+@pytest.mark.parametrize("translation", ["cubic", "minimal"])
+def test_origin_and_quaternion_agree_with_pose(translation):
+    from motions.demo import demo_keyframes
+
+    m = motions.interpolate(*demo_keyframes(8, seed=1), translation=translation)
+    t = np.linspace(*m.domain, 301)
+    p, q = m.origin_and_quaternion(t)
+    r, p2 = m.pose(t)
+    np.testing.assert_allclose(p, p2, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(motions.rotation_matrix(q), r, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, rtol=0, atol=1e-14)
+    # sign continuous along the motion (mocap needs no flips)
+    assert np.all(np.einsum("ti,ti->t", q[1:], q[:-1]) > 0)

@@ -667,7 +667,7 @@ def _clearance(
                         lbn = st_lb[lane, sp]
                         if prep.ok == 1:
                             margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
-                            _u, gap, dirn, ov, _dp, calls = _gjk(
+                            _u, gap, dirn, ov, _dp, _calls = _gjk(
                                 0, pre_m, pre_c, lane, 0, k, part, obst, verts, prep.lo,
                                 prep.hi, 0, warm, max_iter, HUGE, F0,
                             )  # fmt: skip

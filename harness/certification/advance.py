@@ -377,12 +377,9 @@ def default_samples(m: Motion, body: Shape, tol: float, cap: int = 2_000_000) ->
     a 2001-sample grid: the sampling rule for motions without a proven speed bound."""
     t0, t1 = m.domain
     r = body.bounding_radius
-    x = np.linspace(t0, t1, 2001)
+    k = m.kinematics(np.linspace(t0, t1, 2001), 1)
     v = float(
-        (
-            np.linalg.norm(m.velocity(x), axis=1)
-            + r * np.linalg.norm(m.angular_velocity(x), axis=1)
-        ).max()
+        (np.linalg.norm(k.velocity, axis=1) + r * np.linalg.norm(k.angular_velocity, axis=1)).max()
     )
     return int(min(cap, max(2, math.ceil(v * (t1 - t0) / tol))))
 
