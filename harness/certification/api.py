@@ -143,28 +143,29 @@ def check_motions(motions: Any, bound: str) -> list[Motion]:
         raise TypeError(
             f"Expected `motions` to be a sequence of motions, got {type(motions).__name__}."
         )
-    out = []
-    for i, m in enumerate(motions):
+    out = list(motions)
+    need = RationalMotion if bound in ("hull", "aabb") else Motion
+    if all(isinstance(m, need) for m in out):
+        return out
+    for i, m in enumerate(out):
         if not isinstance(m, Motion):
             raise TypeError(
                 f"Expected `motions[{i}]` to be a motions.Motion, got {type(m).__name__}."
             )
-        if bound in ("hull", "aabb") and not isinstance(m, RationalMotion):
+        if not isinstance(m, need):
             raise QueryError(
                 f"Bound {bound!r} needs a rational motion's control structure; motions[{i}] is"
                 f" {m.scheme!r}. Use bound='lipschitz' (proven speed bound) or 'sampled'."
             )
-        out.append(m)
     return out
 
 
 def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
     """One shared obstacle list (the same list object for every motion), or one per motion."""
     if (
-        isinstance(obstacles, Sequence)
-        and not isinstance(obstacles, Shape | str)
+        isinstance(obstacles, list | tuple)
         and len(obstacles)
-        and all(isinstance(o, Sequence) and not isinstance(o, Shape | str) for o in obstacles)
+        and all(isinstance(o, list | tuple) for o in obstacles)
     ):
         if len(obstacles) != n:
             raise QueryError(f"Expected one obstacle list per motion ({n}), got {len(obstacles)}.")
@@ -274,23 +275,6 @@ def certify_many(
     return sample_many(ms, bodies, obst, o)
 
 
-_DEFAULTS = {
-    "witness_time": math.nan,
-    "witness_distance": math.nan,
-    "clearance": math.nan,
-    "penetration": math.nan,
-}
-
-
-def _certificate(fields: dict) -> Certificate:
-    """A Certificate from a complete field dict, without the frozen dataclass's
-    per-field ``object.__setattr__`` (a batch builds thousands)."""
-    c = object.__new__(Certificate)
-    c.__dict__.update(_DEFAULTS)
-    c.__dict__.update(fields)
-    return c
-
-
 def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) -> list[Certificate]:
     """Certificates from per-motion outcome arrays (see :class:`.refine.Outcome`).
 
@@ -325,21 +309,24 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
             head = ("unknown", UNK[reason[i]], lo, inf, wt[i], wd[i])
         else:
             head = ("free", "clear", inf, inf, math.nan, math.nan)
-        f = {
+        c = object.__new__(Certificate)
+        c.__dict__ = {
             "verdict": head[0],
             "reason": head[1],
             "toi_lo": head[2],
             "toi_hi": head[3],
-            "witness_time": head[4],
-            "witness_distance": head[5],
             "nodes": nodes[i],
             "depth": depth[i],
             "seconds": share[i],
             "certified": cert[i],
             "bound": bound,
             "tolerance": tol,
-            "pose_tests": tests[i],
+            "witness_time": head[4],
+            "witness_distance": head[5],
             "unresolved": unresolved,
+            "clearance": math.nan,
+            "penetration": math.nan,
+            "pose_tests": tests[i],
         }
-        res.append(_certificate(f))
+        res.append(c)
     return res
