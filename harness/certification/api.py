@@ -310,23 +310,25 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
         else:
             head = ("free", "clear", inf, inf, math.nan, math.nan)
         c = object.__new__(Certificate)
-        c.__dict__ = {
-            "verdict": head[0],
-            "reason": head[1],
-            "toi_lo": head[2],
-            "toi_hi": head[3],
-            "nodes": nodes[i],
-            "depth": depth[i],
-            "seconds": share[i],
-            "certified": cert[i],
-            "bound": bound,
-            "tolerance": tol,
-            "witness_time": head[4],
-            "witness_distance": head[5],
-            "unresolved": unresolved,
-            "clearance": math.nan,
-            "penetration": math.nan,
-            "pose_tests": tests[i],
-        }
+        c.__dict__.update(
+            {
+                "verdict": head[0],
+                "reason": head[1],
+                "toi_lo": head[2],
+                "toi_hi": head[3],
+                "nodes": nodes[i],
+                "depth": depth[i],
+                "seconds": share[i],
+                "certified": cert[i],
+                "bound": bound,
+                "tolerance": tol,
+                "witness_time": head[4],
+                "witness_distance": head[5],
+                "unresolved": unresolved,
+                "clearance": math.nan,
+                "penetration": math.nan,
+                "pose_tests": tests[i],
+            }
+        )
         res.append(c)
     return res
