@@ -185,27 +185,50 @@ def test_two_threads(benchmark, workload):
     benchmark.pedantic(lambda: None, rounds=1, iterations=1)
 
 
+FLOPS_PREPARE = 156  # per control matrix: max-abs, norms, margin, A R / w, (A p + b) / w, box
+FLOPS_SUPPORT = (29, 180)  # per GJK support: 29 per control matrix + obstacle, simplex, dots
+FLOPS_SPLIT_PER_PAIR = 32  # one mat44 average (16 adds, 16 multiplies)
+FLOPS_POSE_TEST = 1000  # prepare one matrix + about four single-pose GJK iterations
+
+
 def test_kernel_time_per_evaluation(benchmark, workload):
-    """Kernel CPU time (the launch alone, one thread) per bound evaluation and pose test."""
+    """Kernel CPU time (the launch alone, one thread) per bound evaluation and pose test,
+    and its floating-point rate from an operation count of the kernel's code (constants
+    above, counted by hand from _refine_kernels/_geometry; an estimate, stated as such)."""
+    from harness.certification.refine import refine_many
+
     w = workload
-    harness.certify_many(w.motions, w.bodies, w.obstacles, threads=1)
+    out, _ = refine_many(
+        w.motions, w.bodies, w.obstacles, aabb=False, tol=TOL, max_depth=24,
+        max_nodes=200_000, max_iter=32, threads=1, device="cpu",
+    )  # fmt: skip
     buf = buffers("cpu", "refine")
-    (_key, (_arrays, cmds)) = next(iter(buf._launches.items()))
+    cmds = list(buf._launches.values())[-1][1]
     times = []
     for _ in range(ROUNDS):
         c = time.process_time()
         cmds[0].launch()
         times.append(time.process_time() - c)
-    certs = harness.certify_many(w.motions, w.bodies, w.obstacles, threads=1)
-    nodes = sum(c.nodes for c in certs)
-    tests = sum(c.pose_tests for c in certs)
+    nodes, tests, supports = int(out.nodes.sum()), int(out.tests.sum()), int(out.supports.sum())
+    k = 10  # control matrices per piece (degree 9, the cubic translation mode)
+    pairs = len(w.motions) * 5  # pieces x obstacles entering refinement, at most
+    splits = max(0, (nodes - pairs) // 2)
+    flops = (
+        nodes * k * FLOPS_PREPARE
+        + supports * (FLOPS_SUPPORT[0] * k + FLOPS_SUPPORT[1])
+        + splits * FLOPS_SPLIT_PER_PAIR * k * (k - 1) // 2
+        + tests * FLOPS_POSE_TEST
+    )
     sec = float(np.median(times))
     info = {
         "kernel_cpu_s": sec,
         "nodes": nodes,
         "pose_tests": tests,
+        "supports": supports,
+        "supports_per_node": supports / nodes,
         "ns_per_evaluation": sec / (nodes + tests) * 1e9,
         "evaluations_per_second_one_thread": (nodes + tests) / sec,
+        "gflops_estimate": flops / sec / 1e9,
     }
     benchmark.extra_info.update(info)
     print("\n" + json.dumps(info, indent=1))
