@@ -1,0 +1,461 @@
+"""Repair of a colliding rational motion (DESIGN §4 "Repair"): a new C² motion, certified
+free with at least a requested clearance, with the rotation and every keyframe kept.
+
+The origin path is moved by a cubic offset ``Δ(t)`` (:mod:`.offset`) that vanishes at
+the keyframe times, so only the translational control positions between keyframes move.
+Each iteration:
+
+1. certifies the current motion with :func:`harness.clearance`; a lower bound of at
+   least the requested clearance, and a ``free`` certificate, end the repair (the proof);
+2. finds the poses that come too close, by exact distances (MuJoCo) on a grid whose
+   spacing the motion's proven speed bound ties to the tolerance, and for each close
+   (body part, obstacle part) pair the direction ``n`` that separates it;
+3. solves for the smallest offset (least-distance programme, Lawson–Hanson via NNLS)
+   with ``d + n·(Δ(t) - Δ_now(t)) >= target`` at every close pose met so far. The signed
+   distance of two convex sets is a convex function of a translation, so each such
+   linear constraint is a lower bound of the true distance wherever the offset goes:
+   the constraints only ever cut away unsafe offsets, and they accumulate.
+
+When the programme is infeasible the offset gets more knots between the keyframes that
+bound the trouble; a keyframe pose closer to an obstacle than the clearance cannot be
+kept, and the repair refuses it up front (:class:`RepairError` names the obstacle).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.optimize import nnls
+
+from motions import Motion, RationalMotion
+
+from ..certification import Certificate, Clearance, certify
+from ..certification import clearance as certified_clearance
+from ..errors import HarnessError
+from ..shapes import Shape, as_obstacles, as_shape
+from .distance import DistanceModel
+from .offset import OffsetSpline, offset_motion
+
+__all__ = ["Moved", "Repair", "RepairError", "repair"]
+
+INITIAL_KNOTS = 3
+"""Knots first inserted between two keyframes that bound a close pose."""
+MAX_KNOTS = 48
+"""Most knots between two keyframes before the repair gives up there."""
+MAX_CONSTRAINTS = 4000
+"""Close poses kept in the programme (the closest first, per iteration)."""
+
+
+class RepairError(HarnessError):
+    """A motion that cannot be repaired (or a repair request with invalid arguments).
+
+    Attributes:
+        obstacles: indices (into the given obstacle list) of the obstacles in the way.
+    """
+
+    def __init__(self, message: str, obstacles: tuple[int, ...] = ()):
+        super().__init__(message)
+        self.obstacles = tuple(obstacles)
+
+
+@dataclass(frozen=True)
+class Moved:
+    """What a repair changed.
+
+    Attributes:
+        control_times: (J,) Greville abscissae (times) of the offset's control vectors
+            that moved.
+        displacements: (J, 3) their displacements: the translational control positions
+            of the segments there moved by these.
+        keyframes: indices of keyframes whose pose changed (none: the offset vanishes at
+            every keyframe time).
+        keyframe_deviation: largest change of a keyframe origin (round-off).
+        max_deviation: largest change of the origin path, ``max_t |Δ(t)|`` on a dense grid.
+        deviation_bound: ``max_j |δ_j|``, a proven bound of the change (a B-spline lies in
+            the convex hull of its control vectors).
+        knots: (K,) knots of the offset spline.
+    """
+
+    control_times: np.ndarray
+    displacements: np.ndarray
+    keyframes: tuple[int, ...]
+    keyframe_deviation: float
+    max_deviation: float
+    deviation_bound: float
+    knots: np.ndarray = field(repr=False)
+
+
+@dataclass(frozen=True)
+class Repair:
+    """Result of :func:`repair`.
+
+    Attributes:
+        motion: the repaired C² :class:`RationalMotion` (the input when it was already
+            clear).
+        certificate: ``certify(motion, ...)``, verdict ``free`` (the proof of freedom).
+        clearance: the certified bracket of its minimum distance; ``clearance.lower`` is at
+            least the requested clearance (the proof of the margin).
+        moved: what changed, and by how much.
+        iterations: certify-and-move rounds (0 when the input was already clear).
+        seconds: wall time.
+    """
+
+    motion: RationalMotion
+    certificate: Certificate
+    clearance: Clearance
+    moved: Moved
+    iterations: int
+    seconds: float
+
+
+# ----------------------------------------------------------------------------- validation
+def _number(x: Any, name: str) -> float:
+    if isinstance(x, bool) or not isinstance(x, int | float | np.integer | np.floating):
+        raise TypeError(f"Expected `{name}` to be a number (a length), got {x!r}.")
+    return float(x)
+
+
+def _check(motion, body, obstacles, tolerance, clearance_) -> tuple:
+    if not isinstance(motion, Motion):
+        raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    if not isinstance(motion, RationalMotion):
+        raise RepairError(
+            f"Expected `motion` to be a rational motion (its translational control positions"
+            f" are what a repair moves), got scheme {motion.scheme!r}."
+        )
+    if motion.preimage_pieces is None:
+        raise RepairError(
+            "Expected `motion` to have a known preimage (built by interpolate, hermite, fit or"
+            " RationalMotion.from_preimage), got one rebuilt from control matrices."
+        )
+    body = as_shape(body)
+    obst = as_obstacles(obstacles)
+    if not obst:
+        raise RepairError("Expected at least one obstacle in `obstacles`, got none.")
+    tol = _number(tolerance, "tolerance")
+    if not math.isfinite(tol) or tol <= 0:
+        raise RepairError(f"Expected `tolerance` > 0 (a length), got {tolerance!r}.")
+    c = _number(clearance_, "clearance")
+    if not math.isfinite(c) or c < 0:
+        raise RepairError(f"Expected `clearance` >= 0 (a length), got {clearance_!r}.")
+    return motion, body, obst, tol, c
+
+
+def _anchors(motion: RationalMotion) -> np.ndarray:
+    kt = motion.keyframe_times
+    t0, t1 = motion.domain
+    return np.unique(np.concatenate([[t0, t1], kt[(kt >= t0) & (kt <= t1)]]))
+
+
+def _check_keyframes(motion, dm: DistanceModel, anchors, c, tol, obst) -> None:
+    """Refuse keyframe poses the repair would have to move (closer than the clearance)."""
+    r, p = motion.pose(anchors)
+    d, _ = dm.to_obstacles(r, p)
+    per_obst = np.full((len(anchors), len(obst)), np.inf)
+    for o in range(len(obst)):
+        per_obst[:, o] = d[:, :, dm.obstacle_owner == o].min(axis=(1, 2))
+    bad = np.argwhere(per_obst < c + tol)
+    if bad.size:
+        k, o = (int(x) for x in bad[np.argmin(per_obst[bad[:, 0], bad[:, 1]])])
+        dist = per_obst[k, o]
+        what = (
+            f"contains the keyframe pose at t = {anchors[k]:.6g} (penetration {-dist:.3g})"
+            if dist < 0
+            else f"is {dist:.3g} from the keyframe pose at t = {anchors[k]:.6g}, less than"
+            f" `clearance` + `tolerance` = {c + tol:.3g}"
+        )
+        raise RepairError(
+            f"Cannot repair: obstacles[{o}] ({type(obst[o]).__name__}) {what}; the repair keeps"
+            " every keyframe pose.",
+            tuple(sorted({int(x) for x in bad[:, 1]})),
+        )
+
+
+# ----------------------------------------------------------------------------- the programme
+def least_distance(g: np.ndarray, h: np.ndarray) -> np.ndarray | None:
+    """``argmin |x|`` subject to ``g x >= h`` (Lawson & Hanson's LDP through NNLS).
+
+    Args:
+        g: (M, N) constraint rows; h: (M,) right-hand sides.
+
+    Returns:
+        (N,) the solution, or None when the constraints are infeasible.
+    """
+    norms = np.linalg.norm(g, axis=1)
+    keep = norms > 0
+    if np.any(~keep & (h > 0)):
+        return None
+    g, h = g[keep] / norms[keep, None], h[keep] / norms[keep]
+    n = g.shape[1]
+    if not len(h):
+        return np.zeros(n)
+    e = np.vstack([g.T, h[None, :]])
+    f = np.zeros(n + 1)
+    f[-1] = 1.0
+    u, _ = nnls(e, f, maxiter=50 * (n + 1) + len(h))
+    r = e @ u - f
+    if r[-1] > -1e-12:  # |r| = 0 (within round-off): no feasible point
+        return None
+    x = -r[:-1] / r[-1]
+    return x if np.all(g @ x >= h - 1e-9 * (1 + np.abs(h))) else None
+
+
+@dataclass
+class _Constraints:
+    """Accumulated cuts ``n_i · Δ(t_i) >= rhs_i`` with the obstacle of each."""
+
+    t: list = field(default_factory=list)
+    n: list = field(default_factory=list)
+    rhs: list = field(default_factory=list)
+    owner: list = field(default_factory=list)
+
+    def add(self, t, n, rhs, owner) -> None:
+        self.t.extend(t)
+        self.n.extend(n)
+        self.rhs.extend(rhs)
+        self.owner.extend(owner)
+
+    def arrays(self):
+        return np.array(self.t), np.array(self.n).reshape(-1, 3), np.array(self.rhs)
+
+
+def _solve(spline: OffsetSpline, cons: _Constraints) -> np.ndarray | None:
+    """The smallest offset control vectors (J, 3) meeting every cut, or None."""
+    t, n, rhs = cons.arrays()
+    z = spline.basis_null  # (J, r)
+    if z.shape[1] == 0:
+        return None
+    bz = spline.basis(t) @ z  # (M, r)
+    g = (bz[:, :, None] * n[:, None, :]).reshape(len(t), -1)  # rows act on y (r, 3)
+    y = least_distance(g, rhs)
+    return None if y is None else z @ y.reshape(z.shape[1], 3)
+
+
+# ----------------------------------------------------------------------------- close poses
+def _close_poses(
+    motion: RationalMotion, dm: DistanceModel, radius: float, reach: float, step: float
+):
+    """Poses of `motion` with a (body part, obstacle part) pair closer than `reach`.
+
+    Each knot interval is sampled coarsely, and densely (spacing ``step / V``, V its proven
+    speed bound) only between coarse samples whose Lipschitz bound lets the distance dip
+    below `reach`. Returns times (M,), distances (M,), directions (M, 3) and obstacle
+    parts (M,) of the close pairs.
+    """
+    out_t, out_d, out_n, out_o = [], [], [], []
+    knots = motion.knots
+    coarse = 16.0 * step
+    cutoff = reach + coarse
+    for a, b in zip(knots[:-1], knots[1:], strict=True):
+        v = max(motion.speed_bound(a, b, radius), 1e-300)
+        nc = max(2, math.ceil(v * (b - a) / coarse) + 1)
+        tc = np.linspace(a, b, nc)
+        dc, _ = dm.to_obstacles(*motion.pose(tc), cutoff=cutoff)
+        m = dc.min(axis=(1, 2))
+        dt = tc[1] - tc[0]
+        dip = 0.5 * (m[:-1] + m[1:] - v * dt)
+        for i in np.flatnonzero(dip < reach):
+            nf = max(2, math.ceil(v * dt / step) + 1)
+            tf = np.linspace(tc[i], tc[i + 1], nf)
+            d, n = dm.to_obstacles(*motion.pose(tf), cutoff=cutoff)
+            ti, bi, oi = np.nonzero((d < reach) & np.isfinite(n[..., 0]))
+            out_t.append(tf[ti])
+            out_d.append(d[ti, bi, oi])
+            out_n.append(n[ti, bi, oi])
+            out_o.append(oi)
+    if not out_t:
+        return np.empty(0), np.empty(0), np.empty((0, 3)), np.empty(0, dtype=np.int64)
+    return (
+        np.concatenate(out_t),
+        np.concatenate(out_d),
+        np.concatenate(out_n),
+        np.concatenate(out_o),
+    )
+
+
+def _refine(
+    spline: OffsetSpline, anchors: np.ndarray, times: np.ndarray, factor: int
+) -> OffsetSpline | None:
+    """More knots between the anchors that bound `times`: each such interval gets
+    ``factor`` times as many (at least :data:`INITIAL_KNOTS`), evenly spaced."""
+    interior = spline.interior()
+    k = np.clip(np.searchsorted(anchors, times, side="right") - 1, 0, anchors.size - 2)
+    new = [interior]
+    grew = False
+    for i in np.unique(k):
+        a, b = anchors[i], anchors[i + 1]
+        have = int(np.sum((interior > a) & (interior < b) & ~np.isin(interior, anchors)))
+        want = max(INITIAL_KNOTS, factor * (have + 1) - 1)
+        if have >= MAX_KNOTS or want <= have:
+            continue
+        grew = True
+        inside = interior[(interior > a) & (interior < b)]
+        new = [interior[(interior <= a) | (interior >= b)], np.linspace(a, b, want + 2)[1:-1]]
+        new.append(inside[np.isin(inside, anchors)])
+        interior = np.unique(np.concatenate(new))
+    if not grew:
+        return None
+    return OffsetSpline.on(interior, (spline.knots[0], spline.knots[-1]), anchors)
+
+
+# ----------------------------------------------------------------------------- the repair
+def _moved(motion, new, spline, delta, anchors) -> Moved:
+    norms = np.linalg.norm(delta, axis=1) if delta is not None else np.zeros(0)
+    scale = 1.0 + np.abs(motion.pose(anchors)[1]).max()
+    live = norms > 1e-12 * scale
+    t = np.linspace(*motion.domain, 4001)
+    dev = 0.0
+    kdev = 0.0
+    if delta is not None:
+        dev = float(np.linalg.norm(spline.basis(t) @ delta, axis=1).max())
+        kt = motion.keyframe_times
+        if kt.size:
+            kdev = float(np.linalg.norm(new.pose(kt)[1] - motion.pose(kt)[1], axis=1).max())
+    return Moved(
+        control_times=spline.greville()[live] if delta is not None else np.empty(0),
+        displacements=delta[live] if delta is not None else np.empty((0, 3)),
+        keyframes=(),
+        keyframe_deviation=kdev,
+        max_deviation=dev,
+        deviation_bound=float(norms.max()) if norms.size else 0.0,
+        knots=spline.knots if spline is not None else np.empty(0),
+    )
+
+
+def repair(
+    motion: RationalMotion,
+    body: Shape,
+    obstacles: Any,
+    *,
+    tolerance: float = 1e-3,
+    clearance: float = 0.0,
+    max_iterations: int = 12,
+    **options: Any,
+) -> Repair:
+    """Move a rational motion off the obstacles, keeping its rotation and keyframes.
+
+    Args:
+        motion: a :class:`RationalMotion` with a known preimage (interpolated, Hermite,
+            fitted or from a preimage).
+        body: a shape in body coordinates.
+        obstacles: shapes in world coordinates.
+        tolerance: a length: the width of the certified clearance bracket, and the
+            resolution of the search for close poses.
+        clearance: the minimum distance the result keeps from every obstacle, proven.
+        max_iterations: certify-and-move rounds before giving up.
+        options: ``max_depth``, ``max_nodes``, ``threads``, ``device`` for the certifier.
+
+    Returns:
+        A :class:`Repair` whose motion is certified ``free`` with
+        ``clearance.lower >= clearance``.
+
+    Raises:
+        RepairError: bad arguments (negative clearance, a motion that is not rational or
+            has no preimage); a keyframe pose inside an obstacle or closer to it than
+            `clearance` (the obstacle is named); or no repair found within
+            `max_iterations` (the obstacles still in the way are named).
+    """
+    start = time.perf_counter()
+    motion, body, obst, tol, c = _check(motion, body, obstacles, tolerance, clearance)
+    if (
+        isinstance(max_iterations, bool)
+        or not isinstance(max_iterations, int)
+        or max_iterations < 1
+    ):
+        raise RepairError(
+            f"Expected `max_iterations` to be a positive integer, got {max_iterations!r}."
+        )
+    cert_opts = {
+        k: v for k, v in options.items() if k in ("max_depth", "max_nodes", "threads", "device")
+    }
+    if set(options) - set(cert_opts):
+        raise TypeError(f"Unexpected keyword argument(s) {sorted(set(options) - set(cert_opts))}.")
+    dm = DistanceModel([body], obst)
+    anchors = _anchors(motion)
+
+    def proven(m) -> tuple[bool, Clearance, Certificate | None]:
+        cl = certified_clearance(m, body, obst, tolerance=tol, **cert_opts)
+        if not (cl.lower >= c):
+            return False, cl, None
+        cert = certify(m, body, obst, tolerance=tol, **cert_opts)
+        return cert.verdict == "free", cl, cert
+
+    ok, cl, cert = proven(motion)
+    if ok:
+        return Repair(
+            motion,
+            cert,
+            cl,
+            _moved(motion, motion, None, None, anchors),
+            0,
+            time.perf_counter() - start,
+        )
+    _check_keyframes(motion, dm, anchors, c, tol, obst)
+    radius = body.bounding_radius
+    step = tol  # between grid poses the distance dips by at most `step` / 2 ... of speed V
+    target = c + 1.5 * tol + 0.5 * step
+    cons = _Constraints()
+    spline = OffsetSpline.on(anchors[1:-1], motion.domain, anchors)
+    delta = np.zeros((spline.size, 3))
+    current = motion
+    boost = 0.0
+    for it in range(1, max_iterations + 1):
+        now_t = np.empty(0)
+        t, d, n, o = _close_poses(current, dm, radius, target + boost + step, step)
+        if t.size:
+            if t.size > MAX_CONSTRAINTS:
+                keep = np.argsort(d)[:MAX_CONSTRAINTS]
+                t, d, n, o = t[keep], d[keep], n[keep], o[keep]
+            now = spline.basis(t) @ delta  # Δ_now at the close poses
+            rhs = target + boost - d + np.einsum("mi,mi->m", n, now)
+            cons.add(t, n, rhs, dm.obstacle_owner[o])
+            now_t = t
+        else:
+            # the grid saw no close pose but the certifier is not satisfied: ask for more
+            # room where the certifier's bracket is tightest
+            boost += tol
+        if not cons.t:
+            break
+        new_delta = None
+        factor = 2
+        trouble = np.array(cons.t) if now_t.size == 0 else now_t
+        spline_try = spline
+        if spline.interior().size == anchors.size - 2:  # no knots between keyframes yet
+            spline_try = _refine(spline, anchors, trouble, 1) or spline
+        while True:
+            new_delta = _solve(spline_try, cons)
+            if new_delta is not None:
+                break
+            spline_try = _refine(spline_try, anchors, np.array(cons.t), factor)
+            if spline_try is None:
+                break
+        if new_delta is None:
+            owners = sorted({int(x) for x in cons.owner})
+            raise RepairError(
+                f"Cannot repair: no offset between the keyframes keeps the body"
+                f" {c + tol:.3g} from obstacles{owners} (with up to {MAX_KNOTS} knots between two"
+                " keyframes); the way past them is too narrow or the keyframes too close.",
+                tuple(owners),
+            )
+        spline, delta = spline_try, new_delta
+        current = offset_motion(motion, spline, delta)
+        ok, cl, cert = proven(current)
+        if ok:
+            return Repair(
+                current,
+                cert,
+                cl,
+                _moved(motion, current, spline, delta, anchors),
+                it,
+                time.perf_counter() - start,
+            )
+    owners = sorted({int(x) for x in cons.owner}) or list(range(len(obst)))
+    raise RepairError(
+        f"Cannot repair within `max_iterations` = {max_iterations}: the certified clearance is"
+        f" {cl.lower:.3g} < {c:.3g} near t = {cl.time:.6g} (obstacles{owners}).",
+        tuple(owners),
+    )

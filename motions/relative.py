@@ -1,0 +1,124 @@
+"""Relative motion of two rational motions (DESIGN §4 "Two moving bodies").
+
+For rational motions ``M_a(t)`` and ``M_b(t)`` (weight-last homogeneous matrices
+``[[U, v], [0, u0]]`` with ``U Uᵀ = u0² I``), the inverse is, up to the scalar factor
+``u0³``, the polynomial matrix ``[[u0 Uᵀ, -Uᵀ v], [0, u0²]]`` of twice the degree, so the
+motion of body b in body a's frame, ``M_a(t)^{-1} M_b(t)``, is rational of degree
+``2 n_a + n_b``. Its Bézier form is computed exactly (products of Bernstein polynomials,
+DESIGN §2.3) on the union of both motions' breakpoints.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .bernstein import bezier_product_weights, de_casteljau_split
+from .errors import MotionError
+from .motion import DOMAIN_SLACK
+from .rational import RationalMotion
+
+__all__ = ["inverse_control", "relative_motion", "restrict_control"]
+
+
+def inverse_control(ctrl: np.ndarray) -> np.ndarray:
+    """Control matrices of ``[[w Aᵀ, -Aᵀ b], [0, w²]]`` from those of ``[[A, b], [0, w]]``.
+
+    Args:
+        ctrl: (S, n+1, 4, 4) control matrices of a rational motion (weight last).
+
+    Returns:
+        (S, 2n+1, 4, 4): per segment the Bézier form of ``w³ M^{-1}`` (``A Aᵀ = w² I``),
+        which has the same Cartesian meaning as the inverse motion.
+    """
+    c = np.asarray(ctrl, dtype=float)
+    n = c.shape[1] - 1
+    k = bezier_product_weights(n, n)  # (n+1, n+1, 2n+1)
+    a, b, w = c[:, :, :3, :3], c[:, :, :3, 3], c[:, :, 3, 3]
+    out = np.zeros((c.shape[0], 2 * n + 1, 4, 4))
+    out[:, :, :3, :3] = np.einsum("pqr,sp,sqji->srij", k, w, a)
+    out[:, :, :3, 3] = -np.einsum("pqr,spji,sqj->sri", k, a, b)
+    out[:, :, 3, 3] = np.einsum("pqr,sp,sq->sr", k, w, w)
+    return out
+
+
+def restrict_control(breaks: np.ndarray, ctrl: np.ndarray, new_breaks: np.ndarray) -> np.ndarray:
+    """Bézier pieces of a piecewise polynomial on a refinement of its breakpoints.
+
+    Args:
+        breaks: (S+1,) breakpoints of the pieces.
+        ctrl: (S, n+1, ...) Bézier coefficients per segment.
+        new_breaks: (P+1,) breakpoints containing `breaks` (same ends).
+
+    Returns:
+        (P, n+1, ...): the pieces on each interval of `new_breaks` (de Casteljau, exact up
+        to round-off; intervals that are whole segments are copied).
+    """
+    br = np.asarray(breaks, dtype=float)
+    nb = np.asarray(new_breaks, dtype=float)
+    c = np.asarray(ctrl, dtype=float)
+    mid = 0.5 * (nb[:-1] + nb[1:])
+    s = np.clip(np.searchsorted(br, mid, side="right") - 1, 0, br.size - 2)
+    h = br[s + 1] - br[s]
+    u0 = np.clip((nb[:-1] - br[s]) / h, 0.0, 1.0)
+    u1 = np.clip((nb[1:] - br[s]) / h, 0.0, 1.0)
+    whole = (nb[:-1] == br[s]) & (nb[1:] == br[s + 1])
+    u0 = np.where(whole, 0.0, u0)
+    u1 = np.where(whole, 1.0, u1)
+    left, _ = de_casteljau_split(c[s], u1, axis=1)
+    out = np.where(
+        (u1 == 1.0).reshape((-1,) + (1,) * (c.ndim - 1)), c[s], left
+    )  # a split at 1 is the piece itself
+    frac = np.divide(u0, u1, out=np.zeros_like(u0), where=u1 > 0)
+    _, right = de_casteljau_split(out, frac, axis=1)
+    return np.where((u0 == 0.0).reshape((-1,) + (1,) * (c.ndim - 1)), out, right)
+
+
+def _union_breaks(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Sorted union of two breakpoint vectors on one domain; breakpoints of `b` closer
+    than the domain slack to one of `a` are taken as that one (no sliver intervals)."""
+    span = a[-1] - a[0]
+    out = list(a)
+    for x in b[1:-1]:
+        if np.min(np.abs(a - x)) > DOMAIN_SLACK * span:
+            out.append(x)
+    return np.unique(np.asarray(out))
+
+
+def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
+    """Motion of body b in the moving frame of body a: ``M_a(t)^{-1} M_b(t)``.
+
+    Rational of degree ``2 n_a + n_b`` on the union of both motions' breakpoints, built
+    exactly from Bernstein products (DESIGN §4 "Two moving bodies"). Its matrix at t is
+    ``inv(a.matrix(t)) @ b.matrix(t)``; a point fixed in body b is at
+    ``relative.transform(x, t)`` in body a's coordinates.
+
+    Args:
+        a, b: rational motions on the same domain.
+
+    Raises:
+        TypeError: if a motion is not a :class:`RationalMotion`.
+        MotionError: if the domains differ.
+    """
+    for name, m in (("a", a), ("b", b)):
+        if not isinstance(m, RationalMotion):
+            raise TypeError(
+                f"Expected `{name}` to be a motions.RationalMotion, got"
+                f" {getattr(m, 'scheme', type(m).__name__)!r} ({type(m).__name__})."
+            )
+    (a0, a1), (b0, b1) = a.domain, b.domain
+    slack = DOMAIN_SLACK * max(a1 - a0, b1 - b0)
+    if abs(a0 - b0) > slack or abs(a1 - b1) > slack:
+        raise MotionError(
+            f"Expected `a` and `b` on the same domain, got [{a0!r}, {a1!r}] and [{b0!r}, {b1!r}]."
+        )
+    br_a, ca = a.bezier_form()
+    br_b, cb = b.bezier_form()
+    br_b = br_b.copy()
+    br_b[0], br_b[-1] = br_a[0], br_a[-1]
+    breaks = _union_breaks(br_a, br_b)
+    inv = inverse_control(restrict_control(br_a, ca, breaks))
+    pb = restrict_control(br_b, cb, breaks)
+    w = bezier_product_weights(inv.shape[1] - 1, pb.shape[1] - 1)
+    ctrl = np.einsum("pqr,spik,sqkj->srij", w, inv, pb)
+    kt = np.union1d(a.keyframe_times, b.keyframe_times)
+    return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt)
