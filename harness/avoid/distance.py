@@ -82,25 +82,27 @@ class DistanceModel:
             distance is 0 or beyond the cutoff).
         """
         m, data = self.model, self.data
-        bids, oids = self.moving_ids[0], self.obstacle_ids
+        pairs = [(go, gb) for gb in self.moving_ids[0] for go in self.obstacle_ids]
         quats = quat_from_matrix(rotations)
-        d = np.empty((len(positions), len(bids), len(oids)))
-        n = np.full(d.shape + (3,), np.nan)
-        ft = np.zeros(6)
-        for t in range(len(positions)):
+        count = len(positions)
+        d = np.empty((count, len(pairs)))
+        ft = np.zeros((count, len(pairs), 6))
+        dist = mujoco.mj_geomDistance
+        for t in range(count):
             data.mocap_pos[0] = positions[t]
             data.mocap_quat[0] = quats[t]
             mujoco.mj_kinematics(m, data)
-            for a, gb in enumerate(bids):
-                for o, go in enumerate(oids):
-                    # obstacle first: fromto runs from the obstacle to the body, and
-                    # to - from = distance * (unit normal out of the obstacle)
-                    dist = mujoco.mj_geomDistance(m, data, go, gb, cutoff, ft)
-                    d[t, a, o] = dist
-                    if dist != 0.0 and dist < cutoff:
-                        n[t, a, o] = (ft[3:] - ft[:3]) / dist
-        nn = np.linalg.norm(n, axis=-1, keepdims=True)
-        return d, n / nn
+            row, frow = d[t], ft[t]
+            for k, (go, gb) in enumerate(pairs):
+                # obstacle first: fromto runs from the obstacle to the body, and
+                # to - from = distance * (unit normal out of the obstacle)
+                row[k] = dist(m, data, go, gb, cutoff, frow[k])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            n = (ft[..., 3:] - ft[..., :3]) / d[..., None]
+            n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+        n[(d == 0.0) | (d >= cutoff)] = np.nan
+        shape = (count, len(self.moving_ids[0]), len(self.obstacle_ids))
+        return d.reshape(shape), n.reshape(shape + (3,))
 
     def between(
         self,

@@ -46,6 +46,8 @@ INITIAL_KNOTS = 3
 """Knots first inserted between two keyframes that bound a close pose."""
 MAX_KNOTS = 48
 """Most knots between two keyframes before the repair gives up there."""
+COARSE_STEPS = 64.0
+"""The coarse grid's spacing, in dense steps."""
 MAX_CONSTRAINTS = 4000
 """Close poses kept in the programme (the closest first, per iteration)."""
 
@@ -237,44 +239,56 @@ def _solve(spline: OffsetSpline, cons: _Constraints) -> np.ndarray | None:
 
 # ----------------------------------------------------------------------------- close poses
 def _close_poses(
-    motion: RationalMotion, dm: DistanceModel, radius: float, reach: float, step: float
+    motion: RationalMotion,
+    dm: DistanceModel,
+    radius: float,
+    reach: float,
+    step: float,
+    witness: float,
 ):
     """Poses of `motion` with a (body part, obstacle part) pair closer than `reach`.
 
-    Each knot interval is sampled coarsely, and densely (spacing ``step / V``, V its proven
-    speed bound) only between coarse samples whose Lipschitz bound lets the distance dip
-    below `reach`. Returns times (M,), distances (M,), directions (M, 3) and obstacle
-    parts (M,) of the close pairs.
+    The poses within 8 steps of `witness` (the certifier's closest time) are always
+    examined.
+
+    A coarse grid over the domain, refined by quarters (down to spacing ``step / V``, V
+    the motion's proven speed bound for points within `radius`) only between samples
+    whose Lipschitz bound lets the distance dip below `reach`. Returns times (M,),
+    distances (M,), directions (M, 3) and obstacle parts (M,) of the close pairs.
     """
-    out_t, out_d, out_n, out_o = [], [], [], []
-    knots = motion.knots
-    coarse = 16.0 * step
-    cutoff = reach + coarse
-    for a, b in zip(knots[:-1], knots[1:], strict=True):
-        v = max(motion.speed_bound(a, b, radius), 1e-300)
-        nc = max(2, math.ceil(v * (b - a) / coarse) + 1)
-        tc = np.linspace(a, b, nc)
-        dc, _ = dm.to_obstacles(*motion.pose(tc), cutoff=cutoff)
-        m = dc.min(axis=(1, 2))
-        dt = tc[1] - tc[0]
-        dip = 0.5 * (m[:-1] + m[1:] - v * dt)
-        for i in np.flatnonzero(dip < reach):
-            nf = max(2, math.ceil(v * dt / step) + 1)
-            tf = np.linspace(tc[i], tc[i + 1], nf)
-            d, n = dm.to_obstacles(*motion.pose(tf), cutoff=cutoff)
-            ti, bi, oi = np.nonzero((d < reach) & np.isfinite(n[..., 0]))
-            out_t.append(tf[ti])
-            out_d.append(d[ti, bi, oi])
-            out_n.append(n[ti, bi, oi])
-            out_o.append(oi)
-    if not out_t:
-        return np.empty(0), np.empty(0), np.empty((0, 3)), np.empty(0, dtype=np.int64)
-    return (
-        np.concatenate(out_t),
-        np.concatenate(out_d),
-        np.concatenate(out_n),
-        np.concatenate(out_o),
-    )
+    t0, t1 = motion.domain
+    v = max(motion.speed_bound(t0, t1, radius), 1e-300)
+    h = COARSE_STEPS * step / v
+    cutoff = reach + COARSE_STEPS * step
+    ts = np.linspace(t0, t1, max(2, math.ceil((t1 - t0) / h) + 1))
+    h = ts[1] - ts[0]
+    found = []
+
+    def evaluate(tt):
+        d, n = dm.to_obstacles(*motion.pose(tt), cutoff=cutoff)
+        ti, bi, oi = np.nonzero((d < reach) & np.isfinite(n[..., 0]))
+        found.append((tt[ti], d[ti, bi, oi], n[ti, bi, oi], oi))
+        return d.min(axis=(1, 2))
+
+    evaluate(np.clip(witness + (step / v) * np.arange(-8, 9), t0, t1))
+    m = evaluate(ts)
+    left, right, ml, mr = ts[:-1], ts[1:], m[:-1], m[1:]
+    while True:
+        # refine where the distance may dip below `reach`, except deep inside a close
+        # stretch (both ends deeper than the dip could matter): those ends are cuts already
+        live = (0.5 * (ml + mr - v * h) < reach) & (np.maximum(ml, mr) >= reach - 0.5 * v * h)
+        left, right, ml, mr = left[live], right[live], ml[live], mr[live]
+        if not left.size or h * v <= step * (1 + 1e-9):
+            break
+        h = h / 4
+        mids = left[:, None] + h * np.arange(1, 4)[None, :]  # (I, 3)
+        mm = evaluate(mids.ravel()).reshape(-1, 3)
+        pts = np.concatenate([left[:, None], mids, right[:, None]], axis=1)  # (I, 5)
+        vals = np.concatenate([ml[:, None], mm, mr[:, None]], axis=1)
+        left, right = pts[:, :-1].ravel(), pts[:, 1:].ravel()
+        ml, mr = vals[:, :-1].ravel(), vals[:, 1:].ravel()
+    t, d, n, o = (np.concatenate(x) for x in zip(*found, strict=True))
+    return t, d, n, o
 
 
 def _refine(
@@ -405,7 +419,7 @@ def repair(
     boost = 0.0
     for it in range(1, max_iterations + 1):
         now_t = np.empty(0)
-        t, d, n, o = _close_poses(current, dm, radius, target + boost + step, step)
+        t, d, n, o = _close_poses(current, dm, radius, target + boost + step, step, cl.time)
         if t.size:
             if t.size > MAX_CONSTRAINTS:
                 keep = np.argsort(d)[:MAX_CONSTRAINTS]
