@@ -2,6 +2,7 @@
 the MuJoCo driver, the benchmark runner, reports and the CLI."""
 
 # No import side effects: harness.render chooses the OpenGL backend when it draws.
+from .avoid import Moved, PairError, Repair, RepairError, certify_pair, repair
 from .certification import (
     BOUNDS,
     Certificate,
@@ -38,7 +39,11 @@ __all__ = [
     "DegenerateMeshError",
     "HarnessError",
     "InvalidMocapBody",
+    "Moved",
     "NoSpeedBoundError",
+    "PairError",
+    "Repair",
+    "RepairError",
     "SceneError",
     "ShapeError",
     "Sphere",
@@ -47,12 +52,14 @@ __all__ = [
     "body_from_model",
     "certify",
     "certify_many",
+    "certify_pair",
     "clearance",
     "clearance_many",
     "ground_truth",
     "obstacles_from_model",
     "physics_smoothness",
     "render",
+    "repair",
     "simulate",
     "swept_aabbs",
 ]

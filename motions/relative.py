@@ -35,9 +35,13 @@ def inverse_control(ctrl: np.ndarray) -> np.ndarray:
     k = bezier_product_weights(n, n)  # (n+1, n+1, 2n+1)
     a, b, w = c[:, :, :3, :3], c[:, :, :3, 3], c[:, :, 3, 3]
     out = np.zeros((c.shape[0], 2 * n + 1, 4, 4))
-    out[:, :, :3, :3] = np.einsum("pqr,sp,sqji->srij", k, w, a)
-    out[:, :, :3, 3] = -np.einsum("pqr,spji,sqj->sri", k, a, b)
-    out[:, :, 3, 3] = np.einsum("pqr,sp,sq->sr", k, w, w)
+    at = np.swapaxes(a, -1, -2)
+    pq = ([1, 2], [0, 1])  # contract both coefficient indices against the product weights
+    prod_a = w[:, :, None, None, None] * at[:, None]  # (S, P, Q, 3, 3)
+    out[:, :, :3, :3] = np.tensordot(prod_a, k, pq).transpose(0, 3, 1, 2)
+    prod_b = (at[:, :, None] @ b[:, None, :, :, None])[..., 0]  # (S, P, Q, 3)
+    out[:, :, :3, 3] = -np.tensordot(prod_b, k, pq).transpose(0, 2, 1)
+    out[:, :, 3, 3] = np.tensordot(w[:, :, None] * w[:, None, :], k, pq)
     return out
 
 
@@ -119,6 +123,7 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     inv = inverse_control(restrict_control(br_a, ca, breaks))
     pb = restrict_control(br_b, cb, breaks)
     w = bezier_product_weights(inv.shape[1] - 1, pb.shape[1] - 1)
-    ctrl = np.einsum("pqr,spik,sqkj->srij", w, inv, pb)
+    prods = inv[:, :, None] @ pb[:, None, :]  # (S, P, Q, 4, 4): every pair of coefficients
+    ctrl = np.tensordot(prods, w, axes=([1, 2], [0, 1])).transpose(0, 3, 1, 2)
     kt = np.union1d(a.keyframe_times, b.keyframe_times)
     return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt)

@@ -116,14 +116,12 @@ class DistanceModel:
         (T, 3) each (minimum over their part pairs)."""
         m, data = self.model, self.data
         qa, qb = quat_from_matrix(rot_a), quat_from_matrix(rot_b)
+        pairs = [(ga, gb) for ga in self.moving_ids[0] for gb in self.moving_ids[1]]
+        dist = mujoco.mj_geomDistance
         out = np.empty(len(pos_a))
         for t in range(len(pos_a)):
             data.mocap_pos[0], data.mocap_quat[0] = pos_a[t], qa[t]
             data.mocap_pos[1], data.mocap_quat[1] = pos_b[t], qb[t]
             mujoco.mj_kinematics(m, data)
-            out[t] = min(
-                mujoco.mj_geomDistance(m, data, ga, gb, cutoff, None)
-                for ga in self.moving_ids[0]
-                for gb in self.moving_ids[1]
-            )
+            out[t] = min([dist(m, data, ga, gb, cutoff, None) for ga, gb in pairs])
         return out
