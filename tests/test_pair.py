@@ -135,7 +135,7 @@ def test_certify_pair_bad_input():
     a, b = pair_motions(rng)
     box = harness.Box([0.1, 0.1, 0.1])
     slerp = motions.build("slerp", *random_keyframes(rng, 6), a.keyframe_times)
-    with pytest.raises(PairError, match="`motion_b`.*rational"):
+    with pytest.raises(PairError, match=r"`motion_b`.*rational"):
         certify_pair(a, box, slerp, box)
     with pytest.raises(TypeError, match="`motion_a`"):
         certify_pair("a", box, b, box)
