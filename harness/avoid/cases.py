@@ -20,7 +20,7 @@ from ..shapes import Shape
 from ..workloads import random_keyframes, random_primitive
 from .distance import DistanceModel
 
-__all__ = ["AvoidCase", "colliding_cases"]
+__all__ = ["AvoidCase", "colliding_cases", "placed_obstacle"]
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ class AvoidCase:
         return self.keyframe_clearance >= clearance + tolerance
 
 
-def _placed(body: Shape, motion, t: float, gap: float, rng, scale: float) -> Shape:
+def placed_obstacle(body: Shape, motion, t: float, gap: float, rng, scale: float) -> Shape:
     """An obstacle whose extreme point towards the body pose at `t` sits `gap` outside the
     body's support plane along a random direction (negative: that deep inside)."""
     r, p = motion.pose(t)
@@ -93,12 +93,12 @@ def colliding_cases(
             i = int(rng.integers(0, kt.size - 1))
             t = float(kt[i] + rng.uniform(0.25, 0.75) * (kt[i + 1] - kt[i]))
         depth = 10 ** rng.uniform(-3, -1)
-        obst = [_placed(body, m, t, -depth, rng, rng.uniform(0.5, 1.2))]
+        obst = [placed_obstacle(body, m, t, -depth, rng, rng.uniform(0.5, 1.2))]
         for _ in range(int(rng.integers(1, max_obstacles + 1)) - 1):
             i = int(rng.integers(0, kt.size - 1))
             t2 = float(kt[i] + rng.uniform(0.25, 0.75) * (kt[i + 1] - kt[i]))
             gap = rng.uniform(-0.05, 0.1)
-            obst.append(_placed(body, m, t2, gap, rng, rng.uniform(0.3, 1.0)))
+            obst.append(placed_obstacle(body, m, t2, gap, rng, rng.uniform(0.3, 1.0)))
         dm = DistanceModel([body], obst)
         d, _ = dm.to_obstacles(*m.pose(kt))
         kc = float(d.min()) if math.isfinite(d.min()) else -math.inf
