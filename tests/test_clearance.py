@@ -87,7 +87,9 @@ def test_bracket_contains_the_sampled_minimum(cases, brackets):
         d = exact(dm, m, t)
         k = int(np.argmin(d))
         lo, hi = t[max(k - 1, 0)], t[min(k + 1, SAMPLES - 1)]
-        ref = minimize_scalar(lambda s: exact(dm, m, s)[0], bounds=(lo, hi), method="bounded")
+        ref = minimize_scalar(
+            lambda s, dm=dm, m=m: exact(dm, m, s)[0], bounds=(lo, hi), method="bounded"
+        )
         s_ref = min(d[k], float(ref.fun))
         # lower: every exact distance is at least the minimum, which is at least `lower`
         assert cl.lower <= s_ref + EXACT
