@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import certify, scaling, simulate, workload
+from . import certify, repair, scaling, simulate, workload
 from .context import Context
 
 __all__ = ["STUDIES", "Context", "StudyKind", "run_case"]
@@ -46,6 +46,7 @@ STUDIES: dict[str, StudyKind] = {
     "workload": _kind(workload),
     "scaling": _kind(scaling),
     "simulate": _kind(simulate),
+    "repair": _kind(repair),
 }
 
 

@@ -1,0 +1,139 @@
+"""The ``repair`` study: certified repair of colliding motions against the sampling-based
+repair, on seeded colliding cases (:func:`harness.avoid.colliding_cases`).
+
+One row per (case, method, clearance). ``method`` is ``"certified"`` (:func:`harness.repair`)
+or ``"sampled"`` (via-keyframes at sampled collisions). Every result is judged by the
+proven ground truth (dense exact distances with the Lipschitz margin), not by the method
+that produced it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..fields import need, numbers
+from .context import Context
+
+KEYS = frozenset({"cases", "seed", "clearances", "tolerance", "samples", "truth_resolution"})
+
+
+def parse(st: dict, file: Path, where: str) -> dict:
+    out = {
+        "cases": int(st.get("cases", 220)),
+        "seed": int(st.get("seed", 0)),
+        "clearances": numbers(st.get("clearances", [0.0]), file, f"{where}.clearances", positive=False),
+        "tolerance": numbers(st.get("tolerance", 1e-3), file, f"{where}.tolerance")[0],
+        "samples": int(st.get("samples", 256)),
+        "truth_resolution": numbers(st.get("truth_resolution", 1e-3), file, f"{where}.truth_resolution")[0],
+    }
+    need(out["cases"] >= 1, file, f"{where}.cases", "expected >= 1")
+    need(out["samples"] >= 2, file, f"{where}.samples", "expected >= 2")
+    need(all(c >= 0 for c in out["clearances"]), file, f"{where}.clearances", "expected >= 0")
+    return out
+
+
+def expand(st: dict) -> list[dict]:
+    return [
+        dict(
+            scene="repair",
+            keyframes=f"repair-{st['seed']}",
+            scheme="rational",
+            bound="repair",
+            clearance=c,
+            tolerance=st["tolerance"],
+        )
+        for c in st["clearances"]
+    ]
+
+
+def _colliding(ctx: Context, st: dict):
+    from ...avoid import colliding_cases
+    from ...certification import certify_many
+
+    def make():
+        cases = colliding_cases(st["cases"], seed=st["seed"])
+        certs = certify_many(
+            [c.motion for c in cases], [c.body for c in cases], [c.obstacles for c in cases]
+        )
+        return [(i, c) for i, (c, k) in enumerate(zip(cases, certs, strict=True)) if k.verdict == "collision"]
+
+    return ctx.memo(("repair-cases", st["cases"], st["seed"]), make)
+
+
+def _deviation(a, b) -> float:
+    t = np.linspace(*a.domain, 2001)
+    return float(np.linalg.norm(b.pose(t)[1] - a.pose(t)[1], axis=1).max())
+
+
+def _truth(m, case, res: float) -> dict:
+    from ...truth import ground_truth
+
+    try:
+        g = ground_truth(m, case.body, case.obstacles, resolution=res)
+    except (ValueError, NotImplementedError) as e:
+        return {"truth": "unknown", "truth_note": str(e)[:200]}
+    return {"truth": g.verdict, "truth_clearance": g.clearance}
+
+
+def run(case: dict, st: dict, ctx: Context) -> list[dict]:
+    from ...avoid import RepairError, repair, sampled_repair
+
+    c, tol = case["clearance"], case["tolerance"]
+    base = {k: case[k] for k in ("study", "scene", "keyframes", "scheme", "bound", "clearance", "tolerance")}
+    base["seed"] = ctx.seed
+    rows = []
+    for idx, k in _colliding(ctx, st):
+        common = {
+            **base,
+            "case": idx,
+            "repairable": k.repairable(c, tol),
+            "on_keyframe": k.on_keyframe,
+            "obstacles": len(k.obstacles),
+            "placed_depth": k.depth,
+        }
+        w0, c0 = time.perf_counter(), time.process_time()
+        row = {**common, "method": "certified"}
+        try:
+            r = repair(k.motion, k.body, k.obstacles, tolerance=tol, clearance=c)
+            row.update(
+                status="repaired",
+                verdict=r.certificate.verdict,
+                certified_clearance=r.clearance.lower,
+                iterations=r.iterations,
+                max_deviation=r.moved.max_deviation,
+                moved_controls=int(r.moved.control_times.size),
+            )
+            result = r.motion
+        except RepairError as e:
+            row.update(status="refused", verdict="n/a", reason=str(e)[:200], iterations=math.nan)
+            result = None
+        row["seconds"], row["cpu_seconds"] = time.perf_counter() - w0, time.process_time() - c0
+        if result is not None:
+            row.update(_truth(result, k, st["truth_resolution"]))
+            row["still_collides"] = row["truth"] == "collision"
+            row["below_clearance"] = bool(row.get("truth_clearance", math.inf) < c - st["truth_resolution"])
+        rows.append(row)
+        w0, c0 = time.perf_counter(), time.process_time()
+        s = sampled_repair(k.motion, k.body, k.obstacles, clearance=c, samples=st["samples"])
+        row = {
+            **common,
+            "method": "sampled",
+            "status": "repaired" if s.sampled_free else "refused",
+            "verdict": "sampled-free" if s.sampled_free else "n/a",
+            "reason": s.reason,
+            "iterations": s.iterations,
+            "seconds": time.perf_counter() - w0,
+            "cpu_seconds": time.process_time() - c0,
+        }
+        if s.sampled_free:
+            row["max_deviation"] = _deviation(k.motion, s.motion)
+            row.update(_truth(s.motion, k, st["truth_resolution"]))
+            row["still_collides"] = row["truth"] == "collision"
+            tc = row.get("truth_clearance", math.nan)
+            row["below_clearance"] = bool(row["truth"] != "free" or tc < c - st["truth_resolution"])
+        rows.append(row)
+    return rows
