@@ -164,6 +164,7 @@ def write_report(run_dir: str | Path) -> Path:
     _scaling_section(doc, df, plt)
     _continuity_section(doc, df, plt)
     _physics_section(doc, df, plt)
+    __import__("harness.report_avoid").report_avoid.repair_section(doc, df, plt)
     _filmstrip(doc)
     (run / "report.md").write_text("\n".join(doc.md))
     body = "\n".join(doc.html)

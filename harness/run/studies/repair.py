@@ -25,10 +25,14 @@ def parse(st: dict, file: Path, where: str) -> dict:
     out = {
         "cases": int(st.get("cases", 220)),
         "seed": int(st.get("seed", 0)),
-        "clearances": numbers(st.get("clearances", [0.0]), file, f"{where}.clearances", positive=False),
+        "clearances": numbers(
+            st.get("clearances", [0.0]), file, f"{where}.clearances", positive=False
+        ),
         "tolerance": numbers(st.get("tolerance", 1e-3), file, f"{where}.tolerance")[0],
         "samples": int(st.get("samples", 256)),
-        "truth_resolution": numbers(st.get("truth_resolution", 1e-3), file, f"{where}.truth_resolution")[0],
+        "truth_resolution": numbers(
+            st.get("truth_resolution", 1e-3), file, f"{where}.truth_resolution"
+        )[0],
     }
     need(out["cases"] >= 1, file, f"{where}.cases", "expected >= 1")
     need(out["samples"] >= 2, file, f"{where}.samples", "expected >= 2")
@@ -59,7 +63,11 @@ def _colliding(ctx: Context, st: dict):
         certs = certify_many(
             [c.motion for c in cases], [c.body for c in cases], [c.obstacles for c in cases]
         )
-        return [(i, c) for i, (c, k) in enumerate(zip(cases, certs, strict=True)) if k.verdict == "collision"]
+        return [
+            (i, c)
+            for i, (c, k) in enumerate(zip(cases, certs, strict=True))
+            if k.verdict == "collision"
+        ]
 
     return ctx.memo(("repair-cases", st["cases"], st["seed"]), make)
 
@@ -83,7 +91,10 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     from ...avoid import RepairError, repair, sampled_repair
 
     c, tol = case["clearance"], case["tolerance"]
-    base = {k: case[k] for k in ("study", "scene", "keyframes", "scheme", "bound", "clearance", "tolerance")}
+    base = {
+        k: case[k]
+        for k in ("study", "scene", "keyframes", "scheme", "bound", "clearance", "tolerance")
+    }
     base["seed"] = ctx.seed
     rows = []
     for idx, k in _colliding(ctx, st):
@@ -115,7 +126,9 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
         if result is not None:
             row.update(_truth(result, k, st["truth_resolution"]))
             row["still_collides"] = row["truth"] == "collision"
-            row["below_clearance"] = bool(row.get("truth_clearance", math.inf) < c - st["truth_resolution"])
+            row["below_clearance"] = bool(
+                row.get("truth_clearance", math.inf) < c - st["truth_resolution"]
+            )
         rows.append(row)
         w0, c0 = time.perf_counter(), time.process_time()
         s = sampled_repair(k.motion, k.body, k.obstacles, clearance=c, samples=st["samples"])
