@@ -165,8 +165,13 @@ def simulate(
     dt: float | None = None,
     duration: float | None = None,
     record: bool = True,
+    partners: dict[str, Motion] | None = None,
 ) -> pd.DataFrame:
     """Drive the scene's mocap body with `motion` and step the simulation.
+
+    `partners` drives further mocap bodies by name (same simulation time). When the model
+    has other mocap bodies with geoms, the recorded frame has ``pair_distance``: the
+    signed distance (``mj_geomDistance``) from the driven body's geoms to theirs.
 
     Simulation time τ in [0, duration] drives ``motion(t_start + τ)``; ``dt=None`` uses the
     model's timestep; ``duration=None`` the motion's whole domain.
@@ -186,20 +191,25 @@ def simulate(
     model, data, mid = _prepared(sc, step)
     pos, quat = _poses(motion, tau)
     data.mocap_pos[mid], data.mocap_quat[mid] = pos[0], quat[0]
+    others = [
+        (scenes_pkg.mocap_id(model, name), *_poses(m, tau)) for name, m in (partners or {}).items()
+    ]
+    for oid, opos, oquat in others:
+        data.mocap_pos[oid], data.mocap_quat[oid] = opos[0], oquat[0]
     carried = [(c, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, c)) for c in sc.carried]
     if not record:
-        return _rollout(model, data, mid, tau, pos, quat, carried)
+        return _rollout(model, data, mid, tau, pos, quat, carried, others)
     mujoco.mj_forward(model, data)
     frame = {"time": tau}
     for k, a in enumerate("xyz"):
         frame[f"pos_{a}"] = pos[:, k]
     for k, a in enumerate("wxyz"):
         frame[f"quat_{a}"] = quat[:, k]
-    frame.update(_record(model, data, mid, pos, quat, carried, sc.mocap_body))
+    frame.update(_record(model, data, mid, pos, quat, carried, sc.mocap_body, others))
     return pd.DataFrame(frame)
 
 
-def _rollout_inputs(model, data, mid, pos, quat):
+def _rollout_inputs(model, data, mid, pos, quat, others=()):
     spec = mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
     full = mujoco.mjtState.mjSTATE_FULLPHYSICS
     state = np.empty(mujoco.mj_stateSize(model, full))
@@ -210,11 +220,14 @@ def _rollout_inputs(model, data, mid, pos, quat):
     ctrl[0, :, nm * 3 :] = data.mocap_quat.ravel()
     ctrl[0, :, 3 * mid : 3 * mid + 3] = pos
     ctrl[0, :, 3 * nm + 4 * mid : 3 * nm + 4 * mid + 4] = quat
+    for oid, opos, oquat in others:  # partner mocap bodies follow their own motions
+        ctrl[0, :, 3 * oid : 3 * oid + 3] = opos
+        ctrl[0, :, 3 * nm + 4 * oid : 3 * nm + 4 * oid + 4] = oquat
     return state[None], ctrl, int(spec)
 
 
-def _rollout(model, data, mid, tau, pos, quat, carried) -> pd.DataFrame:
-    state0, ctrl, spec = _rollout_inputs(model, data, mid, pos, quat)
+def _rollout(model, data, mid, tau, pos, quat, carried, others=()) -> pd.DataFrame:
+    state0, ctrl, spec = _rollout_inputs(model, data, mid, pos, quat, others)
     n = len(tau)
     state = np.empty((1, n, state0.shape[1]))
     # the inputs are built here with the exact shapes and dtypes rollout wants, so its
@@ -243,10 +256,17 @@ def _rollout(model, data, mid, tau, pos, quat, carried) -> pd.DataFrame:
     return pd.DataFrame(out, columns=_columns(tuple(c for c, _ in carried)), copy=False)
 
 
-def _record(model, data, mid, pos, quat, carried, mocap_body) -> dict:
-    mover = subtree_geoms(model, mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body))
+def _record(model, data, mid, pos, quat, carried, mocap_body, others=()) -> dict:
+    bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, mocap_body)
+    mover = subtree_geoms(model, bid)
     obst = obstacle_geoms(model)
+    # geoms of the other mocap bodies (two moving bodies: their distance is recorded)
+    pair = np.concatenate(
+        [subtree_geoms(model, b) for b in np.flatnonzero(model.body_mocapid >= 0) if b != bid]
+        or [np.empty(0, dtype=np.int64)]
+    ).astype(np.int64)
     n = len(pos)
+    pair_d = np.full(n, np.inf)
     mind = np.full(n, np.inf)
     ncon = np.zeros(n, dtype=np.int64)
     cols: dict[str, np.ndarray] = {}
@@ -268,6 +288,8 @@ def _record(model, data, mid, pos, quat, carried, mocap_body) -> dict:
             ]
         data.mocap_pos[mid] = pos[k]
         data.mocap_quat[mid] = quat[k]
+        for oid, opos, oquat in others:
+            data.mocap_pos[oid], data.mocap_quat[oid] = opos[k], oquat[k]
         mujoco.mj_step(model, data)
         # mj_step evaluated positions, contacts and accelerations at τ_k before integrating
         ncon[k] = data.ncon
@@ -276,6 +298,12 @@ def _record(model, data, mid, pos, quat, carried, mocap_body) -> dict:
                 mujoco.mj_geomDistance(model, data, int(a), int(o), 10.0, None)
                 for a in mover
                 for o in obst
+            )
+        if mover.size and pair.size:
+            pair_d[k] = min(
+                mujoco.mj_geomDistance(model, data, int(a), int(o), 10.0, None)
+                for a in mover
+                for o in pair
             )
         for name, _b, dof, _adr, mass, geoms in info:
             acc = np.array(data.qacc[dof : dof + 3])
@@ -288,7 +316,10 @@ def _record(model, data, mid, pos, quat, carried, mocap_body) -> dict:
                     mujoco.mj_contactForce(model, data, c, force6)
                     cf += abs(force6[0])
             cols[f"{name}_contact_force"][k] = cf
-    return {"min_distance": mind, "ncon": ncon, **cols}
+    out = {"min_distance": mind, "ncon": ncon, **cols}
+    if pair.size:
+        out["pair_distance"] = pair_d
+    return out
 
 
 # ----------------------------------------------------------------------------- metrics
