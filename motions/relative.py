@@ -65,16 +65,14 @@ def restrict_control(breaks: np.ndarray, ctrl: np.ndarray, new_breaks: np.ndarra
     h = br[s + 1] - br[s]
     u0 = np.clip((nb[:-1] - br[s]) / h, 0.0, 1.0)
     u1 = np.clip((nb[1:] - br[s]) / h, 0.0, 1.0)
-    whole = (nb[:-1] == br[s]) & (nb[1:] == br[s + 1])
-    u0 = np.where(whole, 0.0, u0)
-    u1 = np.where(whole, 1.0, u1)
-    left, _ = de_casteljau_split(c[s], u1, axis=1)
-    out = np.where(
-        (u1 == 1.0).reshape((-1,) + (1,) * (c.ndim - 1)), c[s], left
-    )  # a split at 1 is the piece itself
-    frac = np.divide(u0, u1, out=np.zeros_like(u0), where=u1 > 0)
-    _, right = de_casteljau_split(out, frac, axis=1)
-    return np.where((u0 == 0.0).reshape((-1,) + (1,) * (c.ndim - 1)), out, right)
+    out = c[s].copy()
+    part = np.flatnonzero(~((nb[:-1] == br[s]) & (nb[1:] == br[s + 1])))  # not whole segments
+    if part.size:
+        left, _ = de_casteljau_split(out[part], u1[part], axis=1)
+        frac = u0[part] / u1[part]  # u1 > u0 >= 0 for a proper sub-interval
+        _, right = de_casteljau_split(left, frac, axis=1)
+        out[part] = right
+    return out
 
 
 def _union_breaks(a: np.ndarray, b: np.ndarray) -> np.ndarray:
