@@ -20,9 +20,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-import harness  # noqa: E402
-from harness.avoid import certify_pair  # noqa: E402
-from motions.relative import relative_motion  # noqa: E402
+import harness
+from harness.avoid import certify_pair
+from motions.relative import relative_motion
 
 ROUNDS = 5
 
