@@ -410,7 +410,10 @@ def repair(
         )
     _check_keyframes(motion, dm, anchors, c, tol, obst)
     radius = body.bounding_radius
-    step = tol  # between grid poses the distance dips by at most `step` / 2 ... of speed V
+    # the search grid's points are `step` of body travel apart, so between two of them a
+    # distance dips by at most step / 2 below theirs: cuts ask for that much more, plus
+    # 1.5 tolerances so that a bracket of width `tol` proves the clearance
+    step = tol
     target = c + 1.5 * tol + 0.5 * step
     cons = _Constraints()
     spline = OffsetSpline.on(anchors[1:-1], motion.domain, anchors)
@@ -434,17 +437,14 @@ def repair(
             boost += tol
         if not cons.t:
             break
-        new_delta = None
-        factor = 2
-        trouble = np.array(cons.t) if now_t.size == 0 else now_t
-        spline_try = spline
-        if spline.interior().size == anchors.size - 2:  # no knots between keyframes yet
-            spline_try = _refine(spline, anchors, trouble, 1) or spline
+        # keyframe intervals with new trouble get their first knots; more when infeasible
+        spline_try = _refine(spline, anchors, now_t, 1) if now_t.size else None
+        spline_try = spline_try or spline
         while True:
             new_delta = _solve(spline_try, cons)
             if new_delta is not None:
                 break
-            spline_try = _refine(spline_try, anchors, np.array(cons.t), factor)
+            spline_try = _refine(spline_try, anchors, np.array(cons.t), 2)
             if spline_try is None:
                 break
         if new_delta is None:
