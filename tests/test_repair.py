@@ -158,3 +158,23 @@ def test_sampled_repair_claims_are_checked(colliding):
             *s.motion.pose(grid)
         )[0]
         assert d.min() >= 0
+
+
+def test_repair_study_rows(tmp_path):
+    """The `repair` study kind parses, expands and runs; its rows carry the truth."""
+    from pathlib import Path
+
+    from harness.errors import SuiteError
+    from harness.run.studies import STUDIES, Context
+
+    kind = STUDIES["repair"]
+    st = kind.parse({"cases": 4, "clearances": [0.0]}, Path("s.toml"), "study[0]")
+    (case,) = kind.expand(st)
+    rows = kind.run({**case, "study": "repair"}, st, Context(None, 0))
+    assert {r["method"] for r in rows} == {"certified", "sampled"}
+    for r in rows:
+        if r["method"] == "certified" and r["status"] == "repaired":
+            assert r["verdict"] == "free" and r["truth"] in ("free", "unknown")
+            assert not r["still_collides"]
+    with pytest.raises(SuiteError, match="clearances"):
+        kind.parse({"clearances": [-1.0]}, Path("s.toml"), "study[0]")
