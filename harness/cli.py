@@ -127,18 +127,55 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
 
 
 def _run(args) -> int:
-    from harness.report import headline, write_report
-    from harness.run import load_suite, run_suite
+    import shlex
 
-    suite = load_suite(args.suite)
-    out = (
-        Path(args.out)
-        if args.out
-        else Path("results") / f"{suite.name}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
-    )
+    from harness.report import headline, write_report
+    from harness.run import RunInterrupted, load_suite, run_suite
+
     if args.jobs < 1:
         raise UsageError(f"Expected `--jobs` >= 1, got {args.jobs}.")
-    df = run_suite(suite, out, seed=args.seed, jobs=args.jobs, progress=not args.quiet)
+    if args.seed is not None and args.seed < 0:
+        raise UsageError(f"Expected `--seed` to be an integer >= 0, got {args.seed}.")
+    suite = load_suite(args.suite)
+    scheduler = args.scheduler if args.scheduler is not None else suite.scheduler
+    if scheduler is not None and not scheduler.strip():
+        raise UsageError(
+            f"Expected `--scheduler` to be an address like tcp://host:8786, got {scheduler!r}."
+        )
+    if scheduler == "local":
+        scheduler = None
+    if scheduler is not None and args.jobs > 1:
+        raise UsageError(
+            f"`--jobs` starts local processes and `--scheduler` ({scheduler}) runs on a Dask"
+            " cluster: give one (`--scheduler local` ignores the suite's scheduler)."
+        )
+    if args.out:
+        out = Path(args.out)
+    else:
+        results = Path("results")
+        out = results / f"{suite.name}-{datetime.now().strftime('%Y%m%d-%H%M%S')}"
+        # load_suite allows only plain folder names; this holds whatever it allows
+        if not out.resolve().is_relative_to(results.resolve()):
+            raise UsageError(f"Suite name {suite.name!r} would write outside {results}/.")
+    resume = ["rsmbench", "run", args.suite, "--out", str(out)]
+    if args.seed is not None:
+        resume += ["--seed", str(args.seed)]
+    if args.scheduler is not None:
+        resume += ["--scheduler", args.scheduler]
+    if args.jobs > 1:
+        resume += ["--jobs", str(args.jobs)]
+    try:
+        df = run_suite(
+            suite, out, seed=args.seed, jobs=args.jobs, scheduler=scheduler, progress=not args.quiet
+        )
+    except KeyboardInterrupt as e:
+        done = f" ({e.done} of {e.total} cases done)" if isinstance(e, RunInterrupted) else ""
+        print(
+            f"rsmbench run: interrupted{done}; every finished case is kept in {out}."
+            f" Resume with: {shlex.join(resume)}",
+            file=sys.stderr,
+        )
+        return 130
     report = write_report(out)
     print(f"{len(df)} rows in {out / 'results.parquet'} (and results.csv, meta.json)")
     print(f"report: {report} and {out / 'report.html'}")
@@ -220,7 +257,14 @@ def parser() -> argparse.ArgumentParser:
         help="results folder (default results/SUITE-TIMESTAMP); an existing one is resumed",
     )
     r.add_argument("--seed", type=int, default=None, help="override the suite's seed")
-    r.add_argument("--jobs", type=int, default=1, help="worker processes")
+    r.add_argument("--jobs", type=int, default=1, help="local worker processes")
+    r.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run the cases on a Dask cluster: its scheduler's address (tcp://host:8786) or"
+        " scheduler JSON file; overrides the suite's `scheduler` ('local': run here)",
+    )
     r.add_argument("--quiet", action="store_true", help="no progress bar")
     rp = sub.add_parser("report", help="write report.md and report.html for a run folder")
     rp.add_argument("run_dir")
@@ -275,6 +319,9 @@ def main(argv: list[str] | None = None) -> int:
     except (HarnessError, SceneError, CompareError, FileNotFoundError, UsageError) as e:
         print(f"rsmbench {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print(f"rsmbench {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ import pytest
 
 from harness.compare import CompareError, compare
 from harness.errors import SuiteError
-from harness.run import TIMING_COLUMNS, expand, load_suite, run_suite
+from harness.run import PLACEMENT_COLUMNS, TIMING_COLUMNS, expand, load_suite, run_suite
 
 TINY = """
 [suite]
@@ -98,6 +98,28 @@ def test_smoke_suite_end_to_end(smoke_run):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert f"figures/{png.name}" in md
     assert (smoke_run / "report.html").read_text().startswith("<!doctype html>")
+
+
+@pytest.mark.slow
+def test_smoke_on_a_dask_cluster_equals_the_local_run(smoke_run, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as cluster:
+        out = tmp_path / "dask"
+        rsmbench(
+            "run", "smoke", "--out", str(out), "--quiet", "--scheduler", cluster.scheduler_address
+        )
+        workers = set(cluster.scheduler_info["workers"])
+    local = pd.read_parquet(smoke_run / "results.parquet")
+    remote = pd.read_parquet(out / "results.parquet")
+    skip = set(TIMING_COLUMNS) | set(PLACEMENT_COLUMNS)
+    cols = [c for c in local.columns if c not in skip and not c.endswith("seconds")]
+    pd.testing.assert_frame_equal(local[cols], remote[cols])
+    # every row names the worker that ran it and its host; both workers ran cases
+    assert set(remote["worker"]) == workers and remote["host"].notna().all()
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["legs"][-1]["executor"] == "dask" and set(meta["legs"][-1]["workers"]) == workers
 
 
 def test_compare_exit_codes(smoke_run, tmp_path):
@@ -214,7 +236,7 @@ def test_bad_suites(tmp_path):
     ):
         load_suite(bad)
     bad.write_text('[[study]]\nkind = "certify"\nscenes = ["kitchen"]\n')
-    with pytest.raises(SuiteError, match=r"valid: \['cube_keyframes'"):
+    with pytest.raises(SuiteError, match=r"registered scenes: \['cube_keyframes'"):
         load_suite(bad)
     bad.write_text('[[study]]\nkind = "certify"\nbounds = ["obb"]\n')
     with pytest.raises(SuiteError, match="bounds"):

@@ -1,66 +1,333 @@
-"""The results folder: the row journal, the atomic tables and ``meta.json``.
+"""The results folder: its lock, the case journal, the atomic tables and ``meta.json``.
 
-Rows are journalled as they finish (``rows.jsonl``, one fsync'd line each), so a killed
-run resumes without losing or duplicating a row; ``results.parquet`` and ``results.csv``
-are rewritten atomically.
+A finished case is journalled as one line of ``rows.jsonl`` (``{"case_id": ..., "rows":
+[...]}``), written and fsync'd in one append, so a killed run loses at most the case it
+was writing, which then runs again; no case is ever half there. ``results.parquet`` and
+``results.csv`` are written from the journal, in the suite's case order, through
+temporary files renamed into place, and streamed in batches so that a run of millions
+of rows never holds them all in memory.
 """
 
 from __future__ import annotations
 
+import errno
+import fcntl
 import json
+import math
 import os
 import platform
+import socket
 import subprocess
 import sys
+from collections.abc import Iterable
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..errors import SuiteError
+from ..errors import HarnessError, SuiteError
 
-__all__ = ["Journal", "atomic_json", "check_writable", "machine_meta"]
+__all__ = [
+    "Journal",
+    "JournalError",
+    "OutputLock",
+    "OutputLocked",
+    "RunError",
+    "atomic_json",
+    "check_writable",
+    "machine_meta",
+    "read_meta",
+]
+
+TABLE_BATCH_ROWS = 50_000  # rows per parquet row group / CSV write when tables are built
+
+
+class RunError(HarnessError):
+    """A run that cannot start or go on: its folder is locked or damaged, or its cluster
+    is gone."""
+
+
+class OutputLocked(RunError):
+    """Another run is writing the results folder."""
+
+
+class JournalError(RunError):
+    """The journal or ``meta.json`` of a results folder is damaged."""
+
+
+# ----------------------------------------------------------------------------- lock
+class OutputLock:
+    """An exclusive lock on a results folder while a run writes it (file ``.lock``).
+
+    It is an ``flock`` on the open file: the kernel drops it when the holding process
+    exits, however it dies, so a lock file left by a dead run never blocks the next one.
+    The file's text names the holder for the message a second run prints.
+    """
+
+    def __init__(self, folder: Path):
+        self.folder = Path(folder)
+        self.path = self.folder / ".lock"
+        self.fd: int | None = None
+
+    def acquire(self) -> None:
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as e:
+            holder = os.pread(fd, 1024, 0).decode(errors="replace").strip()
+            os.close(fd)
+            if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                raise OutputLocked(
+                    f"Output folder {str(self.folder)!r} is in use by another rsmbench run"
+                    f" ({holder or 'its pid is not written yet'}); wait for it to finish, or"
+                    " write to another --out folder."
+                ) from None
+            # a file system without locks: run unlocked, but say so
+            print(
+                f"rsmbench: warning: cannot lock {str(self.folder)!r} ({e}); do not start a"
+                " second run into it.",
+                file=sys.stderr,
+            )
+            return
+        text = (
+            f"pid {os.getpid()} on host {socket.gethostname()} since"
+            f" {datetime.now(UTC).isoformat(timespec='seconds')}"
+        )
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, text.encode(), 0)
+        self.fd = fd
+
+    def release(self) -> None:
+        # The file stays: removing it would let a run that opened it just before lock a
+        # file nobody else sees.
+        if self.fd is not None:
+            os.ftruncate(self.fd, 0)
+            os.close(self.fd)
+            self.fd = None
+
+    def __enter__(self) -> OutputLock:
+        self.acquire()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+# ----------------------------------------------------------------------------- journal
+# Value kinds seen in a column, as bits; the union over all rows picks the column type.
+_NULL, _NAN, _BOOL, _INT, _FLOAT, _STR, _OTHER = 1, 2, 4, 8, 16, 32, 64
+
+
+def _kind_bit(v) -> int:
+    if v is None:
+        return _NULL
+    if isinstance(v, bool | np.bool_):
+        return _BOOL
+    if isinstance(v, int | np.integer):
+        return _INT
+    if isinstance(v, float | np.floating):
+        return _NAN if math.isnan(v) else _FLOAT
+    if isinstance(v, str):
+        return _STR
+    return _OTHER
+
+
+def _columns(rows: list[dict]) -> dict[str, int]:
+    bits: dict[str, int] = {}
+    for r in rows:
+        for k, v in r.items():
+            bits[k] = bits.get(k, 0) | _kind_bit(v)
+    for k in bits:  # a column some rows lack is null there
+        if any(k not in r for r in rows):
+            bits[k] |= _NULL
+    return bits
+
+
+def _arrow_type(bits: int):
+    import pyarrow as pa
+
+    # as pandas did with the rows: NaN is a gap in a column of other kinds, and an int
+    # column with gaps is float
+    kinds = bits & ~(_NULL | _NAN)
+    if kinds == 0:
+        return pa.float64() if bits & _NAN else pa.null()
+    if kinds == _BOOL:
+        return pa.bool_()
+    if kinds == _INT and not bits & (_NULL | _NAN):
+        return pa.int64()
+    if kinds & ~(_INT | _FLOAT) == 0:
+        return pa.float64()
+    return pa.large_string()
+
+
+def _arrow_values(values: list, typ) -> list:
+    import pyarrow as pa
+
+    def null(v) -> bool:
+        return v is None or (isinstance(v, float) and math.isnan(v))
+
+    if typ == pa.float64():
+        return [None if null(v) else float(v) for v in values]
+    if typ == pa.large_string():
+        return [None if null(v) else v if isinstance(v, str) else str(v) for v in values]
+    if typ == pa.null():
+        return [None] * len(values)
+    return [None if null(v) else v for v in values]
 
 
 class Journal:
-    """Append-only JSON-lines journal of finished rows (fsync'd), plus atomic tables."""
+    """``rows.jsonl`` of a results folder: one line per finished case.
+
+    Attributes:
+        index: case id -> (byte offset, length) of its record.
+        columns: case id -> {column: value-kind bits} of its rows.
+        notes: what loading repaired (a cut last record, duplicate records).
+    """
 
     def __init__(self, folder: Path):
-        self.folder = folder
-        self.path = folder / "rows.jsonl"
+        self.folder = Path(folder)
+        self.path = self.folder / "rows.jsonl"
+        self.index: dict[str, tuple[int, int]] = {}
+        self.columns: dict[str, dict[str, int]] = {}
+        self.notes: list[str] = []
 
-    def load(self) -> list[dict]:
+    def load(self) -> set[str]:
+        """Read the journal; returns the ids of the finished cases.
+
+        A last line that is cut short or unreadable (the run was killed while writing
+        it) is removed, and its case runs again. A damaged line before the last is a
+        :class:`JournalError` that names it and says what to do.
+        """
+        self.index.clear()
+        self.columns.clear()
         if not self.path.exists():
-            return []
-        raw = self.path.read_bytes()
-        end = raw.rfind(b"\n")
-        if end + 1 != len(raw):  # a line cut short by a kill: drop it
-            with open(self.path, "r+b") as f:
-                f.truncate(end + 1)
-            raw = raw[: end + 1]
-        rows = []
-        for line in raw.splitlines():
-            if line.strip():
-                rows.append(json.loads(line))
-        return rows
+            return set()
+        size = self.path.stat().st_size
+        dup = 0
+        with open(self.path, "rb") as f:
+            offset, lineno = 0, 0
+            for line in f:
+                lineno += 1
+                last = offset + len(line) == size
+                rec = _record(line)
+                if isinstance(rec, str):  # what is wrong with the line
+                    if last:
+                        with open(self.path, "r+b") as g:
+                            g.truncate(offset)
+                        self.notes.append(
+                            f"dropped the cut last record of {self.path.name} (line {lineno});"
+                            " its case runs again"
+                        )
+                        break
+                    raise JournalError(
+                        f"{self.path}: line {lineno} is not a whole case record ({rec}). The"
+                        f" folder is damaged: delete line {lineno} to run that case again"
+                        " (every other finished case is kept), or run into a new --out folder."
+                    )
+                if rec is not None:
+                    cid = rec["case_id"]
+                    if cid in self.index:
+                        dup += 1
+                    else:
+                        self.index[cid] = (offset, len(line))
+                        self.columns[cid] = _columns(rec["rows"])
+                offset += len(line)
+        if dup:
+            self.notes.append(f"ignored {dup} duplicate record(s) in {self.path.name}")
+        return set(self.index)
 
-    def append(self, rows: list[dict]) -> None:
-        data = "".join(json.dumps(r, default=_json_default) + "\n" for r in rows)
-        with open(self.path, "a", encoding="utf-8") as f:
+    def append(self, case_id: str, rows: list[dict]) -> None:
+        """Journal one finished case: one line, one write, fsync'd."""
+        data = (
+            json.dumps({"case_id": case_id, "rows": rows}, default=_json_default) + "\n"
+        ).encode()
+        with open(self.path, "ab") as f:
+            offset = f.seek(0, os.SEEK_END)
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
+        self.index[case_id] = (offset, len(data))
+        self.columns[case_id] = _columns(rows)
 
-    def write_tables(self, rows: list[dict]) -> pd.DataFrame:
-        df = pd.DataFrame(rows)
-        for name, writer in (
-            ("results.parquet", lambda p: df.to_parquet(p, index=False)),
-            ("results.csv", lambda p: df.to_csv(p, index=False)),
-        ):
-            tmp = self.folder / f".{name}.tmp"
-            writer(tmp)
-            os.replace(tmp, self.folder / name)
-        return df
+    def rows(self, case_id: str, f) -> list[dict]:
+        offset, length = self.index[case_id]
+        f.seek(offset)
+        return json.loads(f.read(length))["rows"]
+
+    def write_tables(self, order: Iterable[str]) -> int:
+        """Write ``results.parquet`` and ``results.csv`` with the rows of the journalled
+        cases in `order` (case ids); returns the number of rows."""
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        ids = [c for c in order if c in self.index]
+        bits: dict[str, int] = {}
+        before = 0  # bits of a column first seen now: it was missing from the rows before
+        for cid in ids:
+            cols = self.columns[cid]
+            if not cols:  # a case without rows
+                continue
+            for k in bits.keys() - cols.keys():
+                bits[k] |= _NULL
+            for k, b in cols.items():
+                bits[k] = bits.get(k, before) | b
+            before = _NULL
+        tmp_p = self.folder / ".results.parquet.tmp"
+        tmp_c = self.folder / ".results.csv.tmp"
+        n = 0
+        if not bits:
+            pd.DataFrame().to_parquet(tmp_p, index=False)
+            pd.DataFrame().to_csv(tmp_c, index=False)
+        else:
+            schema = pa.schema([(k, _arrow_type(b)) for k, b in bits.items()])
+            with (
+                open(self.path, "rb") as src,
+                pq.ParquetWriter(tmp_p, schema) as pw,
+                open(tmp_c, "w", newline="", encoding="utf-8") as cw,
+            ):
+                batch: list[dict] = []
+
+                def flush() -> None:
+                    nonlocal n
+                    arrays = [
+                        pa.array(_arrow_values([r.get(f.name) for r in batch], f.type), f.type)
+                        for f in schema
+                    ]
+                    table = pa.Table.from_arrays(arrays, schema=schema)
+                    pw.write_table(table)
+                    table.to_pandas().to_csv(cw, header=n == 0, index=False)
+                    n += len(batch)
+                    batch.clear()
+
+                for cid in ids:
+                    batch.extend(self.rows(cid, src))
+                    if len(batch) >= TABLE_BATCH_ROWS:
+                        flush()
+                if batch:
+                    flush()
+        os.replace(tmp_p, self.folder / "results.parquet")
+        os.replace(tmp_c, self.folder / "results.csv")
+        return n
+
+
+def _record(line: bytes) -> dict | str | None:
+    """The case record on a journal line, None for a blank line, or what is wrong."""
+    if not line.endswith(b"\n"):
+        return "cut short: no line end"
+    if not line.strip():
+        return None
+    try:
+        rec = json.loads(line)
+    except ValueError as e:
+        return f"not JSON: {e}"
+    if not isinstance(rec, dict) or not isinstance(rec.get("case_id"), str):
+        return "no case_id"
+    if "rows" not in rec:
+        return "a row, not a case record: the folder was written by an older rsmbench"
+    if not isinstance(rec["rows"], list) or not all(isinstance(r, dict) for r in rec["rows"]):
+        return "rows is not a list of objects"
+    return rec
 
 
 def _json_default(x):
@@ -73,10 +340,36 @@ def _json_default(x):
     raise TypeError(f"not JSON serialisable: {type(x).__name__}")
 
 
+# ----------------------------------------------------------------------------- meta
 def atomic_json(path: Path, obj: dict) -> None:
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(json.dumps(obj, indent=2, default=_json_default))
     os.replace(tmp, path)
+
+
+def read_meta(folder: Path) -> dict | None:
+    """``meta.json`` of a results folder (None when there is none yet)."""
+    path = Path(folder) / "meta.json"
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError) as e:
+        raise JournalError(f"{path}: cannot read it ({e}).") from None
+    try:
+        meta = json.loads(text)
+    except ValueError as e:
+        meta, problem = None, f"not valid JSON ({e})"
+    else:
+        problem = "not a JSON object"
+    if not isinstance(meta, dict) or not isinstance(meta.get("suite_hash"), str):
+        raise JournalError(
+            f"{path} is damaged: {problem if not isinstance(meta, dict) else 'no suite_hash'}. It"
+            " is written atomically, so something else changed it. Run into a new --out"
+            " folder, or delete meta.json to resume: the journal's case ids still tie its"
+            " records to their suite and seed."
+        )
+    return meta
 
 
 def machine_meta() -> dict:

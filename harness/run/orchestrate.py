@@ -1,26 +1,70 @@
-"""Running a suite: expand it into cases, skip the journalled ones, run the rest (in this
-process or in worker processes) and write the results folder."""
+"""Running a suite: expand it into cases, skip the journalled ones, run the rest in this
+process, in local worker processes (``jobs``) or on a Dask cluster (``scheduler``), and
+write the results folder (DESIGN §6 "Scale-out").
+
+Cases travel in *units*: the cases of one study with equal ``group`` keys (the cases of
+one motion, the cases of one workload chunk), run one after another in one process so
+that they share its caches. The client journals every case as it arrives, so the rows
+do not depend on where or in which order the units ran.
+"""
 
 from __future__ import annotations
 
 import hashlib
 import json
+import os
 import resource
+import signal
+import socket
 import sys
+import threading
 import time
+import uuid
+from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 
 import pandas as pd
 
 from ..errors import SuiteError
-from .journal import Journal, atomic_json, check_writable, machine_meta
+from .journal import (
+    Journal,
+    JournalError,
+    OutputLock,
+    RunError,
+    atomic_json,
+    check_writable,
+    machine_meta,
+    read_meta,
+)
 from .studies import STUDIES, Context, run_case
 from .suite import Suite
 
-__all__ = ["expand", "run_suite"]
+__all__ = ["PLACEMENT_COLUMNS", "RunInterrupted", "expand", "run_suite", "units"]
+
+# Where a case ran: they differ between runs like the timings, so comparisons skip them.
+PLACEMENT_COLUMNS = ("host", "worker")
+TIMING_NOTE = (
+    "Timing and memory columns are per worker: measured inside the process named in column"
+    " `worker` (on the machine in column `host`), which ran one case at a time."
+)
+META_EVERY = 5.0  # seconds between meta.json updates: the wall time a killed run can lose
+POLL = 0.05  # seconds between looks at running units (and at Ctrl-C)
 
 
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped the run after the cases in progress; every finished case is
+    journalled and the same call (or command) resumes."""
+
+    def __init__(self, out: Path, done: int, total: int):
+        super().__init__(
+            f"interrupted: {done} of {total} cases are journalled in {str(out)!r}; run again"
+            " with the same folder to resume"
+        )
+        self.out, self.done, self.total = out, done, total
+
+
+# ----------------------------------------------------------------------------- cases
 def _case_id(params: dict) -> str:
     return hashlib.sha1(json.dumps(params, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
@@ -36,97 +80,417 @@ def expand(suite: Suite) -> list[dict]:
     return cases
 
 
+def units(cases: list[dict]) -> list[list[dict]]:
+    """The cases in units of work: per study, the cases with equal ``group`` keys, in the
+    order of their first case."""
+    out: dict[tuple, list[dict]] = {}
+    for c in cases:
+        group = STUDIES[c["study"]].group
+        key = (c["block"], group(c) if group else c["case_id"])
+        out.setdefault(key, []).append(c)
+    return list(out.values())
+
+
+# ----------------------------------------------------------------------------- run
 def run_suite(
-    suite: Suite, out: Path, *, seed: int | None = None, jobs: int = 1, progress: bool = True
+    suite: Suite,
+    out: Path,
+    *,
+    seed: int | None = None,
+    jobs: int = 1,
+    scheduler: str | None = None,
+    progress: bool = True,
 ) -> pd.DataFrame:
-    """Run (or resume) a suite into `out`; returns the results table."""
-    seed = suite.seed if seed is None else int(seed)
+    """Run (or resume) a suite into the folder `out`; returns the results table.
+
+    Args:
+        suite: from :func:`~harness.run.load_suite`.
+        out: the results folder; a folder of the same suite and seed is resumed.
+        seed: overrides the suite's seed (an integer >= 0).
+        jobs: local worker processes (1: this process).
+        scheduler: a Dask scheduler address (``tcp://host:8786``) or scheduler JSON file;
+            the cluster's workers run the cases and this process journals them.
+        progress: show a progress bar on stderr.
+
+    Raises:
+        OutputLocked: another run is writing `out`.
+        JournalError: the folder's journal or meta.json is damaged.
+        RunInterrupted: Ctrl-C stopped the run after the cases in progress.
+    """
+    seed = suite.seed if seed is None else seed
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"Expected `seed` to be an integer >= 0, got {seed!r}.")
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise ValueError(f"Expected `jobs` to be an integer >= 1, got {jobs!r}.")
+    if scheduler is not None and jobs > 1:
+        raise ValueError(
+            f"Give `jobs` (local processes) or `scheduler` (a Dask cluster), not both; got"
+            f" jobs={jobs}, scheduler={scheduler!r}."
+        )
     out = Path(out)
     check_writable(out)
-    meta_path = out / "meta.json"
-    if meta_path.exists():
-        old = json.loads(meta_path.read_text())
-        if old.get("suite_hash") != suite.digest or old.get("seed") != seed:
-            raise SuiteError(
-                f"Results folder {str(out)!r} belongs to suite {old.get('suite')!r} (hash {old.get('suite_hash')}, seed"
-                f" {old.get('seed')}); refusing to resume suite {suite.name!r} (hash {suite.digest}, seed {seed})."
-                " Use another --out folder."
-            )
+    with OutputLock(out) as lock:
+        return _run_locked(suite, out, seed, jobs, scheduler, progress, lock)
+
+
+def _run_locked(
+    suite: Suite,
+    out: Path,
+    seed: int,
+    jobs: int,
+    scheduler: str | None,
+    progress: bool,
+    lock: OutputLock,
+) -> pd.DataFrame:
+    old = read_meta(out)
+    if old is not None and (old.get("suite_hash") != suite.digest or old.get("seed") != seed):
+        raise SuiteError(
+            f"Results folder {str(out)!r} belongs to suite {old.get('suite')!r} (hash {old.get('suite_hash')}, seed"
+            f" {old.get('seed')}); refusing to resume suite {suite.name!r} (hash {suite.digest}, seed {seed})."
+            " Use another --out folder."
+        )
     cases = expand(suite)
     journal = Journal(out)
-    rows = journal.load()
-    done = {r["case_id"] for r in rows}
-    meta = {
-        "suite": suite.name,
-        "suite_hash": suite.digest,
-        "seed": seed,
-        "cases": len(cases),
-        "started": datetime.now(UTC).isoformat(),
-        "command": sys.argv,
-        **machine_meta(),
-    }
-    if meta_path.exists():
-        meta = {**json.loads(meta_path.read_text()), "resumed": datetime.now(UTC).isoformat()}
-    atomic_json(meta_path, meta)
+    done = journal.load()
+    for note in journal.notes:
+        print(f"rsmbench: {note}", file=sys.stderr)
+    foreign = done - {c["case_id"] for c in cases}
+    if foreign:
+        raise JournalError(
+            f"{journal.path} holds {len(foreign)} case(s) that suite {suite.name!r} (hash"
+            f" {suite.digest}) does not have: the folder belongs to another suite. Use another"
+            " --out folder."
+        )
+    meta, leg = _start_meta(old, suite, seed, len(cases), len(done), jobs, scheduler)
+    meta_path = out / "meta.json"
+    start = time.perf_counter()
+
+    def save() -> None:
+        leg["wall_seconds"] = time.perf_counter() - start
+        leg["cases_done"] = len(done)
+        meta["wall_seconds"] = sum(g.get("wall_seconds", 0.0) for g in meta["legs"])
+        atomic_json(meta_path, meta)
+
+    save()
     (out / "suite.toml").write_text(suite.source)
     todo = [c for c in cases if c["case_id"] not in done]
-    start = time.perf_counter()
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(
-            total=len(cases),
-            initial=len(cases) - len(todo),
-            desc=f"rsmbench {suite.name}",
-            unit="case",
-            file=sys.stderr,
-        )
-    for case_rows in _execute(todo, suite, seed, jobs):
-        journal.append(case_rows)
-        rows.extend(case_rows)
-        if bar is not None:
-            bar.update(1)
-    if bar is not None:
+    bar = _bar(progress, suite, len(cases), len(done))
+    last = time.monotonic()
+    try:
+        with _Stop() as stop:
+            for case, rows in _execute(units(todo), suite, seed, jobs, scheduler, stop, lock, leg):
+                journal.append(case["case_id"], rows)
+                done.add(case["case_id"])
+                bar.update(1)
+                if time.monotonic() - last > META_EVERY:
+                    save()
+                    last = time.monotonic()
+    finally:
         bar.close()
-    df = journal.write_tables(rows)
-    meta = json.loads(meta_path.read_text())
-    meta.update(
-        finished=datetime.now(UTC).isoformat(),
-        wall_seconds=meta.get("wall_seconds", 0.0) + time.perf_counter() - start,
-        rows=len(df),
+        save()
+    if len(done) < len(cases):  # only Ctrl-C ends the loop early
+        raise RunInterrupted(out, len(done), len(cases))
+    rows = journal.write_tables([c["case_id"] for c in cases])
+    meta.update(finished=datetime.now(UTC).isoformat(), rows=rows)
+    save()
+    return pd.read_parquet(out / "results.parquet")
+
+
+def _start_meta(
+    old: dict | None,
+    suite: Suite,
+    seed: int,
+    cases: int,
+    done: int,
+    jobs: int,
+    scheduler: str | None,
+) -> tuple[dict, dict]:
+    now = datetime.now(UTC).isoformat()
+    leg = {
+        "started": now,
+        "command": sys.argv,
+        "host": socket.gethostname(),
+        "pid": os.getpid(),
+        "executor": "dask" if scheduler else "processes" if jobs > 1 else "this process",
+        "jobs": jobs,
+        "scheduler": scheduler,
+        "cases_before": done,
+        "wall_seconds": 0.0,
+    }
+    if old is None:
+        meta = {
+            "suite": suite.name,
+            "suite_hash": suite.digest,
+            "seed": seed,
+            "cases": cases,
+            "started": now,
+            "command": sys.argv,
+            **machine_meta(),
+            "journal": "rows.jsonl: one line per case",
+            "timing": TIMING_NOTE,
+            "legs": [],
+        }
+    else:
+        meta = dict(old)
+        meta.pop("finished", None)
+        if "legs" not in meta:  # written before legs were kept: its total is one leg
+            meta["legs"] = [{"wall_seconds": float(meta.get("wall_seconds", 0.0))}]
+    meta["legs"].append(leg)
+    return meta, leg
+
+
+class _NoBar:
+    def update(self, n: int) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def _bar(progress: bool, suite: Suite, total: int, done: int):
+    if not progress:
+        return _NoBar()
+    from tqdm import tqdm
+
+    return tqdm(
+        total=total, initial=done, desc=f"rsmbench {suite.name}", unit="case", file=sys.stderr
     )
-    atomic_json(meta_path, meta)
-    return df
 
 
-def _tag(case: dict, rows: list[dict]) -> list[dict]:
+class _Stop:
+    """Ctrl-C (SIGINT) asks the run to stop after the cases in progress; a second Ctrl-C
+    stops it at once (a case cut in the middle is not journalled and runs again)."""
+
+    def __init__(self):
+        self.requested = False
+        self._previous = None
+
+    def __enter__(self) -> _Stop:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+    def _handle(self, signum, frame) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+        # os.write, not print: the handler may interrupt a print to stderr
+        os.write(
+            2,
+            b"\nrsmbench: stopping after the case(s) in progress; Ctrl-C again to stop now.\n",
+        )
+
+
+# ----------------------------------------------------------------------------- executors
+def _execute(
+    work: list[list[dict]],
+    suite: Suite,
+    seed: int,
+    jobs: int,
+    scheduler: str | None,
+    stop: _Stop,
+    lock: OutputLock,
+    leg: dict,
+) -> Iterator[tuple[dict, list[dict]]]:
+    """(case, rows) of every case of `work`, as they finish, until `stop` is requested."""
+    if scheduler is not None:
+        yield from _on_dask(work, suite, seed, scheduler, stop, leg)
+    elif jobs > 1 and len(work) > 1:
+        yield from _on_processes(work, suite, seed, jobs, stop, lock)
+    else:
+        ctx = Context(suite, seed)
+        where = f"local:{os.getpid()}"
+        for unit in work:
+            for case in unit:
+                yield case, _tag(case, run_case(case, ctx), where)
+                if stop.requested:
+                    return
+
+
+def _tag(case: dict, rows: list[dict], where: str) -> list[dict]:
     mem = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    host = socket.gethostname()
     for r in rows:
         r["case_id"] = case["case_id"]
         r["peak_memory_mb"] = mem
+        r["host"] = host
+        r["worker"] = where
     return rows
 
 
-def _worker(args) -> list[dict]:
-    case, suite, seed = args
-    ctx = _WORKER_CTX.get((suite.digest, seed))
-    if ctx is None:
-        ctx = _WORKER_CTX[(suite.digest, seed)] = Context(suite, seed)
-    return _tag(case, run_case(case, ctx))
+# One context per worker process, for the latest suite and seed it was sent (bounded
+# memory on a long-lived Dask worker); one case at a time, even on a worker with several
+# threads: Warp and MuJoCo state stay private and each case's timing is its own.
+_WORKER: dict = {}
+_WORKER_LOCK = threading.Lock()
+_STOP_EVENT = None  # local worker processes: set by the parent on Ctrl-C
 
 
-_WORKER_CTX: dict = {}
+def _run_unit(
+    unit: list[dict], suite: Suite, seed: int, stop_event: str | None
+) -> list[tuple[dict, list[dict]]]:
+    """Run one unit in a worker process (local pool or Dask); stops between cases when
+    the run is being stopped. `stop_event` names the Dask event of this run."""
+    if stop_event is not None:
+        from distributed import Event, get_worker
+
+        where = get_worker().address
+        event = Event(stop_event)
+
+        def stopping() -> bool:
+            return event.is_set()
+    else:
+        where = f"local:{os.getpid()}"
+
+        def stopping() -> bool:
+            return _STOP_EVENT is not None and _STOP_EVENT.is_set()
+
+    out = []
+    with _WORKER_LOCK:
+        key = (suite.digest, seed)
+        if _WORKER.get("key") != key:
+            _WORKER.clear()
+            _WORKER.update(key=key, ctx=Context(suite, seed))
+        ctx = _WORKER["ctx"]
+        for case in unit:
+            if out and stopping():
+                break
+            out.append((case, _tag(case, run_case(case, ctx), where)))
+    return out
 
 
-def _execute(todo: list[dict], suite: Suite, seed: int, jobs: int):
-    if jobs <= 1 or len(todo) <= 1:
-        ctx = Context(suite, seed)
-        for case in todo:
-            yield _tag(case, run_case(case, ctx))
-        return
-    from concurrent.futures import ProcessPoolExecutor
+def _init_local_worker(lock_fd: int | None, stop_event) -> None:
+    global _STOP_EVENT
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
+    _STOP_EVENT = stop_event
+    if lock_fd is not None:
+        os.close(lock_fd)  # a worker outliving a killed parent must not hold the lock
 
-    # keep the cases of one motion together so that caches are shared
-    with ProcessPoolExecutor(jobs) as pool:
-        yield from pool.map(_worker, [(c, suite, seed) for c in todo], chunksize=4)
+
+def _on_processes(
+    work: list[list[dict]],
+    suite: Suite,
+    seed: int,
+    jobs: int,
+    stop: _Stop,
+    lock: OutputLock,
+) -> Iterator[tuple[dict, list[dict]]]:
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    mp = multiprocessing.get_context()
+    event = mp.Event()
+    # a forked worker holds a copy of the lock's descriptor; a spawned one has none
+    fd = lock.fd if mp.get_start_method() == "fork" else None
+    pool = ProcessPoolExecutor(
+        jobs, mp_context=mp, initializer=_init_local_worker, initargs=(fd, event)
+    )
+    pending = iter(work)
+    running: set = set()
+
+    def submit() -> None:
+        unit = next(pending, None)
+        if unit is not None:
+            running.add(pool.submit(_run_unit, unit, suite, seed, None))
+
+    try:
+        for _ in range(jobs):  # one unit per worker: what runs is what was sent
+            submit()
+        while running:
+            finished, _ = wait(running, timeout=POLL, return_when=FIRST_COMPLETED)
+            if stop.requested:
+                event.set()
+            for fut in finished:
+                running.discard(fut)
+                yield from fut.result()
+                if not stop.requested:
+                    submit()
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _on_dask(
+    work: list[list[dict]],
+    suite: Suite,
+    seed: int,
+    scheduler: str,
+    stop: _Stop,
+    leg: dict,
+) -> Iterator[tuple[dict, list[dict]]]:
+    try:
+        from distributed import Client, Event, KilledWorker
+    except ImportError:
+        raise RunError(
+            "`--scheduler` runs on a Dask cluster and needs dask.distributed: pip install"
+            " 'dask[distributed]'."
+        ) from None
+    where = {"scheduler_file": scheduler} if scheduler.endswith(".json") else {"address": scheduler}
+    try:
+        client = Client(**where, timeout="20s", set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as e:
+        raise RunError(f"Cannot reach the Dask scheduler {scheduler!r}: {e}") from None
+    running: set = set()
+    try:
+        try:
+            client.wait_for_workers(1, timeout=60)
+        except TimeoutError:
+            raise RunError(f"The Dask scheduler {scheduler!r} has no workers.") from None
+        from distributed.comm import get_address_host
+
+        nthreads = client.nthreads()
+        leg["workers"] = {
+            addr: {"host": get_address_host(addr), "nthreads": n} for addr, n in nthreads.items()
+        }
+        window = max(1, sum(nthreads.values()))
+        name = f"rsmbench-stop-{uuid.uuid4().hex}"
+        event = Event(name, client=client)
+        pending = iter(work)
+
+        def submit() -> None:
+            unit = next(pending, None)
+            if unit is not None:
+                key = f"rsmbench-{unit[0]['study']}-{unit[0]['case_id']}-{uuid.uuid4().hex[:8]}"
+                running.add(client.submit(_run_unit, unit, suite, seed, name, key=key, pure=False))
+
+        for _ in range(window):  # one unit per worker thread: what runs is what was sent
+            submit()
+        signalled = False
+        while running:
+            finished = [f for f in running if f.done()]
+            if stop.requested and not signalled:
+                event.set()
+                signalled = True
+            if not finished:
+                time.sleep(POLL)
+                continue
+            for fut in finished:
+                running.discard(fut)
+                try:
+                    results = fut.result()
+                except KilledWorker as e:
+                    raise RunError(
+                        f"A Dask worker died running {_unit_name(fut)} ({e}). Every finished"
+                        " case is journalled: run the same command again to resume."
+                    ) from None
+                except ImportError as e:
+                    raise RunError(
+                        f"The Dask workers cannot import rsmbench ({e}): install it in the"
+                        " workers' environment."
+                    ) from None
+                yield from results
+                if not stop.requested:
+                    submit()
+    finally:
+        if running:
+            client.cancel(list(running))
+        client.close()
+
+
+def _unit_name(fut) -> str:
+    return str(getattr(fut, "key", "a unit of cases"))

@@ -1,26 +1,49 @@
-"""Suite files: a TOML file in, a validated :class:`Suite` out (DESIGN §6)."""
+"""Suite files: a TOML file in, a validated :class:`Suite` out (DESIGN §6, §7).
+
+Every value is checked when the file is loaded, before any work, and an error names the
+file and the key (``study[1].max_depth``), what was expected and what was got.
+"""
 
 from __future__ import annotations
 
 import hashlib
 import json
 import os
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import SuiteError
-from .fields import need
+from .fields import integer, need, text
 from .studies import STUDIES
 
-__all__ = ["SUITE_DIR", "Suite", "load_suite", "suite_path"]
+__all__ = ["MAX_CASES", "SUITE_DIR", "Suite", "load_suite", "suite_path"]
 
 SUITE_DIR = Path(__file__).parent.parent / "suites"
+# A suite's cases are expanded in memory (~1 KB each) and their ids journalled: a suite
+# past this is a typo (`repeats = 100000000`), not a benchmark.
+MAX_CASES = 100_000
+_SUITE_KEYS = ("name", "seed", "description", "scheduler")
+# A suite name becomes a folder name under results/: no separators, no leading dot.
+_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*")
 
 
 @dataclass(frozen=True)
 class Suite:
-    """A parsed suite: its name, seed, studies and the hash of its canonical form."""
+    """A parsed suite.
+
+    Attributes:
+        name: the suite's name (a safe folder name).
+        seed: the seed of its random keyframes (``>= 0``).
+        studies: one dict of validated parameters per ``[[study]]``, with its ``kind``.
+        source: the TOML text.
+        digest: hash of the canonical form of name, seed and studies (not of the
+            scheduler, which says where the cases run, not what they are).
+        description: one line.
+        file: the suite file (absolute); MJCF scene paths are relative to its folder.
+        scheduler: a Dask scheduler address (or scheduler JSON file) to run on, or None.
+    """
 
     name: str
     seed: int
@@ -28,6 +51,8 @@ class Suite:
     source: str
     digest: str
     description: str = ""
+    file: Path | None = None
+    scheduler: str | None = None
 
 
 def suite_path(name_or_path: str | os.PathLike) -> Path:
@@ -48,49 +73,103 @@ def load_suite(name_or_path: str | os.PathLike) -> Suite:
     """Parse and validate a suite; errors name the file, the key and what is wrong."""
     file = suite_path(name_or_path)
     try:
-        text = file.read_text()
-    except OSError as e:
+        text_ = file.read_text()
+    except (OSError, UnicodeDecodeError) as e:
         raise SuiteError(f"{file}: cannot read the suite: {e}") from None
     try:
-        doc = tomllib.loads(text)
+        doc = tomllib.loads(text_)
     except tomllib.TOMLDecodeError as e:
         raise SuiteError(f"{file}: not valid TOML: {e}") from None
-    head = doc.get("suite", {})
-    need(isinstance(head, dict), file, "suite", "expected a table")
-    name = head.get("name", file.stem)
-    seed = head.get("seed", 0)
+    extra = sorted(set(doc) - {"suite", "study"})
     need(
-        isinstance(seed, int) and not isinstance(seed, bool),
+        not extra,
         file,
-        "suite.seed",
-        f"expected an integer, got {seed!r}",
+        extra[0] if extra else "",
+        "unknown top-level key or table; a suite has a [suite] table and [[study]] tables",
     )
+    head = doc.get("suite", {})
+    need(isinstance(head, dict), file, "suite", f"expected a [suite] table, got {head!r}")
+    extra = sorted(set(head) - set(_SUITE_KEYS))
+    need(
+        not extra,
+        file,
+        f"suite.{extra[0]}" if extra else "suite",
+        f"unknown key; valid keys: {list(_SUITE_KEYS)}",
+    )
+    name = text(head.get("name", file.stem), file, "suite.name")
+    need(
+        _NAME.fullmatch(name) is not None,
+        file,
+        "suite.name",
+        f"expected a folder name (letters, digits, _ . + -, not starting with a dot), got {name!r}"
+        + ("" if "name" in head else "; the file name is used when [suite] has no name"),
+    )
+    seed = integer(head.get("seed", 0), file, "suite.seed", lo=0)
+    description = text(head.get("description", ""), file, "suite.description")
+    scheduler = head.get("scheduler")
+    if scheduler is not None:
+        need(
+            isinstance(scheduler, str) and scheduler.strip() == scheduler and bool(scheduler),
+            file,
+            "suite.scheduler",
+            'expected a Dask scheduler address like "tcp://host:8786" (or a scheduler JSON'
+            f' file, or "local"), got {scheduler!r}',
+        )
     studies = doc.get("study")
     need(
-        isinstance(studies, list) and studies,
+        isinstance(studies, list) and bool(studies),
         file,
         "study",
-        "expected at least one [[study]] table",
+        f"expected at least one [[study]] table, got {studies!r}",
     )
     parsed = []
     for i, st in enumerate(studies):
         where = f"study[{i}]"
+        need(isinstance(st, dict), file, where, f"expected a [[study]] table, got {st!r}")
         kind = st.get("kind")
         need(
-            kind in STUDIES,
+            isinstance(kind, str) and kind in STUDIES,
             file,
             f"{where}.kind",
             f"expected one of {list(STUDIES)}, got {kind!r}",
         )
         keys = STUDIES[kind].keys
-        extra = set(st) - keys - {"kind"}
+        extra = sorted(set(st) - keys - {"kind"})
         need(
             not extra,
             file,
-            f"{where}.{sorted(extra)[0] if extra else ''}",
+            f"{where}.{extra[0] if extra else ''}",
             f"unknown key for a {kind!r} study; valid keys: {sorted(keys)}",
         )
-        parsed.append({"kind": kind, **STUDIES[kind].parse(st, file, where)})
+        study = {"kind": kind, **STUDIES[kind].parse(st, file, where)}
+        need(
+            study not in parsed,
+            file,
+            where,
+            f"the same study as study[{parsed.index(study) if study in parsed else 0}]; its"
+            " rows would be duplicates",
+        )
+        parsed.append(study)
+    total = 0
+    for i, st in enumerate(parsed):
+        for _ in STUDIES[st["kind"]].expand(st):
+            total += 1
+            need(
+                total <= MAX_CASES,
+                file,
+                f"study[{i}]",
+                f"the suite expands to more than {MAX_CASES:,} cases; lower repeats, lists or"
+                " pairs (or raise chunk_pairs)",
+            )
     canonical = json.dumps({"name": name, "seed": seed, "studies": parsed}, sort_keys=True)
     digest = hashlib.sha256(canonical.encode()).hexdigest()[:16]
-    return Suite(name, seed, tuple(parsed), text, digest, head.get("description", ""))
+    return Suite(
+        name,
+        seed,
+        tuple(parsed),
+        text_,
+        digest,
+        description,
+        file.resolve(),
+        scheduler,
+    )

@@ -1,14 +1,15 @@
 """Study kinds of a suite, one module each (DESIGN §6).
 
 A kind is read from its ``[[study]]`` table (``parse``), expanded into cases
-(``expand``) and run case by case (``run``). To add a kind, write a module with ``KEYS``,
-``parse``, ``expand`` and ``run`` like :mod:`.scaling` and add one line to
-:data:`STUDIES`.
+(``expand``) and run case by case (``run``); cases with the same ``group`` key run one
+after another in one process, sharing its caches. To add a kind, write a module with
+``KEYS``, ``parse``, ``expand``, ``run`` (and optionally ``group``) like :mod:`.scaling`
+and add one line to :data:`STUDIES`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,19 +27,26 @@ class StudyKind:
         keys: the keys its table may hold (besides ``kind``).
         parse: ``(table, file, where) -> dict`` of validated parameters; errors name
             ``file`` and the key under ``where`` (e.g. ``study[2]``).
-        expand: ``study -> [case parameters]`` in a deterministic order; the runner adds
-            ``study``, ``block`` and ``case_id``.
-        run: ``(case, study, ctx) -> rows`` of one case.
+        expand: ``study -> case parameters`` (a list or an iterator) in a deterministic
+            order; the runner adds ``study``, ``block`` and ``case_id``.
+        run: ``(case, study, ctx) -> rows`` of one case. Rows are dicts of plain
+            values (str, int, float, bool, None); a case is journalled as one record.
+        group: ``case -> key``: cases of one study with equal keys are sent to one
+            process together (in expansion order) to share what `ctx` caches; None runs
+            every case on its own.
     """
 
     keys: frozenset[str]
     parse: Callable[[dict, Path, str], dict]
-    expand: Callable[[dict], list[dict]]
+    expand: Callable[[dict], Iterable[dict]]
     run: Callable[[dict, dict, Context], list[dict]]
+    group: Callable[[dict], tuple] | None = None
 
 
 def _kind(module) -> StudyKind:
-    return StudyKind(module.KEYS, module.parse, module.expand, module.run)
+    return StudyKind(
+        module.KEYS, module.parse, module.expand, module.run, getattr(module, "group", None)
+    )
 
 
 STUDIES: dict[str, StudyKind] = {

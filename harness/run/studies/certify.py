@@ -6,12 +6,13 @@ the motion's smoothness figures.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
 
 import motions
 
 from ...certification import BOUNDS, certify_many
-from ..fields import names, need, numbers, scene_names
+from ..fields import choice, integer, names, number, numbers, scene_names
 from .context import Context, accuracy_cols, cert_cols, smoothness_cols, truth_cols
 
 KEYS = frozenset(
@@ -32,44 +33,37 @@ KEYS = frozenset(
 
 
 def parse(st: dict, file: Path, where: str) -> dict:
+    def key(k: str) -> str:
+        return f"{where}.{k}"
+
     out: dict = {}
-    out["scenes"] = scene_names(st.get("scenes", "all"), file, f"{where}.scenes")
-    kf = st.get("keyframes", "scene")
-    need(
-        kf in ("scene", "random", "both"),
-        file,
-        f"{where}.keyframes",
-        f'expected "scene", "random" or "both", got {kf!r}',
+    out["scenes"] = scene_names(st.get("scenes", "all"), file, key("scenes"))
+    out["keyframes"] = choice(
+        st.get("keyframes", "scene"), file, key("keyframes"), ("scene", "random", "both")
     )
-    out["keyframes"] = kf
-    out["random_sets"] = int(st.get("random_sets", 2))
-    out["schemes"] = names(st.get("schemes", "all"), file, f"{where}.schemes", motions.SCHEMES)
-    out["bounds"] = names(st.get("bounds", "all"), file, f"{where}.bounds", BOUNDS)
-    out["tolerances"] = numbers(st.get("tolerances", [1e-3]), file, f"{where}.tolerances")
-    out["max_depth"] = int(st.get("max_depth", 24))
-    out["samples"] = st.get("samples")
-    need(
-        out["samples"] is None or (isinstance(out["samples"], int) and out["samples"] >= 2),
-        file,
-        f"{where}.samples",
-        f"expected an integer >= 2, got {out['samples']!r}",
+    out["random_sets"] = integer(st.get("random_sets", 2), file, key("random_sets"), lo=1, hi=100)
+    out["schemes"] = names(st.get("schemes", "all"), file, key("schemes"), motions.SCHEMES)
+    out["bounds"] = names(st.get("bounds", "all"), file, key("bounds"), BOUNDS)
+    out["tolerances"] = numbers(st.get("tolerances", [1e-3]), file, key("tolerances"))
+    # certify_many takes any depth >= 0; past 60 the pieces are below float64 resolution
+    out["max_depth"] = integer(st.get("max_depth", 24), file, key("max_depth"), lo=0, hi=60)
+    samples = st.get("samples")
+    out["samples"] = None if samples is None else integer(samples, file, key("samples"), lo=2)
+    out["repeats"] = integer(st.get("repeats", 1), file, key("repeats"), lo=1, hi=1000)
+    out["truth_resolution"] = number(
+        st.get("truth_resolution", 1e-3), file, key("truth_resolution")
     )
-    out["repeats"] = int(st.get("repeats", 1))
-    need(out["repeats"] >= 1, file, f"{where}.repeats", "expected >= 1")
-    out["truth_resolution"] = numbers(
-        st.get("truth_resolution", 1e-3), file, f"{where}.truth_resolution"
-    )[0]
-    out["max_nodes"] = int(st.get("max_nodes", 200_000))
+    out["max_nodes"] = integer(st.get("max_nodes", 200_000), file, key("max_nodes"), lo=1)
     return out
 
 
-def expand(st: dict) -> list[dict]:
+def expand(st: dict) -> Iterator[dict]:
     sets = []
     if st["keyframes"] in ("scene", "both"):
         sets.append("scene")
     if st["keyframes"] in ("random", "both"):
         sets += [f"random-{k}" for k in range(st["random_sets"])]
-    return [
+    return (
         dict(scene=scene, keyframes=kf, scheme=scheme, bound=bound, tolerance=tol, repeat=rep)
         for scene in st["scenes"]
         for kf in sets
@@ -77,7 +71,12 @@ def expand(st: dict) -> list[dict]:
         for bound in st["bounds"]
         for tol in st["tolerances"]
         for rep in range(st["repeats"])
-    ]
+    )
+
+
+def group(case: dict) -> tuple:
+    """Cases of one motion share its truth and smoothness: run them in one process."""
+    return case["scene"], case["keyframes"], case["scheme"]
 
 
 def run(case: dict, st: dict, ctx: Context) -> list[dict]:

@@ -28,14 +28,24 @@ class Context:
         self.suite = suite
         self.seed = seed
         self.cache: dict[tuple, Any] = {}
+        self.slots: dict[str, tuple[tuple, Any]] = {}
 
     def memo(self, key: tuple, make):
         if key not in self.cache:
             self.cache[key] = make()
         return self.cache[key]
 
+    def latest(self, slot: str, key: tuple, make):
+        """Like :meth:`memo`, but `slot` keeps only its latest value: bounded memory for
+        large inputs (a workload chunk) that later cases do not come back to."""
+        held = self.slots.get(slot)
+        if held is None or held[0] != key:
+            self.slots.pop(slot, None)  # free the old value before building the new one
+            self.slots[slot] = (key, make())
+        return self.slots[slot][1]
+
     def scene(self, name: str) -> scenes_pkg.Scene:
-        """Each scene's MJCF is compiled once per process."""
+        """Each scene's MJCF is compiled once per process (a name or an absolute path)."""
         return self.memo(("scene", name), lambda: scenes_pkg.load(name))
 
     def keyframes(self, scene: str, kf: str):

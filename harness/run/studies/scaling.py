@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..fields import numbers
+from ..fields import integer, numbers
 from .context import Context
 
 KEYS = frozenset({"deltas", "motions", "seed"})
@@ -14,8 +14,8 @@ KEYS = frozenset({"deltas", "motions", "seed"})
 def parse(st: dict, file: Path, where: str) -> dict:
     return {
         "deltas": numbers(st.get("deltas", [1e-4, 1e-3, 1e-2]), file, f"{where}.deltas"),
-        "motions": int(st.get("motions", 6)),
-        "seed": int(st.get("seed", 7)),
+        "motions": integer(st.get("motions", 6), file, f"{where}.motions", lo=1, hi=10_000),
+        "seed": integer(st.get("seed", 7), file, f"{where}.seed", lo=0),
     }
 
 

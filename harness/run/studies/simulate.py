@@ -9,7 +9,7 @@ from pathlib import Path
 import motions
 
 from ...certification import certify_many
-from ..fields import names, numbers, scene_names
+from ..fields import names, number, scene_names
 from .context import Context, smoothness_cols
 
 KEYS = frozenset({"scenes", "schemes", "dt"})
@@ -20,7 +20,7 @@ def parse(st: dict, file: Path, where: str) -> dict:
     out["scenes"] = scene_names(st.get("scenes", "all"), file, f"{where}.scenes")
     out["schemes"] = names(st.get("schemes", "all"), file, f"{where}.schemes", motions.SCHEMES)
     dt = st.get("dt")
-    out["dt"] = None if dt is None else numbers(dt, file, f"{where}.dt")[0]
+    out["dt"] = None if dt is None else number(dt, file, f"{where}.dt")
     return out
 
 

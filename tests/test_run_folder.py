@@ -1,0 +1,264 @@
+"""Runs that cannot corrupt each other (DESIGN §6 "Scale-out"): the output lock, whole-case
+journal records, damaged folders, Ctrl-C, workload chunks and local worker processes."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from harness.run import (
+    PLACEMENT_COLUMNS,
+    TIMING_COLUMNS,
+    Context,
+    JournalError,
+    OutputLock,
+    expand,
+    load_suite,
+    run_case,
+    run_suite,
+)
+
+# Eleven cases in five units, a few seconds: a certify group (one motion, two bounds),
+# and a workload of five pairs in chunks of two with the competitors on pairs 0 and 4.
+MINI = """
+[suite]
+name = "mini"
+seed = 1
+
+[[study]]
+kind = "certify"
+scenes = ["slot"]
+schemes = ["rational", "slerp"]
+bounds = ["hull", "sampled"]
+truth_resolution = 5e-3
+
+[[study]]
+kind = "workload"
+pairs = 5
+chunk_pairs = 2
+bounds = ["hull"]
+competitor_pairs = 2
+"""
+N_CASES = 11
+
+
+def cli(*args: str) -> list[str]:
+    return [sys.executable, "-m", "harness.cli", *args]
+
+
+def same_rows(a: pd.DataFrame, b: pd.DataFrame) -> None:
+    """Equal in every column but timing and placement, row order included."""
+    skip = set(TIMING_COLUMNS) | set(PLACEMENT_COLUMNS)
+    cols = [c for c in a.columns if c not in skip and not c.endswith("seconds")]
+    assert sorted(cols) == sorted(
+        c for c in b.columns if c not in skip and not c.endswith("seconds")
+    )
+    pd.testing.assert_frame_equal(a[cols].reset_index(drop=True), b[cols].reset_index(drop=True))
+
+
+def records(out: Path) -> list[dict]:
+    return [json.loads(line) for line in (out / "rows.jsonl").read_text().splitlines()]
+
+
+@pytest.fixture
+def mini(tmp_path) -> Path:
+    p = tmp_path / "mini.toml"
+    p.write_text(MINI)
+    return p
+
+
+@pytest.fixture(scope="module")
+def mini_clean(tmp_path_factory) -> tuple[Path, pd.DataFrame]:
+    """A complete run of MINI, for the other tests to damage copies of."""
+    d = tmp_path_factory.mktemp("mini")
+    (d / "mini.toml").write_text(MINI)
+    df = run_suite(load_suite(d / "mini.toml"), d / "run", progress=False)
+    return d, df
+
+
+def test_one_record_per_case_in_suite_order(mini_clean):
+    d, df = mini_clean
+    recs = records(d / "run")
+    cases = expand(load_suite(d / "mini.toml"))
+    assert len(recs) == len(cases) == N_CASES
+    assert sorted(r["case_id"] for r in recs) == sorted(c["case_id"] for c in cases)
+    # each record holds all of its case's rows, and the table has them in case order
+    assert sum(len(r["rows"]) for r in recs) == len(df)
+    order = {c["case_id"]: i for i, c in enumerate(cases)}
+    assert df["case_id"].map(order).is_monotonic_increasing
+    meta = json.loads((d / "run" / "meta.json").read_text())
+    assert len(meta["legs"]) == 1 and meta["rows"] == len(df)
+    assert meta["wall_seconds"] == pytest.approx(meta["legs"][0]["wall_seconds"])
+    assert "per worker" in meta["timing"]
+
+
+def test_cut_record_runs_its_case_again(mini_clean, tmp_path):
+    d, clean = mini_clean
+    out = tmp_path / "run"
+    shutil.copytree(d / "run", out)
+    for f in ("results.parquet", "results.csv"):
+        (out / f).unlink()
+    lines = (out / "rows.jsonl").read_bytes().splitlines(keepends=True)
+    # the run was killed while writing a multi-row case (the first workload chunk: two
+    # rows), after the cases before it; the cases after it never ran
+    k = next(i for i, line in enumerate(lines) if len(json.loads(line)["rows"]) == 2)
+    cut = lines[k][: len(lines[k]) // 2]
+    (out / "rows.jsonl").write_bytes(b"".join(lines[:k]) + cut)
+    df = run_suite(load_suite(d / "mini.toml"), out, progress=False)
+    same_rows(df, clean)
+    assert not df.duplicated(["case_id", "pair"]).any()
+    recs = records(out)
+    assert len(recs) == N_CASES == len({r["case_id"] for r in recs})
+    # the total wall time covers both legs
+    meta = json.loads((out / "meta.json").read_text())
+    assert len(meta["legs"]) == 2
+    assert meta["wall_seconds"] == pytest.approx(sum(g["wall_seconds"] for g in meta["legs"]))
+    assert meta["wall_seconds"] > meta["legs"][-1]["wall_seconds"]
+
+
+def test_damaged_journal_and_meta_are_named_errors(mini_clean, tmp_path):
+    d, _ = mini_clean
+    suite = load_suite(d / "mini.toml")
+    out = tmp_path / "run"
+    shutil.copytree(d / "run", out)
+    lines = (out / "rows.jsonl").read_bytes().splitlines(keepends=True)
+    (out / "rows.jsonl").write_bytes(b"".join([lines[0], b"garbage\n", *lines[1:]]))
+    with pytest.raises(JournalError, match=r"line 2 is not a whole case record .*delete line 2"):
+        run_suite(suite, out, progress=False)
+    r = subprocess.run(
+        cli("run", str(d / "mini.toml"), "--out", str(out), "--quiet"),
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 2 and "line 2" in r.stderr and "Traceback" not in r.stderr
+    # a journal of the old one-row-per-line format
+    (out / "rows.jsonl").write_text(
+        json.dumps({"case_id": "x", "verdict": "free"}) + "\n" + lines[0].decode()
+    )
+    with pytest.raises(JournalError, match="older rsmbench"):
+        run_suite(suite, out, progress=False)
+    # a truncated meta.json
+    (out / "rows.jsonl").write_bytes(b"".join(lines))
+    meta = (out / "meta.json").read_text()
+    (out / "meta.json").write_text(meta[: len(meta) // 2])
+    with pytest.raises(JournalError, match=r"meta.json is damaged: not valid JSON.*new --out"):
+        run_suite(suite, out, progress=False)
+    # records of another suite in the journal
+    (out / "meta.json").unlink()
+    other = tmp_path / "other.toml"
+    other.write_text(MINI.replace("seed = 1", "seed = 2"))
+    with pytest.raises(JournalError, match="belongs to another suite"):
+        run_suite(load_suite(other), out, progress=False)
+
+
+def test_second_run_into_a_folder_is_refused(mini, tmp_path):
+    out = tmp_path / "run"
+    first = subprocess.Popen(
+        cli("run", str(mini), "--out", str(out), "--quiet"),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    lock = out / ".lock"
+    deadline = time.time() + 300
+    while time.time() < deadline and not (lock.exists() and lock.read_text().startswith("pid")):
+        time.sleep(0.02)
+    first.send_signal(signal.SIGSTOP)  # hold it mid-run while the second one tries
+    try:
+        second = subprocess.run(
+            cli("run", str(mini), "--out", str(out), "--quiet"), capture_output=True, text=True
+        )
+    finally:
+        first.send_signal(signal.SIGCONT)
+    assert second.returncode == 2, second.stderr
+    assert str(out) in second.stderr and f"pid {first.pid}" in second.stderr
+    assert "Traceback" not in second.stderr
+    assert first.wait(timeout=300) == 0, first.stderr.read()
+    df = pd.read_parquet(out / "results.parquet")
+    assert df["case_id"].nunique() == N_CASES
+    assert not df.duplicated(["case_id", "pair"]).any()
+    # the lock is released: the folder resumes (nothing left to do)
+    assert len(run_suite(load_suite(mini), out, progress=False)) == len(df)
+
+
+def test_lock_in_process(tmp_path):
+    with OutputLock(tmp_path) as held:
+        assert held.fd is not None
+        with pytest.raises(
+            Exception, match=rf"in use by another rsmbench run \(pid {os.getpid()} "
+        ):
+            OutputLock(tmp_path).acquire()
+    # released: a lock file naming a run that is gone does not block
+    assert (tmp_path / ".lock").exists()
+    with OutputLock(tmp_path) as again:
+        assert again.fd is not None
+
+
+def test_ctrl_c_stops_after_the_case_and_says_how_to_resume(mini, tmp_path):
+    out = tmp_path / "run"
+    proc = subprocess.Popen(
+        cli("run", str(mini), "--out", str(out), "--quiet"),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    journal = out / "rows.jsonl"
+    deadline = time.time() + 300
+    while time.time() < deadline and not (
+        journal.exists() and journal.read_text().count("\n") >= 1
+    ):
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err
+    assert f"Resume with: rsmbench run {mini} --out {out}" in err
+    recs = records(out)  # every line a whole record
+    assert 1 <= len(recs) < N_CASES
+    assert not (out / "results.parquet").exists()
+    df = run_suite(load_suite(mini), out, progress=False)
+    assert df["case_id"].nunique() == N_CASES and not df.duplicated(["case_id", "pair"]).any()
+    meta = json.loads((out / "meta.json").read_text())
+    assert len(meta["legs"]) == 2 and meta["legs"][0]["cases_done"] == len(recs)
+
+
+def test_chunks_and_local_processes_give_the_same_rows(mini_clean, tmp_path):
+    d, clean = mini_clean
+    suite = load_suite(d / "mini.toml")
+    two = run_suite(suite, tmp_path / "jobs2", jobs=2, progress=False)
+    same_rows(two, clean)
+    assert two["worker"].nunique() == 2 and two["worker"].str.startswith("local:").all()
+    wl = clean[clean["study"] == "workload"]
+    hull = wl[wl["bound"] == "hull"]
+    assert sorted(hull["pair"]) == [0, 1, 2, 3, 4]
+    assert sorted(wl[wl["bound"] == "dense"]["pair"]) == [0, 4]
+    # chunk 0 is the unchunked workload's first pairs: a workload of two pairs in one
+    # chunk has the same pairs and verdicts
+    small = tmp_path / "small.toml"
+    small.write_text(
+        MINI.replace("pairs = 5", "pairs = 2").replace(
+            "competitor_pairs = 2", "competitor_pairs = 0"
+        )
+    )
+    one = run_suite(load_suite(small), tmp_path / "small", progress=False)
+    one = one[one["study"] == "workload"]
+    cols = ["pair", "clearance", "truth", "verdict", "nodes"]
+    pd.testing.assert_frame_equal(
+        one[cols].reset_index(drop=True), hull[hull["pair"] < 2][cols].reset_index(drop=True)
+    )
+    # a worker keeps one chunk in memory, not all of them
+    ctx = Context(suite, suite.seed)
+    for case in expand(suite):
+        if case["study"] == "workload" and case["bound"] == "hull":
+            run_case(case, ctx)
+    ((key, w),) = [v for k, v in ctx.slots.items() if k == "workload"]
+    assert key[-1] == 2 and len(w.motions) == 1

@@ -1,0 +1,112 @@
+"""Suite files are checked when they are loaded, before any work (DESIGN §7): every bad
+value is a SuiteError naming the file and the key, what was expected and what was got."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from harness.errors import SuiteError
+from harness.run import MAX_CASES, expand, load_suite
+
+CERTIFY = '[[study]]\nkind = "certify"\n'
+WORKLOAD = '[[study]]\nkind = "workload"\n'
+SCALING = '[[study]]\nkind = "scaling"\n'
+
+# (suite text, the key the error must name, what the message must say)
+BAD = [
+    (CERTIFY + 'max_depth = "x"', r"study\[0\]\.max_depth", r"expected an integer in \[0, 60\], got 'x'"),
+    (CERTIFY + "max_depth = -1", r"study\[0\]\.max_depth", "got -1"),
+    (CERTIFY + "max_depth = 1.5", r"study\[0\]\.max_depth", "got 1.5"),
+    (CERTIFY + "max_depth = true", r"study\[0\]\.max_depth", "got True"),
+    (CERTIFY + "repeats = 100000000", r"study\[0\]\.repeats", r"in \[1, 1,000\], got 100000000"),
+    (CERTIFY + 'repeats = "2"', r"study\[0\]\.repeats", "got '2'"),
+    (CERTIFY + "random_sets = -1", r"study\[0\]\.random_sets", "got -1"),
+    (CERTIFY + "samples = 1", r"study\[0\]\.samples", ">= 2, got 1"),
+    (CERTIFY + "truth_resolution = 0", r"study\[0\]\.truth_resolution", "positive number"),
+    (CERTIFY + "tolerances = [1e-3, 1e-3]", r"study\[0\]\.tolerances", r"duplicate entries \[0.001\]"),
+    (CERTIFY + 'scenes = ["slot", "slot"]', r"study\[0\]\.scenes", r"duplicate entries \['slot'\]"),
+    (CERTIFY + 'schemes = ["rational", "rational"]', r"study\[0\]\.schemes", "duplicate"),
+    (CERTIFY + 'keyframes = "some"', r"study\[0\]\.keyframes", "expected one of"),
+    (CERTIFY + 'scenes = ["nothere.xml"]', r"study\[0\]\.scenes", "scene file 'nothere.xml' not found"),
+    (CERTIFY + 'scenes = ["kitchen"]', r"study\[0\]\.scenes", r"unknown scene 'kitchen'; registered scenes: \["),
+    (WORKLOAD + 'pairs = "x"', r"study\[0\]\.pairs", "got 'x'"),
+    (WORKLOAD + "pairs = 2.9", r"study\[0\]\.pairs", "got 2.9"),
+    (WORKLOAD + 'seed = "x"', r"study\[0\]\.seed", "got 'x'"),
+    (WORKLOAD + "max_nodes = -1", r"study\[0\]\.max_nodes", ">= 1, got -1"),
+    (WORKLOAD + "competitor_pairs = -1", r"study\[0\]\.competitor_pairs", ">= 0, got -1"),
+    (WORKLOAD + "chunk_pairs = 0", r"study\[0\]\.chunk_pairs", "got 0"),
+    (SCALING + "motions = 0", r"study\[0\]\.motions", "got 0"),
+    (SCALING + "seed = -3", r"study\[0\]\.seed", ">= 0, got -3"),
+    ('[[study]]\nkind = "simulate"\ndt = -0.01', r"study\[0\]\.dt", "positive number"),
+    ("study = [1, 2]", r"study\[0\]", "expected a \\[\\[study\\]\\] table, got 1"),
+    ('[[study]]\nkind = ["certify"]', r"study\[0\]\.kind", "expected one of"),
+    (SCALING + SCALING, r"study\[1\]", r"the same study as study\[0\]"),
+    ("[suite]\nspeed = 1\n" + SCALING, r"suite\.speed", r"unknown key; valid keys: \['name'"),
+    ("[extra]\nx = 1\n" + SCALING, "extra", "unknown top-level key or table"),
+    ("[suite]\nname = 5\n" + SCALING, r"suite\.name", "expected a string, got 5"),
+    ('[suite]\nname = "../escaped"\n' + SCALING, r"suite\.name", "expected a folder name"),
+    ("[suite]\nseed = -1\n" + SCALING, r"suite\.seed", ">= 0, got -1"),
+    ('[suite]\nscheduler = ""\n' + SCALING, r"suite\.scheduler", "Dask scheduler address"),
+    (CERTIFY + "repeats = 1000\nkeyframes = 'both'\nrandom_sets = 100", r"study\[0\]", f"more than {MAX_CASES:,} cases"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("text", "key", "what"), BAD)
+def test_bad_value_names_file_and_key(tmp_path, text, key, what):
+    f = tmp_path / "bad.toml"
+    f.write_text(text + "\n")
+    with pytest.raises(SuiteError, match=rf"bad\.toml: key `{key}`: .*{what}"):
+        load_suite(f)
+
+
+def test_scene_paths_are_relative_to_the_suite_file(tmp_path):
+    (tmp_path / "scenes").mkdir()
+    (tmp_path / "scenes" / "mine.xml").write_text("<mujoco/>")
+    f = tmp_path / "suite.toml"
+    f.write_text(CERTIFY + 'scenes = ["slot", "scenes/mine.xml"]\n')
+    suite = load_suite(f)
+    # entries are kept as written (the rows name them so), the file is remembered for them
+    assert suite.studies[0]["scenes"] == ["slot", "scenes/mine.xml"]
+    assert suite.file == f.resolve()
+    # resolved against the suite's folder, not the working directory
+    (tmp_path / "scenes" / "mine.xml").unlink()
+    with pytest.raises(SuiteError, match=r"scene file 'scenes/mine.xml' not found \(looked for"):
+        load_suite(f)
+
+
+def test_scheduler_is_not_part_of_the_suite_identity(tmp_path):
+    a, b = tmp_path / "a.toml", tmp_path / "b.toml"
+    a.write_text('[suite]\nname = "s"\n' + SCALING)
+    b.write_text('[suite]\nname = "s"\nscheduler = "tcp://10.0.0.1:8786"\n' + SCALING)
+    sa, sb = load_suite(a), load_suite(b)
+    assert sb.scheduler == "tcp://10.0.0.1:8786" and sa.scheduler is None
+    assert sa.digest == sb.digest
+    assert [c["case_id"] for c in expand(sa)] == [c["case_id"] for c in expand(sb)]
+
+
+def test_bad_run_arguments_exit_2_with_one_line(tmp_path, capsys):
+    from harness.cli import main
+
+    f = tmp_path / "s.toml"
+    f.write_text(CERTIFY + 'keyframes = "random"\nscenes = ["slot"]\nschemes = ["rational"]\n')
+    out = tmp_path / "o"
+    # a negative seed used to reach numpy's default_rng with random keyframes
+    r = subprocess.run(
+        [sys.executable, "-m", "harness.cli", "run", str(f), "--out", str(out), "--seed", "-1"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 2 and "`--seed` to be an integer >= 0, got -1" in r.stderr
+    assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1
+    for args, says in (
+        (["--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], "give one"),
+        (["--scheduler", ""], "`--scheduler`"),
+    ):
+        assert main(["run", str(f), "--out", str(out), *args]) == 2
+        err = capsys.readouterr().err
+        assert says in err and err.count("\n") == 1, err
+    assert not out.exists()  # refused before any work
