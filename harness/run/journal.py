@@ -11,7 +11,6 @@ of rows never holds them all in memory.
 from __future__ import annotations
 
 import errno
-import fcntl
 import json
 import math
 import os
@@ -27,6 +26,11 @@ import numpy as np
 import pandas as pd
 
 from ..errors import HarnessError, SuiteError
+
+try:
+    import fcntl
+except ImportError:  # not POSIX: runs are not locked (OutputLock warns)
+    fcntl = None
 
 __all__ = [
     "Journal",
@@ -73,17 +77,20 @@ class OutputLock:
     def acquire(self) -> None:
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
+            if fcntl is None:
+                raise OSError(errno.ENOLCK, "no flock on this platform")
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as e:
-            holder = os.pread(fd, 1024, 0).decode(errors="replace").strip()
+            busy = e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES)
+            holder = os.pread(fd, 1024, 0).decode(errors="replace").strip() if busy else ""
             os.close(fd)
-            if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+            if busy:
                 raise OutputLocked(
                     f"Output folder {str(self.folder)!r} is in use by another rsmbench run"
                     f" ({holder or 'its pid is not written yet'}); wait for it to finish, or"
                     " write to another --out folder."
                 ) from None
-            # a file system without locks: run unlocked, but say so
+            # a file system (or platform) without locks: run unlocked, but say so
             print(
                 f"rsmbench: warning: cannot lock {str(self.folder)!r} ({e}); do not start a"
                 " second run into it.",

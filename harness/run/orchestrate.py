@@ -178,20 +178,24 @@ def _run_locked(
     last = time.monotonic()
     try:
         with _Stop() as stop:
-            for case, rows in _execute(units(todo), suite, seed, jobs, scheduler, stop, lock, leg):
-                journal.append(case["case_id"], rows)
-                done.add(case["case_id"])
-                bar.update(1)
-                if time.monotonic() - last > META_EVERY:
-                    save()
-                    last = time.monotonic()
+            results = _execute(units(todo), suite, seed, jobs, scheduler, stop, lock, leg)
+            try:
+                for case, rows in results:
+                    journal.append(case["case_id"], rows)
+                    done.add(case["case_id"])
+                    bar.update(1)
+                    if time.monotonic() - last > META_EVERY:
+                        save()
+                        last = time.monotonic()
+            finally:
+                results.close()  # stop the workers now, not when the generator is collected
     finally:
         bar.close()
         save()
     if len(done) < len(cases):  # only Ctrl-C ends the loop early
         raise RunInterrupted(out, len(done), len(cases))
-    rows = journal.write_tables([c["case_id"] for c in cases])
-    meta.update(finished=datetime.now(UTC).isoformat(), rows=rows)
+    n_rows = journal.write_tables([c["case_id"] for c in cases])
+    meta.update(finished=datetime.now(UTC).isoformat(), rows=n_rows)
     save()
     return pd.read_parquet(out / "results.parquet")
 
