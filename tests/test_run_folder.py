@@ -21,6 +21,7 @@ from harness.run import (
     Context,
     JournalError,
     OutputLock,
+    OutputLocked,
     expand,
     load_suite,
     run_case,
@@ -194,7 +195,7 @@ def test_lock_in_process(tmp_path):
     with OutputLock(tmp_path) as held:
         assert held.fd is not None
         with pytest.raises(
-            Exception, match=rf"in use by another rsmbench run \(pid {os.getpid()} "
+            OutputLocked, match=rf"in use by another rsmbench run \(pid {os.getpid()} "
         ):
             OutputLock(tmp_path).acquire()
     # released: a lock file naming a run that is gone does not block

@@ -203,6 +203,8 @@ def test_resume_after_sigkill(tiny, tmp_path):
     assert 2 <= done < expected, "the kill should land mid-run"
     # tables are written only when a run completes: a killed run leaves none half-written
     assert not (out / "results.parquet").exists()
+    # the lock file still names the dead run; it does not block the resume
+    assert f"pid {proc.pid} " in (out / ".lock").read_text()
     rsmbench("run", str(tiny), "--out", str(out), "--quiet")
     df = pd.read_parquet(out / "results.parquet")
     assert df["case_id"].nunique() == expected

@@ -85,6 +85,12 @@ def one(mode: str, pairs: int, chunk: int, bounds: str, folder: Path) -> dict:
         pairs_per_s=pairs / res["wall"],
         certify_pairs_per_s=len(df) / batches,
         verdicts=df["verdict"].value_counts().to_dict(),
+        # each worker's peak RSS at the end of each of its chunks, in order: flat when
+        # memory is bounded by the chunk, not by the workload
+        peak_by_chunk={
+            w: g.drop_duplicates("case_id")["peak_memory_mb"].round().astype(int).tolist()
+            for w, g in df.groupby("worker")
+        },
     )
     return res
 
