@@ -238,7 +238,7 @@ def test_bad_suites(tmp_path):
     ):
         load_suite(bad)
     bad.write_text('[[study]]\nkind = "certify"\nscenes = ["kitchen"]\n')
-    with pytest.raises(SuiteError, match=r"registered scenes: \['cube_keyframes'"):
+    with pytest.raises(SuiteError, match=r"valid: \['cube_keyframes'"):
         load_suite(bad)
     bad.write_text('[[study]]\nkind = "certify"\nbounds = ["obb"]\n')
     with pytest.raises(SuiteError, match="bounds"):

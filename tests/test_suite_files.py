@@ -3,6 +3,7 @@ value is a SuiteError naming the file and the key, what was expected and what wa
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 import sys
 
@@ -30,8 +31,8 @@ BAD = [
     (CERTIFY + 'scenes = ["slot", "slot"]', r"study\[0\]\.scenes", r"duplicate entries \['slot'\]"),
     (CERTIFY + 'schemes = ["rational", "rational"]', r"study\[0\]\.schemes", "duplicate"),
     (CERTIFY + 'keyframes = "some"', r"study\[0\]\.keyframes", "expected one of"),
-    (CERTIFY + 'scenes = ["nothere.xml"]', r"study\[0\]\.scenes", "scene file 'nothere.xml' not found"),
-    (CERTIFY + 'scenes = ["kitchen"]', r"study\[0\]\.scenes", r"unknown scene 'kitchen'; registered scenes: \["),
+    (CERTIFY + 'scenes = ["nothere.xml"]', r"study\[0\]\.scenes", r"MJCF file '.*nothere.xml' does not exist"),
+    (CERTIFY + 'scenes = ["kitchen"]', r"study\[0\]\.scenes", r"unknown scene 'kitchen'; valid: \["),
     (WORKLOAD + 'pairs = "x"', r"study\[0\]\.pairs", "got 'x'"),
     (WORKLOAD + "pairs = 2.9", r"study\[0\]\.pairs", "got 2.9"),
     (WORKLOAD + 'seed = "x"', r"study\[0\]\.seed", "got 'x'"),
@@ -62,18 +63,24 @@ def test_bad_value_names_file_and_key(tmp_path, text, key, what):
         load_suite(f)
 
 
-def test_scene_paths_are_relative_to_the_suite_file(tmp_path):
+def test_scene_paths_are_relative_to_the_suite_file(tmp_path, monkeypatch):
+    import scenes
+
     (tmp_path / "scenes").mkdir()
-    (tmp_path / "scenes" / "mine.xml").write_text("<mujoco/>")
+    mine = tmp_path / "scenes" / "mine.xml"
+    shutil.copy(scenes.path("slot"), mine)
     f = tmp_path / "suite.toml"
     f.write_text(CERTIFY + 'scenes = ["slot", "scenes/mine.xml"]\n')
+    monkeypatch.chdir(tmp_path / "scenes")  # resolved against the suite's folder, not here
     suite = load_suite(f)
-    # entries are kept as written (the rows name them so), the file is remembered for them
-    assert suite.studies[0]["scenes"] == ["slot", "scenes/mine.xml"]
-    assert suite.file == f.resolve()
-    # resolved against the suite's folder, not the working directory
-    (tmp_path / "scenes" / "mine.xml").unlink()
-    with pytest.raises(SuiteError, match=r"scene file 'scenes/mine.xml' not found \(looked for"):
+    assert suite.studies[0]["scenes"] == ["slot", str(mine.resolve())]
+    # two spellings of one file are one scene listed twice
+    f.write_text(CERTIFY + 'scenes = ["scenes/mine.xml", "./scenes/../scenes/mine.xml"]\n')
+    with pytest.raises(SuiteError, match=r"study\[0\]\.scenes`: duplicate entries"):
+        load_suite(f)
+    mine.unlink()
+    f.write_text(CERTIFY + 'scenes = ["slot", "scenes/mine.xml"]\n')
+    with pytest.raises(SuiteError, match=r"study\[0\]\.scenes`: MJCF file .* does not exist"):
         load_suite(f)
 
 

@@ -15,29 +15,31 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fields import need, numbers
+from ..fields import integer, need, number, numbers
 from .context import Context
 
 KEYS = frozenset({"cases", "seed", "clearances", "tolerance", "samples", "truth_resolution"})
 
 
 def parse(st: dict, file: Path, where: str) -> dict:
-    out = {
-        "cases": int(st.get("cases", 220)),
-        "seed": int(st.get("seed", 0)),
-        "clearances": numbers(
-            st.get("clearances", [0.0]), file, f"{where}.clearances", positive=False
-        ),
-        "tolerance": numbers(st.get("tolerance", 1e-3), file, f"{where}.tolerance")[0],
-        "samples": int(st.get("samples", 256)),
-        "truth_resolution": numbers(
-            st.get("truth_resolution", 1e-3), file, f"{where}.truth_resolution"
-        )[0],
+    def key(k: str) -> str:
+        return f"{where}.{k}"
+
+    clearances = numbers(st.get("clearances", [0.0]), file, key("clearances"), positive=False)
+    need(
+        all(c >= 0 for c in clearances),
+        file,
+        key("clearances"),
+        f"expected numbers >= 0, got {st.get('clearances')!r}",
+    )
+    return {
+        "cases": integer(st.get("cases", 220), file, key("cases"), lo=1, hi=100_000),
+        "seed": integer(st.get("seed", 0), file, key("seed"), lo=0),
+        "clearances": clearances,
+        "tolerance": number(st.get("tolerance", 1e-3), file, key("tolerance")),
+        "samples": integer(st.get("samples", 256), file, key("samples"), lo=2),
+        "truth_resolution": number(st.get("truth_resolution", 1e-3), file, key("truth_resolution")),
     }
-    need(out["cases"] >= 1, file, f"{where}.cases", "expected >= 1")
-    need(out["samples"] >= 2, file, f"{where}.samples", "expected >= 2")
-    need(all(c >= 0 for c in out["clearances"]), file, f"{where}.clearances", "expected >= 0")
-    return out
 
 
 def expand(st: dict) -> list[dict]:
@@ -52,6 +54,11 @@ def expand(st: dict) -> list[dict]:
         )
         for c in st["clearances"]
     ]
+
+
+def group(case: dict) -> tuple:
+    """Every clearance runs on the same colliding cases: build them once."""
+    return ()
 
 
 def _colliding(ctx: Context, st: dict):
