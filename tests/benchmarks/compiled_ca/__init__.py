@@ -1,0 +1,319 @@
+"""The compiled conservative-advancement competitor (DESIGN §9), called through ctypes.
+
+A C++ loop (ca.cpp) of conservative advancement ``t += max(d, tol) / V`` around coal's
+exact convex distance, with V the proven speed bound of each knot interval
+(``RationalMotion.speed_bound(a, b, radius)``, radius the body's bounding radius) and
+poses evaluated in C++ from the motion's Bézier control matrices. The verdict rule is
+harness' ``lipschitz``: an intersecting pose gives "collision"; a pose closer than
+`tolerance` ends the proof ("unknown", reason "tolerance", unless a later pose
+intersects); otherwise "free".
+
+Usage (the build is optional: :func:`build` returns None without g++, coal or Eigen)::
+
+    from tests.benchmarks import compiled_ca
+    if compiled_ca.build() is None:
+        pytest.skip("no compiler / coal / Eigen")
+    prep = compiled_ca.prepare(motions, bodies, obstacles)   # Python: speed bounds, packing
+    out = compiled_ca.run(prep, tolerance=1e-3)              # C++ only: time this
+    out = compiled_ca.certify_pairs(motions, bodies, obstacles, 1e-3)  # both
+
+Shapes: Box, Sphere, Capsule and Compounds of them (a track per part pair); meshes are
+refused. `obstacles[i]` is a shape or a list of shapes.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import itertools
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from harness import Box, Capsule, Compound, Sphere
+from motions import RationalMotion
+
+from .build import build
+
+__all__ = [
+    "Prepared",
+    "build",
+    "certify_pairs",
+    "distance_cost",
+    "prepare",
+    "run",
+]
+
+VERDICTS = ("free", "collision", "unknown")
+REASONS = ("clear", "contact", "tolerance", "budget")
+KIND = {Box: 0, Sphere: 1, Capsule: 2}
+DEFAULT_MAX_CALLS = 10_000_000  # per track; a budget, reported as reason "budget"
+
+_LIB = None
+
+
+def _lib() -> ctypes.CDLL:
+    global _LIB
+    if _LIB is None:
+        path = build()
+        if path is None:
+            raise RuntimeError(
+                "The compiled CA library is not available (g++, coal or Eigen missing);"
+                " check `compiled_ca.build()` first."
+            )
+        lib = ctypes.CDLL(str(path))
+        d, i, lg = ctypes.c_double, ctypes.c_int, ctypes.c_long
+        pd, pi, pl = (ctypes.POINTER(x) for x in (d, i, lg))
+        lib.ca_run.restype = i
+        lib.ca_run.argtypes = [i, pi, pi, pd, pi, pd, pi, pi, pl, pl, pi, pl, pl]
+        lib.ca_run.argtypes += [pd, pd, pd, pd, d, lg, i, pi, pi, pd, pd, pl, pd]
+        lib.ca_distance_cost.restype = d
+        lib.ca_distance_cost.argtypes = [i, pd, i, pd, i, pd, lg, i, pd]
+        _LIB = lib
+    return _LIB
+
+
+def _record(shape: Any, name: str) -> tuple[int, np.ndarray]:
+    """(kind, 15 doubles: size 3, centre 3, rotation 9 row major) of a convex part."""
+    kind = KIND.get(type(shape))
+    if kind is None:
+        raise ValueError(
+            f"Expected `{name}` to be a Box, Sphere or Capsule (or a Compound of them) for the"
+            f" compiled CA, got {type(shape).__name__}."
+        )
+    rec = np.zeros(15)
+    if kind == 0:
+        rec[:3] = shape.half_extents
+    elif kind == 1:
+        rec[0] = shape.radius
+    else:
+        rec[:2] = shape.radius, shape.half_length
+    rec[3:6] = shape.center
+    rec[6:] = (np.eye(3) if kind == 1 else shape.rotation).ravel()
+    return kind, rec
+
+
+def _parts(shape: Any) -> tuple:
+    return shape.shapes if isinstance(shape, Compound) else (shape,)
+
+
+def _ptr(a: np.ndarray, ctype) -> Any:
+    return a.ctypes.data_as(ctypes.POINTER(ctype))
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """Packed inputs of :func:`run` (built by :func:`prepare`).
+
+    Attributes:
+        pair: (T,) pair index of each track (one per body part x obstacle part).
+        arrays: the C arrays (motion tables, shape records), by name.
+        n_pairs: number of pairs.
+        setup_seconds: process CPU seconds spent in Python on speed bounds and packing.
+    """
+
+    pair: np.ndarray
+    arrays: dict
+    n_pairs: int
+    setup_seconds: float
+
+
+def prepare(motions: list, bodies: Any, obstacles: list) -> Prepared:
+    """Speed bounds per knot interval and packed control matrices and shapes.
+
+    Args:
+        motions: (P,) RationalMotions.
+        bodies: one shape for all, or (P,) shapes (body coordinates).
+        obstacles: (P,) shapes or lists of shapes (world coordinates).
+    """
+    start = time.process_time()
+    n = len(motions)
+    if not isinstance(bodies, list | tuple):
+        bodies = [bodies] * n
+    if len(bodies) != n or len(obstacles) != n:
+        raise ValueError(
+            f"Expected one body and one obstacle entry per motion ({n}), got {len(bodies)}"
+            f" bodies and {len(obstacles)} obstacle entries."
+        )
+    seg, deg, n_iv = [], [], []
+    brk, ctl, kn, sp = [], [], [], []
+    mot_index: dict[tuple[int, float], int] = {}
+    mot, bk, brec, ok, orec, pair = [], [], [], [], [], []
+    for i, (m, body, obst) in enumerate(zip(motions, bodies, obstacles, strict=True)):
+        if not isinstance(m, RationalMotion):
+            raise TypeError(
+                f"Expected `motions[{i}]` to be a RationalMotion, got {type(m).__name__}."
+            )
+        radius = float(body.bounding_radius)
+        key = (id(m), radius)
+        if key not in mot_index:
+            breaks, ctrl = m.bezier_form()
+            knots = np.asarray(m.knots, dtype=float)
+            speeds = [m.speed_bound(a, b, radius) for a, b in itertools.pairwise(knots)]
+            mot_index[key] = len(seg)
+            seg.append(len(breaks) - 1)
+            deg.append(ctrl.shape[1] - 1)
+            n_iv.append(len(knots) - 1)
+            brk.append(breaks)
+            ctl.append(np.ascontiguousarray(ctrl).ravel())
+            kn.append(knots)
+            sp.append(np.asarray(speeds, dtype=float))
+        obst_list = obst if isinstance(obst, list | tuple) else [obst]
+        for bpart in _parts(body):
+            kb, rb = _record(bpart, f"bodies[{i}]")
+            for j, o in enumerate(obst_list):
+                for opart in _parts(o):
+                    ko, ro = _record(opart, f"obstacles[{i}][{j}]")
+                    mot.append(mot_index[key])
+                    bk.append(kb)
+                    brec.append(rb)
+                    ok.append(ko)
+                    orec.append(ro)
+                    pair.append(i)
+
+    def offsets(chunks):
+        return np.concatenate([[0], np.cumsum([len(c) for c in chunks])[:-1]]).astype(np.int64)
+
+    arrays = {
+        "mot": np.asarray(mot, dtype=np.int32),
+        "body_kind": np.asarray(bk, dtype=np.int32),
+        "body_rec": np.ascontiguousarray(np.array(brec).ravel()),
+        "obst_kind": np.asarray(ok, dtype=np.int32),
+        "obst_rec": np.ascontiguousarray(np.array(orec).ravel()),
+        "seg": np.asarray(seg, dtype=np.int32),
+        "deg": np.asarray(deg, dtype=np.int32),
+        "breaks_off": offsets(brk),
+        "ctrl_off": offsets(ctl),
+        "n_iv": np.asarray(n_iv, dtype=np.int32),
+        "knots_off": offsets(kn),
+        "speed_off": offsets(sp),
+        "breaks": np.concatenate(brk),
+        "ctrl": np.concatenate(ctl),
+        "knots": np.concatenate(kn),
+        "speed": np.concatenate(sp),
+    }
+    return Prepared(np.asarray(pair), arrays, n, time.process_time() - start)
+
+
+def run(
+    prep: Prepared, tolerance: float, *, max_calls: int = DEFAULT_MAX_CALLS, warm_start: bool = True
+) -> dict:
+    """Conservative advancement of every pair in C++.
+
+    Returns:
+        dict with per pair ``verdict`` (P,) str, ``reason`` (P,) str, ``toi_lo`` (P,),
+        ``toi_hi`` (P,), ``calls`` (P,) distance calls; ``cpu_seconds`` (float) the
+        process CPU time of the C++ loop (clock_gettime(CLOCK_PROCESS_CPUTIME_ID)), and
+        ``setup_seconds`` (Python speed bounds and packing, from :func:`prepare`).
+    """
+    tol = float(tolerance)
+    if not np.isfinite(tol) or tol <= 0:
+        raise ValueError(f"Expected `tolerance` > 0 (a length), got {tolerance!r}.")
+    lib = _lib()
+    a = prep.arrays
+    t = len(a["mot"])
+    verdict = np.zeros(t, dtype=np.int32)
+    reason = np.zeros(t, dtype=np.int32)
+    toi_lo = np.zeros(t)
+    toi_hi = np.zeros(t)
+    calls = np.zeros(t, dtype=np.int64)
+    cpu = np.zeros(1)
+    d, i, lg = ctypes.c_double, ctypes.c_int, ctypes.c_long
+    rc = lib.ca_run(
+        t,
+        _ptr(a["mot"], i),
+        _ptr(a["body_kind"], i),
+        _ptr(a["body_rec"], d),
+        _ptr(a["obst_kind"], i),
+        _ptr(a["obst_rec"], d),
+        _ptr(a["seg"], i),
+        _ptr(a["deg"], i),
+        _ptr(a["breaks_off"], lg),
+        _ptr(a["ctrl_off"], lg),
+        _ptr(a["n_iv"], i),
+        _ptr(a["knots_off"], lg),
+        _ptr(a["speed_off"], lg),
+        _ptr(a["breaks"], d),
+        _ptr(a["ctrl"], d),
+        _ptr(a["knots"], d),
+        _ptr(a["speed"], d),
+        tol,
+        int(max_calls),
+        int(bool(warm_start)),
+        _ptr(verdict, i),
+        _ptr(reason, i),
+        _ptr(toi_lo, d),
+        _ptr(toi_hi, d),
+        _ptr(calls, lg),
+        _ptr(cpu, d),
+    )
+    if rc != 0:
+        raise ValueError(f"Track {-rc - 1} has a shape kind the compiled CA does not know.")
+    # combine the tracks of each pair: collision > unknown > free; earliest times
+    p = prep.n_pairs
+    rank = np.array([0, 2, 1])[verdict]  # free 0, unknown 1, collision 2
+    best = np.zeros(p, dtype=np.int64)
+    np.maximum.at(best, prep.pair, rank)
+    out_lo = np.full(p, np.inf)
+    out_hi = np.full(p, np.inf)
+    np.minimum.at(out_lo, prep.pair, toi_lo)
+    np.minimum.at(out_hi, prep.pair, toi_hi)
+    out_calls = np.zeros(p, dtype=np.int64)
+    np.add.at(out_calls, prep.pair, calls)
+    first_reason = np.full(p, -1)
+    for k in np.argsort(toi_lo, kind="stable"):  # reason of the earliest unresolved track
+        if first_reason[prep.pair[k]] < 0 and np.array([0, 2, 1])[verdict[k]] == best[prep.pair[k]]:
+            first_reason[prep.pair[k]] = reason[k]
+    names = np.array(["free", "unknown", "collision"])
+    return {
+        "verdict": names[best],
+        "reason": np.array(REASONS)[first_reason],
+        "toi_lo": out_lo,
+        "toi_hi": out_hi,
+        "calls": out_calls,
+        "cpu_seconds": float(cpu[0]),
+        "setup_seconds": prep.setup_seconds,
+    }
+
+
+def certify_pairs(
+    motions: list, bodies: Any, obstacles: list, tolerance: float = 1e-3, **options: Any
+) -> dict:
+    """:func:`prepare` then :func:`run`: the benchmark API (see :func:`run` for the keys)."""
+    return run(prepare(motions, bodies, obstacles), tolerance, **options)
+
+
+def distance_cost(
+    body: Any,
+    obstacle: Any,
+    rotations: np.ndarray,
+    positions: np.ndarray,
+    calls: int,
+    warm_start: bool = False,
+) -> float:
+    """CPU seconds per coal distance call between `body` at the given poses (cycled;
+    rotations (N, 3, 3), positions (N, 3)) and `obstacle`, measured in C++."""
+    lib = _lib()
+    kb, rb = _record(body, "body")
+    ko, ro = _record(obstacle, "obstacle")
+    poses = np.zeros((len(positions), 15))
+    poses[:, 3:6] = positions
+    poses[:, 6:] = np.asarray(rotations).reshape(-1, 9)
+    poses = np.ascontiguousarray(poses.ravel())
+    checksum = np.zeros(1)
+    d = ctypes.c_double
+    secs = lib.ca_distance_cost(
+        kb,
+        _ptr(rb, d),
+        ko,
+        _ptr(ro, d),
+        len(positions),
+        _ptr(poses, d),
+        int(calls),
+        int(bool(warm_start)),
+        _ptr(checksum, d),
+    )
+    if secs < 0:
+        raise ValueError("Unknown shape kind.")
+    return secs / calls
