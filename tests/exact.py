@@ -38,27 +38,48 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
+import pickle
+import subprocess
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
+from scipy.interpolate import BSpline
 
 from harness import Box, Sphere
-from motions import RationalMotion
+from motions import DegenerateMotionError, RationalMotion, hermite
+from motions.bernstein import bezier_derivative, bezier_eval
+from motions.quaternion import qconj, qmul
 
 __all__ = [
+    "Case",
     "ExactBox",
     "ExactMotion",
     "ExactPose",
     "ExactSphere",
+    "box_misses",
+    "case_from_seed",
+    "case_spec",
+    "classify_pose",
     "distance2_bounds",
     "exact_shape",
+    "first_exact_contact",
     "fr",
+    "guarded_speed_bounds",
     "intersects",
+    "make_case",
+    "near_antipodal_hermite",
+    "near_antipodal_preimage",
+    "place_obstacles",
     "point_box_distance2",
+    "pose_intersects",
     "sat_separated",
+    "speed_quotient",
+    "spin",
     "translation_pieces",
 ]
 
@@ -428,9 +449,8 @@ def _pair_bounds(a: ExactBox | ExactSphere, b: ExactBox | ExactSphere) -> tuple[
         d2 = dot(d, d)
         if d2 <= rr * rr:
             return ZERO, ZERO
-        # (|d| - rr)^2 = d2 - 2 rr |d| + rr^2 with |d| bracketed by rationals
-        lo, hi = _sqrt_bracket(d2)
-        return (lo - rr) ** 2, (hi - rr) ** 2
+        lo, hi = _sqrt_bracket(d2)  # |d| bracketed by rationals
+        return max(lo - rr, ZERO) ** 2, (hi - rr) ** 2
     if isinstance(a, ExactBox) and isinstance(b, ExactSphere):
         a, b = b, a
     if isinstance(a, ExactSphere):  # sphere vs box
@@ -438,7 +458,7 @@ def _pair_bounds(a: ExactBox | ExactSphere, b: ExactBox | ExactSphere) -> tuple[
         if d2 <= a.r * a.r:
             return ZERO, ZERO
         lo, hi = _sqrt_bracket(d2)
-        return (lo - a.r) ** 2, (hi - a.r) ** 2
+        return max(lo - a.r, ZERO) ** 2, (hi - a.r) ** 2
     sep, g2 = sat_separated(a, b)  # type: ignore[arg-type]
     if not sep:
         return ZERO, ZERO
@@ -624,8 +644,6 @@ def near_antipodal_preimage(
     nearly antipodal). `translation`: "none" (origin fixed at 0) or "origin" (a cubic
     B-spline origin of spread 0.3 about a random point at distance `coords`).
     """
-    from scipy.interpolate import BSpline
-
     t0 = float(rng.uniform(-1.0, 1.0))
     t1 = t0 + float(rng.uniform(0.5, 3.0))
     spans = int(rng.integers(1, 4))
@@ -670,8 +688,6 @@ def near_antipodal_hermite(
     with ``a = h/6 [0, w0] * q0`` (any vector orthogonal to q0) and ``b = h/6 [0, w1] * q1``.
     Choosing ``a`` and solving for ``b`` (orthogonal to q1) puts ``Q(u*) = eps C``.
     """
-    from motions.quaternion import qconj, qmul
-
     times = np.cumsum(np.concatenate([[0.0], rng.uniform(0.5, 1.5, keys - 1)]))
     q = [_unit(rng.normal(size=4))]
     for _ in range(keys - 1):
@@ -693,17 +709,13 @@ def near_antipodal_hermite(
     beta = float(rng.normal()) * 0.5
 
     def build(eps: float) -> RationalMotion:
-        import motions
-
         alpha = ((eps * (c_dir @ q1) - b0 * cc - b2 - b3) / b1 - cc) / math.sqrt(1 - cc * cc)
         a = alpha * e + beta * f
         b = (b0 * q0 + b1 * (q0 + a) + (b2 + b3) * q1 - eps * c_dir) / b2
         om = omega.copy()
         om[j] = (6.0 / h) * qmul(a, qconj(q0))[1:]
         om[j + 1] = (6.0 / h) * qmul(b, qconj(q1))[1:]
-        return motions.hermite(q, pos, times, velocities=vel, angular_velocities=om)
-
-    from motions import DegenerateMotionError
+        return hermite(q, pos, times, velocities=vel, angular_velocities=om)
 
     eps = 1e-3
     m = None
@@ -743,9 +755,6 @@ settles, so contacts outside that window are not caused by the turn."""
 
 def spin(m: RationalMotion, dip: tuple[int, Fraction]) -> tuple[np.ndarray, float]:
     """World spin axis (unit, (3,)) and time scale ``tau = |Q| / |Q'|`` at the dip (float)."""
-    from motions.bernstein import bezier_derivative, bezier_eval
-    from motions.quaternion import qconj, qmul
-
     s, u = dip
     pieces = m.preimage_pieces[s]
     h = float(m.breaks[s + 1] - m.breaks[s])
@@ -928,11 +937,6 @@ def guarded_speed_bounds(
     """``m.speed_bound(a, b, radius)`` for each job in one child process with bounded
     memory and time: ("ok", value), ("memory", None), ("timeout", None) or
     (exception name, message) per job; ("crashed", returncode) if the child dies."""
-    import os
-    import pickle
-    import subprocess
-    import sys
-
     code = _WORKER.format(mem=int(memory), sec=float(seconds))
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = {**os.environ, "PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
