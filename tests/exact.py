@@ -81,6 +81,7 @@ __all__ = [
     "speed_quotient",
     "spin",
     "translation_pieces",
+    "weight_ratio",
 ]
 
 Vec = tuple[Fraction, Fraction, Fraction]
@@ -562,7 +563,7 @@ class Case:
         body: harness shape in body coordinates; obstacles: harness shapes (world).
         exact: the exact truth of `motion` (preimage route).
         dip: (segment, u) of the dip, u a dyadic Fraction; dip_time the exact time.
-        ratio: ``u0`` at the dip over the largest Bézier weight of the motion.
+        ratio: ``u0`` at the dip over the largest Bernstein coefficient of ``u0``.
         penetration: the depth (scene units) that the deepest body point was placed at.
         dip_only: the obstacles clear every float pose outside a window around the dip
             by `margin` (a float estimate: cases where the dip is the only contact).
@@ -617,8 +618,11 @@ def _orthogonal_unit(rng: np.random.Generator, *vs: np.ndarray, dim: int = 4) ->
     return _unit(x)
 
 
-def _weight_ratio(m: RationalMotion, exact: ExactMotion, dip: tuple[int, Fraction]) -> float:
-    return float(exact.u0(*dip)) / float(np.abs(m.weights()).max())
+def weight_ratio(m: RationalMotion, dip: tuple[int, Fraction]) -> float:
+    """``u0`` at the dip (exact) over the largest Bernstein coefficient of ``u0`` at its own
+    degree 2d (``m.u0_pieces``): the ratio that ``interpolate``/``hermite`` refuse below
+    1e-8 and the positivity splitter compares with."""
+    return float(ExactMotion(m).u0(*dip)) / float(np.abs(m.u0_pieces).max())
 
 
 def _clamped_knots(rng: np.random.Generator, degree: int, t0: float, t1: float, spans: int):
@@ -670,7 +674,7 @@ def near_antipodal_preimage(
         c = c0 - q_star + eps * c_dir
         m = RationalMotion.from_preimage(degree, knots, c, origin)
         # the dip must stay inside segment s (breaks are those of `base`)
-        got = _weight_ratio(m, ExactMotion(m), (s, u))
+        got = weight_ratio(m, (s, u))
         eps *= math.sqrt(ratio / got)
     return m, (s, u)
 
@@ -725,7 +729,7 @@ def near_antipodal_hermite(
         except DegenerateMotionError:
             eps *= 2.0
             continue
-        got = _weight_ratio(m, ExactMotion(m), (j, u))
+        got = weight_ratio(m, (j, u))
         eps *= math.sqrt(ratio / got)
     try:
         m = build(eps)
@@ -874,7 +878,7 @@ def make_case(
     exact = ExactMotion(m)
     shape = random_body(rng, body)
     obstacles, margin = place_obstacles(rng, m, exact, dip, shape, obstacle, penetration)
-    got = _weight_ratio(m, exact, dip)
+    got = weight_ratio(m, dip)
     name = (
         f"{family}-d{degree}-{translation}-x{coords:g}-r{got:.1e}-{body}-{obstacle}"
         f"-p{penetration:.0e}"

@@ -94,6 +94,35 @@ def _record(shape: Any, name: str) -> tuple[int, np.ndarray]:
     return kind, rec
 
 
+def _given_speeds(entry: Any, m: RationalMotion, i: int) -> tuple[np.ndarray, np.ndarray]:
+    """Validated ``(breakpoints (K+1,), bounds (K,))`` covering the motion's domain."""
+    try:
+        knots, bounds = (np.asarray(x, dtype=float) for x in entry)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"Expected `speeds[{i}]` to be a pair (breakpoints, bounds), got {type(entry).__name__}."
+        ) from None
+    t0, t1 = m.domain
+    if (
+        knots.ndim != 1
+        or bounds.shape != (knots.size - 1,)
+        or knots.size < 2
+        or np.any(np.diff(knots) <= 0)
+        or not np.all(np.isfinite(bounds))
+        or np.any(bounds < 0)
+    ):
+        raise ValueError(
+            f"Expected `speeds[{i}]` to be increasing breakpoints (K+1,) and finite bounds >= 0"
+            f" (K,), got shapes {knots.shape} and {bounds.shape}."
+        )
+    if knots[0] > t0 or knots[-1] < t1:
+        raise ValueError(
+            f"Expected `speeds[{i}]` to span the domain [{t0!r}, {t1!r}], got"
+            f" [{knots[0]!r}, {knots[-1]!r}]."
+        )
+    return knots, bounds
+
+
 def _parts(shape: Any) -> tuple:
     return shape.shapes if isinstance(shape, Compound) else (shape,)
 
@@ -119,13 +148,18 @@ class Prepared:
     setup_seconds: float
 
 
-def prepare(motions: list, bodies: Any, obstacles: list) -> Prepared:
+def prepare(motions: list, bodies: Any, obstacles: list, *, speeds: list | None = None) -> Prepared:
     """Speed bounds per knot interval and packed control matrices and shapes.
 
     Args:
         motions: (P,) RationalMotions.
         bodies: one shape for all, or (P,) shapes (body coordinates).
         obstacles: (P,) shapes or lists of shapes (world coordinates).
+        speeds: None (``m.speed_bound(a, b, radius)`` on every interval of ``m.knots``,
+            radius the body's bounding radius), or per motion ``(breakpoints (K+1,),
+            bounds (K,))``: proven speed bounds on the intervals of increasing
+            breakpoints that span the motion's domain (e.g. the ones another method uses,
+            so that both advance by the same rule).
     """
     start = time.process_time()
     n = len(motions)
@@ -136,6 +170,8 @@ def prepare(motions: list, bodies: Any, obstacles: list) -> Prepared:
             f"Expected one body and one obstacle entry per motion ({n}), got {len(bodies)}"
             f" bodies and {len(obstacles)} obstacle entries."
         )
+    if speeds is not None and len(speeds) != n:
+        raise ValueError(f"Expected one `speeds` entry per motion ({n}), got {len(speeds)}.")
     seg, deg, n_iv = [], [], []
     brk, ctl, kn, sp = [], [], [], []
     mot_index: dict[tuple[int, float], int] = {}
@@ -146,11 +182,14 @@ def prepare(motions: list, bodies: Any, obstacles: list) -> Prepared:
                 f"Expected `motions[{i}]` to be a RationalMotion, got {type(m).__name__}."
             )
         radius = float(body.bounding_radius)
-        key = (id(m), radius)
+        key = (id(m), radius) if speeds is None else (i, radius)
         if key not in mot_index:
             breaks, ctrl = m.bezier_form()
-            knots = np.asarray(m.knots, dtype=float)
-            speeds = [m.speed_bound(a, b, radius) for a, b in itertools.pairwise(knots)]
+            if speeds is None:
+                knots = np.asarray(m.knots, dtype=float)
+                bounds = [m.speed_bound(a, b, radius) for a, b in itertools.pairwise(knots)]
+            else:
+                knots, bounds = _given_speeds(speeds[i], m, i)
             mot_index[key] = len(seg)
             seg.append(len(breaks) - 1)
             deg.append(ctrl.shape[1] - 1)
@@ -158,7 +197,7 @@ def prepare(motions: list, bodies: Any, obstacles: list) -> Prepared:
             brk.append(breaks)
             ctl.append(np.ascontiguousarray(ctrl).ravel())
             kn.append(knots)
-            sp.append(np.asarray(speeds, dtype=float))
+            sp.append(np.asarray(bounds, dtype=float))
         obst_list = obst if isinstance(obst, list | tuple) else [obst]
         for bpart in _parts(body):
             kb, rb = _record(bpart, f"bodies[{i}]")
