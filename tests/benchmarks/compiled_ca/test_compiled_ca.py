@@ -8,6 +8,7 @@ penetrating (30 %): ``RSMBENCH_CA_PAIRS`` of them (default 200).
 
 from __future__ import annotations
 
+import itertools
 import os
 from collections import Counter
 
@@ -101,7 +102,7 @@ def test_compounds_and_obstacle_lists_combine_tracks():
     assert out["verdict"][0] == "collision"  # the capsule meets the sphere at x = 0
     assert 1.0 < out["toi_hi"][0] < 2.0
     with pytest.raises(ValueError, match="`bodies\\[0\\]`"):
-        prepare([m], harness.ConvexMesh(np.eye(3)), [obst])
+        prepare([m], harness.ConvexMesh(np.vstack([np.zeros(3), np.eye(3)])), [obst])
 
 
 def test_distance_cost_is_measured(rng):
@@ -109,3 +110,26 @@ def test_distance_cost_is_measured(rng):
     pos = rng.normal(size=(4, 3)) * 0.01 + [1.0, 0, 0]
     sec = distance_cost(harness.Box([0.1] * 3), harness.Box([0.2] * 3), r, pos, 1000)
     assert 0 < sec < 1e-3
+
+
+def test_given_speed_bounds_are_used_and_checked():
+    w = certify_workload(6, seed=4)
+    default = certify_pairs(w.motions, w.bodies, w.obstacles, TOL)
+    same = [
+        (
+            m.knots,
+            [m.speed_bound(a, b, body.bounding_radius) for a, b in itertools.pairwise(m.knots)],
+        )
+        for m, body in zip(w.motions, w.bodies, strict=True)
+    ]
+    out = run(prepare(w.motions, w.bodies, w.obstacles, speeds=same), TOL)
+    assert np.array_equal(out["verdict"], default["verdict"])
+    assert np.array_equal(out["calls"], default["calls"])
+    # doubled bounds: the same verdicts from about twice as many steps
+    double = [(k, 2 * np.asarray(v)) for k, v in same]
+    out2 = run(prepare(w.motions, w.bodies, w.obstacles, speeds=double), TOL)
+    assert out2["calls"].sum() > 1.5 * default["calls"].sum()
+    with pytest.raises(ValueError, match="`speeds\\[0\\]`"):
+        prepare(w.motions, w.bodies, w.obstacles, speeds=[(same[0][0][1:], same[0][1][1:])] * 6)
+    with pytest.raises(ValueError, match="one `speeds` entry per motion"):
+        prepare(w.motions, w.bodies, w.obstacles, speeds=same[:2])
