@@ -604,6 +604,11 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
+def _orthogonal_unit_to(x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """x minus its component along v, normalised."""
+    return _unit(x - (x @ v) / (v @ v) * v)
+
+
 def _orthogonal_unit(rng: np.random.Generator, *vs: np.ndarray, dim: int = 4) -> np.ndarray:
     """A random unit vector orthogonal to every v in `vs` (Gram–Schmidt)."""
     basis = []
@@ -622,7 +627,7 @@ def weight_ratio(m: RationalMotion, dip: tuple[int, Fraction]) -> float:
     """``u0`` at the dip (exact) over the largest Bernstein coefficient of ``u0`` at its own
     degree 2d (``m.u0_pieces``): the ratio that ``interpolate``/``hermite`` refuse below
     1e-8 and the positivity splitter compares with."""
-    return float(ExactMotion(m).u0(*dip)) / float(np.abs(m.u0_pieces).max())
+    return float(ExactMotion(m).u0(*dip)) / float(m.u0_pieces.max())
 
 
 def _clamped_knots(rng: np.random.Generator, degree: int, t0: float, t1: float, spans: int):
@@ -712,31 +717,44 @@ def near_antipodal_hermite(
     c_dir = _unit(rng.normal(size=4))
     beta = float(rng.normal()) * 0.5
 
-    def build(eps: float) -> RationalMotion:
-        alpha = ((eps * (c_dir @ q1) - b0 * cc - b2 - b3) / b1 - cc) / math.sqrt(1 - cc * cc)
+    def tangents(eps: float, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        alpha = ((eps * (c @ q1) - b0 * cc - b2 - b3) / b1 - cc) / math.sqrt(1 - cc * cc)
         a = alpha * e + beta * f
-        b = (b0 * q0 + b1 * (q0 + a) + (b2 + b3) * q1 - eps * c_dir) / b2
+        return a, (b0 * q0 + b1 * (q0 + a) + (b2 + b3) * q1 - eps * c) / b2
+
+    def orthogonal_dir(eps: float) -> np.ndarray:
+        # C orthogonal to Q'(u*), so that u* is where |Q| is smallest: Q' barely depends
+        # on eps C, a few fixed-point steps suffice
+        c = c_dir
+        for _ in range(6):
+            a, b = tangents(eps, c)
+            p1, p2 = q0 + a, q1 - b
+            uf = float(u)
+            dq = (1 - uf) ** 2 * (p1 - q0) + 2 * (1 - uf) * uf * (p2 - p1) + uf**2 * (q1 - p2)
+            c = _orthogonal_unit_to(c_dir, dq)
+        return c
+
+    def build(eps: float) -> RationalMotion:
+        a, b = tangents(eps, orthogonal_dir(eps))
         om = omega.copy()
         om[j] = (6.0 / h) * qmul(a, qconj(q0))[1:]
         om[j + 1] = (6.0 / h) * qmul(b, qconj(q1))[1:]
         return hermite(q, pos, times, velocities=vel, angular_velocities=om)
 
     eps = 1e-3
-    m = None
     for _ in range(8):
         try:
-            m = build(eps)
+            got = weight_ratio(build(eps), (j, u))
         except DegenerateMotionError:
             eps *= 2.0
             continue
-        got = weight_ratio(m, (j, u))
         eps *= math.sqrt(ratio / got)
-    try:
-        m = build(eps)
-    except DegenerateMotionError:
-        eps *= 1.01
-        m = build(eps)
-    return m, (j, u)
+    for _ in range(20):  # just above a refusal threshold: creep up until accepted
+        try:
+            return build(eps), (j, u)
+        except DegenerateMotionError:
+            eps *= 1.02
+    return build(eps), (j, u)
 
 
 def _float_poses(m: RationalMotion, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
