@@ -27,6 +27,7 @@ import ctypes
 import itertools
 import time
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -64,10 +65,10 @@ def _lib() -> ctypes.CDLL:
             )
         lib = ctypes.CDLL(str(path))
         d, i, lg = ctypes.c_double, ctypes.c_int, ctypes.c_long
-        pd, pi, pl = (ctypes.POINTER(x) for x in (d, i, lg))
+        pd = ctypes.POINTER(d)
         lib.ca_run.restype = i
-        lib.ca_run.argtypes = [i, pi, pi, pd, pi, pd, pi, pi, pl, pl, pi, pl, pl]
-        lib.ca_run.argtypes += [pd, pd, pd, pd, d, lg, i, pi, pi, pd, pd, pl, pd]
+        vp = ctypes.c_void_p  # arrays go in as addresses: cheaper than POINTER objects
+        lib.ca_run.argtypes = [i] + [vp] * 16 + [d, lg, i] + [vp] * 6
         lib.ca_distance_cost.restype = d
         lib.ca_distance_cost.argtypes = [i, pd, i, pd, i, pd, lg, i, pd]
         _LIB = lib
@@ -131,6 +132,26 @@ def _ptr(a: np.ndarray, ctype) -> Any:
     return a.ctypes.data_as(ctypes.POINTER(ctype))
 
 
+_INPUTS = (
+    "mot",
+    "body_kind",
+    "body_rec",
+    "obst_kind",
+    "obst_rec",
+    "seg",
+    "deg",
+    "breaks_off",
+    "ctrl_off",
+    "n_iv",
+    "knots_off",
+    "speed_off",
+    "breaks",
+    "ctrl",
+    "knots",
+    "speed",
+)
+
+
 @dataclass(frozen=True)
 class Prepared:
     """Packed inputs of :func:`run` (built by :func:`prepare`).
@@ -146,6 +167,11 @@ class Prepared:
     arrays: dict
     n_pairs: int
     setup_seconds: float
+
+    @cached_property
+    def addresses(self) -> tuple[int, ...]:
+        """The input arrays' addresses in ca_run's order (the arrays live in `arrays`)."""
+        return tuple(self.arrays[k].ctypes.data for k in _INPUTS)
 
 
 def prepare(motions: list, bodies: Any, obstacles: list, *, speeds: list | None = None) -> Prepared:
@@ -250,46 +276,37 @@ def run(
     if not np.isfinite(tol) or tol <= 0:
         raise ValueError(f"Expected `tolerance` > 0 (a length), got {tolerance!r}.")
     lib = _lib()
-    a = prep.arrays
-    t = len(a["mot"])
+    t = len(prep.pair)
     verdict = np.zeros(t, dtype=np.int32)
     reason = np.zeros(t, dtype=np.int32)
     toi_lo = np.zeros(t)
     toi_hi = np.zeros(t)
     calls = np.zeros(t, dtype=np.int64)
     cpu = np.zeros(1)
-    d, i, lg = ctypes.c_double, ctypes.c_int, ctypes.c_long
+    outs = (verdict, reason, toi_lo, toi_hi, calls, cpu)
     rc = lib.ca_run(
         t,
-        _ptr(a["mot"], i),
-        _ptr(a["body_kind"], i),
-        _ptr(a["body_rec"], d),
-        _ptr(a["obst_kind"], i),
-        _ptr(a["obst_rec"], d),
-        _ptr(a["seg"], i),
-        _ptr(a["deg"], i),
-        _ptr(a["breaks_off"], lg),
-        _ptr(a["ctrl_off"], lg),
-        _ptr(a["n_iv"], i),
-        _ptr(a["knots_off"], lg),
-        _ptr(a["speed_off"], lg),
-        _ptr(a["breaks"], d),
-        _ptr(a["ctrl"], d),
-        _ptr(a["knots"], d),
-        _ptr(a["speed"], d),
+        *prep.addresses,
         tol,
         int(max_calls),
         int(bool(warm_start)),
-        _ptr(verdict, i),
-        _ptr(reason, i),
-        _ptr(toi_lo, d),
-        _ptr(toi_hi, d),
-        _ptr(calls, lg),
-        _ptr(cpu, d),
+        *(x.ctypes.data for x in outs),
     )
     if rc != 0:
         raise ValueError(f"Track {-rc - 1} has a shape kind the compiled CA does not know.")
-    # combine the tracks of each pair: collision > unknown > free; earliest times
+    names = np.array(["free", "collision", "unknown"])
+    if t == prep.n_pairs:  # one track per pair (no compounds, one obstacle each)
+        return {
+            "verdict": names[verdict],
+            "reason": np.array(REASONS)[reason],
+            "toi_lo": toi_lo,
+            "toi_hi": toi_hi,
+            "calls": calls,
+            "cpu_seconds": float(cpu[0]),
+            "setup_seconds": prep.setup_seconds,
+        }
+    # combine the tracks of each pair: collision > unknown > free; earliest times; the
+    # reason of the earliest track among those with the pair's verdict
     p = prep.n_pairs
     rank = np.array([0, 2, 1])[verdict]  # free 0, unknown 1, collision 2
     best = np.zeros(p, dtype=np.int64)
@@ -300,13 +317,13 @@ def run(
     np.minimum.at(out_hi, prep.pair, toi_hi)
     out_calls = np.zeros(p, dtype=np.int64)
     np.add.at(out_calls, prep.pair, calls)
-    first_reason = np.full(p, -1)
-    for k in np.argsort(toi_lo, kind="stable"):  # reason of the earliest unresolved track
-        if first_reason[prep.pair[k]] < 0 and np.array([0, 2, 1])[verdict[k]] == best[prep.pair[k]]:
-            first_reason[prep.pair[k]] = reason[k]
-    names = np.array(["free", "unknown", "collision"])
+    cand = np.flatnonzero(rank == best[prep.pair])
+    cand = cand[np.lexsort((toi_lo[cand], prep.pair[cand]))]
+    pairs_of, first = np.unique(prep.pair[cand], return_index=True)
+    first_reason = np.zeros(p, dtype=np.int64)
+    first_reason[pairs_of] = reason[cand[first]]
     return {
-        "verdict": names[best],
+        "verdict": np.array(["free", "unknown", "collision"])[best],
         "reason": np.array(REASONS)[first_reason],
         "toi_lo": out_lo,
         "toi_hi": out_hi,
