@@ -16,9 +16,10 @@ The default run uses a fixed selection of cases (some of which main certifies fr
 ``RSMBENCH_HUNT=1`` runs ``RSMBENCH_HUNT_CASES`` (default 200) seeded cases with the
 default node budget and wider speed-bound intervals, and prints the counts.
 
-The engine-dependent tests are marked xfail (strict=False) while issue 11 is open: main
-fails them (false frees, witnesses that do not meet, boxes that miss the body, speed
-bounds that are not bounds). Remove the marks when the new engine lands.
+The engine-dependent tests are marked xfail (strict=False) while issue 11 is open: the
+engine before it (34a8e7d) fails them (false frees, witnesses that do not meet, toi_lo
+after a contact, boxes that miss the body, speed bounds that are not bounds); the
+engine on main since 6b244ee passes them (XPASS). Remove the marks to make them binding.
 """
 
 from __future__ import annotations
