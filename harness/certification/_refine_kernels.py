@@ -321,9 +321,8 @@ def _refine(
                 # the piece's box against each obstacle's: pairs that miss never refine
                 for i in range(k):
                     st_ctrl[lane, 0, i] = ctrl[start + i]
-                root = _prepare(
-                    st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, use_aabb
-                )
+                # the exact box here: once per piece, against every obstacle (broad phase)
+                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 1)
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break
@@ -618,7 +617,7 @@ def _clearance(
                 part = shapes[b]
                 for i in range(k):
                     st_ctrl[lane, 0, i] = ctrl[start + i]
-                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 0)
+                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 1)
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break
