@@ -11,8 +11,8 @@ printed (run with ``-s``)::
 The compiled competitor is ``tests/benchmarks/compiled_ca`` (a C++ loop of conservative
 advancement around coal's distance, built with g++ when coal's headers and Eigen are
 present; these benchmarks skip without it), given the very speed bounds the in-kernel
-``lipschitz`` uses (per quarter of each positive Bézier piece), so that both advance by
-the same rule.
+``lipschitz`` uses (one per knot interval: keyframe times and Bézier breakpoints), so that
+both advance by the same rule.
 """
 
 from __future__ import annotations
