@@ -23,7 +23,7 @@ from motions.pieces import speed_bounds
 from ..shapes import Shape
 from .api import MAX_SAMPLES, Certificate, QueryError, assemble
 from .device import buffers, is_cpu, warp
-from .refine import GPU_LANES, MOTIONS_PER_CHUNK, Outcome, pack_shapes
+from .refine import GPU_LANES, MOTIONS_PER_CHUNK, Outcome, pack_inputs, pack_shapes
 from .tables import ShapeTable
 
 __all__ = ["advance_many", "default_samples", "pose_matrices", "pose_rows", "sample_many"]
@@ -154,7 +154,6 @@ def _interval_speeds(m: Motion, radius: float, index: int, bound: str) -> tuple:
 # ----------------------------------------------------------------------------- in-kernel
 def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome, float]:
     from . import _advance_kernels as K
-    from ._geometry import Shape as WpShape
 
     wp = warp()
     start = time.perf_counter()
@@ -164,37 +163,16 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
         cm, cb, co = (x[c : c + MOTIONS_PER_CHUNK] for x in (ms, bodies, obst))
         n = len(cm)
         stepping = [_stepping_pieces(m, b.bounding_radius) for m, b in zip(cm, cb, strict=True)]
-        packs = [x[0] for x in stepping]
-        speeds = np.concatenate([x[1] for x in stepping])
-        table, m_parts, m_obst, o_idx, _ = pack_shapes(cb, co)
-        p_k = np.concatenate([p[1] for p in packs])
-        counts = np.array([len(p[1]) for p in packs])
-        p_start = np.zeros(len(p_k), dtype=np.int32)
-        np.cumsum(p_k[:-1], out=p_start[1:])
-        bounds = np.zeros(n + 1, dtype=np.int32)
-        np.cumsum(counts, out=bounds[1:])
         buf = buffers(device, kernel_name)
         lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
-        kmax = int(p_k.max())
-        head = [
-            buf.put("ctrl", np.concatenate([p[0] for p in packs]), wp.mat44d),
-            buf.put("p_start", p_start, wp.int32),
-            buf.put("p_k", p_k, wp.int32),
-            buf.put("p_t", np.concatenate([p[2] for p in packs]), wp.vec2d),
-            buf.put("p_err", np.concatenate([p[3] for p in packs]), wp.vec3d),
-            buf.put("p_speed", speeds, wp.float64),
-            buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
-            buf.put("m_parts", m_parts, wp.vec2i),
-            buf.put("m_obst", m_obst, wp.vec2i),
-        ]
+        arrays, kmax = pack_inputs(buf, [x[0] for x in stepping], cb, co)
+        head = [arrays[k] for k in ("ctrl", "p_start", "p_k", "p_t", "p_err")]
+        head.append(buf.put_concat("p_speed", [x[1] for x in stepping], wp.float64))
+        head += [arrays[k] for k in ("m_pieces", "m_parts", "m_obst")]
         if kernel_name == "sample":
             head.append(buf.put("m_samples", samples[c : c + n].astype(np.int32), wp.int32))
-        head += [
-            buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
-            buf.put("shapes", table.records, WpShape),
-            buf.put("verts", table.verts, wp.vec3d),
-            float(o["tol"]),
-        ]
+        head += [arrays[k] for k in ("o_idx", "shapes", "verts")]
+        head.append(float(o["tol"]))
         if kernel_name == "advance":
             head.append(int(min(o["max_nodes"], 2**31 - 1)))
         head.append(int(o["max_iter"]))

@@ -118,12 +118,22 @@ class Buffers:
             self._arrays[name] = cur
         return cur
 
-    def put(self, name: str, data: np.ndarray, wp_dtype, inner: int = 0):
-        """Write `data` into buffer `name` (its first axis grows; `inner` trailing axes of
-        `data` belong to the Warp dtype, e.g. 2 for mat44d)."""
+    def put(self, name: str, data: np.ndarray, wp_dtype):
+        """Write `data` into buffer `name` (its first axis grows; trailing axes belong to
+        the Warp dtype, e.g. (4, 4) for mat44d)."""
         data = np.asarray(data)
         host, arr = self._get(name, data.shape, data.dtype, wp_dtype)
         host[: len(data)] = data
+        if not is_cpu(self.device):
+            arr.assign(host)
+        return arr
+
+    def put_concat(self, name: str, parts: list, wp_dtype):
+        """Write the concatenation of `parts` (arrays with equal trailing shapes) into
+        buffer `name` directly (one copy instead of two)."""
+        n = sum(len(p) for p in parts)
+        host, arr = self._get(name, (n,) + parts[0].shape[1:], parts[0].dtype, wp_dtype)
+        np.concatenate(parts, out=host[:n])
         if not is_cpu(self.device):
             arr.assign(host)
         return arr

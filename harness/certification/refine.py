@@ -183,36 +183,44 @@ def _pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     return table, m_parts, m_obst, o_idx, n_obst
 
 
-def pack_inputs(buf, packs, bodies, obst) -> tuple[list, int]:
-    """The kernels' leading inputs (pieces, motions, shapes) written to `buf`; returns
-    them and K_max."""
+def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
+    """The kernels' inputs on pieces, motions and shapes, written to `buf`: a dict of
+    Warp arrays by kernel argument name, and K_max."""
     from ._geometry import Shape as WpShape
 
     wp = warp()
     n = len(packs)
     table, m_parts, m_obst, o_idx, n_obst = pack_shapes(bodies, obst)
-    p_k = np.concatenate([p[1] for p in packs])
-    counts = np.array([len(p[1]) for p in packs])
+    ctrls, ks, ts, errs, extra = zip(*packs, strict=True)
+    p_k = np.concatenate(ks)
+    counts = np.fromiter(map(len, ks), dtype=np.int64, count=n)
     p_start = np.zeros(len(p_k), dtype=np.int32)
     np.cumsum(p_k[:-1], out=p_start[1:])
     bounds = np.zeros(n + 1, dtype=np.int32)
     np.cumsum(counts, out=bounds[1:])
-    extra = np.array([p[4] for p in packs])
-    args = [
-        buf.put("ctrl", np.concatenate([p[0] for p in packs]), wp.mat44d),
-        buf.put("p_start", p_start, wp.int32),
-        buf.put("p_k", p_k, wp.int32),
-        buf.put("p_t", np.concatenate([p[2] for p in packs]), wp.vec2d),
-        buf.put("p_err", np.concatenate([p[3] for p in packs]), wp.vec3d),
-        buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
-        buf.put("m_parts", m_parts, wp.vec2i),
-        buf.put("m_obst", m_obst, wp.vec2i),
-        buf.put("m_nodes0", (extra * np.maximum(1, n_obst)).astype(np.int32), wp.int32),
-        buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
-        buf.put("shapes", table.records, WpShape),
-        buf.put("verts", table.verts, wp.vec3d),
-    ]
-    return args, int(p_k.max())
+    arrays = {
+        "ctrl": buf.put_concat("ctrl", ctrls, wp.mat44d),
+        "p_start": buf.put("p_start", p_start, wp.int32),
+        "p_k": buf.put("p_k", p_k, wp.int32),
+        "p_t": buf.put_concat("p_t", ts, wp.vec2d),
+        "p_err": buf.put_concat("p_err", errs, wp.vec3d),
+        "m_pieces": buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
+        "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
+        "m_obst": buf.put("m_obst", m_obst, wp.vec2i),
+        "m_nodes0": buf.put(
+            "m_nodes0", (np.asarray(extra) * np.maximum(1, n_obst)).astype(np.int32), wp.int32
+        ),
+        "o_idx": buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
+        "shapes": buf.put("shapes", table.records, WpShape),
+        "verts": buf.put("verts", table.verts, wp.vec3d),
+    }
+    return arrays, int(p_k.max())
+
+
+REFINE_INPUTS = (
+    "ctrl", "p_start", "p_k", "p_t", "p_err", "m_pieces", "m_parts", "m_obst", "m_nodes0",
+    "o_idx", "shapes", "verts",
+)  # fmt: skip
 
 
 def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threads, device):
@@ -222,9 +230,9 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
     n = len(packs)
     buf = buffers(device, "refine")
     lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
-    head, kmax = pack_inputs(buf, packs, bodies, obst)
+    arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
-    args = head + [
+    args = [arrays[k] for k in REFINE_INPUTS] + [
         float(tol),
         int(max_depth),
         int(min(max_nodes, 2**31 - 1)),
@@ -273,9 +281,9 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
     n = len(packs)
     buf = buffers(device, "clearance")
     lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
-    head, kmax = pack_inputs(buf, packs, bodies, obst)
+    arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
-    args = head + [
+    args = [arrays[k] for k in REFINE_INPUTS] + [
         float(tol),
         int(max_depth),
         int(min(max_nodes, 2**31 - 1)),
