@@ -371,6 +371,16 @@ class RationalMotion(Motion):
         return None if self._q is None else self._q.copy()
 
     @property
+    def origin_pieces(self) -> np.ndarray | None:
+        """(S, k+1, 3) Bézier control points of the origin spline p (``v = u0 p``), or None."""
+        return None if self._p is None else self._p.copy()
+
+    @property
+    def numerator_pieces(self) -> np.ndarray | None:
+        """(S, m+1, 3) Bézier coefficients of the numerator v (origin ``v / u0``), or None."""
+        return None if self._v is None else self._v.copy()
+
+    @property
     def ctrl(self) -> np.ndarray:
         """(S, n+1, 4, 4) homogeneous control matrices (computed once, read-only)."""
         if self._ctrl is None:

@@ -199,19 +199,9 @@ class ExactPose:
 
 def translation_pieces(m: RationalMotion) -> tuple[str, np.ndarray | None]:
     """The stored translation pieces of `m`: ("origin", p (S, k+1, 3)), ("numerator", v
-    (S, k+1, 3)) or ("none", None).
-
-    RationalMotion has no public accessor for them (only ``preimage_pieces``); an oracle
-    must see the stored floats, so this reads the attributes that ``from_preimage``,
-    ``interpolate`` and ``hermite`` fill (see motions/rational.py), preferring public
-    names should they appear.
-    """
+    (S, k+1, 3)) or ("none", None); an oracle must see the stored floats."""
     for kind in ("origin", "numerator"):
-        public = getattr(m, f"{kind}_pieces", None)
-        if public is not None:
-            return kind, np.asarray(public, dtype=float)
-    for kind, attr in (("origin", "_p"), ("numerator", "_v")):
-        val = getattr(m, attr, None)
+        val = getattr(m, f"{kind}_pieces")
         if val is not None:
             return kind, np.asarray(val, dtype=float)
     return "none", None

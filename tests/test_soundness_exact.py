@@ -16,10 +16,9 @@ The default run uses a fixed selection of cases (some of which main certifies fr
 ``RSMBENCH_HUNT=1`` runs ``RSMBENCH_HUNT_CASES`` (default 200) seeded cases with the
 default node budget and wider speed-bound intervals, and prints the counts.
 
-The engine-dependent tests are marked xfail (strict=False) while issue 11 is open: the
-engine before it (34a8e7d) fails them (false frees, witnesses that do not meet, toi_lo
-after a contact, boxes that miss the body, speed bounds that are not bounds); the
-engine on main since 6b244ee passes them (XPASS). Remove the marks to make them binding.
+The engine before issue 11 (34a8e7d) failed these tests (false frees, witnesses that did
+not meet, toi_lo after a contact, boxes that missed the body, speed bounds that were not
+bounds); the engine since passes them, and they are binding.
 """
 
 from __future__ import annotations
@@ -79,7 +78,6 @@ AABB_NODES = None if HUNT else 20_000
 per case on main). A budget only turns undecided rows into "budget" unknowns, never into
 "free", so it cannot hide a false free that the bound would not also give unbudgeted."""
 SWEPT_DEPTHS = (0, 4, 8) if HUNT else (0, 3)
-ISSUE = "issue 11: margins ignore 1/w at ill-conditioned pieces (remove when the engine lands)"
 ROUTE_REL = 1e-12
 """Preimage and control-matrix routes agree to this (relative) on well-conditioned
 motions: the control matrices are products and sums of a few floats, ~1e-15 relative."""
@@ -237,10 +235,6 @@ def test_control_matrices_agree_with_the_preimage_away_from_the_dip(cases):
     print("\n" + "\n".join(lines))
 
 
-WEIGHTS = (
-    "issue 11: bezier_minimum falls back to n sample points when the weight was degree-elevated"
-    " (its leading power coefficient is round-off)"
-)
 
 
 WEIGHT_MIN_REL = 1e-13
@@ -248,7 +242,6 @@ WEIGHT_MIN_REL = 1e-13
 largest coefficient (~1e-15 of it); this allows a hundred times that."""
 
 
-@pytest.mark.xfail(strict=False, reason=WEIGHTS)
 def test_weight_minimum_is_below_the_exact_weight_at_the_dip(cases):
     """``weight_minimum`` (which ``interpolate`` and ``hermite`` use for their 1e-8
     refusal) must not exceed u0 at any point, in particular at the dip."""
@@ -262,7 +255,6 @@ def test_weight_minimum_is_below_the_exact_weight_at_the_dip(cases):
     assert not bad, "\n".join(bad)
 
 
-@pytest.mark.xfail(strict=False, reason=WEIGHTS)
 @pytest.mark.parametrize("ratio", [1e-9, 1e-11])
 def test_hermite_refuses_a_dip_below_its_threshold(ratio):
     """Hermite data whose exact ``min u0 / max w`` is below 1e-8 must be refused."""
@@ -301,7 +293,6 @@ def _summary(outs) -> Counter:
     )
 
 
-@pytest.mark.xfail(strict=False, reason=ISSUE)
 @pytest.mark.parametrize("tol", TOLERANCES)
 @pytest.mark.parametrize("bound", BOUNDS)
 def test_never_free_where_an_exact_pose_meets(cases, outcomes, first_contacts, bound, tol):
@@ -317,7 +308,6 @@ def test_never_free_where_an_exact_pose_meets(cases, outcomes, first_contacts, b
     assert not false_free, f"{len(false_free)} false free:\n" + "\n".join(false_free)
 
 
-@pytest.mark.xfail(strict=False, reason=ISSUE)
 @pytest.mark.parametrize("tol", TOLERANCES)
 @pytest.mark.parametrize("bound", BOUNDS)
 def test_witnesses_and_toi_lo_survive_the_exact_check(cases, outcomes, first_contacts, bound, tol):
@@ -363,7 +353,6 @@ def _swept_samples(c, depth: int, s: int, k: int) -> list[Fraction]:
     return us
 
 
-@pytest.mark.xfail(strict=False, reason=ISSUE)
 def test_swept_aabbs_contain_every_exact_pose(cases):
     bad, refused, checked = [], 0, 0
     for c in cases:
@@ -401,7 +390,6 @@ SPEED_CASES = int(os.environ.get("RSMBENCH_HUNT_SPEED_CASES", "50")) if HUNT els
 """Cases whose dips are probed (the first ones): each failing call costs its CPU limit."""
 
 
-@pytest.mark.xfail(strict=False, reason=ISSUE)
 def test_speed_bound_bounds_exact_difference_quotients(cases):
     windows = SPEED_WINDOWS + (HUNT_WINDOWS if HUNT else ())
     jobs, where = [], []
