@@ -202,6 +202,42 @@ def _render(args) -> int:
     return 0
 
 
+def _corpus(args) -> int:
+    """`rsmbench corpus export DIR` / `rsmbench corpus check FILE`."""
+    from harness.corpus import generate
+    from harness.corpus.io import export, load
+
+    if args.action == "export":
+        if args.size <= 0:
+            raise UsageError(f"Expected `--size` > 0, got {args.size}.")
+        fams = args.families.split(",") if args.families else None
+        from harness.corpus import FAMILIES
+
+        if fams and any(f not in FAMILIES for f in fams):
+            raise UsageError(
+                f"Unknown family in `--families` {args.families!r}; expected some of {list(FAMILIES)}."
+            )
+        cases = generate(args.seed, args.size, fams)
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            ver = version("rsmbench")
+        except PackageNotFoundError:  # pragma: no cover - running from a source tree
+            ver = "unknown"
+        gen = {"seed": args.seed, "size": args.size, "families": fams or "all", "rsmbench": ver}
+        path = export(cases, args.path, gen)
+        print(
+            f"wrote {len(cases)} cases to {path} (schema: {path.with_name('corpus.schema.json')})"
+        )
+        return 0
+    header, cases = load(args.path)
+    counts: dict = {}
+    for c in cases:
+        counts[c.klass] = counts.get(c.klass, 0) + 1
+    print(f"{args.path}: corpus version {header['version']}, {len(cases)} cases {counts}")
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="rsmbench", description="Benchmark harness for rational spline motions."
@@ -233,6 +269,12 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument(
         "--fp-threshold", type=int, default=0, help="allowed increase in false collisions"
     )
+    cp = sub.add_parser("corpus", help="export or check the rigid-motion CCD corpus")
+    cp.add_argument("action", choices=["export", "check"], help="export DIR, or check FILE")
+    cp.add_argument("path", help="export: output folder; check: corpus.json or its folder")
+    cp.add_argument("--seed", type=int, default=0, help="corpus seed (default 0)")
+    cp.add_argument("--size", type=float, default=1.0, help="configurations per class x size")
+    cp.add_argument("--families", default=None, help="comma-separated subset of families")
     sc = sub.add_parser(
         "scenes",
         help="list the registered scenes, or the mocap bodies, geoms and keyframes of FILE",
@@ -264,6 +306,7 @@ def main(argv: list[str] | None = None) -> int:
         "run": _run,
         "report": _report,
         "compare": _compare,
+        "corpus": _corpus,
         "scenes": _scenes,
         "schemes": lambda a: _schemes(),
         "render": _render,

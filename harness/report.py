@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .report_corpus import corpus_section
+
 __all__ = ["headline", "write_report"]
 
 
@@ -165,6 +167,7 @@ def write_report(run_dir: str | Path) -> Path:
     _continuity_section(doc, df, plt)
     _physics_section(doc, df, plt)
     __import__("harness.report_avoid").report_avoid.repair_section(doc, df, plt)
+    corpus_section(doc, df, plt)
     _filmstrip(doc)
     (run / "report.md").write_text("\n".join(doc.md))
     body = "\n".join(doc.html)

@@ -67,6 +67,7 @@ __all__ = [
     "FclInterval",
     "certify_fcl",
     "certify_fcl_many",
+    "fcl_geometry",
     "fcl_intervals",
 ]
 
@@ -251,6 +252,13 @@ def _fcl():
             "bound 'fcl' needs python-fcl: pip install 'rsmbench[comparators]'"
         ) from e
     return fcl
+
+
+def fcl_geometry(shape: Shape) -> tuple[Any, np.ndarray, np.ndarray]:
+    """A single (non-compound) shape as (``fcl`` geometry, rotation (3, 3), centre (3,)) of
+    its own frame in its owner's frame (body or world)."""
+    r, c = part_frame(shape)
+    return _geometry(_fcl(), shape), r, c
 
 
 def _geometry(fcl: Any, shape: Shape) -> Any:

@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import certify, repair, scaling, simulate, workload
+from . import certify, corpus, repair, scaling, simulate, workload
 from .context import Context
 
 __all__ = ["STUDIES", "Context", "StudyKind", "run_case"]
@@ -47,6 +47,7 @@ STUDIES: dict[str, StudyKind] = {
     "scaling": _kind(scaling),
     "simulate": _kind(simulate),
     "repair": _kind(repair),
+    "corpus": _kind(corpus),
 }
 
 
