@@ -64,11 +64,11 @@ def spline_speed_bound(spline: BSpline, t0: float, t1: float) -> float:
     if d.k == 0:
         inner = d.t[(d.t > t0) & (d.t < t1)]
         breaks = np.unique(np.concatenate([[t0, t1], inner]))
-        idx = np.clip(
-            np.searchsorted(d.t, 0.5 * (breaks[:-1] + breaks[1:]), side="right") - 1,
-            0,
-            d.c.shape[0] - 1,
-        )
+        if breaks.size < 2:  # one instant: both one-sided derivatives (t0 may be a knot)
+            idx = np.array([np.searchsorted(d.t, t0, side=s) for s in ("left", "right")]) - 1
+        else:
+            idx = np.searchsorted(d.t, 0.5 * (breaks[:-1] + breaks[1:]), side="right") - 1
+        idx = np.clip(idx, 0, d.c.shape[0] - 1)
         return float(np.linalg.norm(d.c[idx], axis=-1).max())
     inner = d.t[(d.t > t0) & (d.t < t1)]
     breaks = np.unique(np.concatenate([[t0, t1], inner]))

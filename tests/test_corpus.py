@@ -27,7 +27,11 @@ EPS = 1e-9  # GJK distances and analytic minima agree to round-off at scene scal
 
 @pytest.fixture(scope="module")
 def corpus():
-    return generate(seed=0, size=1.0)
+    """The cases of the built-in suite `rsmbench run corpus`."""
+    from harness.run import load_suite
+    from harness.run.studies.corpus import corpus_of
+
+    return list(corpus_of(load_suite("corpus").studies[0]))
 
 
 def test_corpus_size_and_coverage(corpus):
@@ -220,3 +224,47 @@ def test_generate_rejects_bad_arguments():
         generate(0, 1.0, ["nope"])
     with pytest.raises(ValueError, match="`size` > 0"):
         generate(0, 0.0)
+
+
+def test_corpus_study_end_to_end(tmp_path):
+    """A small corpus suite: rows for every method on every case (n/a where a method cannot
+    represent the motion), certified bounds never say free on a collision, and the report
+    holds the corpus table and figure."""
+    from harness.report import write_report
+    from harness.run import load_suite, run_suite
+
+    suite = tmp_path / "c.toml"
+    suite.write_text(
+        "[suite]\nname = 'c'\n\n[[study]]\nkind = 'corpus'\nsize = 0.15\n"
+        "families = ['thin-wall', 'spin']\nmethods = ['hull', 'lipschitz', 'sampled', 'fcl']\n"
+        "rounds = 2\nround_seconds = 0.05\nmemory = false\n"
+    )
+    df = run_suite(load_suite(suite), tmp_path / "out", progress=False)
+    cases = df["keyframes"].nunique()
+    assert cases >= 20 and len(df) == 4 * cases
+    assert set(df["bound"]) == {"hull", "lipschitz", "sampled", "fcl"}
+    hull = df[df["bound"] == "hull"]
+    assert set(hull[hull["verdict"] == "n/a"]["scheme"]) <= {"sclerp", "slerp", "slerp-linear"}
+    proofs = df[df["proof"] & (df["verdict"] != "n/a")]
+    assert not proofs["false_negative"].any()
+    samp = df[df["bound"] == "sampled"]
+    assert (samp["samples"] >= 2).all() and set(samp["budget_from"]) <= {"hull", "lipschitz"}
+    report = write_report(tmp_path / "out").read_text()
+    assert "Rigid-motion CCD corpus" in report and "figures/corpus.png" in report
+    assert (tmp_path / "out" / "figures" / "corpus.svg").exists()
+
+
+def test_corpus_suite_errors_name_the_key(tmp_path):
+    from harness.errors import SuiteError
+    from harness.run import load_suite
+
+    bad = tmp_path / "b.toml"
+    bad.write_text("[[study]]\nkind = 'corpus'\nmethods = ['hull', 'gjk']\n")
+    with pytest.raises(SuiteError, match=r"study\[0\]\.methods.*gjk"):
+        load_suite(bad)
+    bad.write_text("[[study]]\nkind = 'corpus'\nrounds = 0\n")
+    with pytest.raises(SuiteError, match=r"study\[0\]\.rounds"):
+        load_suite(bad)
+    bad.write_text("[[study]]\nkind = 'corpus'\nfile = 'nowhere.json'\n")
+    with pytest.raises(SuiteError, match="no corpus file"):
+        load_suite(bad)

@@ -51,7 +51,7 @@ from motions import Motion, RationalMotion
 from motions.baselines import ScLerpMotion
 from motions.quaternion import quat_from_matrix
 
-from ..certify import Certificate
+from ..certification import Certificate
 from ..shapes import Box, Capsule, ConvexMesh, Shape, Sphere, parts
 from ._common import (
     NotApplicable,

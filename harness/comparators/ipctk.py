@@ -42,7 +42,7 @@ from motions import Motion, RationalMotion
 from motions.baselines import ScLerpMotion
 from motions.quaternion import quat_from_matrix
 
-from ..certify import Certificate
+from ..certification import Certificate
 from ..shapes import Shape, parts
 from ._common import Core, NotApplicable, NotRepresentable, check_batch, check_tolerance, core_of
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from motions import RationalMotion
 
-from ..certify import Certificate, certify_many
+from ..certification import Certificate, certify_many
 from ..comparators import NotApplicable, available
 from .cases import Case
 
