@@ -72,25 +72,40 @@ def corpus_summary(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _by(df: pd.DataFrame, key: str) -> pd.DataFrame:
-    """False negatives / positives / unknowns per `key` value and method, as n/d."""
+def _cell(app: pd.DataFrame) -> str:
+    coll = app[app["truth"] == "collision"]
+    free = app[app["truth"] == "free"]
+    fn = int((coll["verdict"] == "free").sum())
+    fp = int((free["verdict"] == "collision").sum())
+    unk = int((app["verdict"] == "unknown").sum())
+    return f"{_frac(fn, len(coll))} · {_frac(fp, len(free))} · {_frac(unk, len(app))}"
+
+
+def _by(df: pd.DataFrame, key: str, methods: list) -> pd.DataFrame:
+    """A `key` x method table whose cells read "FN/collisions · FP/frees · unknown/cases"
+    over the applicable cases ("–" when the method applies to none)."""
     out = []
-    for (val, method), g in df.groupby([key, "bound"], sort=True):
-        app = g[g["verdict"] != "n/a"]
-        if not len(app):
-            continue
-        coll = app[app["truth"] == "collision"]
-        free = app[app["truth"] == "free"]
-        out.append(
-            {
-                key: val,
-                "method": method,
-                "FN": _frac(int((coll["verdict"] == "free").sum()), len(coll)),
-                "FP": _frac(int((free["verdict"] == "collision").sum()), len(free)),
-                "unknown": _frac(int((app["verdict"] == "unknown").sum()), len(app)),
-            }
-        )
+    for val, g in df.groupby(key, sort=True):
+        row = {key: val}
+        for m in methods:
+            app = g[(g["bound"] == m) & (g["verdict"] != "n/a")]
+            row[m] = _cell(app) if len(app) else "–"
+        out.append(row)
     return pd.DataFrame(out)
+
+
+def _na_reasons(na: pd.DataFrame) -> pd.DataFrame:
+    """n/a answers per method, by reason (interval times and numbers folded)."""
+    reason = (
+        na["reason"]
+        .str.replace(r"\[[^\]]*\]", "[…]", regex=True)
+        .str.replace(r"\d+(\.\d+)?(e-?\d+)?", "#", regex=True)
+        .str.slice(0, 110)
+    )
+    table = na.assign(reason=reason).pivot_table(
+        index="reason", columns="bound", values="keyframes", aggfunc="count", fill_value=0
+    )
+    return table.reset_index()
 
 
 def corpus_section(doc, df: pd.DataFrame, plt) -> None:
@@ -117,33 +132,31 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
         " quartiles over cases; CPU = process time. Memory: Python-heap peak of one query (tracemalloc),"
         " which does not see allocations inside Warp, FCL or ipctk.",
     )
+    methods = list(summary["method"])
+    cell = "cells: false negatives/collision cases · false positives/free cases · unknown/cases"
+    doc.table(
+        _by(cor, "klass", methods),
+        f"Per truth class (grazing: |distance| < 1 mm, either verdict) and method; {cell}.",
+    )
+    doc.table(_by(cor, "scene", methods), f"Per family and method; {cell}.")
     na = cor[cor["verdict"] == "n/a"]
     if len(na):
-        reasons = (
-            na.assign(reason=na["reason"].str.slice(0, 90))
-            .groupby(["bound", "reason"])
-            .size()
-            .reset_index(name="cases")
-        )
         doc.table(
-            reasons,
-            "Why a method answered n/a (it does not approximate a motion it cannot represent).",
+            _na_reasons(na),
+            "Cases each method answered n/a, by reason: it does not approximate a motion it"
+            " cannot represent.",
         )
-    doc.table(
-        _by(cor, "scene"),
-        "Per family (scene column) and method: FN / FP / unknown with denominators.",
-    )
     if "tags" in cor:
         tagged = cor.assign(tag=cor["tags"].fillna("").str.split(",")).explode("tag")
-        tagged = tagged[
-            tagged["tag"].str.startswith("fcl:") & tagged["bound"].str.startswith("fcl")
-        ]
-        if len(tagged):
+        tagged = tagged[tagged["tag"].str.startswith("fcl:")]
+        fcl = [m for m in methods if m.startswith("fcl")]
+        if len(tagged) and fcl:
             doc.table(
-                _by(tagged, "tag"),
-                "The FCL hazards of our research, per solver setting: fcl (GST_INDEP, translations as TRANS),"
-                " fcl-libccd (python-fcl's default solver), fcl-screw (FCL's SCREW on pure translations: moves"
-                " |Δp| times too far), fcl-linear (FCL's LINEAR with its uninitialised reference point).",
+                _by(tagged, "tag", fcl),
+                "The FCL hazards of our research, per solver setting: fcl (GST_INDEP, pure"
+                " translations as TRANS), fcl-libccd (python-fcl's default solver), fcl-screw"
+                " (FCL's SCREW on pure translations: moves |Δp| times too far), fcl-linear"
+                f" (FCL's LINEAR with its uninitialised reference point); {cell}.",
             )
     samp = cor[(cor["bound"] == "sampled") & (cor["truth"] == "collision")]
     if len(samp) and "sampling_step" in samp:
@@ -175,6 +188,13 @@ def _figure(doc, summary: pd.DataFrame, cor: pd.DataFrame, plt) -> None:
             if r[den]:
                 ax1.annotate(f"{r[key]}/{r[den]}", (b.get_x() + b.get_width() / 2, b.get_height()),
                              ha="center", va="bottom", fontsize=6, rotation=90)  # fmt: skip
+    rates = [
+        r[k] / r[d]
+        for _, r in summary.iterrows()
+        for k, d in (("_fn", "_ncoll"), ("_fp", "_nfree"), ("_unk", "_napp"))
+        if r[d]
+    ]
+    ax1.set_ylim(0, 1.3 * max([*rates, 0.05]))  # room for the count labels
     ax1.set_xticks(x, summary["method"], rotation=45, ha="right")
     ax1.set_ylabel("fraction of applicable cases")
     ax1.set_title(
