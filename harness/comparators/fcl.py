@@ -31,6 +31,15 @@ python-fcl 0.7.0.11 and handled here:
    round-off; steps within ``HALF_TURN_MARGIN`` of π are ``n/a``, and every ``SCREW``
    interval is checked against the motion at its midpoint (FCL's formulas, evaluated here).
 
+Measured on the corpus (``rsmbench run corpus``, 597 cases): even with ``GST_INDEP`` and
+exact motion models, FCL's CA answered "free" on 23 of 182 collision cases it represents
+(thin walls, contacts at the last instant, short windows; 14 of them with a penetration of
+more than 1 mm); FCL's own discrete ``collide`` sees those contacts at a pose inside the
+true window. A minimal case: a ball of radius 5 cm translated (TRANS) 2 m through a 2 mm
+wall is reported free by both solvers. The shape CA node builds its direction from
+``tf2 * closest_p2 - tf1 * closest_p1`` although the GJK solvers already return world
+points (FCL >= 0.6), a likely cause (not verified here).
+
 What a verdict means: CA stops when its step ``distance / motion bound`` falls below a
 fixed ``t_err = 1e-4`` (``request.toc_err`` is ignored by CA), so FCL's "collision" means
 "closer than about 1e-4 of the interval's motion bound", not a proven intersection; its

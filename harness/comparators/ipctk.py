@@ -20,6 +20,13 @@ its position); ipctk's ``max_distance_from_linear(t0, t1)`` is derived from our 
 speed bound V on the knot intervals covering [t0, t1]: a point moving at most V from
 ``x(t0)`` to ``x(t1)`` stays within ``2 s (1 - s) V h <= V h / 2`` of the chord.
 
+What a verdict means: ipctk's nonlinear CCD is built for line searches. It reports an
+impact once a pair's distance falls below ``(1 - conservative_rescaling)`` of its distance
+at the start of the query (0.2 with ipctk's default 0.8), so near passes read "collision"
+(86 of 276 free corpus cases); its "free" was never wrong on the corpus (0 of 321). A
+motion that needs more than ``max_evaluations`` pose evaluations answers "unknown"
+("budget").
+
 A broad phase (ours) keeps ipctk's work finite: the motion is cut into about
 ``broad_pieces`` time pieces; on each, a feature's swept box is its box at the piece's
 middle pose grown by ``V h / 2``; a primitive pair is handed to ipctk only on the time

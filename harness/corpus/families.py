@@ -77,7 +77,7 @@ def _frame(n: np.ndarray) -> np.ndarray:
     return np.column_stack([n, t1, np.cross(n, t1)])
 
 
-def _cases(family, index, klass_hint, reals, body, obstacles, truth_of, tags) -> list[Case]:
+def _cases(family, index, reals, body, obstacles, truth_of, tags) -> list[Case]:
     out = []
     for r in reals:
         truth = truth_of(r)
@@ -236,7 +236,7 @@ def _translation_config(
         t_in, t_out = r.time_of(tt.s_in), r.time_of(tt.s_out)
         return Truth("collision", tt.distance, t_in, t_in, t_in, t_out - t_in, "analytic", proof)
 
-    return _cases(family, index, klass, reals, body, [obstacle], truth_of, tags)
+    return _cases(family, index, reals, body, [obstacle], truth_of, tags)
 
 
 # ----------------------------------------------------------------------------- rotation
@@ -323,7 +323,7 @@ def _rotation_config(
         t_in, t_out = r.time_of(rt.phi_in), r.time_of(rt.phi_out)
         return Truth("collision", rt.distance, t_in, t_in, t_in, t_out - t_in, "analytic", proof)
 
-    out = _cases(family, index, klass, reals, body, [obstacle], truth_of, tags)
+    out = _cases(family, index, reals, body, [obstacle], truth_of, tags)
     if swing:  # one sclerp step of exactly 180°: ambiguous screw direction
         q0 = np.array([1.0, 0.0, 0.0, 0.0])
         q1 = np.array([0.0, *k])
@@ -343,9 +343,7 @@ def _rotation_config(
             )
 
         real = Realisation("sclerp", step.motion, lambda phi: duration * phi / p1, step.keyframes)
-        one = _cases(
-            family, index, klass, [real], body, [obstacle], half_turn, [*tags, "fcl:180-step"]
-        )
+        one = _cases(family, index, [real], body, [obstacle], half_turn, [*tags, "fcl:180-step"])
         out += [dataclasses.replace(c, id=c.id + "-step") for c in one]
     return out
 
@@ -391,7 +389,7 @@ def _darboux_config(rng, family: str, index: int, klass: str) -> list[Case]:
         return Truth("collision", rt.distance, t_in, t_in, t_in, t_out - t_in, "analytic", proof)
 
     real = Realisation("rational-special", canonical(m), None)
-    return _cases(family, index, klass, [real], body, [obstacle], truth_of, ["special"])
+    return _cases(family, index, [real], body, [obstacle], truth_of, ["special"])
 
 
 def _capsule_corner_swing(rng, family: str, index: int, klass: str) -> list[Case]:
@@ -455,7 +453,7 @@ def _capsule_corner_swing(rng, family: str, index: int, klass: str) -> list[Case
             return Truth("collision", dist, hi, lo, hi, math.nan, "analytic", proof)
 
     return _cases(
-        family, index, klass, reals, body, [obstacle], truth_of, ["rotation", "capsule", "corner"]
+        family, index, reals, body, [obstacle], truth_of, ["rotation", "capsule", "corner"]
     )
 
 

@@ -168,11 +168,11 @@ def measure_case(
         r = run_method(m, case, tolerance, **opts)
         wall[m.name].append(time.perf_counter() - w0)
         cpu[m.name].append(time.process_time() - c0)
-        return r, opts
+        return r
 
     live = []
     for m in order:
-        results[m.name], _ = once(m)
+        results[m.name] = once(m)
         if isinstance(results[m.name], Certificate):
             live.append(m)
     for _ in range(rounds - 1):
