@@ -13,7 +13,7 @@ called; :func:`available` says which are installed.
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 
 from ._common import NotApplicable, NotRepresentable
 from .fcl import FCL_SOLVERS, certify_fcl, certify_fcl_many, fcl_intervals
@@ -37,5 +37,12 @@ _MODULES = {"fcl": "fcl", "ipctk": "ipctk"}
 
 
 def available() -> tuple[str, ...]:
-    """The comparators whose Python package is installed."""
-    return tuple(c for c in COMPARATORS if importlib.util.find_spec(_MODULES[c]) is not None)
+    """The comparators whose Python package imports."""
+    out = []
+    for c in COMPARATORS:
+        try:
+            importlib.import_module(_MODULES[c])
+        except ImportError:
+            continue
+        out.append(c)
+    return tuple(out)
