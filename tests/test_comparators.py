@@ -223,3 +223,24 @@ def test_ipctk_na_and_budget():
     with pytest.raises(ValueError, match="`broad_pieces`"):
         certify_ipctk_many([m], CUBE, [WALL], broad_pieces=0)
     assert not math.isnan(r.seconds)
+
+
+def test_certify_many_dispatches_to_the_comparators(monkeypatch):
+    kn = [0.0, 0.0, 1.0, 1.0]
+    turn = np.array([np.cos(0.3), 0.0, 0.0, np.sin(0.3)])
+    screw = motions.build("sclerp", [Q0, turn], [[0, 0, 0], [2.0, 0, 0]], [0.0, 1.0])
+    rational = motions.RationalMotion.from_preimage(1, kn, [Q0, turn])
+    import harness.comparators as comp
+
+    if "fcl" in comp.available():
+        out = harness.certify_many([screw, rational], CUBE, [WALL], bound="fcl")
+        assert isinstance(out[0], harness.Certificate) and out[0].verdict == "collision"
+        assert not out[0].certified  # the tool's claim, not a proof
+        assert isinstance(out[1], NotApplicable)
+        with pytest.raises(TypeError, match="comparator_options"):
+            harness.certify(screw, CUBE, [WALL], bound="fcl", comparator_options={"nope": 1})
+    monkeypatch.setattr(comp, "available", lambda: ())
+    with pytest.raises(ValueError, match=r"extra"):
+        harness.certify(screw, CUBE, [WALL], bound="fcl")
+    with pytest.raises(ValueError, match=r"extra"):
+        harness.certify(screw, CUBE, [WALL], bound="ipctk")

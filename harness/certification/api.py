@@ -25,6 +25,7 @@ from .device import resolve_device
 __all__ = [
     "BOUNDS",
     "DEFAULT_MAX_NODES",
+    "ENGINE_BOUNDS",
     "MAX_DEPTH_LIMIT",
     "MAX_SAMPLES",
     "REASONS",
@@ -33,7 +34,10 @@ __all__ = [
     "certify_many",
 ]
 
-BOUNDS = ("hull", "aabb", "lipschitz", "sampled")
+ENGINE_BOUNDS = ("hull", "aabb", "lipschitz", "sampled")
+"""The engine's own query methods."""
+BOUNDS = (*ENGINE_BOUNDS, "fcl", "ipctk")
+"""Query methods: the engine's four, and the external comparators (extra `comparators`)."""
 REASONS = ("clear", "contact", "tolerance", "depth", "budget")
 DEFAULT_MAX_NODES = 200_000  # per motion
 MAX_DEPTH_LIMIT = 60
@@ -237,12 +241,18 @@ def certify_many(
     threads: int = 2,
     device: str | None = None,
     max_iter: int = 32,
+    comparator_options: dict | None = None,
 ) -> list[Certificate]:
     """:func:`certify` for a batch; all motions go through the kernels together, and
     ``certify_many(ms)[i]`` equals ``certify(ms[i])`` in every field but ``seconds``.
 
     `obstacles` is one sequence shared by all motions, or one sequence per motion;
     `body` is one shape, or one shape per motion.
+
+    ``bound="fcl"`` / ``"ipctk"`` run the external comparators (extra ``comparators``;
+    :mod:`harness.comparators`, options in `comparator_options`). Their answers are the
+    tools' claims (``certified=False``), and a motion a tool cannot represent exactly gets
+    a :class:`harness.comparators.NotApplicable` ("n/a" with the reason) in its place.
     """
     o = check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)
     ms = check_motions(motions, o["bound"])
@@ -250,6 +260,8 @@ def certify_many(
     obst = obstacle_lists(obstacles, len(ms))
     if not ms:
         return []
+    if o["bound"] in ("fcl", "ipctk"):
+        return _comparators(o["bound"], ms, bodies, obst, o["tol"], comparator_options)
     if o["bound"] in ("hull", "aabb"):
         from .refine import refine_many
 
@@ -273,6 +285,25 @@ def certify_many(
     if o["bound"] == "lipschitz":
         return advance_many(ms, bodies, obst, o)
     return sample_many(ms, bodies, obst, o)
+
+
+def _comparators(bound, ms, bodies, obst, tol, options) -> list:
+    from .. import comparators
+
+    if bound not in comparators.available():
+        pkg = "python-fcl" if bound == "fcl" else "ipctk"
+        raise QueryError(
+            f"Bound {bound!r} needs {pkg}: install the extra (pip install 'rsmbench[comparators]')."
+        )
+    if options is not None and not isinstance(options, dict):
+        raise TypeError(
+            f"Expected `comparator_options` to be a dict, got {type(options).__name__}."
+        )
+    run = comparators.certify_fcl_many if bound == "fcl" else comparators.certify_ipctk_many
+    try:
+        return run(ms, bodies, obst, tolerance=tol, **(options or {}))
+    except TypeError as e:
+        raise TypeError(f"Bad `comparator_options` for {bound!r}: {e}") from None
 
 
 def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) -> list[Certificate]:

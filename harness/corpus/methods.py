@@ -4,8 +4,7 @@ A *method* is a bound of :func:`harness.certify_many` or an external comparator 
 solver setting. :func:`run_method` answers one case with a :class:`harness.Certificate`
 or a :class:`~harness.comparators.NotApplicable` (``n/a`` and the reason) — the engine's
 bounds are called through ``harness.certify_many``; the comparators directly until the
-engine dispatches ``bound="fcl"`` / ``bound="ipctk"`` (then only :func:`_comparator`
-changes).
+engine dispatches ``bound="fcl"`` / ``bound="ipctk"`` to :mod:`harness.comparators`.
 """
 
 from __future__ import annotations
@@ -70,13 +69,14 @@ METHODS = {
 
 
 def _comparator(method: Method, case: Case, tolerance: float) -> Certificate | NotApplicable:
-    """The external comparators, called directly (to become ``certify_many(bound=...)``)."""
-    if method.bound == "fcl":
-        from ..comparators import certify_fcl_many as run
-    else:
-        from ..comparators import certify_ipctk_many as run
-    return run(
-        [case.motion], case.body, list(case.obstacles), tolerance=tolerance, **method.options
+    """An external comparator through the engine's dispatch."""
+    return certify_many(
+        [case.motion],
+        case.body,
+        list(case.obstacles),
+        bound=method.bound,
+        tolerance=tolerance,
+        comparator_options=method.options,
     )[0]
 
 

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import motions
 
-from ...certification import BOUNDS, certify_many
+from ...certification import ENGINE_BOUNDS as BOUNDS
+from ...certification import certify_many
 from ..fields import names, need, numbers, scene_names
 from .context import Context, accuracy_cols, cert_cols, smoothness_cols, truth_cols
 

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...certification import BOUNDS, certify_many
+from ...certification import ENGINE_BOUNDS as BOUNDS
+from ...certification import certify_many
 from ..fields import names, need, numbers
 from .context import Context, accuracy_cols, cert_cols
 
