@@ -185,33 +185,12 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
             buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
             buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
             buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
-            buf.out("out_n", (n, 7), np.int32, wp.int32)[1],
+            buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
         ]
         kernel = K._advance if kernel_name == "advance" else K._sample
         buf.launch(kernel, args, first_index, lanes)
-        outs.append(_outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
-    out = Outcome(
-        *(np.concatenate([getattr(x, f) for x in outs]) for f in Outcome.__dataclass_fields__)
-    )
-    return out, time.perf_counter() - start
-
-
-def _outcome(t: np.ndarray, c: np.ndarray) -> Outcome:
-    big = 1e299
-    fix = lambda x: np.where(x > big, math.inf, x)  # noqa: E731
-    return Outcome(
-        toi_lo=fix(t[:, 0]),
-        toi_hi=fix(t[:, 1]),
-        witness_time=np.where(t[:, 2] > big, math.nan, t[:, 2]),
-        witness_distance=np.where(t[:, 2] > big, math.nan, t[:, 3]),
-        unknown_time=fix(t[:, 4]),
-        unknown_reason=c[:, 3].astype(np.int64),
-        nodes=c[:, 0].astype(np.int64),
-        tests=c[:, 1].astype(np.int64),
-        depth=c[:, 2].astype(np.int64),
-        counts=c[:, 4:7].astype(np.int64),
-        supports=np.zeros(len(c), dtype=np.int64),
-    )
+        outs.append(Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
+    return Outcome.concat(outs), time.perf_counter() - start
 
 
 # ----------------------------------------------------------------------------- lipschitz
@@ -326,19 +305,10 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
     unk_r[both] = np.where(wit_t[both] <= toi_lo[both], 2, 4)
     deepest = np.zeros(n_m, dtype=np.int64)
     np.maximum.at(deepest, mt, steps)
-    out = Outcome(
-        toi_lo=toi_lo,
-        toi_hi=tcoll,
-        witness_time=np.where(np.isfinite(wit_t), wit_t, np.nan),
-        witness_distance=wit_d,
-        unknown_time=toi_lo,
-        unknown_reason=unk_r,
-        nodes=nodes,
-        tests=nodes,
-        depth=deepest,
-        counts=np.stack([n_tol, np.zeros(n_m, np.int64), budget], axis=1),
-        supports=np.zeros(n_m, dtype=np.int64),
-    )
+    out = Outcome.from_fields(
+        toi_lo, tcoll, wit_t, wit_d, unk_r, nodes, nodes, deepest,
+        np.stack([n_tol, np.zeros(n_m, np.int64), budget], axis=1),
+    )  # fmt: skip
     return assemble(
         out, time.perf_counter() - start, "lipschitz", tol, certified=True,
         ends=[m.domain for m in ms],
@@ -409,28 +379,27 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms) -> list[Certifi
     cell is proven; else unknown ("tolerance") when a sample came closer than `tol`, or
     free but not certified."""
     n = len(ms)
-    share = elapsed * out.nodes / max(1, int(out.nodes.sum()))
+    nodes, tests, counts = out.nodes.tolist(), out.tests.tolist(), out.counts.tolist()
+    toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
+    wt, wd = out.witness_time.tolist(), out.witness_distance.tolist()
+    total = max(1, sum(nodes))
     res = []
     for i in range(n):
-        all_proven = out.counts[i, 1] == 0  # the kernel's count of unproven cells
+        all_proven = counts[i][1] == 0  # the kernel's count of unproven cells
         common = dict(
-            nodes=int(out.nodes[i]),
+            nodes=nodes[i],
             depth=0,
-            seconds=float(share[i]),
+            seconds=elapsed * nodes[i] / total,
             bound="sampled",
             tolerance=tol,
-            pose_tests=int(out.tests[i]),
+            pose_tests=tests[i],
         )
-        lo = float(out.toi_lo[i])
-        if math.isfinite(out.toi_hi[i]):
-            res.append(
-                Certificate(
-                    "collision", "contact", lo, float(out.toi_hi[i]), certified=True, **common
-                )
-            )
+        lo = toi_lo[i]
+        if math.isfinite(toi_hi[i]):
+            res.append(Certificate("collision", "contact", lo, toi_hi[i], certified=True, **common))
         elif all_proven:
             res.append(Certificate("free", "clear", math.inf, math.inf, certified=True, **common))
-        elif out.counts[i, 0] > 0:
+        elif counts[i][0] > 0:
             res.append(
                 Certificate(
                     "unknown",
@@ -438,9 +407,9 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms) -> list[Certifi
                     lo,
                     math.inf,
                     certified=True,
-                    witness_time=float(out.witness_time[i]),
-                    witness_distance=float(out.witness_distance[i]),
-                    unresolved={"tolerance": int(out.counts[i, 0])},
+                    witness_time=wt[i],
+                    witness_distance=wd[i],
+                    unresolved={"tolerance": counts[i][0]},
                     **common,
                 )
             )

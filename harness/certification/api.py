@@ -311,45 +311,46 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
 
     `certified` is a bool or a per-motion bool array (sampling proves some and not others).
     """
+    from .refine import BIG
     from .refine import REASONS as UNK
 
-    n = len(out.nodes)
-    share = (elapsed * out.nodes / max(1, int(out.nodes.sum()))).tolist()
-    cert = np.broadcast_to(np.asarray(certified, dtype=bool), (n,)).tolist()
-    nodes, depth, tests = out.nodes.tolist(), out.depth.tolist(), out.tests.tolist()
-    toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
-    reason = out.unknown_reason.tolist()
-    any_counts = out.counts.any(axis=1).tolist()
-    counts = out.counts.tolist()
+    t, c = out.t.tolist(), out.c.tolist()
+    n = len(c)
+    total = max(1, sum(r[0] for r in c))
+    if isinstance(certified, bool):
+        cert = [certified] * n
+    else:
+        cert = [bool(x) for x in certified]
     names = list(UNK.values())
-    wt, wd = out.witness_time.tolist(), out.witness_distance.tolist()
     inf = math.inf
     res = []
     for i in range(n):
-        lo = toi_lo[i]
+        ti, ci = t[i], c[i]
+        lo = ti[0] if ti[0] <= BIG else inf
+        hi_t = ti[1] if ti[1] <= BIG else inf
+        wt, wd = (ti[2], ti[3]) if ti[2] <= BIG else (math.nan, math.nan)
+        counts = ci[4:7]
         if lo != inf and lo > ends[i][0]:
             # halved pieces' times are computed by averaging: lower by their round-off
             scale = max(abs(lo), abs(ends[i][0]), abs(ends[i][1]))
             lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0])
-        unresolved = (
-            {k: c for k, c in zip(names, counts[i], strict=True) if c} if any_counts[i] else {}
-        )
-        if toi_hi[i] != inf:
-            head = ("collision", "contact", lo, toi_hi[i], math.nan, math.nan)
-        elif reason[i]:
-            head = ("unknown", UNK[reason[i]], lo, inf, wt[i], wd[i])
+        unresolved = {k: x for k, x in zip(names, counts, strict=True) if x} if any(counts) else {}
+        if hi_t != inf:
+            head = ("collision", "contact", lo, hi_t, math.nan, math.nan)
+        elif ci[3]:
+            head = ("unknown", UNK[ci[3]], lo, inf, wt, wd)
         else:
             head = ("free", "clear", inf, inf, math.nan, math.nan)
-        c = object.__new__(Certificate)
-        c.__dict__.update(
+        obj = object.__new__(Certificate)
+        obj.__dict__.update(
             {
                 "verdict": head[0],
                 "reason": head[1],
                 "toi_lo": head[2],
                 "toi_hi": head[3],
-                "nodes": nodes[i],
-                "depth": depth[i],
-                "seconds": share[i],
+                "nodes": ci[0],
+                "depth": ci[2],
+                "seconds": elapsed * ci[0] / total,
                 "certified": cert[i],
                 "bound": bound,
                 "tolerance": tol,
@@ -358,8 +359,8 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
                 "unresolved": unresolved,
                 "clearance": math.nan,
                 "penetration": math.nan,
-                "pose_tests": tests[i],
+                "pose_tests": ci[1],
             }
         )
-        res.append(c)
+        res.append(obj)
     return res
