@@ -127,7 +127,7 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
 
 
 def _run(args) -> int:
-    from harness.report import headline, write_report
+    from harness.report import format_headline, headline, write_report
     from harness.run import load_suite, run_suite
 
     suite = load_suite(args.suite)
@@ -142,30 +142,47 @@ def _run(args) -> int:
     report = write_report(out)
     print(f"{len(df)} rows in {out / 'results.parquet'} (and results.csv, meta.json)")
     print(f"report: {report} and {out / 'report.html'}")
-    for k, v in headline(df).items():
-        print(f"  {k}: {json.dumps(v, default=float) if isinstance(v, dict) else v}")
+    meta = json.loads((out / "meta.json").read_text()) if (out / "meta.json").exists() else {}
+    for line in format_headline(headline(df, meta)):
+        print(f"  {line}")
     return 0
 
 
 def _report(args) -> int:
     from harness.report import write_report
 
-    path = write_report(args.run_dir)
-    print(f"wrote {path} and {path.with_suffix('.html')}")
+    path = write_report(args.run_dir, out=args.out)
+    print(
+        f"wrote {path}, {path.with_suffix('.html')}, figures/ (PNG, SVG) and tables/ (CSV, LaTeX)"
+    )
     return 0
+
+
+def _fraction(text: str, option: str) -> float:
+    """A fraction >= 0 given as "15%" or "0.15"."""
+    t = text.strip()
+    try:
+        value = float(t[:-1]) / 100 if t.endswith("%") else float(t)
+    except ValueError:
+        value = float("nan")
+    if not np.isfinite(value) or value < 0:
+        raise UsageError(f"Expected `{option}` >= 0, like 15% or 0.15, got {text!r}.")
+    return value
 
 
 def _compare(args) -> int:
     from harness.compare import compare
 
-    thr = args.time_threshold.strip()
-    try:
-        threshold = float(thr[:-1]) / 100 if thr.endswith("%") else float(thr)
-    except ValueError:
-        raise UsageError(
-            f"Expected `--time-threshold` like 15% or 0.15, got {args.time_threshold!r}."
-        ) from None
-    result = compare(args.base, args.new, time_threshold=threshold, fp_threshold=args.fp_threshold)
+    if args.fp_threshold < 0:
+        raise UsageError(f"Expected `--fp-threshold` >= 0, got {args.fp_threshold}.")
+    result = compare(
+        args.base,
+        args.new,
+        time_threshold=_fraction(args.time_threshold, "--time-threshold"),
+        fp_threshold=args.fp_threshold,
+        unknown_threshold=_fraction(args.unknown_threshold, "--unknown-threshold"),
+        timer=args.timer,
+    )
     print(result.text())
     return result.exit_code
 
@@ -258,16 +275,34 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--seed", type=int, default=None, help="override the suite's seed")
     r.add_argument("--jobs", type=int, default=1, help="worker processes")
     r.add_argument("--quiet", action="store_true", help="no progress bar")
-    rp = sub.add_parser("report", help="write report.md and report.html for a run folder")
+    rp = sub.add_parser(
+        "report", help="write report.md/.html, figures (PNG, SVG) and tables (CSV, LaTeX)"
+    )
     rp.add_argument("run_dir")
+    rp.add_argument("--out", default=None, help="write the report here (default: RUN_DIR)")
     c = sub.add_parser(
-        "compare", help="compare two runs (or pytest-benchmark JSON files); exit 1 on regression"
+        "compare",
+        help="compare two runs (or pytest-benchmark JSON files); exit 1 on a significant"
+        " slowdown above the threshold or an accuracy regression",
     )
     c.add_argument("base")
     c.add_argument("new")
-    c.add_argument("--time-threshold", default="15%", help="allowed slowdown, e.g. 15%% (default)")
+    c.add_argument(
+        "--time-threshold",
+        default="15%",
+        help="allowed slowdown, e.g. 15%% (default); a slowdown must also be significant",
+    )
     c.add_argument(
         "--fp-threshold", type=int, default=0, help="allowed increase in false collisions"
+    )
+    c.add_argument(
+        "--unknown-threshold", default="0", help="allowed rise of a group's unknown rate"
+    )
+    c.add_argument(
+        "--timer",
+        choices=["cpu", "wall"],
+        default="cpu",
+        help="gate runs on process CPU time (default) or wall time",
     )
     cp = sub.add_parser("corpus", help="export or check the rigid-motion CCD corpus")
     cp.add_argument("action", choices=["export", "check"], help="export DIR, or check FILE")
