@@ -184,7 +184,7 @@ class _Doc:
         self.html.append("<ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in items) + "</ul>")
 
     def table(self, df: pd.DataFrame, caption: str, name: str) -> None:
-        name = self._unique(_slug(name))
+        name = self._unique("table:" + _slug(name)).split(":", 1)[1]
         df = df.reset_index(drop=True)
         df.to_csv(self.tabs / f"{name}.csv", index=False)
         (self.tabs / f"{name}.tex").write_text(latex_table(df, caption))
@@ -203,7 +203,7 @@ class _Doc:
     def figure(self, fig, name: str, caption: str) -> None:
         import matplotlib.pyplot as plt
 
-        name = self._unique(name)
+        name = self._unique("figure:" + name).split(":", 1)[1]
         png = self.figs / f"{name}.png"
         fig.savefig(png, dpi=130, bbox_inches="tight")
         fig.savefig(self.figs / f"{name}.svg", bbox_inches="tight", metadata={"Date": None})
