@@ -535,20 +535,21 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
 
 
 def _machine_text(meta: dict, rows: int) -> str:
-    wall = meta.get("wall_seconds_total", meta.get("wall_seconds"))
+    wall = meta.get("wall_seconds")
+    legs = meta.get("legs")
     wall_txt = f"{wall:.0f} s" if isinstance(wall, int | float) else "?"
-    if "wall_seconds_total" not in meta and meta.get("resumed"):
+    if isinstance(legs, list) and len(legs) > 1:
+        wall_txt += f" over {len(legs)} legs (resumed)"
+    elif meta.get("resumed") and not isinstance(legs, list):
         wall_txt += " (last leg only: the run was resumed)"
     ram = meta.get("ram_gb")
     ram_txt = f", {ram:.1f} GB RAM" if isinstance(ram, int | float) else ""
     load = meta.get("load_average")
     load_txt = f", load average at start {load[0]}" if isinstance(load, list) and load else ""
-    cache = meta.get("kernel_cache")
-    cache_txt = f", Warp kernel cache {cache}" if cache else ""
     return (
         f"Run of {meta.get('started', '?')} on {meta.get('cpu_model') or meta.get('cpu', '?')}"
         f" ({meta.get('usable_cpus') or meta.get('cores', '?')} usable CPUs{ram_txt}{load_txt}),"
-        f" device {meta.get('device', 'cpu')}, certify threads {meta.get('certify_threads', '?')}{cache_txt};"
+        f" device {meta.get('device', 'cpu')}, certify threads {meta.get('certify_threads', '?')};"
         f" git {str(meta.get('git_revision'))[:10]}{' (dirty)' if meta.get('git_dirty') else ''};"
         f" total wall time {wall_txt}; {rows} rows."
         f" Versions: {', '.join(f'{k} {v}' for k, v in meta.get('versions', {}).items())}."
