@@ -58,7 +58,7 @@ TOI_SLACK = 1e-9
 certified times are deterministic, so only round-off may move them."""
 TIMERS = ("cpu", "wall")
 _GROUP = ("study", "scheme", "bound", "mode")
-_ROW_KEY = ("case_id", "pair", "method", "mode")
+_ROW_KEY = ("case_id", "pair", "bound", "method", "mode")
 
 
 class CompareError(HarnessError):

@@ -29,6 +29,7 @@ import numpy as np
 __all__ = [
     "BOOTSTRAP_RESAMPLES",
     "DEFAULT_ROUNDS",
+    "TIMING_ROUND_COLUMNS",
     "CaseMemory",
     "Rounds",
     "Spread",
@@ -48,6 +49,22 @@ BOOTSTRAP_RESAMPLES = 2000
 """Resamples of a bootstrap interval: the 2.5 % and 97.5 % quantiles of 2000 resamples
 move by well under the spread of 5-round samples between seeds."""
 CONFIDENCE = 0.95
+TIMING_ROUND_COLUMNS = (
+    *(
+        f"{t}_{s}"
+        for t in ("wall", "cpu")
+        for s in ("median", "q1", "q3", "ci_lo", "ci_hi", "rounds")
+    ),
+    "warmup_wall",
+    "warmup_cpu",
+    "peak_memory_mb",
+    "case_memory_mb",
+    "memory_method",
+    "kernel_cache",
+    "compiled_modules",
+)
+"""Columns that vary between runs of the same suite and seed (times, memory, the state
+of Warp's kernel cache); every other column is reproducible."""
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ Modules: :mod:`.suite` (reading a suite file), :mod:`.studies` (the study kinds)
 
 from __future__ import annotations
 
+from ..timing import TIMING_ROUND_COLUMNS
 from .orchestrate import expand, run_suite
 from .studies import STUDIES, Context, StudyKind, run_case
 from .suite import Suite, load_suite, suite_path
@@ -46,4 +47,6 @@ TIMING_COLUMNS = (
     "sim_seconds",
     "steps_per_second",
     "competitor_seconds",
+    "record_seconds",
+    *TIMING_ROUND_COLUMNS,
 )

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import SuiteError
+from ..timing import machine_info
 
 __all__ = ["Journal", "atomic_json", "check_writable", "machine_meta"]
 
@@ -118,6 +119,7 @@ def machine_meta() -> dict:
         "platform": platform.platform(),
         "git_revision": rev,
         "git_dirty": dirty,
+        **machine_info(),  # device, CPU model, RAM, threads, load, Warp kernel cache
     }
 
 

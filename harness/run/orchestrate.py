@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import resource
 import sys
 import time
 from datetime import UTC, datetime
@@ -101,10 +100,8 @@ def run_suite(
 
 
 def _tag(case: dict, rows: list[dict]) -> list[dict]:
-    mem = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    for r in rows:
+    for r in rows:  # memory is measured per case by run_case
         r["case_id"] = case["case_id"]
-        r["peak_memory_mb"] = mem
     return rows
 
 

@@ -1,7 +1,10 @@
 """The ``certify`` study: scenes x keyframe sets x schemes x bounds x tolerances x repeats.
 
 Each row holds the certificate, the ground truth of the same motion and obstacles, and
-the motion's smoothness figures.
+the motion's smoothness figures. The single-query cost comes from ``rounds`` timed calls
+(default 5, after one untimed warm-up call; the process's first call of each bound is a
+``startup`` row of its own): median, quartiles, bootstrap interval and the rounds
+themselves, in CPU and wall time (:meth:`harness.timing.Rounds.columns`).
 """
 
 from __future__ import annotations
@@ -12,8 +15,17 @@ import motions
 
 from ...certification import ENGINE_BOUNDS as BOUNDS
 from ...certification import certify_many
+from ...timing import repeat
 from ..fields import names, need, numbers, scene_names
-from .context import Context, accuracy_cols, cert_cols, smoothness_cols, truth_cols
+from .context import (
+    Context,
+    accuracy_cols,
+    cert_cols,
+    rounds_key,
+    smoothness_cols,
+    startup_rows,
+    truth_cols,
+)
 
 KEYS = frozenset(
     {
@@ -28,6 +40,7 @@ KEYS = frozenset(
         "repeats",
         "truth_resolution",
         "max_nodes",
+        "rounds",
     }
 )
 
@@ -61,6 +74,7 @@ def parse(st: dict, file: Path, where: str) -> dict:
         st.get("truth_resolution", 1e-3), file, f"{where}.truth_resolution"
     )[0]
     out["max_nodes"] = int(st.get("max_nodes", 200_000))
+    out["rounds"] = rounds_key(st, file, f"{where}.rounds")
     return out
 
 
@@ -99,6 +113,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     except motions.MotionError as e:
         return [{**row, "verdict": "n/a", "reason": f"motion not built: {e}"[:200]}]
     body, obst = ctx.geometry(scene)
+    row["duration"] = float(m.domain[1] - m.domain[0])
     row.update(
         smoothness_cols(
             ctx.memo(("smooth", scene, kf, scheme), lambda: motions.smoothness(m, body=body))
@@ -115,16 +130,23 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             return [
                 {**row, "verdict": "n/a", "reason": f"scheme {scheme!r} has no proven speed bound"}
             ]
-    cert = certify_many(
-        [m],
-        body,
-        obst,
-        bound=bound,
-        tolerance=tol,
-        max_depth=st["max_depth"],
-        samples=st["samples"],
-        max_nodes=st["max_nodes"],
-    )[0]
+    first = startup_rows(ctx, [bound], m, body, obst, tol)
+    timed = repeat(
+        lambda: certify_many(
+            [m],
+            body,
+            obst,
+            bound=bound,
+            tolerance=tol,
+            max_depth=st["max_depth"],
+            samples=st["samples"],
+            max_nodes=st["max_nodes"],
+        )[0],
+        rounds=st["rounds"],
+    )
+    cert = timed.result
     row.update(cert_cols(cert))
+    row.update(timed.columns())
+    row["seconds"] = row["wall_median"]
     row.update(accuracy_cols(cert.verdict, row["truth"], cert.toi_lo, row["toi_true"]))
-    return [row]
+    return [*first, row]

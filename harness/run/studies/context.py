@@ -1,4 +1,6 @@
-"""What every study shares: per-process caches and the columns of a certificate row."""
+"""What every study shares: per-process caches, the columns of a certificate row, the
+``rounds`` key and the start-up rows (kernel compile and first call, measured once per
+process and charged to no case)."""
 
 from __future__ import annotations
 
@@ -12,9 +14,63 @@ import numpy as np
 import motions
 import scenes as scenes_pkg
 
-from ...certification import Certificate
+from ...certification import Certificate, certify_many
+from ...timing import DEFAULT_ROUNDS, first_call
+from ..fields import need
 
-__all__ = ["Context", "accuracy_cols", "cert_cols", "smoothness_cols", "truth_cols"]
+__all__ = [
+    "Context",
+    "accuracy_cols",
+    "cert_cols",
+    "rounds_key",
+    "smoothness_cols",
+    "startup_rows",
+    "truth_cols",
+]
+
+MAX_ROUNDS = 1000
+
+
+def rounds_key(st: dict, file, key: str) -> int:
+    """The ``rounds`` of a study: timed rounds per figure (default 5), an integer."""
+    value = st.get("rounds", DEFAULT_ROUNDS)
+    need(
+        isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= MAX_ROUNDS,
+        file,
+        key,
+        f"expected an integer in [1, {MAX_ROUNDS}] (timed rounds per figure), got {value!r}",
+    )
+    return value
+
+
+def startup_rows(ctx: Context, bounds, motion, body, obstacles, tolerance: float) -> list[dict]:
+    """The first call of each bound in this process, timed on its own (Warp's kernel
+    compile or cache load plus start-up) so that no case pays it: one ``study="startup"``
+    row per bound not started yet (none once every bound has run here)."""
+    rows = []
+    for b in bounds:
+        if ("startup", b) in ctx.cache:
+            continue
+        try:
+            with first_call() as f:
+                certify_many([motion], body, obstacles, bound=b, tolerance=tolerance)
+        except (ValueError, NotImplementedError):  # this motion does not admit the bound
+            continue
+        ctx.cache[("startup", b)] = True
+        rows.append(
+            {
+                "study": "startup",
+                "scene": "startup",
+                "bound": b,
+                "method": f"first call: {b}",
+                "seed": ctx.seed,
+                "kernel_cache": f["kernel_cache"],
+                "compiled_modules": ",".join(f.get("compiled_modules", [])),
+                "warmup_wall": f["wall"],
+                "warmup_cpu": f["cpu"],
+            }
+        )
+    return rows
 
 
 class Context:

@@ -1,48 +1,88 @@
-"""The ``workload`` study: the DESIGN §9 certification workload (pairs with known
-clearance) under each bound, plus the dense-sampling and conservative-advancement
-competitors on a subset of the pairs."""
+"""The ``workload`` study: the certification workload (pairs with proven clearance labels)
+under every method, like for like.
+
+- **Every method on every pair.** The study is one case: every bound of the study
+  (in-kernel ``certify_many``: ``hull``, ``aabb``, ``lipschitz``, ``sampled``) and every
+  external competitor named in ``external`` (Python loops over MuJoCo's
+  ``mj_geomDistance``, named as such) runs on the same pairs.
+- **Repeated, interleaved rounds.** ``rounds`` timed rounds (default 5) after one warm-up
+  call each; methods alternate within a round (A B C A B C ...), so that a change of
+  machine load hits them alike. Kernel compile and first-call start-up are ``startup``
+  rows of their own, charged to no method.
+- **Batch and single-query cost.** ``batch``: one ``certify_many`` call over all pairs;
+  ``single``: one ``certify`` call per pair over the first ``single_pairs`` pairs (default
+  all; the same pairs for every method). External loops answer one pair at a time over
+  every pair (mode ``single``).
+- **Proven labels.** A pair's truth comes from its label (:mod:`harness.workloads`):
+  proven free with a certified lower bound of its clearance, proven colliding with a
+  proven penetration depth, or ``unproven``, never counted as a pass.
+
+Rows: one ``mode="pair"`` row per (method, pair) with the verdict and its accuracy, and
+one ``mode="batch"`` / ``"single"`` row per method with the timing rounds (``pairs``
+says how many pairs one round covers).
+"""
 
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
 
-import numpy as np
-
 from ...certification import ENGINE_BOUNDS as BOUNDS
-from ...certification import certify_many
+from ...certification import certify, certify_many
+from ...timing import interleave
 from ..fields import names, need, numbers
-from .context import Context, accuracy_cols, cert_cols
+from .context import Context, accuracy_cols, cert_cols, rounds_key, startup_rows
 
-KEYS = frozenset({"pairs", "bounds", "tolerance", "competitor_pairs", "max_nodes", "seed"})
+KEYS = frozenset(
+    {"pairs", "bounds", "tolerance", "max_nodes", "seed", "rounds", "single_pairs", "external"}
+)
+KERNEL = "in-kernel (Warp certify_many)"
+
+
+def _count(st: dict, key: str, default: int, file: Path, where: str, lo: int) -> int:
+    value = st.get(key, default)
+    need(
+        isinstance(value, int) and not isinstance(value, bool) and value >= lo,
+        file,
+        f"{where}.{key}",
+        f"expected an integer >= {lo}, got {value!r}",
+    )
+    return value
 
 
 def parse(st: dict, file: Path, where: str) -> dict:
+    from ...workloads import EXTERNAL
+
     out: dict = {}
-    out["pairs"] = int(st.get("pairs", 300))
-    need(out["pairs"] >= 1, file, f"{where}.pairs", "expected >= 1")
-    out["bounds"] = names(
-        st.get("bounds", ["hull", "aabb", "lipschitz"]), file, f"{where}.bounds", BOUNDS
-    )
+    out["pairs"] = _count(st, "pairs", 300, file, where, 1)
+    out["bounds"] = names(st.get("bounds", list(BOUNDS)), file, f"{where}.bounds", BOUNDS)
     out["tolerance"] = numbers(st.get("tolerance", 1e-3), file, f"{where}.tolerance")[0]
-    out["competitor_pairs"] = int(st.get("competitor_pairs", 20))
-    out["max_nodes"] = int(st.get("max_nodes", 20_000))
-    out["seed"] = int(st.get("seed", 0))
+    out["max_nodes"] = _count(st, "max_nodes", 20_000, file, where, 1)
+    out["seed"] = _count(st, "seed", 0, file, where, 0)
+    out["rounds"] = rounds_key(st, file, f"{where}.rounds")
+    out["single_pairs"] = min(
+        _count(st, "single_pairs", out["pairs"], file, where, 0), out["pairs"]
+    )
+    ext = st.get("external", [])
+    need(
+        isinstance(ext, list),
+        file,
+        f"{where}.external",
+        f"expected a list of names from {sorted(EXTERNAL)}, got {ext!r}",
+    )
+    out["external"] = names(ext, file, f"{where}.external", EXTERNAL) if ext else []
     return out
 
 
 def expand(st: dict) -> list[dict]:
-    # the certified bounds, then the two competitors on a subset of pairs
     return [
         dict(
             scene="workload",
             keyframes=f"workload-{st['seed']}",
             scheme="rational",
-            bound=bound,
+            bound="all",
             tolerance=st["tolerance"],
         )
-        for bound in [*st["bounds"], "dense", "advancement"]
     ]
 
 
@@ -56,51 +96,85 @@ def _workload(ctx: Context, st: dict):
 
 
 def run(case: dict, st: dict, ctx: Context) -> list[dict]:
-    from ...workloads import conservative_advancement, dense_sampling
+    from ...workloads import EXTERNAL, conservative_advancement, dense_sampling
 
     w = _workload(ctx, st)
     tol = case["tolerance"]
-    base = {k: case[k] for k in ("study", "scene", "keyframes", "scheme", "bound", "tolerance")}
+    n, k = len(w.motions), st["single_pairs"]
+    base = {key: case[key] for key in ("study", "scene", "keyframes", "scheme", "tolerance")}
     base["seed"] = ctx.seed
-    truth = np.where(w.clearance > 0, "free", "collision")
-    rows = []
-    if case["bound"] in BOUNDS:
-        kw = {"max_nodes": st["max_nodes"]} if case["bound"] in ("aabb", "lipschitz") else {}
-        if case["bound"] == "sampled":
-            kw["samples"] = 200
-        t0 = time.perf_counter()
-        certs = certify_many(
-            w.motions, w.bodies, w.obstacles, bound=case["bound"], tolerance=tol, **kw
+
+    def options(bound: str) -> dict:
+        return {"max_nodes": st["max_nodes"]} if bound in ("aabb", "lipschitz") else {}
+
+    def batch_call(b: str):
+        return lambda: certify_many(
+            w.motions, w.bodies, w.obstacles, bound=b, tolerance=tol, **options(b)
         )
-        wall = time.perf_counter() - t0
-        for i, c in enumerate(certs):
-            r = {
+
+    def single_calls(b: str):
+        return lambda: [
+            certify(w.motions[i], w.bodies[i], w.obstacles[i], bound=b, tolerance=tol, **options(b))
+            for i in range(k)
+        ]
+
+    def external_loop(fn):
+        return lambda: [fn(w.motions[i], w.bodies[i], w.obstacles[i], tol) for i in range(n)]
+
+    loops = {"dense-mujoco": dense_sampling, "advancement-mujoco": conservative_advancement}
+    rows = startup_rows(ctx, st["bounds"], w.motions[0], w.bodies[0], w.obstacles[0], tol)
+    timed = interleave(
+        {
+            **{b: batch_call(b) for b in st["bounds"]},
+            **{e: external_loop(loops[e]) for e in st["external"]},
+        },
+        rounds=st["rounds"],
+    )
+    single = (
+        interleave({b: single_calls(b) for b in st["bounds"]}, rounds=st["rounds"]) if k else {}
+    )
+    for method, r in timed.items():
+        external = method in EXTERNAL
+        impl = EXTERNAL[method] if external else KERNEL
+        for i, c in enumerate(r.result):
+            row = {
                 **base,
+                "bound": method,
+                "mode": "pair",
+                "implementation": impl,
                 "pair": i,
                 "clearance": float(w.clearance[i]),
-                "truth": str(truth[i]),
-                **cert_cols(c),
-                "batch_seconds": wall,
-                "batch_pairs": len(certs),
+                "clearance_lo": float(w.clearance_lo[i]),
+                "penetration": float(w.penetration[i]),
+                "label": str(w.label[i]),
+                "truth": str(w.truth[i]),
             }
-            r.update(accuracy_cols(c.verdict, r["truth"], c.toi_lo, math.nan))
-            rows.append(r)
-        return rows
-    fn = dense_sampling if case["bound"] == "dense" else conservative_advancement
-    n = min(st["competitor_pairs"], len(w.motions))
-    for i in np.linspace(0, len(w.motions) - 1, n).astype(int):
-        verdict, calls, secs = fn(w.motions[i], w.bodies[i], w.obstacles[i], tol)
-        r = {
-            **base,
-            "pair": int(i),
-            "clearance": float(w.clearance[i]),
-            "truth": str(truth[i]),
-            "verdict": verdict,
-            "nodes": calls,
-            "competitor_seconds": secs,
-            "seconds": secs,
-            "certified": case["bound"] == "dense",
-        }
-        r.update(accuracy_cols(verdict, r["truth"], math.nan, math.nan))
-        rows.append(r)
+            if external:
+                row.update(verdict=c.verdict, nodes=c.calls, certified=c.certified)
+            else:
+                row.update(cert_cols(c))
+                row["seconds"] = math.nan  # a pair's share of a batch is not a measurement
+            row.update(accuracy_cols(row["verdict"], row["truth"], math.nan, math.nan))
+            rows.append(row)
+        rows.append(_timing_row(base, method, "single" if external else "batch", impl, n, r))
+    for method, r in single.items():
+        row = _timing_row(base, method, "single", KERNEL, k, r)
+        # DESIGN: a certificate never depends on the batch it was certified in
+        row["single_agrees_with_batch"] = sum(
+            a.verdict == b.verdict for a, b in zip(r.result, timed[method].result[:k], strict=True)
+        )
+        rows.append(row)
     return rows
+
+
+def _timing_row(base: dict, method: str, mode: str, impl: str, pairs: int, r) -> dict:
+    cols = r.columns()
+    return {
+        **base,
+        "bound": method,
+        "mode": mode,
+        "implementation": impl,
+        "pairs": pairs,
+        **cols,
+        "seconds": cols["wall_median"],
+    }
