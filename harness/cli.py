@@ -289,8 +289,9 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("new")
     c.add_argument(
         "--time-threshold",
-        default="15%",
-        help="allowed slowdown, e.g. 15%% (default); a slowdown must also be significant",
+        default="60%",
+        help="allowed slowdown (default 60%%, above the drift measured between runs of"
+        " unchanged code on a shared 2-core machine); a slowdown must also be significant",
     )
     c.add_argument(
         "--fp-threshold", type=int, default=0, help="allowed increase in false collisions"

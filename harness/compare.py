@@ -9,11 +9,17 @@ in a run, ``stats.data`` in a benchmark file). Figures are grouped (a run: by st
 scheme, bound and mode; a benchmark file: one group per benchmark) and each group's cost
 is the sum of its figures' medians. The ratio NEW / BASE gets a 95 % bootstrap interval
 (figures resampled together, then each figure's rounds within each run: see
-:func:`harness.timing.ratio_interval`). A group is a **regression only when the whole
-interval lies above 1 + threshold**: the slowdown is significant *and* above the
-threshold. (With 5 rounds a percentile interval is narrow for its level; asking for the
-interval, not only the ratio, to clear the threshold is what keeps two runs of unchanged
-code from failing.) Runs
+:func:`harness.timing.ratio_interval`). A group is a **regression only when the slowdown
+is significant (the interval lies above 1) and larger than the threshold** (the ratio
+exceeds 1 + threshold).
+
+The interval captures the noise between rounds of one run, not the drift between runs:
+on a shared machine a whole case can run while another process holds the other hardware
+thread. Measured here (2 cores, load 8-10 from other jobs), the CPU-time ratio of one
+group between two runs of unchanged code reached 1.59 (840 group comparisons, 8 smoke
+runs); hence the default threshold of 60 %, which a 2x slowdown of a group still exceeds
+in 91 % of those comparisons (100 % when everything slows down). On a quiet machine use
+``--time-threshold 15%``. Runs
 are gated on process CPU time by default: on a shared machine another process's load
 stretches wall time far more than CPU time; ``timer="wall"`` gates on wall time.
 
@@ -39,6 +45,7 @@ from .errors import HarnessError
 from .timing import ratio_interval
 
 __all__ = [
+    "DEFAULT_THRESHOLD",
     "MIN_ROUNDS",
     "MIN_TIMING_SECONDS",
     "TIMERS",
@@ -48,6 +55,9 @@ __all__ = [
     "compare",
 ]
 
+DEFAULT_THRESHOLD = 0.6
+"""Allowed slowdown by default: above the 1.59x drift measured between runs of unchanged
+code on the shared 2-core machine (see the module docstring)."""
 MIN_TIMING_SECONDS = 0.02
 """Run groups whose base cost (sum of medians) is below this are printed, not gated: at
 a few milliseconds the scheduler and the caches, not the code, decide the ratio."""
@@ -130,7 +140,7 @@ def compare(
     base: str | Path,
     new: str | Path,
     *,
-    time_threshold: float = 0.15,
+    time_threshold: float = DEFAULT_THRESHOLD,
     fp_threshold: int = 0,
     unknown_threshold: float = 0.0,
     timer: str = "cpu",
@@ -174,7 +184,7 @@ def _decide(
         status = f"not gated: {min(samples)} timing sample(s) < {MIN_ROUNDS}"
     elif mb < floor:
         status = f"not gated: base {mb * 1e3:.3g} ms < {floor * 1e3:g} ms"
-    elif lo > 1 + thr:
+    elif lo > 1 and ratio > 1 + thr:
         status = "regression"
     elif hi < 1:
         status = "faster"
@@ -200,7 +210,7 @@ def _timing_lines(out: Comparison, rows: list[TimingRow], thr: float, what: str)
                 f" threshold {1 + thr:.2f}x)"
             )
     out.lines.append(
-        f"(a regression: the whole 95% bootstrap interval of the ratio lies above {1 + thr:.2f})"
+        f"(a regression: the ratio exceeds {1 + thr:.2f} and its 95% bootstrap interval lies above 1)"
     )
 
 

@@ -344,6 +344,18 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
                     basis=f"sampled verdicts against a proven collision truth; {r['truth not proven']} sampled rows with unproven truth are not counted as passes",
                 )
             )
+    wl = _study(df, "workload")
+    pairs = wl[_col(wl, "mode", "") == "pair"]
+    for method, g in pairs.groupby("bound", sort=True):
+        r = _rates(g, _col(g, "label", "") == "proven")
+        out.append(
+            dict(
+                figure=f"workload verdicts of {method}",
+                value=f"false free {r['false free']}/{r['of truth collision']}, false collision {r['false collision']}/{r['of truth free']}, unknown {r['unknown']}/{r['ran']}",
+                spread="exact counts",
+                basis=f"every pair of the workload; false verdicts counted against proven labels only ({r['truth not proven']} pairs with a measured label not counted)",
+            )
+        )
     out += _workload_headline(df, meta)
     return out
 
@@ -659,13 +671,22 @@ def _certify_section(doc: _Doc, df: pd.DataFrame, plt) -> None:
     _toi_figure(doc, cert, plt)
 
 
-def _rate_figure(doc: _Doc, cert: pd.DataFrame, plt) -> None:
+def _rate_figure(
+    doc: _Doc,
+    cert: pd.DataFrame,
+    plt,
+    *,
+    name: str = "verdict_rates",
+    xlabel: str = "scheme/bound",
+    label_ok: pd.Series | None = None,
+    what: str = "per scheme/bound",
+) -> None:
     ran = cert[_col(cert, "verdict", "").isin(RAN)]
     if not len(ran):
         doc.p("(No certification ran: no accuracy figure.)")
         return
     methods = sorted(ran["method"].unique())
-    stats = [_rates(ran[ran["method"] == m]) for m in methods]
+    stats = [_rates(ran[ran["method"] == m], label_ok) for m in methods]
     kinds = [
         ("false free", "of truth collision", "false-negative rate (free, truth collision)"),
         ("false collision", "of truth free", "false-positive rate (collision, truth free)"),
@@ -696,12 +717,12 @@ def _rate_figure(doc: _Doc, cert: pd.DataFrame, plt) -> None:
     ax.set_xticks(x, methods, rotation=60, ha="right", fontsize=7)
     ax.set_ylim(-0.03, 1.25)
     ax.set_ylabel("rate (fraction of the denominator)")
-    ax.set_xlabel("scheme/bound")
+    ax.set_xlabel(xlabel)
     ax.legend(fontsize=7, loc="upper left")
     doc.figure(
         fig,
-        "verdict_rates",
-        "False-negative, false-positive and unknown rates per scheme/bound, each bar labelled with its count over its denominator (rows with proven truth collision, proven truth free, and rows that ran). 'n/a': no row in the denominator (for example no proven truth).",
+        name,
+        f"False-negative, false-positive and unknown rates {what}, each bar labelled with its count over its denominator (rows with proven truth collision, proven truth free, and rows that ran). 'n/a': no row in the denominator (for example no proven truth).",
     )
 
 
@@ -770,6 +791,15 @@ def _workload_section(doc: _Doc, df: pd.DataFrame, plt) -> None:
             "Verdicts per method on every pair of the workload; false free and false collision out of the pairs whose label is proven.",
             "workload_accuracy",
         )
+        _rate_figure(
+            doc,
+            pairs.assign(method=pairs["bound"].astype(str)),
+            plt,
+            name="workload_rates",
+            xlabel="method",
+            label_ok=ok,
+            what="per method on the workload (truth: proven labels only)",
+        )
     costs = _workload_costs(wl)
     if len(costs):
         doc.table(
@@ -807,7 +837,7 @@ def _cost_figure(doc: _Doc, costs: pd.DataFrame, plt) -> None:
     labels = [
         f"{r.method}\n{r.mode}"
         + ("\n(external)" if str(r.implementation).startswith(EXTERNAL_PREFIX) else "")
-        + f"\nn={r.rounds}"
+        + f"\nn={r.rounds} rounds\n{r.pairs} pairs"
         for r in costs.itertuples()
     ]
     fig, ax = plt.subplots(figsize=(max(5, 1.1 * len(costs) + 1.5), 3.6))
@@ -819,7 +849,7 @@ def _cost_figure(doc: _Doc, costs: pd.DataFrame, plt) -> None:
     doc.figure(
         fig,
         "workload_cost",
-        "CPU time per pair of each method on the same pairs, one sample per round (n rounds per box); log scale.",
+        "CPU time per pair of each method, one sample per round (n rounds per box; each round covers the pairs given, the same for every method in a mode); log scale.",
     )
 
 

@@ -260,3 +260,56 @@ def test_cli_exit_codes_and_one_line_errors(tmp_path, capsys):
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
+
+
+INJECT = """
+[suite]
+name = "inject"
+seed = 1
+
+[[study]]
+kind = "certify"
+scenes = ["slot"]
+keyframes = "scene"
+schemes = ["rational"]
+bounds = ["hull", "lipschitz", "sampled"]
+truth_resolution = 1e-2
+rounds = 5
+
+[[study]]
+kind = "workload"
+pairs = 6
+bounds = ["hull", "sampled"]
+single_pairs = 2
+rounds = 5
+"""
+
+
+@pytest.mark.slow
+def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
+    """Two real runs of a small suite; in the second every certification is done twice
+    (the same work, twice the time): compare must fail on timing and on nothing else."""
+    import harness.run.studies.certify as certify_study
+    import harness.run.studies.workload as workload_study
+    from harness.run import load_suite, run_suite
+
+    suite_file = tmp_path / "inject.toml"
+    suite_file.write_text(INJECT)
+    suite = load_suite(suite_file)
+    run_suite(suite, tmp_path / "base", progress=False)
+    for module in (certify_study, workload_study):
+        real = module.certify_many
+
+        def twice(*a, _real=real, **k):
+            _real(*a, **k)
+            return _real(*a, **k)
+
+        monkeypatch.setattr(module, "certify_many", twice)
+    run_suite(suite, tmp_path / "slow", progress=False)
+    res = compare(tmp_path / "base", tmp_path / "slow")
+    assert res.exit_code == 1, res.text()
+    assert res.regressions and all(r.startswith("timing:") for r in res.regressions)
+    slow = [t for t in res.timing if t.status == "regression"]
+    assert slow and all(1.6 < t.ratio < 6.0 and t.lo > 1 for t in slow)
+    # the same runs pass when a 2x slowdown is allowed
+    assert compare(tmp_path / "base", tmp_path / "slow", time_threshold=2.0).exit_code == 0
