@@ -360,37 +360,43 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
     return out
 
 
-def _per_pair_rounds(row: pd.Series, timer: str = "cpu") -> np.ndarray | None:
-    a = _rounds(row.get(f"{timer}_rounds"))
-    pairs = row.get("pairs")
-    if a is None or not isinstance(pairs, int | float | np.integer | np.floating) or not pairs > 0:
-        return None
-    return a / float(pairs)
-
-
 def _workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
-    """One row per (workload, tolerance, bound, mode) with per-pair cost spreads."""
-    rows = []
-    for _, r in _timing_rows(wl).iterrows():
-        cpu, wall = _per_pair_rounds(r, "cpu"), _per_pair_rounds(r, "wall")
-        if cpu is None or wall is None:
+    """One row per (workload, tolerance, method, mode) with per-pair cost spreads.
+
+    A workload run in several chunks has one timing row per chunk: round r of the whole
+    workload is the sum of round r of every chunk (rounds are independent draws), divided
+    by the total number of pairs."""
+    rows: list[dict] = []
+    t = _timing_rows(wl)
+    keys = ["keyframes", "tolerance", "bound", "mode"]
+    if not len(t) or any(k not in t for k in keys) or "pairs" not in t:
+        return pd.DataFrame(rows)
+    for (name, tol, method, mode), g in t.groupby(keys, sort=False, dropna=False):
+        cpu = [_rounds(v) for v in g["cpu_rounds"]]
+        wall = [_rounds(v) for v in g["wall_rounds"]]
+        pairs = _num(g, "pairs")
+        if any(x is None for x in cpu + wall) or not (pairs > 0).all():
             continue
-        sc, sw = spread(cpu), spread(wall)
+        n = min(x.size for x in cpu + wall)
+        total = float(pairs.sum())
+        cpu_pp = sum(x[:n] for x in cpu) / total
+        wall_pp = sum(x[:n] for x in wall) / total
+        sc, sw = spread(cpu_pp), spread(wall_pp)
         rows.append(
             {
-                "workload": r.get("keyframes"),
-                "tolerance": r.get("tolerance"),
-                "method": r.get("bound"),
-                "mode": r.get("mode"),
-                "implementation": r.get("implementation", ""),
-                "pairs": int(r.get("pairs")),
+                "workload": name,
+                "tolerance": tol,
+                "method": method,
+                "mode": mode,
+                "implementation": _impl(g),
+                "pairs": int(total),
                 "rounds": sc.n,
                 "cpu µs/pair": sc.median * 1e6,
                 "cpu IQR": _span(sc.q1, sc.q3),
                 "cpu 95% CI": _span(sc.lo, sc.hi),
                 "wall µs/pair": sw.median * 1e6,
                 "wall IQR": _span(sw.q1, sw.q3),
-                "_cpu": cpu,
+                "_cpu": cpu_pp,
             }
         )
     return pd.DataFrame(rows)
@@ -524,7 +530,7 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
     plt = _plt()
     doc = _Doc(dest)
     doc.h(f"rsmbench report: suite {meta.get('suite', '?')}", 1)
-    doc.p(_machine_text(meta, len(df)))
+    doc.p(_machine_text(meta, len(df)) + _cache_text(df))
     doc.p(
         "Rational spline motions after "
         + CITATION
@@ -582,6 +588,15 @@ def _machine_text(meta: dict, rows: int) -> str:
         f" total wall time {wall_txt}; {rows} rows."
         f" Versions: {', '.join(f'{k} {v}' for k, v in meta.get('versions', {}).items())}."
     )
+
+
+def _cache_text(df: pd.DataFrame) -> str:
+    st = _study(df, "startup")
+    states = sorted(set(_col(st, "kernel_cache", "").dropna().astype(str)) - {""})
+    if not states:
+        return ""
+    what = {"cold": "cold (kernels compiled in this run)", "warm": "warm (kernels loaded)"}
+    return " Warp kernel cache: " + ", ".join(what.get(x, x) for x in states) + "."
 
 
 def _how_to_read(doc: _Doc) -> None:

@@ -401,3 +401,31 @@ def test_unreadable_runs_are_named_errors(tmp_path, capsys, monkeypatch):
         assert "Traceback" not in err and len(err.strip().splitlines()) == 1
     finally:
         run.chmod(0o755)
+
+
+def test_chunked_workload_costs_add_up():
+    # a workload run as two chunks of 25 pairs: round r of the whole is the sum of the
+    # chunks' round r, per pair over all 50 pairs
+    rows = [r for r in synthetic_rows() if r.get("mode") not in ("batch", "single")]
+    half = [0.5 * HULL_ROUNDS, 0.5 * HULL_ROUNDS[::-1]]
+    for k, rounds in enumerate(half):
+        rows.append(
+            dict(
+                study="workload",
+                keyframes="workload-0",
+                scheme="rational",
+                bound="hull",
+                tolerance=1e-3,
+                mode="batch",
+                pairs=PAIRS // 2,
+                implementation="warp kernel",
+                case_id=f"chunk-{k}",
+                **_timing(rounds),
+            )
+        )
+    text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
+    want = np.median(half[0] + half[1]) / PAIRS * 1e6
+    assert (
+        f"{want:.3g} µs CPU" in text["hull cost per pair, batch (one certify_many call)"]["value"]
+    )
+    assert f"{PAIRS} pairs" in text["hull cost per pair, batch (one certify_many call)"]["basis"]
