@@ -620,7 +620,7 @@ def _startup_section(doc: _Doc, df: pd.DataFrame) -> None:
     doc.h("Start-up: kernel compile and first call")
     cols = [
         c
-        for c in ("bound", "kernel_cache", "warmup_wall", "warmup_cpu", "compiled_modules")
+        for c in ("method", "kernel_cache", "warmup_wall", "warmup_cpu", "compiled_modules")
         if c in st
     ]
     t = st[cols].rename(

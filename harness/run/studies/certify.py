@@ -23,7 +23,8 @@ from .context import (
     cert_cols,
     rounds_key,
     smoothness_cols,
-    startup_rows,
+    startup_case,
+    startup_run,
     truth_cols,
 )
 
@@ -84,7 +85,8 @@ def expand(st: dict) -> list[dict]:
         sets.append("scene")
     if st["keyframes"] in ("random", "both"):
         sets += [f"random-{k}" for k in range(st["random_sets"])]
-    return [
+    first = [startup_case(b, st["tolerances"][0]) for b in st["bounds"]]
+    return first + [
         dict(scene=scene, keyframes=kf, scheme=scheme, bound=bound, tolerance=tol, repeat=rep)
         for scene in st["scenes"]
         for kf in sets
@@ -96,6 +98,8 @@ def expand(st: dict) -> list[dict]:
 
 
 def run(case: dict, st: dict, ctx: Context) -> list[dict]:
+    if case.get("startup"):
+        return startup_run(case, ctx)
     scene, kf, scheme, bound, tol = (
         case["scene"],
         case["keyframes"],
@@ -130,7 +134,6 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             return [
                 {**row, "verdict": "n/a", "reason": f"scheme {scheme!r} has no proven speed bound"}
             ]
-    first = startup_rows(ctx, [bound], m, body, obst, tol)
     timed = repeat(
         lambda: certify_many(
             [m],
@@ -149,4 +152,4 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     row.update(timed.columns())
     row["seconds"] = row["wall_median"]
     row.update(accuracy_cols(cert.verdict, row["truth"], cert.toi_lo, row["toi_true"]))
-    return [*first, row]
+    return [row]

@@ -24,7 +24,8 @@ __all__ = [
     "cert_cols",
     "rounds_key",
     "smoothness_cols",
-    "startup_rows",
+    "startup_case",
+    "startup_run",
     "truth_cols",
 ]
 
@@ -43,34 +44,50 @@ def rounds_key(st: dict, file, key: str) -> int:
     return value
 
 
-def startup_rows(ctx: Context, bounds, motion, body, obstacles, tolerance: float) -> list[dict]:
-    """The first call of each bound in this process, timed on its own (Warp's kernel
-    compile or cache load plus start-up) so that no case pays it: one ``study="startup"``
-    row per bound not started yet (none once every bound has run here)."""
-    rows = []
-    for b in bounds:
-        if ("startup", b) in ctx.cache:
-            continue
-        try:
-            with first_call() as f:
-                certify_many([motion], body, obstacles, bound=b, tolerance=tolerance)
-        except (ValueError, NotImplementedError):  # this motion does not admit the bound
-            continue
-        ctx.cache[("startup", b)] = True
-        rows.append(
-            {
-                "study": "startup",
-                "scene": "startup",
-                "bound": b,
-                "method": f"first call: {b}",
-                "seed": ctx.seed,
-                "kernel_cache": f["kernel_cache"],
-                "compiled_modules": ",".join(f.get("compiled_modules", [])),
-                "warmup_wall": f["wall"],
-                "warmup_cpu": f["cpu"],
-            }
-        )
-    return rows
+def startup_case(bound: str, tolerance: float) -> dict:
+    """The case that times a study's first call of `bound` (see :func:`startup_run`)."""
+    return dict(
+        scene="startup",
+        keyframes="fixed",
+        scheme="rational",
+        bound=bound,
+        tolerance=tolerance,
+        startup=True,
+    )
+
+
+def startup_run(case: dict, ctx: Context) -> list[dict]:
+    """Time the first certification call of ``case["bound"]`` in this process on a small
+    fixed problem: Warp's kernel compile (``kernel_cache="cold"``: a module was compiled)
+    or cache load, plus start-up. Each certifying study expands one such case per bound,
+    ahead of its other cases, so that no case is charged for it; when an earlier study of
+    the run has already called the bound here, the row measures a warm call."""
+    from ...shapes import Box
+
+    m = ctx.memo(
+        ("startup-motion",),
+        lambda: motions.interpolate(
+            np.array([[1.0, 0, 0, 0], [0.9, 0.3, 0.1, 0], [0.8, 0.2, 0.5, 0.1], [0.7, 0, 0.7, 0]]),
+            np.array([[0.0, 0, 0], [1, 0.2, 0], [2, 0, 0.3], [3, 0.4, 0]]),
+        ),
+    )
+    body, wall = Box([0.1, 0.1, 0.1]), [Box([0.05, 1, 1], center=[1.5, 2.5, 0])]
+    with first_call() as f:
+        certify_many([m], body, wall, bound=case["bound"], tolerance=case["tolerance"])
+    return [
+        {
+            "study": "startup",
+            "scene": "startup",
+            "bound": case["bound"],
+            "method": f"first call: {case['bound']} ({case['study']} study)",
+            "tolerance": case["tolerance"],
+            "seed": ctx.seed,
+            "kernel_cache": f["kernel_cache"],
+            "compiled_modules": ",".join(f.get("compiled_modules", [])),
+            "warmup_wall": f["wall"],
+            "warmup_cpu": f["cpu"],
+        }
+    ]
 
 
 class Context:

@@ -31,7 +31,7 @@ from ...certification import ENGINE_BOUNDS as BOUNDS
 from ...certification import certify, certify_many
 from ...timing import interleave
 from ..fields import names, need, numbers
-from .context import Context, accuracy_cols, cert_cols, rounds_key, startup_rows
+from .context import Context, accuracy_cols, cert_cols, rounds_key, startup_case, startup_run
 
 KEYS = frozenset(
     {"pairs", "bounds", "tolerance", "max_nodes", "seed", "rounds", "single_pairs", "external"}
@@ -75,7 +75,8 @@ def parse(st: dict, file: Path, where: str) -> dict:
 
 
 def expand(st: dict) -> list[dict]:
-    return [
+    first = [startup_case(b, st["tolerance"]) for b in st["bounds"]]
+    return first + [
         dict(
             scene="workload",
             keyframes=f"workload-{st['seed']}",
@@ -98,6 +99,8 @@ def _workload(ctx: Context, st: dict):
 def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     from ...workloads import EXTERNAL, conservative_advancement, dense_sampling
 
+    if case.get("startup"):
+        return startup_run(case, ctx)
     w = _workload(ctx, st)
     tol = case["tolerance"]
     n, k = len(w.motions), st["single_pairs"]
@@ -122,7 +125,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
         return lambda: [fn(w.motions[i], w.bodies[i], w.obstacles[i], tol) for i in range(n)]
 
     loops = {"dense-mujoco": dense_sampling, "advancement-mujoco": conservative_advancement}
-    rows = startup_rows(ctx, st["bounds"], w.motions[0], w.bodies[0], w.obstacles[0], tol)
+    rows: list[dict] = []
     timed = interleave(
         {
             **{b: batch_call(b) for b in st["bounds"]},
