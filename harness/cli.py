@@ -289,8 +289,8 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("new")
     c.add_argument(
         "--time-threshold",
-        default="60%",
-        help="allowed slowdown (default 60%%, above the drift measured between runs of"
+        default="75%",
+        help="allowed slowdown (default 75%%, above the drift measured between runs of"
         " unchanged code on a shared 2-core machine); a slowdown must also be significant",
     )
     c.add_argument(

@@ -261,8 +261,8 @@ def repeat(fn: Callable[[], Any], *, rounds: int = DEFAULT_ROUNDS, warmup: int =
 
 
 def interleave(
-    fns: dict[str, Callable[[], Any]], *, rounds: int = DEFAULT_ROUNDS, warmup: int = 1
-) -> dict[str, Rounds]:
+    fns: dict[Any, Callable[[], Any]], *, rounds: int = DEFAULT_ROUNDS, warmup: int = 1
+) -> dict[Any, Rounds]:
     """Time contenders round-robin (A B A B ...), so that a change of machine load hits
     them alike; each gets `warmup` untimed calls first, in the same order."""
     rounds, warmup = _check_rounds(rounds, warmup)

@@ -12,8 +12,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness import report
 from harness.report import ReportError, headline, write_report
+from harness.report.document import Document
 
 PAIRS = 50
 META = {
@@ -229,14 +229,14 @@ def written(tmp_path_factory):
     base = tmp_path_factory.mktemp("report")
     run = _write_run(base / "run")
     seen = []
-    original = report._Doc.figure
+    original = Document.figure
 
     def capture(self, fig, name, caption):
         seen.append((name, fig, caption))
         original(self, fig, name, caption)
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(report._Doc, "figure", capture)
+        mp.setattr(Document, "figure", capture)
         md = write_report(run, out=base / "out")
     return md, base / "out", seen
 

@@ -6,8 +6,8 @@ under every method, like for like.
   external competitor named in ``external`` (Python loops over MuJoCo's
   ``mj_geomDistance``, named as such) runs on the same pairs.
 - **Repeated, interleaved rounds.** ``rounds`` timed rounds (default 5) after one warm-up
-  call each; methods alternate within a round (A B C A B C ...), so that a change of
-  machine load hits them alike. Kernel compile and first-call start-up are ``startup``
+  call each; one round runs every method and mode once (A B C A B C ...), so that a
+  change of machine load hits them alike and each figure's rounds spread over the case. Kernel compile and first-call start-up are ``startup``
   rows of their own, charged to no method.
 - **Batch and single-query cost.** ``batch``: one ``certify_many`` call over all pairs;
   ``single``: one ``certify`` call per pair over the first ``single_pairs`` pairs (default
@@ -126,16 +126,16 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
 
     loops = {"dense-mujoco": dense_sampling, "advancement-mujoco": conservative_advancement}
     rows: list[dict] = []
-    timed = interleave(
-        {
-            **{b: batch_call(b) for b in st["bounds"]},
-            **{e: external_loop(loops[e]) for e in st["external"]},
-        },
-        rounds=st["rounds"],
-    )
-    single = (
-        interleave({b: single_calls(b) for b in st["bounds"]}, rounds=st["rounds"]) if k else {}
-    )
+    # one round: every batch call, then every method's single queries, so that each
+    # figure's rounds spread over the whole case and a burst of load from another
+    # process hits one round, not all of them
+    contenders = {("batch", b): batch_call(b) for b in st["bounds"]}
+    contenders |= {("batch", e): external_loop(loops[e]) for e in st["external"]}
+    if k:
+        contenders |= {("single", b): single_calls(b) for b in st["bounds"]}
+    measured = interleave(contenders, rounds=st["rounds"])
+    timed = {m: r for (mode, m), r in measured.items() if mode == "batch"}
+    single = {m: r for (mode, m), r in measured.items() if mode == "single"}
     for method, r in timed.items():
         external = method in EXTERNAL
         impl = EXTERNAL[method] if external else KERNEL
