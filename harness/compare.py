@@ -57,9 +57,9 @@ __all__ = [
 DEFAULT_THRESHOLD = 0.75
 """Allowed slowdown by default: above the drift measured between runs of unchanged code
 on the shared 2-core machine (see the module docstring)."""
-MIN_TIMING_SECONDS = 0.02
-"""Run groups whose base cost (sum of medians) is below this are printed, not gated: at
-a few milliseconds the scheduler and the caches, not the code, decide the ratio."""
+MIN_TIMING_SECONDS = 0.005
+"""Run groups whose base cost (sum of medians) is below this are printed, not gated:
+below a few milliseconds the scheduler and the caches, not the code, decide the ratio."""
 MIN_ROUNDS = 5
 """Timing samples (rounds over all figures of a group) each side needs to be gated."""
 TOI_SLACK = 1e-9

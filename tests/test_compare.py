@@ -7,6 +7,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -278,17 +279,18 @@ rounds = 5
 
 [[study]]
 kind = "workload"
-pairs = 6
+pairs = 40
 bounds = ["hull", "sampled"]
-single_pairs = 2
+single_pairs = 4
 rounds = 5
 """
 
 
 @pytest.mark.slow
 def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
-    """Two real runs of a small suite; in the second every certification is done twice
-    (the same work, twice the time): compare must fail on timing and on nothing else."""
+    """Two real runs of a small suite; in the second every certification call of the
+    studies takes twice its CPU time (it runs, then the thread spins as long again): compare
+    must fail on timing and on nothing else."""
     import harness.run.studies.certify as certify_study
     import harness.run.studies.workload as workload_study
     from harness.run import load_suite, run_suite
@@ -301,8 +303,12 @@ def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
         real = module.certify_many
 
         def twice(*a, _real=real, **k):
-            _real(*a, **k)
-            return _real(*a, **k)
+            c0 = time.process_time()
+            out = _real(*a, **k)
+            spent = time.process_time() - c0
+            while time.process_time() - c0 < 2 * spent:
+                pass
+            return out
 
         monkeypatch.setattr(module, "certify_many", twice)
     run_suite(suite, tmp_path / "slow", progress=False)
