@@ -15,12 +15,13 @@ exceeds 1 + threshold).
 
 The interval captures the noise between rounds of one run, not the drift between runs:
 on a shared machine a whole case can run while another process holds the other hardware
-thread. Measured here (2 cores, load 8-12 from other jobs) over 21 smoke runs of
-unchanged code (3,180 group comparisons in 212 ordered pairs), the CPU-time ratio of a
-group reached 1.79, and 1.63 with an interval above 1; hence the default threshold of
-75 %, at which none of those pairs failed while a 2x slowdown of everything was caught in
-all of them and a 2x slowdown of one group alone in 78 % of the comparisons. On a quiet
-machine use ``--time-threshold 15%``.
+thread. Measured here (2 cores shared with other jobs) on 20 smoke runs of unchanged
+code: 10 back-to-back pairs all pass at the default threshold of 75 %; over all 380
+ordered pairs of those runs (up to 20 minutes apart) 16 would fail, on three groups of
+Python-heavy few-millisecond figures, while a 2x slowdown of everything is caught in every
+pair, of half the groups in 376 of 380 and of one group alone in 75 % of the cases. A
+failing gate is therefore worth confirming by running base and new back to back. On a
+quiet machine use ``--time-threshold 15%``.
 
 **Accuracy** (runs only; verdicts are deterministic for a suite and seed, so any change
 is real): a row that is a false free (truth collision, verdict free) in NEW but not in
