@@ -11,8 +11,9 @@ under every method, like for like.
   rows of their own, charged to no method.
 - **Batch and single-query cost.** ``batch``: one ``certify_many`` call over all pairs;
   ``single``: one ``certify`` call per pair over the first ``single_pairs`` pairs (default
-  all; the same pairs for every method). External loops answer one pair at a time over
-  every pair (mode ``single``).
+  all; the same pairs for every method). External loops answer one pair at a time: they
+  are timed as ``single`` on those same pairs, and run once more, untimed, for the
+  verdicts of the remaining pairs.
 - **Proven labels.** A pair's truth comes from its label (:mod:`harness.workloads`):
   proven free with a certified lower bound of its clearance, proven colliding with a
   proven penetration depth, or ``unproven``, never counted as a pass.
@@ -121,25 +122,33 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             for i in range(k)
         ]
 
-    def external_loop(fn):
-        return lambda: [fn(w.motions[i], w.bodies[i], w.obstacles[i], tol) for i in range(n)]
+    def external_loop(fn, pairs: range):
+        return lambda: [fn(w.motions[i], w.bodies[i], w.obstacles[i], tol) for i in pairs]
 
     loops = {"dense-mujoco": dense_sampling, "advancement-mujoco": conservative_advancement}
-    rows: list[dict] = []
+    # external loops answer one pair at a time: they are timed on the pairs of the single
+    # queries (the same pairs as the in-kernel methods' single queries), or on every pair
+    # when there are none
+    ext_pairs = range(k) if k else range(n)
     # one round: every batch call, then every method's single queries, so that each
     # figure's rounds spread over the whole case and a burst of load from another
     # process hits one round, not all of them
     contenders = {("batch", b): batch_call(b) for b in st["bounds"]}
-    contenders |= {("batch", e): external_loop(loops[e]) for e in st["external"]}
     if k:
         contenders |= {("single", b): single_calls(b) for b in st["bounds"]}
+    contenders |= {("single", e): external_loop(loops[e], ext_pairs) for e in st["external"]}
     measured = interleave(contenders, rounds=st["rounds"])
     timed = {m: r for (mode, m), r in measured.items() if mode == "batch"}
     single = {m: r for (mode, m), r in measured.items() if mode == "single"}
-    for method, r in timed.items():
+    verdicts = {m: r.result for m, r in timed.items()}
+    for e in st["external"]:  # every pair's verdict, once, beyond the timed ones
+        rest = external_loop(loops[e], range(len(ext_pairs), n))()
+        verdicts[e] = single[e].result + rest
+    rows: list[dict] = []
+    for method, results in verdicts.items():
         external = method in EXTERNAL
         impl = EXTERNAL[method] if external else KERNEL
-        for i, c in enumerate(r.result):
+        for i, c in enumerate(results):
             row = {
                 **base,
                 "bound": method,
@@ -159,13 +168,17 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
                 row["seconds"] = math.nan  # a pair's share of a batch is not a measurement
             row.update(accuracy_cols(row["verdict"], row["truth"], math.nan, math.nan))
             rows.append(row)
-        rows.append(_timing_row(base, method, "single" if external else "batch", impl, n, r))
+        if not external:
+            rows.append(_timing_row(base, method, "batch", impl, n, timed[method]))
     for method, r in single.items():
-        row = _timing_row(base, method, "single", KERNEL, k, r)
-        # DESIGN: a certificate never depends on the batch it was certified in
-        row["single_agrees_with_batch"] = sum(
-            a.verdict == b.verdict for a, b in zip(r.result, timed[method].result[:k], strict=True)
-        )
+        external = method in EXTERNAL
+        impl = EXTERNAL[method] if external else KERNEL
+        row = _timing_row(base, method, "single", impl, len(ext_pairs) if external else k, r)
+        if not external:  # DESIGN: a certificate never depends on the batch it was in
+            row["single_agrees_with_batch"] = sum(
+                a.verdict == b.verdict
+                for a, b in zip(r.result, timed[method].result[:k], strict=True)
+            )
         rows.append(row)
     return rows
 
