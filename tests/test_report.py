@@ -331,11 +331,12 @@ def test_headline_has_units_spread_basis_and_ratios_from_rounds():
     assert "5 rounds" in hull["spread"] and "IQR" in hull["spread"]
     assert f"{PAIRS} pairs" in hull["basis"] and "tolerance 1 mm" in hull["basis"]
     assert "Test CPU" in hull["basis"]
-    ratio = text["hull cheaper than sampled, batch"]
-    assert ratio["value"] == f"{np.median(SAMPLED_ROUNDS) / np.median(HULL_ROUNDS):.3g}×"
+    ratio = text["cost of sampled / cost of hull, batch"]
+    want = np.median(SAMPLED_ROUNDS) / np.median(HULL_ROUNDS)
+    assert ratio["value"] == f"{want:.3g}× (hull cheaper)"
     assert "same pairs" in ratio["basis"] and "95% CI" in ratio["spread"]
     # single queries are compared with single queries (both 3x their batch rounds here)
-    single = text["hull cheaper than sampled, single"]
+    single = text["cost of sampled / cost of hull, single"]
     assert single["value"] == ratio["value"]
     assert "hull cost per pair, single queries (one call per pair)" in text
 

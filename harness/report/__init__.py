@@ -7,7 +7,7 @@ plot); every table as CSV and LaTeX under ``tables/``.
 Reading the numbers:
 - a cost is the median over repeated rounds, with the interquartile range and a
   bootstrap 95 % interval of the median; process CPU time and wall time are both given;
-- "X× cheaper" is the ratio of the median CPU cost per pair of the other method to that
+- "cost of X / cost of hull" is the ratio of the median CPU cost per pair of X to that
   of the hull, on the same pairs and tolerance, with a bootstrap 95 % interval from the
   rounds of both;
 - accuracy rates have their denominators: a false free (verdict free, truth collision)

@@ -241,8 +241,8 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[dict[str, str]]:
             ext = " (external)" if str(o["implementation"]).startswith(EXTERNAL_PREFIX) else ""
             out.append(
                 dict(
-                    figure=f"hull cheaper than {o['method']}{ext}, {mode}",
-                    value=f"{ratio:.3g}×",
+                    figure=f"cost of {o['method']}{ext} / cost of hull, {mode}",
+                    value=f"{ratio:.3g}× ({'hull cheaper' if ratio > 1 else 'hull not cheaper'})",
                     spread=f"95% CI {lo:.3g}–{hi:.3g}×; {o['method']} {fmt_time(o['cpu µs/pair'] * 1e-6)} CPU per pair ({o['implementation']})",
                     basis=f"median CPU time per pair of {o['method']} / that of the hull, same pairs and tolerance; above 1 the hull is cheaper. {work}",
                 )
