@@ -235,8 +235,6 @@ def test_control_matrices_agree_with_the_preimage_away_from_the_dip(cases):
     print("\n" + "\n".join(lines))
 
 
-
-
 WEIGHT_MIN_REL = 1e-13
 """A float minimum of a degree-2d Bernstein polynomial is good to about 2d ulps of its
 largest coefficient (~1e-15 of it); this allows a hundred times that."""

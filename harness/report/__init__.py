@@ -139,6 +139,11 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
     scaling_section(doc, df, plt)
     continuity_section(doc, df, plt)
     physics_section(doc, df, plt)
+    from ..report_avoid import repair_section
+    from ..report_corpus import corpus_section
+
+    repair_section(doc, df, plt)
+    corpus_section(doc, df, plt)
     memory_section(doc, df)
     filmstrip(doc)
     (dest / "report.md").write_text("\n".join(doc.md))

@@ -157,8 +157,10 @@ class Document:
         self.md.append("\n".join(f"- {t}" for t in items) + "\n")
         self.html.append("<ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in items) + "</ul>")
 
-    def table(self, df: pd.DataFrame, caption: str, name: str) -> None:
-        name = self._unique("table:" + slug(name)).split(":", 1)[1]
+    def table(self, df: pd.DataFrame, caption: str, name: str | None = None) -> None:
+        """Add a table, exported as ``tables/NAME.csv`` and ``.tex`` (NAME from the
+        caption when not given)."""
+        name = self._unique("table:" + slug(name or caption)).split(":", 1)[1]
         df = df.reset_index(drop=True)
         df.to_csv(self.tabs / f"{name}.csv", index=False)
         (self.tabs / f"{name}.tex").write_text(latex_table(df, caption))
