@@ -94,6 +94,11 @@ class MujocoDistance:
             for o in range(len(self.obst_parts))
         ]
 
+    @property
+    def pairs(self) -> list[tuple[int, int]]:
+        """MuJoCo geom ids (body part, obstacle part) of every pair, body parts outer."""
+        return list(self._pairs)
+
     def distances(
         self, rotations: np.ndarray, positions: np.ndarray, distmax: float = 1e6
     ) -> np.ndarray:

@@ -384,14 +384,18 @@ def as_shape(x: Any, name: str = "body") -> Shape:
 
 
 def as_obstacles(x: Any, name: str = "obstacles") -> list[Shape]:
+    if type(x) is list or type(x) is tuple:  # the common case, checked cheaply
+        for o in x:
+            if not isinstance(o, Shape):
+                break
+        else:
+            return list(x)
     if isinstance(x, Shape):
         return [x]
     if not isinstance(x, list | tuple):
         raise TypeError(
             f"Expected `{name}` to be a sequence of harness shapes, got {type(x).__name__}."
         )
-    if all(isinstance(o, Shape) for o in x):
-        return list(x)
     return [as_shape(o, f"{name}[{i}]") for i, o in enumerate(x)]
 
 

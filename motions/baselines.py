@@ -42,6 +42,7 @@ __all__ = [
     "CumulativeBSplineMotion",
     "RotationSplineMotion",
     "ScLerpMotion",
+    "SlerpLinearMotion",
     "SlerpMotion",
     "SquadMotion",
     "build_bezier_slerp",
@@ -49,6 +50,7 @@ __all__ = [
     "build_rotation_spline",
     "build_sclerp",
     "build_slerp",
+    "build_slerp_linear",
     "build_squad",
 ]
 
@@ -62,11 +64,11 @@ def spline_speed_bound(spline: BSpline, t0: float, t1: float) -> float:
     if d.k == 0:
         inner = d.t[(d.t > t0) & (d.t < t1)]
         breaks = np.unique(np.concatenate([[t0, t1], inner]))
-        idx = np.clip(
-            np.searchsorted(d.t, 0.5 * (breaks[:-1] + breaks[1:]), side="right") - 1,
-            0,
-            d.c.shape[0] - 1,
-        )
+        if breaks.size < 2:  # one instant: both one-sided derivatives (t0 may be a knot)
+            idx = np.array([np.searchsorted(d.t, t0, side=s) for s in ("left", "right")]) - 1
+        else:
+            idx = np.searchsorted(d.t, 0.5 * (breaks[:-1] + breaks[1:]), side="right") - 1
+        idx = np.clip(idx, 0, d.c.shape[0] - 1)
         return float(np.linalg.norm(d.c[idx], axis=-1).max())
     inner = d.t[(d.t > t0) & (d.t < t1)]
     breaks = np.unique(np.concatenate([[t0, t1], inner]))
@@ -426,6 +428,19 @@ class RotationSplineMotion(KeyframeMotion):
         return r, w, np.einsum("tij,tj->ti", r, self._spline(t, 2))
 
 
+class SlerpLinearMotion(SlerpMotion):
+    """Piecewise slerp with a piecewise-linear origin (C⁰): per keyframe interval the body
+    turns at constant rate while its origin moves at constant velocity, the motion FCL's
+    ``LINEAR`` model (``InterpMotion`` about the body origin) describes. The one baseline
+    besides sclerp without the cubic origin spline."""
+
+    scheme = "slerp-linear"
+
+    def __init__(self, q, p, t):
+        super().__init__(q, p, t)
+        self._origin = make_interp_spline(t, p, k=1)
+
+
 # --------------------------------------------------------------------------- screw interpolation
 class ScLerpMotion(Motion):
     """Piecewise screw motion between keyframes (dual-quaternion ScLERP), C⁰.
@@ -524,3 +539,4 @@ build_squad = _builder(SquadMotion)
 build_cumulative_bspline = _builder(CumulativeBSplineMotion)
 build_rotation_spline = _builder(RotationSplineMotion)
 build_sclerp = _builder(ScLerpMotion)
+build_slerp_linear = _builder(SlerpLinearMotion)

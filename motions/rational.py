@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from ._checks import as_array, as_bspline, as_quaternions, short
-from ._spline import PowerPieces, clamped_knots
+from ._spline import POWER_MAX_DEGREE, BernsteinPieces, PowerPieces, clamped_knots
 from .bernstein import (
     bernstein_basis,
     bernstein_to_power,
@@ -250,12 +250,18 @@ class RationalMotion(Motion):
         return motion
 
     @classmethod
-    def from_bezier(cls, breaks: Any, ctrl: Any, *, keyframe_times: Any = None) -> RationalMotion:
+    def from_bezier(
+        cls, breaks: Any, ctrl: Any, *, keyframe_times: Any = None, ctrl_error: Any = None
+    ) -> RationalMotion:
         """Rebuild a motion from homogeneous control matrices (output of :meth:`bezier_form`).
 
         Args:
             breaks: (S+1,) strictly increasing breakpoints.
             ctrl: (S, n+1, 4, 4) control matrices ``[[A, b], [0, 0, 0, w]]``.
+            ctrl_error: optional (S, 3) bounds on |given - exact| of the entries of the A
+                block, b column and weight per segment, when `ctrl` was itself computed in
+                floating point from another exact motion (see :attr:`ctrl_error`); None:
+                the matrices are the exact motion.
 
         Raises:
             ValueError: if the last row is not ``(0, 0, 0, w)``, if ``A A^T != w^2 I`` at
@@ -314,7 +320,18 @@ class RationalMotion(Motion):
                 )
         _refuse_weight_roots(c[:, :, 3, 3], br)
         kt = None if keyframe_times is None else as_array(keyframe_times, "keyframe_times", ndim=1)
-        return cls(br, ctrl=c.copy(), keyframe_times=kt)
+        motion = cls(br, ctrl=c.copy(), keyframe_times=kt)
+        if ctrl_error is not None:
+            e = as_array(ctrl_error, "ctrl_error")
+            if e.shape != (c.shape[0], 3) or np.any(e < 0):
+                raise ValueError(
+                    f"Expected `ctrl_error` of shape ({c.shape[0]}, 3) with entries >= 0, got"
+                    f" shape {e.shape}{' with negative entries' if e.shape == (c.shape[0], 3) else ''}."
+                )
+            e = e.copy()
+            e.setflags(write=False)
+            motion._ctrl_error = e
+        return motion
 
     # ------------------------------------------------------------------ descriptors
     @property
@@ -352,6 +369,16 @@ class RationalMotion(Motion):
     def preimage_pieces(self) -> np.ndarray | None:
         """(S, d+1, 4) Bézier control quaternions of the preimage per segment, or None."""
         return None if self._q is None else self._q.copy()
+
+    @property
+    def origin_pieces(self) -> np.ndarray | None:
+        """(S, k+1, 3) Bézier control points of the origin spline p (``v = u0 p``), or None."""
+        return None if self._p is None else self._p.copy()
+
+    @property
+    def numerator_pieces(self) -> np.ndarray | None:
+        """(S, m+1, 3) Bézier coefficients of the numerator v (origin ``v / u0``), or None."""
+        return None if self._v is None else self._v.copy()
 
     @property
     def ctrl(self) -> np.ndarray:
@@ -451,7 +478,7 @@ class RationalMotion(Motion):
         return self._breaks.copy(), np.array(self.ctrl)
 
     # ------------------------------------------------------------------ evaluation
-    def _evaluator(self) -> PowerPieces:
+    def _evaluator(self) -> PowerPieces | BernsteinPieces:
         """Preimage and translation pieces ``[Q | p or v]`` (D = 4 or 7), or the flattened
         control matrices ``[A | b | w]`` (D = 13) when the preimage is unknown."""
         if self._pp is None:
@@ -470,7 +497,8 @@ class RationalMotion(Motion):
                 flat = np.concatenate(
                     [c[:, :, :3, :].reshape(c.shape[0], c.shape[1], 12), c[:, :, 3:, 3]], axis=2
                 )
-                self._pp = PowerPieces(flat, self._breaks)
+                kind = BernsteinPieces if c.shape[1] - 1 > POWER_MAX_DEGREE else PowerPieces
+                self._pp = kind(flat, self._breaks)
         return self._pp
 
     def _kinematics(self, t: np.ndarray, order: int) -> tuple[np.ndarray, ...]:
@@ -662,12 +690,22 @@ class RationalMotion(Motion):
             k = max(self._q.shape[1], 1 if trans is None else trans.shape[1])
             err[s] += gamma(4 * k) * (np.array(mags) + err[s])
         errs = (err[: s + 1], err[s:]) if not at_break else (err[:s], err[s:])
+        cerr = (None, None)
+        if self._q is None and self._ctrl_error is not None and np.any(self._ctrl_error):
+            # control matrices with their own error bound: the cut segment's grows too
+            ce = np.array(self._ctrl_error)
+            if not at_break:
+                ce[s] += gamma(4 * self._ctrl.shape[1]) * (block_magnitude(self._ctrl[s]) + ce[s])
+            cerr = (ce[: s + 1], ce[s:]) if not at_break else (ce[:s], ce[s:])
         for side, br in ((0, bl), (1, brr)):
             kw = {k: v[side] for k, v in parts.items()}
             keep = kt[(kt >= br[0]) & (kt <= br[-1])]
-            out.append(
-                type(self)(br, ctrl=ctrl[side], keyframe_times=keep, piece_error=errs[side], **kw)
+            half = type(self)(
+                br, ctrl=ctrl[side], keyframe_times=keep, piece_error=errs[side], **kw
             )
+            if cerr[side] is not None:
+                half._ctrl_error = cerr[side]
+            out.append(half)
         return out[0], out[1]
 
     # ------------------------------------------------------------------ control structures

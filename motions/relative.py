@@ -15,6 +15,7 @@ import numpy as np
 from .bernstein import bezier_product_weights, de_casteljau_split
 from .errors import MotionError
 from .motion import DOMAIN_SLACK
+from .pieces import block_magnitude, gamma
 from .rational import RationalMotion
 
 __all__ = ["inverse_control", "relative_motion", "restrict_control"]
@@ -118,10 +119,39 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     br_b = br_b.copy()
     br_b[0], br_b[-1] = br_a[0], br_a[-1]
     breaks = _union_breaks(br_a, br_b)
+    ctrl = _relative_ctrl(br_a, ca, br_b, cb, breaks)
+    # Round-off: every entry is a polynomial in the inputs' entries whose coefficients'
+    # absolute values give the same pipeline on |inputs| (restriction by convex weights,
+    # products with the non-negative Bernstein weights); so, with the inputs' own bounds
+    # E, |f(x + e) - f(x)| <= f_abs(|x| + E) - f_abs(|x|), plus γ_m f_abs for the roundings.
+    abs_a, abs_b = np.abs(ca), np.abs(cb)
+    lo = _relative_ctrl(br_a, abs_a, br_b, abs_b, breaks, absolute=True)
+    hi = _relative_ctrl(
+        br_a, abs_a + _entrywise(a.ctrl_error), br_b, abs_b + _entrywise(b.ctrl_error), breaks,
+        absolute=True,
+    )  # fmt: skip
+    diff = hi * (1.0 + gamma(8 * (ca.shape[1] + cb.shape[1]) + 64)) - lo
+    err = block_magnitude(diff)
+    kt = np.union1d(a.keyframe_times, b.keyframe_times)
+    return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt, ctrl_error=err)
+
+
+def _entrywise(err: np.ndarray) -> np.ndarray:
+    """(S, 1, 4, 4) entrywise bounds from per-block bounds (S, 3) (A, b, w)."""
+    out = np.zeros((len(err), 1, 4, 4))
+    out[:, 0, :3, :3] = err[:, 0, None, None]
+    out[:, 0, :3, 3] = err[:, 1, None]
+    out[:, 0, 3, 3] = err[:, 2]
+    return out
+
+
+def _relative_ctrl(br_a, ca, br_b, cb, breaks, absolute: bool = False) -> np.ndarray:
+    """Control matrices of ``w_a^3 M_a^{-1} M_b`` on `breaks`; with `absolute`, the same
+    pipeline with every coefficient's sign dropped (inputs are then non-negative)."""
     inv = inverse_control(restrict_control(br_a, ca, breaks))
+    if absolute:
+        inv = np.abs(inv)
     pb = restrict_control(br_b, cb, breaks)
     w = bezier_product_weights(inv.shape[1] - 1, pb.shape[1] - 1)
     prods = inv[:, :, None] @ pb[:, None, :]  # (S, P, Q, 4, 4): every pair of coefficients
-    ctrl = np.tensordot(prods, w, axes=([1, 2], [0, 1])).transpose(0, 3, 1, 2)
-    kt = np.union1d(a.keyframe_times, b.keyframe_times)
-    return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt)
+    return np.tensordot(prods, w, axes=([1, 2], [0, 1])).transpose(0, 3, 1, 2)

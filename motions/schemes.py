@@ -27,6 +27,7 @@ _BUILDERS: dict[str, Callable[..., Motion]] = {
     "cumulative-bspline": baselines.build_cumulative_bspline,
     "rotation-spline": baselines.build_rotation_spline,
     "sclerp": baselines.build_sclerp,
+    "slerp-linear": baselines.build_slerp_linear,
 }
 SCHEMES: tuple[str, ...] = tuple(_BUILDERS)
 """Names accepted by :func:`build`, rational schemes first."""

@@ -21,6 +21,7 @@ EXPECTED_CLASS = {
     "cumulative-bspline": "C2",
     "rotation-spline": "C2",
     "sclerp": "C0",
+    "slerp-linear": "C0",
 }
 FD_H = 1e-6
 FD_TOL = 1e-6  # central differences of O(1) rates: h² |f'''| + eps/h
@@ -152,7 +153,7 @@ def test_identical_rotations_pure_translation():
         )
 
 
-BOUNDED = ["rational", "rational-hermite", "slerp", "cumulative-bspline", "sclerp"]
+BOUNDED = ["rational", "rational-hermite", "slerp", "cumulative-bspline", "sclerp", "slerp-linear"]
 UNBOUNDED = ["bezier-slerp", "squad", "rotation-spline"]
 
 

@@ -284,7 +284,7 @@ def test_scheme_table_is_static_and_acyclic():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["tuple", str(len(motions.SCHEMES))]
-    assert isinstance(motions.SCHEMES, tuple) and len(motions.SCHEMES) == 8
+    assert isinstance(motions.SCHEMES, tuple) and len(motions.SCHEMES) == 9
 
 
 def test_pose_threads_give_the_same_poses():

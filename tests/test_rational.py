@@ -344,3 +344,35 @@ def test_origin_and_quaternion_agree_with_pose(translation):
     np.testing.assert_allclose(np.linalg.norm(q, axis=1), 1.0, rtol=0, atol=1e-14)
     # sign continuous along the motion (mocap needs no flips)
     assert np.all(np.einsum("ti,ti->t", q[1:], q[:-1]) > 0)
+
+
+def test_high_degree_control_matrices_evaluate_accurately():
+    # a degree-9 motion's control matrices raised to degree 27 describe the same motion;
+    # evaluation must not lose the C(27, 13) ~ 2e7 factor of the power basis
+    from motions.bernstein import elevate
+    from motions.demo import demo_keyframes
+
+    m = motions.interpolate(*demo_keyframes(8, seed=3))
+    breaks, ctrl = m.bezier_form()
+    hi = RationalMotion.from_bezier(breaks, elevate(ctrl, 18, axis=1))
+    assert hi.degree == 27
+    t = np.linspace(*m.domain, 777)
+    np.testing.assert_allclose(hi.matrix(t), m.matrix(t), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(hi.velocity(t), m.velocity(t), rtol=0, atol=1e-9)
+
+
+def test_from_bezier_takes_and_propagates_an_error_bound():
+    from motions.demo import demo_keyframes
+
+    m = motions.interpolate(*demo_keyframes(6, seed=2))
+    breaks, ctrl = m.bezier_form()
+    e = np.full((len(breaks) - 1, 3), 1e-13)
+    mb = RationalMotion.from_bezier(breaks, ctrl, ctrl_error=e)
+    np.testing.assert_array_equal(mb.ctrl_error, e)
+    left, right = mb.split(0.5 * sum(m.domain))
+    assert np.all(left.ctrl_error >= 1e-13) and np.all(right.ctrl_error >= 1e-13)
+    assert left.ctrl_error[-1, 0] > 1e-13  # the cut segment's bound grew
+    with pytest.raises(ValueError, match="ctrl_error"):
+        RationalMotion.from_bezier(breaks, ctrl, ctrl_error=-e)
+    with pytest.raises(ValueError, match="ctrl_error"):
+        RationalMotion.from_bezier(breaks, ctrl, ctrl_error=e[:, :2])

@@ -28,8 +28,10 @@ from harness.run import (
     run_suite,
 )
 
-# Eleven cases in five units, a few seconds: a certify group (one motion, two bounds),
-# and a workload of five pairs in chunks of two with the competitors on pairs 0 and 4.
+# Ten cases, a few seconds: a certify study (a start-up case per bound, two motions x
+# two bounds) and a workload (a start-up case, five pairs in three chunks of at most two;
+# every bound and the external dense-sampling loop on every pair; single queries on
+# pairs 0-2, so in chunks 0 and 1 only).
 MINI = """
 [suite]
 name = "mini"
@@ -47,9 +49,11 @@ kind = "workload"
 pairs = 5
 chunk_pairs = 2
 bounds = ["hull"]
-competitor_pairs = 2
+rounds = 2
+single_pairs = 3
+external = ["dense-mujoco"]
 """
-N_CASES = 11
+N_CASES = 10
 
 
 def cli(*args: str) -> list[str]:
@@ -109,14 +113,14 @@ def test_cut_record_runs_its_case_again(mini_clean, tmp_path):
     for f in ("results.parquet", "results.csv"):
         (out / f).unlink()
     lines = (out / "rows.jsonl").read_bytes().splitlines(keepends=True)
-    # the run was killed while writing a multi-row case (the first workload chunk: two
-    # rows), after the cases before it; the cases after it never ran
-    k = next(i for i, line in enumerate(lines) if len(json.loads(line)["rows"]) == 2)
+    # the run was killed while writing a multi-row case (the first workload chunk), after
+    # the cases before it; the cases after it never ran
+    k = next(i for i, line in enumerate(lines) if len(json.loads(line)["rows"]) > 2)
     cut = lines[k][: len(lines[k]) // 2]
     (out / "rows.jsonl").write_bytes(b"".join(lines[:k]) + cut)
     df = run_suite(load_suite(d / "mini.toml"), out, progress=False)
     same_rows(df, clean)
-    assert not df.duplicated(["case_id", "pair"]).any()
+    assert not df.duplicated(["case_id", "bound", "mode", "pair"]).any()
     recs = records(out)
     assert len(recs) == N_CASES == len({r["case_id"] for r in recs})
     # the total wall time covers both legs
@@ -186,7 +190,7 @@ def test_second_run_into_a_folder_is_refused(mini, tmp_path):
     assert first.wait(timeout=300) == 0, first.stderr.read()
     df = pd.read_parquet(out / "results.parquet")
     assert df["case_id"].nunique() == N_CASES
-    assert not df.duplicated(["case_id", "pair"]).any()
+    assert not df.duplicated(["case_id", "bound", "mode", "pair"]).any()
     # the lock is released: the folder resumes (nothing left to do)
     assert len(run_suite(load_suite(mini), out, progress=False)) == len(df)
 
@@ -227,7 +231,10 @@ def test_ctrl_c_stops_after_the_case_and_says_how_to_resume(mini, tmp_path):
     assert 1 <= len(recs) < N_CASES
     assert not (out / "results.parquet").exists()
     df = run_suite(load_suite(mini), out, progress=False)
-    assert df["case_id"].nunique() == N_CASES and not df.duplicated(["case_id", "pair"]).any()
+    assert (
+        df["case_id"].nunique() == N_CASES
+        and not df.duplicated(["case_id", "bound", "mode", "pair"]).any()
+    )
     meta = json.loads((out / "meta.json").read_text())
     assert len(meta["legs"]) == 2 and meta["legs"][0]["cases_done"] == len(recs)
 
@@ -239,19 +246,22 @@ def test_chunks_and_local_processes_give_the_same_rows(mini_clean, tmp_path):
     same_rows(two, clean)
     assert two["worker"].nunique() == 2 and two["worker"].str.startswith("local:").all()
     wl = clean[clean["study"] == "workload"]
-    hull = wl[wl["bound"] == "hull"]
+    pairs = wl[wl["mode"] == "pair"]
+    hull = pairs[pairs["bound"] == "hull"]
     assert sorted(hull["pair"]) == [0, 1, 2, 3, 4]
-    assert sorted(wl[wl["bound"] == "dense"]["pair"]) == [0, 4]
+    assert sorted(pairs[pairs["bound"] == "dense-mujoco"]["pair"]) == [0, 1, 2, 3, 4]
+    # single queries on the workload's first 3 pairs: 2 in chunk 0, 1 in chunk 1, none in 2
+    single = wl[wl["mode"] == "single"]
+    for method in ("hull", "dense-mujoco"):
+        assert sorted(single[single["bound"] == method]["pairs"]) == [1, 2]
+    assert (single[single["bound"] == "hull"]["single_agrees_with_batch"] == [2, 1]).all()
+    assert sorted(wl[wl["mode"] == "batch"]["pairs"]) == [1, 2, 2]
     # chunk 0 is the unchunked workload's first pairs: a workload of two pairs in one
     # chunk has the same pairs and verdicts
     small = tmp_path / "small.toml"
-    small.write_text(
-        MINI.replace("pairs = 5", "pairs = 2").replace(
-            "competitor_pairs = 2", "competitor_pairs = 0"
-        )
-    )
+    small.write_text(MINI.replace("pairs = 5", "pairs = 2"))
     one = run_suite(load_suite(small), tmp_path / "small", progress=False)
-    one = one[one["study"] == "workload"]
+    one = one[(one["study"] == "workload") & (one["mode"] == "pair") & (one["bound"] == "hull")]
     cols = ["pair", "clearance", "truth", "verdict", "nodes"]
     pd.testing.assert_frame_equal(
         one[cols].reset_index(drop=True), hull[hull["pair"] < 2][cols].reset_index(drop=True)
@@ -259,7 +269,7 @@ def test_chunks_and_local_processes_give_the_same_rows(mini_clean, tmp_path):
     # a worker keeps one chunk in memory, not all of them
     ctx = Context(suite, suite.seed)
     for case in expand(suite):
-        if case["study"] == "workload" and case["bound"] == "hull":
+        if case["study"] == "workload" and not case.get("startup"):
             run_case(case, ctx)
     ((key, w),) = [v for k, v in ctx.slots.items() if k == "workload"]
     assert key[-1] == 2 and len(w.motions) == 1

@@ -15,7 +15,6 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from harness.compare import CompareError, compare
 from harness.errors import SuiteError
 from harness.run import PLACEMENT_COLUMNS, TIMING_COLUMNS, expand, load_suite, run_suite
 
@@ -86,7 +85,7 @@ def test_smoke_suite_end_to_end(smoke_run):
     # every scheme x bound of the suite has a row; certified bounds never say free wrongly
     assert set(cert["bound"]) == {"hull", "aabb", "lipschitz", "sampled"}
     assert not (cert["false_negative"] & cert["certified"].fillna(False).astype(bool)).any()
-    assert set(df["study"]) == {"certify", "workload", "scaling", "simulate"}
+    assert set(df["study"]) == {"certify", "workload", "scaling", "simulate", "startup"}
     meta = json.loads((smoke_run / "meta.json").read_text())
     for key in ("suite_hash", "versions", "cpu", "git_revision", "seed"):
         assert key in meta
@@ -129,8 +128,11 @@ def test_compare_exit_codes(smoke_run, tmp_path):
     slow = tmp_path / "slow"
     shutil.copytree(smoke_run, slow)
     df = pd.read_parquet(slow / "results.parquet")
-    sel = (df["study"] == "certify") & (df["bound"] == "sampled")
-    df.loc[sel, "seconds"] = df.loc[sel, "seconds"] * 3 + 0.1
+    sel = (df["study"] == "certify") & (df["bound"] == "sampled") & df["cpu_rounds"].notna()
+    for col in ("cpu_rounds", "wall_rounds"):
+        df.loc[sel, col] = [
+            json.dumps([3 * x + 0.1 for x in json.loads(v)]) for v in df.loc[sel, col]
+        ]
     df.to_parquet(slow / "results.parquet")
     r = rsmbench("compare", str(smoke_run), str(slow), check=False)
     assert r.returncode == 1 and "timing" in r.stdout
@@ -164,23 +166,6 @@ def test_compare_exit_codes(smoke_run, tmp_path):
     (other / "meta.json").write_text(json.dumps(meta))
     r = rsmbench("compare", str(smoke_run), str(other), check=False)
     assert r.returncode == 2 and "suite_hash" in r.stderr
-
-
-def test_compare_reads_pytest_benchmark_json(tmp_path):
-    def bench(name, t):
-        return {
-            "benchmarks": [
-                {"fullname": name, "stats": {"min": t}},
-                {"fullname": "other", "stats": {"min": 1.0}},
-            ]
-        }
-
-    (tmp_path / "a.json").write_text(json.dumps(bench("x", 1.0)))
-    (tmp_path / "b.json").write_text(json.dumps(bench("x", 1.5)))
-    assert compare(tmp_path / "a.json", tmp_path / "b.json").exit_code == 1
-    assert compare(tmp_path / "a.json", tmp_path / "a.json").exit_code == 0
-    with pytest.raises(CompareError, match="neither a run folder"):
-        compare(tmp_path / "a.json", tmp_path)
 
 
 def test_resume_after_sigkill(tiny, tmp_path):

@@ -37,7 +37,7 @@ BAD = [
     (WORKLOAD + "pairs = 2.9", r"study\[0\]\.pairs", "got 2.9"),
     (WORKLOAD + 'seed = "x"', r"study\[0\]\.seed", "got 'x'"),
     (WORKLOAD + "max_nodes = -1", r"study\[0\]\.max_nodes", ">= 1, got -1"),
-    (WORKLOAD + "competitor_pairs = -1", r"study\[0\]\.competitor_pairs", ">= 0, got -1"),
+    (WORKLOAD + "single_pairs = -1", r"study\[0\]\.single_pairs", ">= 0, got -1"),
     (WORKLOAD + "chunk_pairs = 0", r"study\[0\]\.chunk_pairs", "got 0"),
     (SCALING + "motions = 0", r"study\[0\]\.motions", "got 0"),
     (SCALING + "seed = -3", r"study\[0\]\.seed", ">= 0, got -3"),

@@ -63,7 +63,7 @@ class Prep:
     ok: wp.int32  # every weight provably positive (w_i > E_w)
     margin: wp.float64  # bound on |exact - computed| of the hull's support function
     scale: wp.float64  # bound on the size of the hull's support points
-    mag: wp.vec3d  # largest |entry| of A, b, w over the node's control matrices
+    mag: wp.vec3d  # bounds on the largest |entry| of A, b, w over the node's control matrices
     lo: wp.vec3d  # axis-aligned box of the control positions (no margin)
     hi: wp.vec3d
 
@@ -105,22 +105,22 @@ def _prepare(
             m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2]
         )
         b = wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
-        for r in range(3):
-            mb = wp.max(mb, wp.abs(b[r]))
-            for q in range(3):
-                ma = wp.max(ma, wp.abs(a[r, q]))
+        # norms bound the blocks' largest entries (the magnitudes of error propagation)
+        amag = wp.sqrt(wp.ddot(a, a))
+        bmag = wp.length(b)
+        ma = wp.max(ma, amag)
+        mb = wp.max(mb, bmag)
         mw = wp.max(mw, wp.abs(w))
         el = w - err[2]
         if el <= F0:
             out.ok = 0
         else:
-            amag = wp.sqrt(wp.ddot(a, a))
-            nm = part.rho * amag + wp.length(b)
-            delta = (part.rho * wp.float64(3.0) * err[0] + SQRT3 * err[1] + nm * err[2] / w) / el
-            delta = delta + GAMMA_C * nm / w
-            out.margin = wp.max(out.margin, delta)
-            out.scale = wp.max(out.scale, nm / w)
             inv = F1 / w
+            nm = part.rho * amag + bmag
+            delta = (part.rho * wp.float64(3.0) * err[0] + SQRT3 * err[1] + nm * err[2] * inv) / el
+            delta = delta + GAMMA_C * nm * inv
+            out.margin = wp.max(out.margin, delta)
+            out.scale = wp.max(out.scale, nm * inv)
             mm = (a * part.rot) * inv
             cc = (a * part.pos + b) * inv
             pre_m[lane, slot0 + i - i0] = mm
@@ -149,6 +149,8 @@ def _prepare(
     out.mag = wp.vec3d(ma, mb, mw)
     out.lo = lo
     out.hi = hi
+    # the margin's own few roundings (relative): widen it by as much
+    out.margin = out.margin * (F1 + GAMMA_C)
     if out.ok == 0:
         out.margin = HUGE
     return out
@@ -321,9 +323,8 @@ def _refine(
                 # the piece's box against each obstacle's: pairs that miss never refine
                 for i in range(k):
                     st_ctrl[lane, 0, i] = ctrl[start + i]
-                root = _prepare(
-                    st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, use_aabb
-                )
+                # the exact box here: once per piece, against every obstacle (broad phase)
+                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 1)
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break
@@ -618,7 +619,7 @@ def _clearance(
                 part = shapes[b]
                 for i in range(k):
                     st_ctrl[lane, 0, i] = ctrl[start + i]
-                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 0)
+                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 1)
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break

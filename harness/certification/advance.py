@@ -23,7 +23,7 @@ from motions.pieces import speed_bounds
 from ..shapes import Shape
 from .api import MAX_SAMPLES, Certificate, QueryError, assemble
 from .device import buffers, is_cpu, warp
-from .refine import GPU_LANES, MOTIONS_PER_CHUNK, Outcome, pack_shapes
+from .refine import GPU_LANES, MOTIONS_PER_CHUNK, Outcome, pack_inputs, pack_shapes
 from .tables import ShapeTable
 
 __all__ = ["advance_many", "default_samples", "pose_matrices", "pose_rows", "sample_many"]
@@ -101,16 +101,13 @@ def pose_rows(
 
 
 # ----------------------------------------------------------------------------- speeds
-SPEED_HALVINGS = 2
-"""Advancement and sampling use each positive piece halved this often, with a speed
-bound per quarter: local bounds are tighter, so steps are longer (measured: 0 halvings
-took more steps per pair than 2; see the note of issue 11)."""
-
-
 def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
     """(packed pieces as in refine._packed, speed bounds (P,)) for stepping: the positive
-    pieces halved SPEED_HALVINGS times, speed bounds for points within `radius` (cached
-    on the motion per radius)."""
+    pieces cut at the motion's knots (keyframe times and breakpoints), so that the speed
+    bound is per knot interval as DESIGN §6 states the fair grid and CA competitor, for
+    points within `radius` (cached on the motion per radius). The cut pieces are
+    restricted with their interval widened by a few units in the last place, so that
+    together they certainly cover the domain."""
     cache = getattr(m, "_certify_speeds", None)
     if cache is None:
         cache = {}
@@ -118,8 +115,18 @@ def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
     hit = cache.get(radius)
     if hit is None:
         pc = m.positive_pieces()
-        for _ in range(SPEED_HALVINGS):
-            pc = pc.halve()
+        knots = m.knots
+        rows, u0, u1 = [], [], []
+        for i, (a, b) in enumerate(zip(pc.t0.tolist(), pc.t1.tolist(), strict=True)):
+            cuts = knots[(knots > a) & (knots < b)]
+            edges = np.concatenate([[a], cuts, [b]])
+            rows.extend([i] * (len(edges) - 1))
+            u0.extend(((edges[:-1] - a) / (b - a)).tolist())
+            u1.extend(((edges[1:] - a) / (b - a)).tolist())
+        u0, u1 = np.clip(u0, 0.0, 1.0), np.clip(u1, 0.0, 1.0)
+        u0[np.r_[True, np.diff(rows) != 0]] = 0.0  # piece ends stay exact
+        u1[np.r_[np.diff(rows) != 0, True]] = 1.0
+        pc = pc.take(np.asarray(rows)).restrict(u0, u1, cover=True)
         packed = (
             np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
             np.full(len(pc), pc.n_ctrl, dtype=np.int32),
@@ -147,7 +154,6 @@ def _interval_speeds(m: Motion, radius: float, index: int, bound: str) -> tuple:
 # ----------------------------------------------------------------------------- in-kernel
 def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome, float]:
     from . import _advance_kernels as K
-    from ._geometry import Shape as WpShape
 
     wp = warp()
     start = time.perf_counter()
@@ -157,37 +163,16 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
         cm, cb, co = (x[c : c + MOTIONS_PER_CHUNK] for x in (ms, bodies, obst))
         n = len(cm)
         stepping = [_stepping_pieces(m, b.bounding_radius) for m, b in zip(cm, cb, strict=True)]
-        packs = [x[0] for x in stepping]
-        speeds = np.concatenate([x[1] for x in stepping])
-        table, m_parts, m_obst, o_idx, _ = pack_shapes(cb, co)
-        p_k = np.concatenate([p[1] for p in packs])
-        counts = np.array([len(p[1]) for p in packs])
-        p_start = np.zeros(len(p_k), dtype=np.int32)
-        np.cumsum(p_k[:-1], out=p_start[1:])
-        bounds = np.zeros(n + 1, dtype=np.int32)
-        np.cumsum(counts, out=bounds[1:])
         buf = buffers(device, kernel_name)
         lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
-        kmax = int(p_k.max())
-        head = [
-            buf.put("ctrl", np.concatenate([p[0] for p in packs]), wp.mat44d),
-            buf.put("p_start", p_start, wp.int32),
-            buf.put("p_k", p_k, wp.int32),
-            buf.put("p_t", np.concatenate([p[2] for p in packs]), wp.vec2d),
-            buf.put("p_err", np.concatenate([p[3] for p in packs]), wp.vec3d),
-            buf.put("p_speed", speeds, wp.float64),
-            buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
-            buf.put("m_parts", m_parts, wp.vec2i),
-            buf.put("m_obst", m_obst, wp.vec2i),
-        ]
+        arrays, kmax = pack_inputs(buf, [x[0] for x in stepping], cb, co)
+        head = [arrays[k] for k in ("ctrl", "p_start", "p_k", "p_t", "p_err")]
+        head.append(buf.put_concat("p_speed", [x[1] for x in stepping], wp.float64))
+        head += [arrays[k] for k in ("m_pieces", "m_parts", "m_obst")]
         if kernel_name == "sample":
             head.append(buf.put("m_samples", samples[c : c + n].astype(np.int32), wp.int32))
-        head += [
-            buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
-            buf.put("shapes", table.records, WpShape),
-            buf.put("verts", table.verts, wp.vec3d),
-            float(o["tol"]),
-        ]
+        head += [arrays[k] for k in ("o_idx", "shapes", "verts")]
+        head.append(float(o["tol"]))
         if kernel_name == "advance":
             head.append(int(min(o["max_nodes"], 2**31 - 1)))
         head.append(int(o["max_iter"]))
@@ -200,33 +185,12 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
             buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
             buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
             buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
-            buf.out("out_n", (n, 7), np.int32, wp.int32)[1],
+            buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
         ]
         kernel = K._advance if kernel_name == "advance" else K._sample
         buf.launch(kernel, args, first_index, lanes)
-        outs.append(_outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
-    out = Outcome(
-        *(np.concatenate([getattr(x, f) for x in outs]) for f in Outcome.__dataclass_fields__)
-    )
-    return out, time.perf_counter() - start
-
-
-def _outcome(t: np.ndarray, c: np.ndarray) -> Outcome:
-    big = 1e299
-    fix = lambda x: np.where(x > big, math.inf, x)  # noqa: E731
-    return Outcome(
-        toi_lo=fix(t[:, 0]),
-        toi_hi=fix(t[:, 1]),
-        witness_time=np.where(t[:, 2] > big, math.nan, t[:, 2]),
-        witness_distance=np.where(t[:, 2] > big, math.nan, t[:, 3]),
-        unknown_time=fix(t[:, 4]),
-        unknown_reason=c[:, 3].astype(np.int64),
-        nodes=c[:, 0].astype(np.int64),
-        tests=c[:, 1].astype(np.int64),
-        depth=c[:, 2].astype(np.int64),
-        counts=c[:, 4:7].astype(np.int64),
-        supports=np.zeros(len(c), dtype=np.int64),
-    )
+        outs.append(Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
+    return Outcome.concat(outs), time.perf_counter() - start
 
 
 # ----------------------------------------------------------------------------- lipschitz
@@ -341,19 +305,10 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
     unk_r[both] = np.where(wit_t[both] <= toi_lo[both], 2, 4)
     deepest = np.zeros(n_m, dtype=np.int64)
     np.maximum.at(deepest, mt, steps)
-    out = Outcome(
-        toi_lo=toi_lo,
-        toi_hi=tcoll,
-        witness_time=np.where(np.isfinite(wit_t), wit_t, np.nan),
-        witness_distance=wit_d,
-        unknown_time=toi_lo,
-        unknown_reason=unk_r,
-        nodes=nodes,
-        tests=nodes,
-        depth=deepest,
-        counts=np.stack([n_tol, np.zeros(n_m, np.int64), budget], axis=1),
-        supports=np.zeros(n_m, dtype=np.int64),
-    )
+    out = Outcome.from_fields(
+        toi_lo, tcoll, wit_t, wit_d, unk_r, nodes, nodes, deepest,
+        np.stack([n_tol, np.zeros(n_m, np.int64), budget], axis=1),
+    )  # fmt: skip
     return assemble(
         out, time.perf_counter() - start, "lipschitz", tol, certified=True,
         ends=[m.domain for m in ms],
@@ -424,28 +379,27 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms) -> list[Certifi
     cell is proven; else unknown ("tolerance") when a sample came closer than `tol`, or
     free but not certified."""
     n = len(ms)
-    share = elapsed * out.nodes / max(1, int(out.nodes.sum()))
+    nodes, tests, counts = out.nodes.tolist(), out.tests.tolist(), out.counts.tolist()
+    toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
+    wt, wd = out.witness_time.tolist(), out.witness_distance.tolist()
+    total = max(1, sum(nodes))
     res = []
     for i in range(n):
-        all_proven = out.counts[i, 1] == 0  # the kernel's count of unproven cells
+        all_proven = counts[i][1] == 0  # the kernel's count of unproven cells
         common = dict(
-            nodes=int(out.nodes[i]),
+            nodes=nodes[i],
             depth=0,
-            seconds=float(share[i]),
+            seconds=elapsed * nodes[i] / total,
             bound="sampled",
             tolerance=tol,
-            pose_tests=int(out.tests[i]),
+            pose_tests=tests[i],
         )
-        lo = float(out.toi_lo[i])
-        if math.isfinite(out.toi_hi[i]):
-            res.append(
-                Certificate(
-                    "collision", "contact", lo, float(out.toi_hi[i]), certified=True, **common
-                )
-            )
+        lo = toi_lo[i]
+        if math.isfinite(toi_hi[i]):
+            res.append(Certificate("collision", "contact", lo, toi_hi[i], certified=True, **common))
         elif all_proven:
             res.append(Certificate("free", "clear", math.inf, math.inf, certified=True, **common))
-        elif out.counts[i, 0] > 0:
+        elif counts[i][0] > 0:
             res.append(
                 Certificate(
                     "unknown",
@@ -453,9 +407,9 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms) -> list[Certifi
                     lo,
                     math.inf,
                     certified=True,
-                    witness_time=float(out.witness_time[i]),
-                    witness_distance=float(out.witness_distance[i]),
-                    unresolved={"tolerance": int(out.counts[i, 0])},
+                    witness_time=wt[i],
+                    witness_distance=wd[i],
+                    unresolved={"tolerance": counts[i][0]},
                     **common,
                 )
             )

@@ -25,6 +25,7 @@ from .device import resolve_device
 __all__ = [
     "BOUNDS",
     "DEFAULT_MAX_NODES",
+    "ENGINE_BOUNDS",
     "MAX_DEPTH_LIMIT",
     "MAX_SAMPLES",
     "REASONS",
@@ -33,7 +34,10 @@ __all__ = [
     "certify_many",
 ]
 
-BOUNDS = ("hull", "aabb", "lipschitz", "sampled")
+ENGINE_BOUNDS = ("hull", "aabb", "lipschitz", "sampled")
+"""The engine's own query methods."""
+BOUNDS = (*ENGINE_BOUNDS, "fcl", "ipctk")
+"""Query methods: the engine's four, and the external comparators (extra `comparators`)."""
 REASONS = ("clear", "contact", "tolerance", "depth", "budget")
 DEFAULT_MAX_NODES = 200_000  # per motion
 MAX_DEPTH_LIMIT = 60
@@ -237,12 +241,18 @@ def certify_many(
     threads: int = 2,
     device: str | None = None,
     max_iter: int = 32,
+    comparator_options: dict | None = None,
 ) -> list[Certificate]:
     """:func:`certify` for a batch; all motions go through the kernels together, and
     ``certify_many(ms)[i]`` equals ``certify(ms[i])`` in every field but ``seconds``.
 
     `obstacles` is one sequence shared by all motions, or one sequence per motion;
     `body` is one shape, or one shape per motion.
+
+    ``bound="fcl"`` / ``"ipctk"`` run the external comparators (extra ``comparators``;
+    :mod:`harness.comparators`, options in `comparator_options`). Their answers are the
+    tools' claims (``certified=False``), and a motion a tool cannot represent exactly gets
+    a :class:`harness.comparators.NotApplicable` ("n/a" with the reason) in its place.
     """
     o = check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)
     ms = check_motions(motions, o["bound"])
@@ -250,6 +260,8 @@ def certify_many(
     obst = obstacle_lists(obstacles, len(ms))
     if not ms:
         return []
+    if o["bound"] in ("fcl", "ipctk"):
+        return _comparators(o["bound"], ms, bodies, obst, o["tol"], comparator_options)
     if o["bound"] in ("hull", "aabb"):
         from .refine import refine_many
 
@@ -275,50 +287,70 @@ def certify_many(
     return sample_many(ms, bodies, obst, o)
 
 
+def _comparators(bound, ms, bodies, obst, tol, options) -> list:
+    from .. import comparators
+
+    if bound not in comparators.available():
+        pkg = "python-fcl" if bound == "fcl" else "ipctk"
+        raise QueryError(
+            f"Bound {bound!r} needs {pkg}: install the extra (pip install 'rsmbench[comparators]')."
+        )
+    if options is not None and not isinstance(options, dict):
+        raise TypeError(
+            f"Expected `comparator_options` to be a dict, got {type(options).__name__}."
+        )
+    run = comparators.certify_fcl_many if bound == "fcl" else comparators.certify_ipctk_many
+    try:
+        return run(ms, bodies, obst, tolerance=tol, **(options or {}))
+    except TypeError as e:
+        raise TypeError(f"Bad `comparator_options` for {bound!r}: {e}") from None
+
+
 def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) -> list[Certificate]:
     """Certificates from per-motion outcome arrays (see :class:`.refine.Outcome`).
 
     `certified` is a bool or a per-motion bool array (sampling proves some and not others).
     """
+    from .refine import BIG
     from .refine import REASONS as UNK
 
-    n = len(out.nodes)
-    share = (elapsed * out.nodes / max(1, int(out.nodes.sum()))).tolist()
-    cert = np.broadcast_to(np.asarray(certified, dtype=bool), (n,)).tolist()
-    nodes, depth, tests = out.nodes.tolist(), out.depth.tolist(), out.tests.tolist()
-    toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
-    reason = out.unknown_reason.tolist()
-    any_counts = out.counts.any(axis=1).tolist()
-    counts = out.counts.tolist()
+    t, c = out.t.tolist(), out.c.tolist()
+    n = len(c)
+    total = max(1, sum(r[0] for r in c))
+    if isinstance(certified, bool):
+        cert = [certified] * n
+    else:
+        cert = [bool(x) for x in certified]
     names = list(UNK.values())
-    wt, wd = out.witness_time.tolist(), out.witness_distance.tolist()
     inf = math.inf
     res = []
     for i in range(n):
-        lo = toi_lo[i]
+        ti, ci = t[i], c[i]
+        lo = ti[0] if ti[0] <= BIG else inf
+        hi_t = ti[1] if ti[1] <= BIG else inf
+        wt, wd = (ti[2], ti[3]) if ti[2] <= BIG else (math.nan, math.nan)
+        counts = ci[4:7]
         if lo != inf and lo > ends[i][0]:
             # halved pieces' times are computed by averaging: lower by their round-off
             scale = max(abs(lo), abs(ends[i][0]), abs(ends[i][1]))
             lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0])
-        unresolved = (
-            {k: c for k, c in zip(names, counts[i], strict=True) if c} if any_counts[i] else {}
-        )
-        if toi_hi[i] != inf:
-            head = ("collision", "contact", lo, toi_hi[i], math.nan, math.nan)
-        elif reason[i]:
-            head = ("unknown", UNK[reason[i]], lo, inf, wt[i], wd[i])
+        unresolved = {k: x for k, x in zip(names, counts, strict=True) if x} if any(counts) else {}
+        if hi_t != inf:
+            head = ("collision", "contact", lo, hi_t, math.nan, math.nan)
+        elif ci[3]:
+            head = ("unknown", UNK[ci[3]], lo, inf, wt, wd)
         else:
             head = ("free", "clear", inf, inf, math.nan, math.nan)
-        c = object.__new__(Certificate)
-        c.__dict__.update(
+        obj = object.__new__(Certificate)
+        obj.__dict__.update(
             {
                 "verdict": head[0],
                 "reason": head[1],
                 "toi_lo": head[2],
                 "toi_hi": head[3],
-                "nodes": nodes[i],
-                "depth": depth[i],
-                "seconds": share[i],
+                "nodes": ci[0],
+                "depth": ci[2],
+                "seconds": elapsed * ci[0] / total,
                 "certified": cert[i],
                 "bound": bound,
                 "tolerance": tol,
@@ -327,8 +359,8 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
                 "unresolved": unresolved,
                 "clearance": math.nan,
                 "penetration": math.nan,
-                "pose_tests": tests[i],
+                "pose_tests": ci[1],
             }
         )
-        res.append(c)
+        res.append(obj)
     return res

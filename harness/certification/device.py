@@ -56,6 +56,8 @@ def default_device() -> str:
 
 def resolve_device(device: Any) -> str:
     """Validate a device name ("cpu", "cuda", "cuda:N"); None means the default."""
+    if device == "cpu" or (device is None and "RSMBENCH_DEVICE" not in os.environ):
+        return "cpu"
     name = default_device() if device is None else device
     if not isinstance(name, str):
         raise TypeError(
@@ -89,7 +91,8 @@ class Buffers:
     def __init__(self, device: str):
         self.device = device
         self._arrays: dict[str, tuple[np.ndarray, Any]] = {}
-        self._launches: dict[Any, tuple[list, list]] = {}
+        self._launches: dict[Any, list] = {}
+        self.packed = None  # (identities, arrays, K_max) of the small query packed last
 
     def _get(self, name: str, shape: tuple, np_dtype, wp_dtype, exact: bool = False):
         cur = self._arrays.get(name)
@@ -118,9 +121,9 @@ class Buffers:
             self._arrays[name] = cur
         return cur
 
-    def put(self, name: str, data: np.ndarray, wp_dtype, inner: int = 0):
-        """Write `data` into buffer `name` (its first axis grows; `inner` trailing axes of
-        `data` belong to the Warp dtype, e.g. 2 for mat44d)."""
+    def put(self, name: str, data: np.ndarray, wp_dtype):
+        """Write `data` into buffer `name` (its first axis grows; trailing axes belong to
+        the Warp dtype, e.g. (4, 4) for mat44d)."""
         data = np.asarray(data)
         host, arr = self._get(name, data.shape, data.dtype, wp_dtype)
         host[: len(data)] = data
@@ -128,8 +131,21 @@ class Buffers:
             arr.assign(host)
         return arr
 
+    def put_concat(self, name: str, parts: list, wp_dtype):
+        """Write the concatenation of `parts` (arrays with equal trailing shapes) into
+        buffer `name` directly (one copy instead of two)."""
+        n = sum(len(p) for p in parts)
+        host, arr = self._get(name, (n,) + parts[0].shape[1:], parts[0].dtype, wp_dtype)
+        np.concatenate(parts, out=host[:n])
+        if not is_cpu(self.device):
+            arr.assign(host)
+        return arr
+
     def scratch(self, name: str, shape: tuple, np_dtype, wp_dtype):
         """A scratch array of exactly `shape` (kept between calls)."""
+        cur = self._arrays.get(name)
+        if cur is not None and cur[0].shape == shape:
+            return cur[1]
         return self._get(name, shape, np_dtype, wp_dtype, exact=True)[1]
 
     def out(self, name: str, shape: tuple, np_dtype, wp_dtype):
@@ -153,14 +169,22 @@ class Buffers:
         wp = warp()
         cpu = is_cpu(self.device)
         firsts = list(range(lanes)) if cpu else [0]
-        arrays = [a for a in args if not isinstance(a, int | float)]
+        sig = [a if isinstance(a, int | float) else ("array", id(a)) for a in args]
         key = (kernel.key, lanes)
         hit = self._launches.get(key)
-        if (
-            hit is None
-            or len(hit[0]) != len(arrays)
-            or any(x is not y for x, y in zip(hit[0], arrays, strict=True))
+        if hit is not None and hit[2] == sig:
+            pass  # the very launch again
+        elif hit is not None and all(
+            type(x) is type(y) and (x == y or not isinstance(x, tuple))
+            for x, y in zip(hit[2], sig, strict=True)
         ):
+            # the same arrays: set only the scalars that changed (an update costs ~10 µs)
+            for i, (old, new) in enumerate(zip(hit[2], sig, strict=True)):
+                if old != new and i != first_index:
+                    for cmd in hit[1]:
+                        cmd.set_param_at_index(i, new)
+            hit[2] = sig
+        else:
             cmds = []
             for f in firsts:
                 a = list(args)
@@ -174,13 +198,9 @@ class Buffers:
                         record_cmd=True,
                     )
                 )
-            hit = (arrays, cmds)
+            # the recorded arrays are kept alive with the launch (ids stay theirs)
+            hit = [list(args), cmds, sig]
             self._launches[key] = hit
-        else:
-            for cmd in hit[1]:
-                for i, a in enumerate(args):
-                    if isinstance(a, int | float) and i != first_index:
-                        cmd.set_param_at_index(i, a)
         cmds = hit[1]
         if len(cmds) == 1:
             cmds[0].launch()

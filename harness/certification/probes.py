@@ -115,7 +115,7 @@ def prepare_numpy(ctrl: np.ndarray, err: np.ndarray, part: Shape) -> dict:
     extent = (np.linalg.norm(c - c[:, :1], axis=-1) + rloc * dm).max(axis=1)
     return {
         "ok": ok,
-        "margin": np.where(ok, delta.max(axis=1), np.inf),
+        "margin": np.where(ok, delta.max(axis=1) * (1 + GAMMA_C), np.inf),
         "lo": lo,
         "hi": hi,
         "extent": extent,

@@ -9,7 +9,6 @@ in the batch and however the batch is chunked or threaded.
 
 from __future__ import annotations
 
-import math
 import time
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -31,30 +30,60 @@ GPU_LANES = 65536
 REASONS = {2: "tolerance", 3: "depth", 4: "budget"}
 
 
+BIG = 1e299
+"""Kernel outputs above this are the kernels' HUGE sentinel (none / infinity)."""
+
+
 @dataclass(frozen=True)
 class Outcome:
-    """Per-motion results of a refinement launch (arrays of length M).
+    """Per-motion results of a launch, as the kernels write them.
 
     Attributes:
-        toi_lo, toi_hi: earliest time not certified free; first proven contact (inf: none).
-        witness_time, witness_distance: the earliest pose closer than `tolerance`.
-        unknown_time, unknown_reason: the earliest unresolved piece and why (0: none).
-        nodes, tests, depth: bound evaluations, pose tests, deepest level.
-        counts: (M, 3) unresolved pieces by reason (tolerance, depth, budget).
-        supports: (M,) support evaluations of the bound tests (hull, aabb; else 0).
+        t: (M, 5) toi_lo, toi_hi, witness time, witness distance, first unknown time
+            (values above :data:`BIG` mean infinity / none).
+        c: (M, 8) nodes, pose tests, deepest depth, first unknown reason (0 none,
+            2 tolerance, 3 depth, 4 budget), unresolved counts (tolerance, depth, budget),
+            support evaluations of the bound tests.
+
+    The named per-motion arrays below are views computed on demand.
     """
 
-    toi_lo: np.ndarray
-    toi_hi: np.ndarray
-    witness_time: np.ndarray
-    witness_distance: np.ndarray
-    unknown_time: np.ndarray
-    unknown_reason: np.ndarray
-    nodes: np.ndarray
-    tests: np.ndarray
-    depth: np.ndarray
-    counts: np.ndarray
-    supports: np.ndarray
+    t: np.ndarray
+    c: np.ndarray
+
+    @classmethod
+    def concat(cls, parts: list[Outcome]) -> Outcome:
+        if len(parts) == 1:
+            return parts[0]
+        return cls(np.concatenate([p.t for p in parts]), np.concatenate([p.c for p in parts]))
+
+    @classmethod
+    def from_fields(cls, toi_lo, toi_hi, witness_time, witness_distance, unknown_reason,
+                    nodes, tests, depth, counts) -> Outcome:  # fmt: skip
+        """An outcome from named per-motion arrays (inf / NaN for none)."""
+        n = len(nodes)
+        t = np.full((n, 5), 2 * BIG)
+        for j, x in enumerate((toi_lo, toi_hi, witness_time, witness_distance, toi_lo)):
+            x = np.asarray(x, dtype=float)
+            t[:, j] = np.where(np.isfinite(x), x, 2 * BIG)
+        c = np.zeros((n, 8), dtype=np.int64)
+        c[:, 0], c[:, 1], c[:, 2], c[:, 3] = nodes, tests, depth, unknown_reason
+        c[:, 4:7] = counts
+        return cls(t, c)
+
+    def _time(self, j: int) -> np.ndarray:
+        return np.where(self.t[:, j] > BIG, np.inf, self.t[:, j])
+
+    toi_lo = property(lambda self: self._time(0))
+    toi_hi = property(lambda self: self._time(1))
+    witness_time = property(lambda self: np.where(self.t[:, 2] > BIG, np.nan, self.t[:, 2]))
+    witness_distance = property(lambda self: np.where(self.t[:, 2] > BIG, np.nan, self.t[:, 3]))
+    unknown_reason = property(lambda self: self.c[:, 3].astype(np.int64))
+    nodes = property(lambda self: self.c[:, 0].astype(np.int64))
+    tests = property(lambda self: self.c[:, 1].astype(np.int64))
+    depth = property(lambda self: self.c[:, 2].astype(np.int64))
+    counts = property(lambda self: self.c[:, 4:7].astype(np.int64))
+    supports = property(lambda self: self.c[:, 7].astype(np.int64))
 
 
 def _packed(m: RationalMotion) -> tuple:
@@ -107,10 +136,7 @@ def refine_many(
                 device,
             )
         )
-    out = Outcome(
-        *(np.concatenate([getattr(p, f) for p in parts]) for f in Outcome.__dataclass_fields__)
-    )
-    return out, time.perf_counter() - start
+    return Outcome.concat(parts), time.perf_counter() - start
 
 
 SHAPE_CACHE = 32
@@ -127,7 +153,7 @@ def pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     if len(bodies) > 8:
         return _pack_shapes(bodies, obst)
     items = tuple(bodies) + tuple(o for lst in obst for o in lst)
-    key = (tuple(map(id, items)), tuple(map(len, obst)), tuple(map(id, obst)))
+    key = (tuple(map(id, items)), tuple(map(len, obst)))
     hit = _shape_cache.get(key)
     if hit is not None and all(a is b for a, b in zip(hit[0], items, strict=True)):
         _shape_cache.move_to_end(key)
@@ -183,36 +209,64 @@ def _pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     return table, m_parts, m_obst, o_idx, n_obst
 
 
-def pack_inputs(buf, packs, bodies, obst) -> tuple[list, int]:
-    """The kernels' leading inputs (pieces, motions, shapes) written to `buf`; returns
-    them and K_max."""
+def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
+    """The kernels' inputs on pieces, motions and shapes, written to `buf`: a dict of
+    Warp arrays by kernel argument name, and K_max."""
     from ._geometry import Shape as WpShape
 
     wp = warp()
     n = len(packs)
+    refs = None
+    if n <= 8:
+        # the same small query again (packed pieces are cached per motion): the buffers
+        # still hold its inputs
+        refs = (
+            tuple(packs) + tuple(bodies) + tuple(o for lst in obst for o in lst),
+            tuple(map(len, obst)),
+        )
+        cur = buf.packed
+        if (
+            cur is not None
+            and cur[0][1] == refs[1]
+            and len(cur[0][0]) == len(refs[0])
+            and all(a is b for a, b in zip(cur[0][0], refs[0], strict=True))
+        ):
+            return cur[1], cur[2]
+    buf.packed = None
     table, m_parts, m_obst, o_idx, n_obst = pack_shapes(bodies, obst)
-    p_k = np.concatenate([p[1] for p in packs])
-    counts = np.array([len(p[1]) for p in packs])
+    ctrls, ks, ts, errs, extra = zip(*packs, strict=True)
+    p_k = np.concatenate(ks)
+    counts = np.fromiter(map(len, ks), dtype=np.int64, count=n)
     p_start = np.zeros(len(p_k), dtype=np.int32)
     np.cumsum(p_k[:-1], out=p_start[1:])
     bounds = np.zeros(n + 1, dtype=np.int32)
     np.cumsum(counts, out=bounds[1:])
-    extra = np.array([p[4] for p in packs])
-    args = [
-        buf.put("ctrl", np.concatenate([p[0] for p in packs]), wp.mat44d),
-        buf.put("p_start", p_start, wp.int32),
-        buf.put("p_k", p_k, wp.int32),
-        buf.put("p_t", np.concatenate([p[2] for p in packs]), wp.vec2d),
-        buf.put("p_err", np.concatenate([p[3] for p in packs]), wp.vec3d),
-        buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
-        buf.put("m_parts", m_parts, wp.vec2i),
-        buf.put("m_obst", m_obst, wp.vec2i),
-        buf.put("m_nodes0", (extra * np.maximum(1, n_obst)).astype(np.int32), wp.int32),
-        buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
-        buf.put("shapes", table.records, WpShape),
-        buf.put("verts", table.verts, wp.vec3d),
-    ]
-    return args, int(p_k.max())
+    arrays = {
+        "ctrl": buf.put_concat("ctrl", ctrls, wp.mat44d),
+        "p_start": buf.put("p_start", p_start, wp.int32),
+        "p_k": buf.put("p_k", p_k, wp.int32),
+        "p_t": buf.put_concat("p_t", ts, wp.vec2d),
+        "p_err": buf.put_concat("p_err", errs, wp.vec3d),
+        "m_pieces": buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
+        "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
+        "m_obst": buf.put("m_obst", m_obst, wp.vec2i),
+        "m_nodes0": buf.put(
+            "m_nodes0", (np.asarray(extra) * np.maximum(1, n_obst)).astype(np.int32), wp.int32
+        ),
+        "o_idx": buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
+        "shapes": buf.put("shapes", table.records, WpShape),
+        "verts": buf.put("verts", table.verts, wp.vec3d),
+    }
+    kmax = int(p_k.max())
+    if refs is not None:
+        buf.packed = (refs, arrays, kmax)
+    return arrays, kmax
+
+
+REFINE_INPUTS = (
+    "ctrl", "p_start", "p_k", "p_t", "p_err", "m_pieces", "m_parts", "m_obst", "m_nodes0",
+    "o_idx", "shapes", "verts",
+)  # fmt: skip
 
 
 def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threads, device):
@@ -222,9 +276,9 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
     n = len(packs)
     buf = buffers(device, "refine")
     lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
-    head, kmax = pack_inputs(buf, packs, bodies, obst)
+    arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
-    args = head + [
+    args = [arrays[k] for k in REFINE_INPUTS] + [
         float(tol),
         int(max_depth),
         int(min(max_nodes, 2**31 - 1)),
@@ -246,23 +300,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
     ]
     buf.launch(_refine, args, 17, lanes)
-    t = buf.fetch("out_t", n)
-    c = buf.fetch("out_n", n)
-    big = 1e299
-    fix = lambda x: np.where(x > big, math.inf, x)  # noqa: E731
-    return Outcome(
-        toi_lo=fix(t[:, 0]),
-        toi_hi=fix(t[:, 1]),
-        witness_time=np.where(t[:, 2] > big, math.nan, t[:, 2]),
-        witness_distance=np.where(t[:, 2] > big, math.nan, t[:, 3]),
-        unknown_time=fix(t[:, 4]),
-        unknown_reason=c[:, 3].astype(np.int64),
-        nodes=c[:, 0].astype(np.int64),
-        tests=c[:, 1].astype(np.int64),
-        depth=c[:, 2].astype(np.int64),
-        counts=c[:, 4:7].astype(np.int64),
-        supports=c[:, 7].astype(np.int64),
-    )
+    return Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n))
 
 
 def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, threads, device):
@@ -273,9 +311,9 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
     n = len(packs)
     buf = buffers(device, "clearance")
     lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
-    head, kmax = pack_inputs(buf, packs, bodies, obst)
+    arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
-    args = head + [
+    args = [arrays[k] for k in REFINE_INPUTS] + [
         float(tol),
         int(max_depth),
         int(min(max_nodes, 2**31 - 1)),

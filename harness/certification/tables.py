@@ -102,29 +102,30 @@ class ShapeTable:
         records: (P,) kernel records (``record_dtype()``), shapes' parts in order.
         verts: (V, 3) mesh vertices (at least one row).
         offsets: (S + 1,) the parts of shape s are ``records[offsets[s]:offsets[s+1]]``.
-        parts: the convex parts, in table order.
     """
 
     records: np.ndarray
     verts: np.ndarray
     offsets: np.ndarray
-    parts: tuple
 
     @classmethod
     def build(cls, shapes: Sequence[Shape]) -> ShapeTable:
         got = [_records(s) for s in shapes]
-        nparts = np.array([g[1] for g in got], dtype=np.int64)
+        blobs, nparts, meshes = [], [], []
+        for g in got:
+            blobs.append(g[0])
+            nparts.append(g[1])
+            meshes.append(len(g[2]))
         offsets = np.zeros(len(got) + 1, dtype=np.int64)
         np.cumsum(nparts, out=offsets[1:])
-        records = np.frombuffer(b"".join(g[0] for g in got), dtype=record_dtype()).copy()
-        nv = np.array([len(g[2]) for g in got], dtype=np.int64)
+        records = np.frombuffer(b"".join(blobs), dtype=record_dtype()).copy()
+        nv = np.asarray(meshes, dtype=np.int64)
         if nv.any():
             # mesh parts index one shared vertex array (row 0 is padding)
             vbase = 1 + np.concatenate([[0], np.cumsum(nv)[:-1]])
-            meshes = records["kind"] == 3
-            records["vstart"][meshes] += np.repeat(vbase, nparts)[meshes]
-            verts = np.concatenate([np.zeros((1, 3))] + [g[2] for g in got])
+            mesh = records["kind"] == 3
+            records["vstart"][mesh] += np.repeat(vbase, nparts)[mesh]
+            verts = np.concatenate([np.zeros((1, 3))] + [g[2] for g in got if len(g[2])])
         else:
             verts = np.zeros((1, 3))
-        ps = tuple(p for s in shapes for p in parts(s))
-        return cls(records, verts, offsets, ps)
+        return cls(records, verts, offsets)

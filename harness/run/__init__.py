@@ -22,6 +22,7 @@ or on a Dask cluster).
 
 from __future__ import annotations
 
+from ..timing import TIMING_ROUND_COLUMNS
 from .journal import JournalError, OutputLock, OutputLocked, RunError
 from .orchestrate import PLACEMENT_COLUMNS, RunInterrupted, expand, run_suite, units
 from .studies import STUDIES, Context, StudyKind, run_case
@@ -58,4 +59,6 @@ TIMING_COLUMNS = (
     "steps_per_second",
     "competitor_seconds",
     "batch_seconds",
+    "record_seconds",
+    *TIMING_ROUND_COLUMNS,
 )

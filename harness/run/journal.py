@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import HarnessError, SuiteError
+from ..timing import machine_info
 
 try:
     import fcntl
@@ -418,6 +419,7 @@ def machine_meta() -> dict:
         "platform": platform.platform(),
         "git_revision": rev,
         "git_dirty": dirty,
+        **machine_info(),  # device, CPU model, RAM, threads, load, Warp kernel cache
     }
 
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import resource
 import signal
 import socket
 import sys
@@ -316,11 +315,9 @@ def _execute(
 
 
 def _tag(case: dict, rows: list[dict], where: str) -> list[dict]:
-    mem = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     host = socket.gethostname()
-    for r in rows:
+    for r in rows:  # memory is measured per case by run_case
         r["case_id"] = case["case_id"]
-        r["peak_memory_mb"] = mem
         r["host"] = host
         r["worker"] = where
     return rows

@@ -29,14 +29,14 @@ def test_poses_per_second(benchmark, keyed, scheme):
     _, _, ms, x = keyed
     m = ms[scheme]
     m.pose(x[:10])
-    benchmark.pedantic(m.pose, args=(x,), rounds=3, iterations=1)
+    benchmark.pedantic(m.pose, args=(x,), rounds=5, iterations=1)
     benchmark.extra_info["poses_per_second"] = N_TIMES / benchmark.stats.stats.min
 
 
 def test_poses_per_second_scipy_slerp(benchmark, keyed):
     q, _, ms, x = keyed
     s = Slerp(ms["slerp"].keyframe_times, Rotation.from_quat(q, scalar_first=True))
-    benchmark.pedantic(lambda: s(x).as_matrix(), rounds=3, iterations=1)
+    benchmark.pedantic(lambda: s(x).as_matrix(), rounds=5, iterations=1)
     benchmark.extra_info["poses_per_second"] = N_TIMES / benchmark.stats.stats.min
 
 
@@ -48,7 +48,7 @@ def test_construction(benchmark, scheme, n):
         motions.build(scheme, q, p)
     except motions.MotionError as e:
         pytest.skip(f"{scheme} cannot interpolate this keyframe set: {e}")
-    m = benchmark.pedantic(motions.build, args=(scheme, q, p), rounds=3, iterations=1)
+    m = benchmark.pedantic(motions.build, args=(scheme, q, p), rounds=5, iterations=1)
     info = getattr(m, "solve_info", None)
     if info:
         benchmark.extra_info["solve_iterations"] = info["iterations"]

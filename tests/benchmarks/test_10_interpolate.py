@@ -60,7 +60,7 @@ def test_interpolate(benchmark, n, translation):
         motions.interpolate,
         args=(q, p),
         kwargs={"translation": translation},
-        rounds=3,
+        rounds=5,
         iterations=1,
     )
     benchmark.extra_info["segments"] = m.segments
@@ -70,7 +70,7 @@ def test_interpolate(benchmark, n, translation):
 @pytest.mark.parametrize("n", SIZES)
 def test_hermite(benchmark, n):
     _, q, p = keyframes(n)
-    benchmark.pedantic(motions.hermite, args=(q, p), rounds=3, iterations=1)
+    benchmark.pedantic(motions.hermite, args=(q, p), rounds=5, iterations=1)
     benchmark.extra_info["seconds_per_keyframe"] = benchmark.stats.stats.min / n
 
 
@@ -78,5 +78,5 @@ def test_hermite(benchmark, n):
 def test_rotation_spline_construction(benchmark, n):
     rots, q, p = keyframes(n)
     t = motions.parameter_times(motions.sign_continuity(q), p)
-    benchmark.pedantic(RotationSpline, args=(t, rots), rounds=3, iterations=1)
+    benchmark.pedantic(RotationSpline, args=(t, rots), rounds=5, iterations=1)
     benchmark.extra_info["seconds_per_keyframe"] = benchmark.stats.stats.min / n

@@ -11,8 +11,8 @@ printed (run with ``-s``)::
 The compiled competitor is ``tests/benchmarks/compiled_ca`` (a C++ loop of conservative
 advancement around coal's distance, built with g++ when coal's headers and Eigen are
 present; these benchmarks skip without it), given the very speed bounds the in-kernel
-``lipschitz`` uses (per quarter of each positive Bézier piece), so that both advance by
-the same rule.
+``lipschitz`` uses (one per knot interval: keyframe times and Bézier breakpoints), so that
+both advance by the same rule.
 """
 
 from __future__ import annotations
@@ -293,15 +293,15 @@ def scattered(m, k: int, rng: np.random.Generator, tube: float = 0.35) -> list:
     while len(out) < k:
         c = rng.uniform(lo, hi)
         s = 10 ** rng.uniform(-2, 0) / 2
-        if np.linalg.norm(p - c, axis=1).min() < tube + s:
-            continue
         kind = len(out) % 3
         if kind == 0:
-            out.append(Box(rng.uniform(0.4, 1.0, 3) * s, center=c, rotation=rng.normal(size=4)))
+            shape = Box(rng.uniform(0.4, 1.0, 3) * s, center=c, rotation=rng.normal(size=4))
         elif kind == 1:
-            out.append(Sphere(s, center=c))
+            shape = Sphere(s, center=c)
         else:
-            out.append(Capsule(0.4 * s, s, center=c, rotation=rng.normal(size=4)))
+            shape = Capsule(0.4 * s, s, center=c, rotation=rng.normal(size=4))
+        if np.linalg.norm(p - c, axis=1).min() >= tube + shape.bounding_radius - np.linalg.norm(c):
+            out.append(shape)
     return out
 
 

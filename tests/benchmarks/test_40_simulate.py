@@ -85,7 +85,7 @@ def test_simulate_over_bare_rollout(benchmark, name):
         ratio_cpu=bare_cpu / sim_cpu,
         ratio_wall=bare_wall / sim_wall,
     )
-    benchmark.pedantic(drive, rounds=3, iterations=1)
+    benchmark.pedantic(drive, rounds=5, iterations=1)
 
 
 @pytest.mark.parametrize("name", SCENES)
@@ -100,7 +100,7 @@ def test_simulate_no_record(benchmark, name):
 @pytest.mark.parametrize("name", SCENES)
 def test_simulate_record(benchmark, name):
     sc, m = setup(name)
-    df = benchmark.pedantic(simulate, args=(sc, m), kwargs={"record": True}, rounds=3, iterations=1)
+    df = benchmark.pedantic(simulate, args=(sc, m), kwargs={"record": True}, rounds=5, iterations=1)
     benchmark.extra_info["steps_per_second"] = len(df) / benchmark.stats.stats.min
 
 
@@ -108,7 +108,7 @@ def test_simulate_record(benchmark, name):
 def test_record_distances_clutter(benchmark, n_obstacles):
     sc, m = setup("clutter", n_obstacles=n_obstacles)
     df = benchmark.pedantic(
-        simulate, args=(sc, m), kwargs={"record": True, "dt": 0.02}, rounds=1, iterations=1
+        simulate, args=(sc, m), kwargs={"record": True, "dt": 0.02}, rounds=5, iterations=1
     )
     benchmark.extra_info["steps_per_second"] = len(df) / benchmark.stats.stats.min
     benchmark.extra_info["geom_distance_calls_per_step"] = n_obstacles

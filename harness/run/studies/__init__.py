@@ -13,7 +13,8 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import certify, repair, scaling, simulate, workload
+from ...timing import CaseMemory
+from . import certify, corpus, repair, scaling, simulate, workload
 from .context import Context
 
 __all__ = ["STUDIES", "Context", "StudyKind", "run_case"]
@@ -55,10 +56,18 @@ STUDIES: dict[str, StudyKind] = {
     "scaling": _kind(scaling),
     "simulate": _kind(simulate),
     "repair": _kind(repair),
+    "corpus": _kind(corpus),
 }
 
 
 def run_case(case: dict, ctx: Context) -> list[dict]:
-    """Run one case; returns its row(s)."""
+    """Run one case; returns its row(s), each with the case's own peak memory (not the
+    process's maximum so far: see :class:`harness.timing.CaseMemory`)."""
     st = ctx.suite.studies[case["block"]]
-    return STUDIES[case["study"]].run(case, st, ctx)
+    with CaseMemory() as mem:
+        rows = STUDIES[case["study"]].run(case, st, ctx)
+    cols = mem.columns()
+    for r in rows:  # a study that measures memory itself keeps its figures
+        for k, v in cols.items():
+            r.setdefault(k, v)
+    return rows

@@ -1,7 +1,10 @@
 """The ``certify`` study: scenes x keyframe sets x schemes x bounds x tolerances x repeats.
 
 Each row holds the certificate, the ground truth of the same motion and obstacles, and
-the motion's smoothness figures.
+the motion's smoothness figures. The single-query cost comes from ``rounds`` timed calls
+(default 5, after one untimed warm-up call; the process's first call of each bound is a
+``startup`` row of its own): median, quartiles, bootstrap interval and the rounds
+themselves, in CPU and wall time (:meth:`harness.timing.Rounds.columns`).
 """
 
 from __future__ import annotations
@@ -11,9 +14,20 @@ from pathlib import Path
 
 import motions
 
-from ...certification import BOUNDS, certify_many
+from ...certification import ENGINE_BOUNDS as BOUNDS
+from ...certification import certify_many
+from ...timing import repeat
 from ..fields import choice, integer, names, number, numbers, scene_names
-from .context import Context, accuracy_cols, cert_cols, smoothness_cols, truth_cols
+from .context import (
+    Context,
+    accuracy_cols,
+    cert_cols,
+    rounds_key,
+    smoothness_cols,
+    startup_case,
+    startup_run,
+    truth_cols,
+)
 
 KEYS = frozenset(
     {
@@ -28,6 +42,7 @@ KEYS = frozenset(
         "repeats",
         "truth_resolution",
         "max_nodes",
+        "rounds",
     }
 )
 
@@ -54,6 +69,7 @@ def parse(st: dict, file: Path, where: str) -> dict:
         st.get("truth_resolution", 1e-3), file, key("truth_resolution")
     )
     out["max_nodes"] = integer(st.get("max_nodes", 200_000), file, key("max_nodes"), lo=1)
+    out["rounds"] = rounds_key(st, file, key("rounds"))
     return out
 
 
@@ -63,7 +79,8 @@ def expand(st: dict) -> Iterator[dict]:
         sets.append("scene")
     if st["keyframes"] in ("random", "both"):
         sets += [f"random-{k}" for k in range(st["random_sets"])]
-    return (
+    first = [startup_case(b, st["tolerances"][0]) for b in st["bounds"]]
+    return first + [
         dict(scene=scene, keyframes=kf, scheme=scheme, bound=bound, tolerance=tol, repeat=rep)
         for scene in st["scenes"]
         for kf in sets
@@ -71,7 +88,7 @@ def expand(st: dict) -> Iterator[dict]:
         for bound in st["bounds"]
         for tol in st["tolerances"]
         for rep in range(st["repeats"])
-    )
+    ]
 
 
 def group(case: dict) -> tuple:
@@ -80,6 +97,8 @@ def group(case: dict) -> tuple:
 
 
 def run(case: dict, st: dict, ctx: Context) -> list[dict]:
+    if case.get("startup"):
+        return startup_run(case, ctx)
     scene, kf, scheme, bound, tol = (
         case["scene"],
         case["keyframes"],
@@ -97,6 +116,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     except motions.MotionError as e:
         return [{**row, "verdict": "n/a", "reason": f"motion not built: {e}"[:200]}]
     body, obst = ctx.geometry(scene)
+    row["duration"] = float(m.domain[1] - m.domain[0])
     row.update(
         smoothness_cols(
             ctx.memo(("smooth", scene, kf, scheme), lambda: motions.smoothness(m, body=body))
@@ -113,16 +133,22 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             return [
                 {**row, "verdict": "n/a", "reason": f"scheme {scheme!r} has no proven speed bound"}
             ]
-    cert = certify_many(
-        [m],
-        body,
-        obst,
-        bound=bound,
-        tolerance=tol,
-        max_depth=st["max_depth"],
-        samples=st["samples"],
-        max_nodes=st["max_nodes"],
-    )[0]
+    timed = repeat(
+        lambda: certify_many(
+            [m],
+            body,
+            obst,
+            bound=bound,
+            tolerance=tol,
+            max_depth=st["max_depth"],
+            samples=st["samples"],
+            max_nodes=st["max_nodes"],
+        )[0],
+        rounds=st["rounds"],
+    )
+    cert = timed.result
     row.update(cert_cols(cert))
+    row.update(timed.columns())
+    row["seconds"] = row["wall_median"]
     row.update(accuracy_cols(cert.verdict, row["truth"], cert.toi_lo, row["toi_true"]))
     return [row]

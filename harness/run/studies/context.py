@@ -1,4 +1,6 @@
-"""What every study shares: per-process caches and the columns of a certificate row."""
+"""What every study shares: per-process caches, the columns of a certificate row, the
+``rounds`` key and the start-up rows (kernel compile and first call, measured once per
+process and charged to no case)."""
 
 from __future__ import annotations
 
@@ -12,9 +14,80 @@ import numpy as np
 import motions
 import scenes as scenes_pkg
 
-from ...certification import Certificate
+from ...certification import Certificate, certify_many
+from ...timing import DEFAULT_ROUNDS, first_call
+from ..fields import need
 
-__all__ = ["Context", "accuracy_cols", "cert_cols", "smoothness_cols", "truth_cols"]
+__all__ = [
+    "Context",
+    "accuracy_cols",
+    "cert_cols",
+    "rounds_key",
+    "smoothness_cols",
+    "startup_case",
+    "startup_run",
+    "truth_cols",
+]
+
+MAX_ROUNDS = 1000
+
+
+def rounds_key(st: dict, file, key: str) -> int:
+    """The ``rounds`` of a study: timed rounds per figure (default 5), an integer."""
+    value = st.get("rounds", DEFAULT_ROUNDS)
+    need(
+        isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= MAX_ROUNDS,
+        file,
+        key,
+        f"expected an integer in [1, {MAX_ROUNDS}] (timed rounds per figure), got {value!r}",
+    )
+    return value
+
+
+def startup_case(bound: str, tolerance: float) -> dict:
+    """The case that times a study's first call of `bound` (see :func:`startup_run`)."""
+    return dict(
+        scene="startup",
+        keyframes="fixed",
+        scheme="rational",
+        bound=bound,
+        tolerance=tolerance,
+        startup=True,
+    )
+
+
+def startup_run(case: dict, ctx: Context) -> list[dict]:
+    """Time the first certification call of ``case["bound"]`` in this process on a small
+    fixed problem: Warp's kernel compile (``kernel_cache="cold"``: a module was compiled)
+    or cache load, plus start-up. Each certifying study expands one such case per bound,
+    ahead of its other cases, so that no case is charged for it; when an earlier study of
+    the run has already called the bound here, the row measures a warm call."""
+    from ...shapes import Box
+
+    m = ctx.memo(
+        ("startup-motion",),
+        lambda: motions.interpolate(
+            np.array([[1.0, 0, 0, 0], [0.9, 0.3, 0.1, 0], [0.8, 0.2, 0.5, 0.1], [0.7, 0, 0.7, 0]]),
+            np.array([[0.0, 0, 0], [1, 0.2, 0], [2, 0, 0.3], [3, 0.4, 0]]),
+        ),
+    )
+    body, wall = Box([0.1, 0.1, 0.1]), [Box([0.05, 1, 1], center=[1.5, 2.5, 0])]
+    with first_call() as f:
+        certify_many([m], body, wall, bound=case["bound"], tolerance=case["tolerance"])
+    return [
+        {
+            "study": "startup",
+            "scene": "startup",
+            "bound": case["bound"],
+            "method": f"first call: {case['bound']} ({case['study']} study)",
+            "tolerance": case["tolerance"],
+            "seed": ctx.seed,
+            "kernel_cache": f["kernel_cache"],
+            "compiled_modules": ",".join(f.get("compiled_modules", [])),
+            "warmup_wall": f["wall"],
+            "warmup_cpu": f["cpu"],
+        }
+    ]
 
 
 class Context:

@@ -1,87 +1,116 @@
-"""The ``workload`` study: the DESIGN §9 certification workload (pairs with known
-clearance) under each bound, plus the dense-sampling and conservative-advancement
-competitors on a subset of the pairs.
+"""The ``workload`` study: the certification workload (pairs with proven clearance labels)
+under every method, like for like.
 
-Large workloads are cut into chunks of ``chunk_pairs`` pairs. Chunk ``k`` is drawn on
-its own from the seed sequence ``(seed, k)`` (``(seed, 0)`` is numpy's ``seed``, so a
-workload of one chunk is the unchunked one), built where it runs, and its cases (every
-bound, the competitors on its share of the subset) run together in one process, which
-keeps one chunk in memory. Rows do not depend on where or in which order chunks run.
+- **Every method on every pair.** One case per chunk of ``chunk_pairs`` pairs: every bound of the study
+  (in-kernel ``certify_many``: ``hull``, ``aabb``, ``lipschitz``, ``sampled``) and every
+  external competitor named in ``external`` (Python loops over MuJoCo's
+  ``mj_geomDistance``, named as such) runs on the same pairs.
+- **Repeated, interleaved rounds.** ``rounds`` timed rounds (default 5) after one warm-up
+  call each; one round runs every method and mode once (A B C A B C ...), so that a
+  change of machine load hits them alike and each figure's rounds spread over the case. Kernel compile and first-call start-up are ``startup``
+  rows of their own, charged to no method.
+- **Batch and single-query cost.** ``batch``: one ``certify_many`` call over all pairs;
+  ``single``: one ``certify`` call per pair over the first ``single_pairs`` pairs (default
+  all; the same pairs for every method). External loops answer one pair at a time: they
+  are timed as ``single`` on those same pairs, and run once more, untimed, for the
+  verdicts of the remaining pairs.
+- **Proven labels.** A pair's truth comes from its label (:mod:`harness.workloads`):
+  proven free with a certified lower bound of its clearance, proven colliding with a
+  proven penetration depth, or ``unproven``, never counted as a pass.
+
+Rows: one ``mode="pair"`` row per (method, pair) with the verdict and its accuracy, and
+one ``mode="batch"`` / ``"single"`` row per method with the timing rounds (``pairs``
+says how many pairs one round covers).
+
+Large workloads are cut into chunks of ``chunk_pairs`` pairs (default 1,000), one case
+each. Chunk ``k`` is drawn on its own from the seed sequence ``(seed, k)`` (``(seed, 0)``
+is numpy's ``seed``, so a workload of one chunk is the unchunked one) and built where it
+runs, which keeps one chunk in memory per process; rows do not depend on where or in
+which order chunks run. Each chunk's timing rows cover its own pairs (``pairs``); the
+report adds the chunks' rounds up. The single queries run on the workload's first
+``single_pairs`` pairs, wherever their chunks run.
+
 """
 
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Iterator
 from pathlib import Path
 
-import numpy as np
-
-from ...certification import BOUNDS, certify_many
-from ..fields import integer, names, number
-from .context import Context, accuracy_cols, cert_cols
+from ...certification import ENGINE_BOUNDS as BOUNDS
+from ...certification import certify, certify_many
+from ...timing import interleave
+from ..fields import integer, names, need, number
+from .context import Context, accuracy_cols, cert_cols, rounds_key, startup_case, startup_run
 
 KEYS = frozenset(
-    {"pairs", "bounds", "tolerance", "competitor_pairs", "max_nodes", "seed", "chunk_pairs"}
+    {
+        "pairs",
+        "bounds",
+        "tolerance",
+        "max_nodes",
+        "seed",
+        "rounds",
+        "single_pairs",
+        "external",
+        "chunk_pairs",
+    }
 )
-COMPETITORS = ("dense", "advancement")
+KERNEL = "in-kernel (Warp certify_many)"
 # A Dask worker building and certifying (hull) chunks of 1,000 pairs peaks at 0.6 GB
 # (min_clearance batches every pair's 800 poses); the aabb bound adds about 0.35 GB.
 DEFAULT_CHUNK = 1000
 
 
 def parse(st: dict, file: Path, where: str) -> dict:
+    from ...workloads import EXTERNAL
+
     def key(k: str) -> str:
         return f"{where}.{k}"
 
     out: dict = {}
     out["pairs"] = integer(st.get("pairs", 300), file, key("pairs"), lo=1, hi=10**8)
-    out["bounds"] = names(
-        st.get("bounds", ["hull", "aabb", "lipschitz"]), file, key("bounds"), BOUNDS
-    )
+    out["bounds"] = names(st.get("bounds", list(BOUNDS)), file, key("bounds"), BOUNDS)
     out["tolerance"] = number(st.get("tolerance", 1e-3), file, key("tolerance"))
-    out["competitor_pairs"] = integer(
-        st.get("competitor_pairs", 20), file, key("competitor_pairs"), lo=0
-    )
     out["max_nodes"] = integer(st.get("max_nodes", 20_000), file, key("max_nodes"), lo=1)
     out["seed"] = integer(st.get("seed", 0), file, key("seed"), lo=0)
+    out["rounds"] = rounds_key(st, file, key("rounds"))
+    out["single_pairs"] = min(
+        integer(st.get("single_pairs", out["pairs"]), file, key("single_pairs"), lo=0),
+        out["pairs"],
+    )
+    ext = st.get("external", [])
+    need(
+        isinstance(ext, list),
+        file,
+        key("external"),
+        f"expected a list of names from {sorted(EXTERNAL)}, got {ext!r}",
+    )
+    out["external"] = names(ext, file, key("external"), EXTERNAL) if ext else []
     out["chunk_pairs"] = integer(
         st.get("chunk_pairs", DEFAULT_CHUNK), file, key("chunk_pairs"), lo=1, hi=10**6
     )
     return out
 
 
-def _chunks(st: dict) -> range:
-    return range(0, st["pairs"], st["chunk_pairs"])
-
-
-def _competitor_pairs(st: dict) -> np.ndarray:
-    """Global indices of the pairs the competitors run on: spread over the workload."""
-    n = min(st["competitor_pairs"], st["pairs"])
-    return np.linspace(0, st["pairs"] - 1, n).astype(int)
-
-
-def expand(st: dict) -> Iterator[dict]:
-    picked = _competitor_pairs(st)
-    for first in _chunks(st):
-        last = min(first + st["chunk_pairs"], st["pairs"])
-        # the certified bounds, then the two competitors on the chunk's share of the subset
-        has_subset = bool(((picked >= first) & (picked < last)).any())
-        for bound in [*st["bounds"], *(COMPETITORS if has_subset else ())]:
-            yield dict(
-                scene="workload",
-                keyframes=f"workload-{st['seed']}",
-                scheme="rational",
-                bound=bound,
-                tolerance=st["tolerance"],
-                chunk=first // st["chunk_pairs"],
-            )
+def expand(st: dict) -> list[dict]:
+    first = [startup_case(b, st["tolerance"]) for b in st["bounds"]]
+    return first + [
+        dict(
+            scene="workload",
+            keyframes=f"workload-{st['seed']}",
+            scheme="rational",
+            bound="all",
+            tolerance=st["tolerance"],
+            chunk=k,
+        )
+        for k in range(-(-st["pairs"] // st["chunk_pairs"]))
+    ]
 
 
 def group(case: dict) -> tuple:
-    """The cases of one chunk share its pairs: build them once."""
-    return (case["chunk"],)
+    """A chunk is one case; the start-up cases go together."""
+    return (case.get("chunk", -1),)
 
 
 def _workload(ctx: Context, st: dict, chunk: int):
@@ -98,54 +127,104 @@ def _workload(ctx: Context, st: dict, chunk: int):
 
 
 def run(case: dict, st: dict, ctx: Context) -> list[dict]:
-    from ...workloads import conservative_advancement, dense_sampling
+    from ...workloads import EXTERNAL, conservative_advancement, dense_sampling
 
+    if case.get("startup"):
+        return startup_run(case, ctx)
     chunk = case["chunk"]
     first = chunk * st["chunk_pairs"]
     w = _workload(ctx, st, chunk)
     tol = case["tolerance"]
-    base = {k: case[k] for k in ("study", "scene", "keyframes", "scheme", "bound", "tolerance")}
+    n = len(w.motions)
+    # this chunk's share of the single-query pairs (the workload's first `single_pairs`)
+    k = max(0, min(st["single_pairs"] - first, n))
+    base = {key: case[key] for key in ("study", "scene", "keyframes", "scheme", "tolerance")}
     base["seed"] = ctx.seed
-    truth = np.where(w.clearance > 0, "free", "collision")
-    rows = []
-    if case["bound"] in BOUNDS:
-        kw = {"max_nodes": st["max_nodes"]} if case["bound"] in ("aabb", "lipschitz") else {}
-        if case["bound"] == "sampled":
-            kw["samples"] = 200
-        t0 = time.perf_counter()
-        certs = certify_many(
-            w.motions, w.bodies, w.obstacles, bound=case["bound"], tolerance=tol, **kw
+
+    def options(bound: str) -> dict:
+        return {"max_nodes": st["max_nodes"]} if bound in ("aabb", "lipschitz") else {}
+
+    def batch_call(b: str):
+        return lambda: certify_many(
+            w.motions, w.bodies, w.obstacles, bound=b, tolerance=tol, **options(b)
         )
-        wall = time.perf_counter() - t0
-        for i, c in enumerate(certs):
-            r = {
+
+    def single_calls(b: str):
+        return lambda: [
+            certify(w.motions[i], w.bodies[i], w.obstacles[i], bound=b, tolerance=tol, **options(b))
+            for i in range(k)
+        ]
+
+    def external_loop(fn, pairs: range):
+        return lambda: [fn(w.motions[i], w.bodies[i], w.obstacles[i], tol) for i in pairs]
+
+    loops = {"dense-mujoco": dense_sampling, "advancement-mujoco": conservative_advancement}
+    # external loops answer one pair at a time: they are timed on the pairs of the single
+    # queries (the same pairs as the in-kernel methods' single queries), or on every pair
+    # when the study has none
+    ext_pairs = range(k) if st["single_pairs"] else range(n)
+    # one round: every batch call, then every method's single queries, so that each
+    # figure's rounds spread over the whole case and a burst of load from another
+    # process hits one round, not all of them
+    contenders = {("batch", b): batch_call(b) for b in st["bounds"]}
+    if k:
+        contenders |= {("single", b): single_calls(b) for b in st["bounds"]}
+    if len(ext_pairs):
+        contenders |= {("single", e): external_loop(loops[e], ext_pairs) for e in st["external"]}
+    measured = interleave(contenders, rounds=st["rounds"])
+    timed = {m: r for (mode, m), r in measured.items() if mode == "batch"}
+    single = {m: r for (mode, m), r in measured.items() if mode == "single"}
+    verdicts = {m: r.result for m, r in timed.items()}
+    for e in st["external"]:  # every pair's verdict, once, beyond the timed ones
+        rest = external_loop(loops[e], range(len(ext_pairs), n))()
+        verdicts[e] = (single[e].result if e in single else []) + rest
+    rows: list[dict] = []
+    for method, results in verdicts.items():
+        external = method in EXTERNAL
+        impl = EXTERNAL[method] if external else KERNEL
+        for i, c in enumerate(results):
+            row = {
                 **base,
+                "bound": method,
+                "mode": "pair",
+                "implementation": impl,
                 "pair": first + i,
                 "clearance": float(w.clearance[i]),
-                "truth": str(truth[i]),
-                **cert_cols(c),
-                "batch_seconds": wall,
-                "batch_pairs": len(certs),
+                "clearance_lo": float(w.clearance_lo[i]),
+                "penetration": float(w.penetration[i]),
+                "label": str(w.label[i]),
+                "truth": str(w.truth[i]),
             }
-            r.update(accuracy_cols(c.verdict, r["truth"], c.toi_lo, math.nan))
-            rows.append(r)
-        return rows
-    fn = dense_sampling if case["bound"] == "dense" else conservative_advancement
-    picked = _competitor_pairs(st)
-    for g in picked[(picked >= first) & (picked < first + len(w.motions))]:
-        i = int(g) - first
-        verdict, calls, secs = fn(w.motions[i], w.bodies[i], w.obstacles[i], tol)
-        r = {
-            **base,
-            "pair": int(g),
-            "clearance": float(w.clearance[i]),
-            "truth": str(truth[i]),
-            "verdict": verdict,
-            "nodes": calls,
-            "competitor_seconds": secs,
-            "seconds": secs,
-            "certified": case["bound"] == "dense",
-        }
-        r.update(accuracy_cols(verdict, r["truth"], math.nan, math.nan))
-        rows.append(r)
+            if external:
+                row.update(verdict=c.verdict, nodes=c.calls, certified=c.certified)
+            else:
+                row.update(cert_cols(c))
+                row["seconds"] = math.nan  # a pair's share of a batch is not a measurement
+            row.update(accuracy_cols(row["verdict"], row["truth"], math.nan, math.nan))
+            rows.append(row)
+        if not external:
+            rows.append(_timing_row(base, method, "batch", impl, n, timed[method]))
+    for method, r in single.items():
+        external = method in EXTERNAL
+        impl = EXTERNAL[method] if external else KERNEL
+        row = _timing_row(base, method, "single", impl, len(ext_pairs) if external else k, r)
+        if not external:  # DESIGN: a certificate never depends on the batch it was in
+            row["single_agrees_with_batch"] = sum(
+                a.verdict == b.verdict
+                for a, b in zip(r.result, timed[method].result[:k], strict=True)
+            )
+        rows.append(row)
     return rows
+
+
+def _timing_row(base: dict, method: str, mode: str, impl: str, pairs: int, r) -> dict:
+    cols = r.columns()
+    return {
+        **base,
+        "bound": method,
+        "mode": mode,
+        "implementation": impl,
+        "pairs": pairs,
+        **cols,
+        "seconds": cols["wall_median"],
+    }

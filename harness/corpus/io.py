@@ -1,0 +1,336 @@
+"""The corpus as a versioned data file: ``corpus.json`` plus its JSON Schema.
+
+Layout (``FORMAT`` "rsmbench-corpus", ``VERSION`` 1; the schema is
+``corpus.schema.json`` next to this module and is copied beside every export):
+
+- top level: ``format``, ``version``, ``tolerance`` (the length that separates "grazing"
+  from "free"/"collision"), ``generator`` (seed, size, families, rsmbench version),
+  ``cases`` (list);
+- a case: ``id``, ``family``, ``class``, ``scheme``, ``tags``, ``motion``, ``body``,
+  ``obstacles``, ``truth``;
+- ``motion``: ``{"type": "bezier", "breaks": (S+1,), "ctrl": (S, n+1, 4, 4)}`` (the
+  homogeneous control matrices of :meth:`motions.RationalMotion.bezier_form`, weight
+  last) or ``{"type": "keyframes", "scheme", "rotations": (N, 4) w-first, "positions":
+  (N, 3), "times": (N,)}`` (the inputs of :func:`motions.build`);
+- shapes: ``{"kind": "box", "half_extents", "center", "rotation" (3x3)}``,
+  ``{"kind": "sphere", "radius", "center"}``, ``{"kind": "capsule", "radius",
+  "half_length", "center", "rotation"}`` (axis = local z), ``{"kind": "mesh",
+  "vertices"}``, ``{"kind": "compound", "parts"}``;
+- ``truth``: ``verdict``, ``distance`` (signed minimum distance over the motion),
+  ``toi``, ``toi_lo``, ``toi_hi`` (null = +inf: no contact), ``window`` (null = unknown),
+  ``method`` ("analytic" or "ground-truth"), ``proof`` (how).
+
+Floats are written with Python's shortest round-trip repr, so a reloaded motion has the
+same control matrices (or the same keyframes) bit for bit and evaluates identically.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import motions
+from motions import RationalMotion
+
+from ..errors import HarnessError
+from ..shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
+from .cases import CLASSES, SCHEMES, Case, Truth
+
+__all__ = ["FORMAT", "SCHEMA_PATH", "VERSION", "CorpusFormatError", "export", "load"]
+
+FORMAT = "rsmbench-corpus"
+VERSION = 1
+SCHEMA_PATH = Path(__file__).with_name("corpus.schema.json")
+FILE_NAME = "corpus.json"
+
+
+class CorpusFormatError(HarnessError):
+    """A corpus file of another format or version, or with a malformed entry."""
+
+
+# ----------------------------------------------------------------------------- writing
+def _num(x: float) -> float | None:
+    x = float(x)
+    return None if not math.isfinite(x) else x
+
+
+def shape_to_dict(s: Shape) -> dict:
+    if isinstance(s, Box):
+        return {
+            "kind": "box",
+            "half_extents": s.half_extents.tolist(),
+            "center": s.center.tolist(),
+            "rotation": s.rotation.tolist(),
+        }
+    if isinstance(s, Sphere):
+        return {"kind": "sphere", "radius": s.radius, "center": s.center.tolist()}
+    if isinstance(s, Capsule):
+        return {
+            "kind": "capsule",
+            "radius": s.radius,
+            "half_length": s.half_length,
+            "center": s.center.tolist(),
+            "rotation": s.rotation.tolist(),
+        }
+    if isinstance(s, ConvexMesh):
+        return {"kind": "mesh", "vertices": s.vertices_.tolist()}
+    if isinstance(s, Compound):
+        return {"kind": "compound", "parts": [shape_to_dict(p) for p in s.shapes]}
+    raise TypeError(f"Expected a harness shape, got {type(s).__name__}.")
+
+
+def case_to_dict(c: Case) -> dict:
+    if isinstance(c.motion, RationalMotion):
+        breaks, ctrl = c.motion.bezier_form()
+        motion = {"type": "bezier", "breaks": breaks.tolist(), "ctrl": ctrl.tolist()}
+    elif c.keyframes is not None:
+        kf = c.keyframes
+        motion = {
+            "type": "keyframes",
+            "scheme": kf["scheme"],
+            "rotations": np.asarray(kf["rotations"]).tolist(),
+            "positions": np.asarray(kf["positions"]).tolist(),
+            "times": np.asarray(kf["times"]).tolist(),
+        }
+    else:
+        raise ValueError(
+            f"Case {c.id!r}: a {c.motion.scheme!r} motion without its keyframes cannot be exported."
+        )
+    t = c.truth
+    return {
+        "id": c.id,
+        "family": c.family,
+        "class": c.klass,
+        "scheme": c.scheme,
+        "tags": list(c.tags),
+        "motion": motion,
+        "body": shape_to_dict(c.body),
+        "obstacles": [shape_to_dict(o) for o in c.obstacles],
+        "truth": {
+            "verdict": t.verdict,
+            "distance": t.distance,
+            "toi": _num(t.toi),
+            "toi_lo": _num(t.toi_lo),
+            "toi_hi": _num(t.toi_hi),
+            "window": _num(t.window),
+            "method": t.method,
+            "proof": t.proof,
+        },
+    }
+
+
+def export(cases: list[Case], folder: str | os.PathLike, generator: dict | None = None) -> Path:
+    """Write ``corpus.json`` and ``corpus.schema.json`` into `folder` (atomically).
+
+    Returns:
+        The path of ``corpus.json``.
+    """
+    from .cases import TOLERANCE
+
+    out = Path(folder)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise CorpusFormatError(f"Cannot create the export folder {str(out)!r}: {e}") from None
+    doc = {
+        "format": FORMAT,
+        "version": VERSION,
+        "tolerance": TOLERANCE,
+        "generator": generator or {},
+        "cases": [case_to_dict(c) for c in cases],
+    }
+    path = out / FILE_NAME
+    tmp = out / f".{FILE_NAME}.tmp"
+    tmp.write_text(json.dumps(doc, allow_nan=False))
+    os.replace(tmp, path)
+    shutil.copyfile(SCHEMA_PATH, out / SCHEMA_PATH.name)
+    return path
+
+
+# ----------------------------------------------------------------------------- reading
+def _get(d: Any, key: str, where: str, kind: type | tuple = object) -> Any:
+    if not isinstance(d, dict) or key not in d:
+        raise CorpusFormatError(f"{where}: missing key `{key}`.")
+    v = d[key]
+    if kind is not object and not isinstance(v, kind):
+        raise CorpusFormatError(f"{where}.{key}: expected {kind}, got {type(v).__name__}.")
+    return v
+
+
+def _array(d: Any, key: str, where: str, shape: tuple) -> np.ndarray:
+    try:
+        a = np.array(_get(d, key, where), dtype=float)
+    except (TypeError, ValueError):
+        raise CorpusFormatError(f"{where}.{key}: expected numbers of shape {shape}.") from None
+    if a.ndim != len(shape) or any(
+        s is not None and s != n for s, n in zip(shape, a.shape, strict=True)
+    ):
+        raise CorpusFormatError(f"{where}.{key}: expected shape {shape}, got {a.shape}.")
+    if not np.all(np.isfinite(a)):
+        raise CorpusFormatError(f"{where}.{key}: expected finite numbers.")
+    return a
+
+
+def shape_from_dict(d: Any, where: str) -> Shape:
+    kind = _get(d, "kind", where, str)
+    try:
+        if kind == "box":
+            return Box(
+                _array(d, "half_extents", where, (3,)),
+                _array(d, "center", where, (3,)),
+                _array(d, "rotation", where, (3, 3)),
+            )
+        if kind == "sphere":
+            return Sphere(_get(d, "radius", where, (int, float)), _array(d, "center", where, (3,)))
+        if kind == "capsule":
+            return Capsule(
+                _get(d, "radius", where, (int, float)),
+                _get(d, "half_length", where, (int, float)),
+                _array(d, "center", where, (3,)),
+                _array(d, "rotation", where, (3, 3)),
+            )
+        if kind == "mesh":
+            return ConvexMesh(_array(d, "vertices", where, (None, 3)))
+        if kind == "compound":
+            parts = _get(d, "parts", where, list)
+            return Compound(
+                [shape_from_dict(p, f"{where}.parts[{i}]") for i, p in enumerate(parts)]
+            )
+    except (ValueError, TypeError) as e:
+        if isinstance(e, CorpusFormatError):
+            raise
+        raise CorpusFormatError(f"{where}: {e}") from None
+    raise CorpusFormatError(
+        f"{where}.kind: unknown shape kind {kind!r}; expected box, sphere, capsule, mesh or compound."
+    )
+
+
+def _motion_from_dict(d: Any, where: str):
+    kind = _get(d, "type", where, str)
+    try:
+        if kind == "bezier":
+            breaks = _array(d, "breaks", where, (None,))
+            ctrl = _array(d, "ctrl", where, (None, None, 4, 4))
+            return RationalMotion.from_bezier(breaks, ctrl), None
+        if kind == "keyframes":
+            scheme = _get(d, "scheme", where, str)
+            kf = {
+                "scheme": scheme,
+                "rotations": _array(d, "rotations", where, (None, 4)),
+                "positions": _array(d, "positions", where, (None, 3)),
+                "times": _array(d, "times", where, (None,)),
+            }
+            m = motions.build(scheme, kf["rotations"], kf["positions"], kf["times"])
+            return m, kf
+    except (ValueError, TypeError) as e:
+        if isinstance(e, CorpusFormatError):
+            raise
+        raise CorpusFormatError(f"{where}: {e}") from None
+    raise CorpusFormatError(f"{where}.type: expected 'bezier' or 'keyframes', got {kind!r}.")
+
+
+def _inf(x: Any, where: str) -> float:
+    if x is None:
+        return math.inf
+    if not isinstance(x, int | float) or isinstance(x, bool):
+        raise CorpusFormatError(f"{where}: expected a number or null, got {x!r}.")
+    return float(x)
+
+
+def _truth(d: Any, where: str) -> Truth:
+    verdict = _get(d, "verdict", where, str)
+    if verdict not in ("free", "collision"):
+        raise CorpusFormatError(
+            f"{where}.verdict: expected 'free' or 'collision', got {verdict!r}."
+        )
+    window = d.get("window") if isinstance(d, dict) else None
+    return Truth(
+        verdict,
+        float(_get(d, "distance", where, (int, float))),
+        _inf(d.get("toi"), f"{where}.toi"),
+        _inf(d.get("toi_lo"), f"{where}.toi_lo"),
+        _inf(d.get("toi_hi"), f"{where}.toi_hi"),
+        math.nan if window is None else _inf(window, f"{where}.window"),
+        _get(d, "method", where, str),
+        _get(d, "proof", where, str),
+    )
+
+
+def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
+    """Read a corpus file (or a folder holding ``corpus.json``).
+
+    Returns:
+        (header without the cases, cases).
+
+    Raises:
+        CorpusFormatError: not a corpus, another version, or a malformed case (the message
+            names the case and key).
+        FileNotFoundError: no such file.
+    """
+    p = Path(path)
+    if p.is_dir():
+        p = p / FILE_NAME
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise FileNotFoundError(f"No corpus file at {str(p)!r}.") from None
+    except OSError as e:
+        raise CorpusFormatError(f"Cannot read {str(p)!r}: {e}") from None
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise CorpusFormatError(f"{p}: not valid JSON: {e}") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        got = doc.get("format") if isinstance(doc, dict) else type(doc).__name__
+        raise CorpusFormatError(f"{p}: expected `format` {FORMAT!r}, got {got!r}.")
+    if doc.get("version") != VERSION:
+        raise CorpusFormatError(
+            f"{p}: corpus version {doc.get('version')!r} is not supported; this rsmbench reads version {VERSION}."
+        )
+    raw = _get(doc, "cases", str(p), list)
+    cases = []
+    seen = set()
+    for i, d in enumerate(raw):
+        where = f"cases[{i}]"
+        cid = _get(d, "id", where, str)
+        where = f"cases[{i}] ({cid})"
+        if cid in seen:
+            raise CorpusFormatError(f"{where}: duplicate id.")
+        seen.add(cid)
+        klass = _get(d, "class", where, str)
+        if klass not in CLASSES:
+            raise CorpusFormatError(
+                f"{where}.class: expected one of {list(CLASSES)}, got {klass!r}."
+            )
+        scheme = _get(d, "scheme", where, str)
+        if scheme not in SCHEMES:
+            raise CorpusFormatError(
+                f"{where}.scheme: unknown {scheme!r}; expected one of {list(SCHEMES)}."
+            )
+        motion, kf = _motion_from_dict(_get(d, "motion", where, dict), f"{where}.motion")
+        obstacles = tuple(
+            shape_from_dict(o, f"{where}.obstacles[{j}]")
+            for j, o in enumerate(_get(d, "obstacles", where, list))
+        )
+        cases.append(
+            Case(
+                id=cid,
+                family=_get(d, "family", where, str),
+                klass=klass,
+                scheme=scheme,
+                motion=motion,
+                body=shape_from_dict(_get(d, "body", where, dict), f"{where}.body"),
+                obstacles=obstacles,
+                truth=_truth(_get(d, "truth", where, dict), f"{where}.truth"),
+                tags=tuple(_get(d, "tags", where, list)),
+                keyframes=kf,
+            )
+        )
+    header = {k: v for k, v in doc.items() if k != "cases"}
+    return header, cases

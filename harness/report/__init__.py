@@ -1,0 +1,159 @@
+"""`rsmbench report RUN_DIR`: a paper-grade report of a run (DESIGN §6).
+
+Writes ``report.md`` and a standalone ``report.html``; every figure as PNG and SVG under
+``figures/`` (labelled axes with units, ``n`` shown, censored data marked, never an empty
+plot); every table as CSV and LaTeX under ``tables/``.
+
+Reading the numbers:
+- a cost is the median over repeated rounds, with the interquartile range and a
+  bootstrap 95 % interval of the median; process CPU time and wall time are both given;
+- "cost of X / cost of hull" is the ratio of the median CPU cost per pair of X to that
+  of the hull, on the same pairs and tolerance, with a bootstrap 95 % interval from the
+  rounds of both;
+- accuracy rates have their denominators: a false free (verdict free, truth collision)
+  is counted out of the rows whose proven truth is collision; rows whose truth is not
+  proven (`unproven`, `unknown`) or whose workload label was only measured never count
+  as a pass.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pandas as pd
+
+from ..errors import HarnessError
+from .data import format_headline, headline, scaling_slopes
+from .document import Document, latex_table, pyplot
+from .sections import (
+    cache_text,
+    certify_section,
+    continuity_section,
+    filmstrip,
+    how_to_read,
+    machine_text,
+    memory_section,
+    physics_section,
+    scaling_section,
+    startup_section,
+    workload_section,
+)
+
+__all__ = [
+    "CITATION",
+    "ReportError",
+    "format_headline",
+    "headline",
+    "latex_table",
+    "scaling_slopes",
+    "write_report",
+]
+
+
+CITATION = (
+    "B. Jüttler and M. G. Wagner, *Kinematics and Animation*, in G. Farin, J. Hoschek and"
+    " M.-S. Kim (eds.), Handbook of Computer Aided Geometric Design, Elsevier, 2002"
+)
+
+
+class ReportError(HarnessError):
+    """A run folder that cannot be read, or a report that cannot be written."""
+
+
+def _read_run(run: Path) -> tuple[pd.DataFrame, dict]:
+    table = run / "results.parquet"
+    if not run.is_dir():
+        raise ReportError(f"Run folder {str(run)!r} does not exist.")
+    if not table.exists():
+        raise ReportError(f"{run} has no results.parquet; run `rsmbench run` into it first.")
+    try:
+        df = pd.read_parquet(table)
+    except Exception as e:  # pyarrow's ArrowInvalid, OSError, ...: the file is unreadable
+        raise ReportError(
+            f"{table}: not a readable parquet table ({type(e).__name__}: {str(e)[:120]})."
+        ) from None
+    if "study" not in df:
+        raise ReportError(f"{table}: not an rsmbench results table (no `study` column).")
+    meta: dict = {}
+    if (run / "meta.json").exists():
+        try:
+            meta = json.loads((run / "meta.json").read_text())
+        except (OSError, UnicodeDecodeError, ValueError) as e:
+            raise ReportError(f"{run / 'meta.json'}: not readable JSON ({e}).") from None
+        if not isinstance(meta, dict):
+            raise ReportError(f"{run / 'meta.json'}: expected a JSON object.")
+    return df, meta
+
+
+def write_report(run_dir: str | os.PathLike, out: str | os.PathLike | None = None) -> Path:
+    """Write ``report.md``, ``report.html``, ``figures/`` and ``tables/`` for a run.
+
+    Args:
+        run_dir: a run folder (``results.parquet``, ``meta.json``).
+        out: where to write (default: the run folder itself).
+
+    Raises:
+        ReportError: the run cannot be read, or the report cannot be written there.
+    """
+    run = Path(run_dir)
+    df, meta = _read_run(run)
+    dest = run if out is None else Path(out)
+    try:
+        return _write(df, meta, dest)
+    except PermissionError as e:
+        raise ReportError(
+            f"Cannot write the report into {str(dest)!r}: {e.strerror or e} (a read-only run?"
+            " give another folder with `rsmbench report RUN --out DIR`)."
+        ) from None
+    except OSError as e:
+        raise ReportError(f"Cannot write the report into {str(dest)!r}: {e}.") from None
+
+
+def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
+    dest.mkdir(parents=True, exist_ok=True)
+    plt = pyplot()
+    doc = Document(dest)
+    doc.h(f"rsmbench report: suite {meta.get('suite', '?')}", 1)
+    doc.p(machine_text(meta, len(df)) + cache_text(df))
+    doc.p(
+        "Rational spline motions after "
+        + CITATION
+        + " (the chapter's §6.3 gives the affine control structure that the hull bound uses)."
+    )
+    how_to_read(doc)
+    rows = headline(df, meta)
+    doc.h("Headline")
+    if rows:
+        doc.table(
+            pd.DataFrame(rows),
+            "The headline figures with their spread and what they were compared against.",
+            "headline",
+        )
+    else:
+        doc.p("(This run has no certify or workload study: no headline figures.)")
+    startup_section(doc, df)
+    certify_section(doc, df, plt)
+    workload_section(doc, df, plt)
+    scaling_section(doc, df, plt)
+    continuity_section(doc, df, plt)
+    physics_section(doc, df, plt)
+    from ..report_avoid import repair_section
+    from ..report_corpus import corpus_section
+
+    repair_section(doc, df, plt)
+    corpus_section(doc, df, plt)
+    memory_section(doc, df)
+    filmstrip(doc)
+    (dest / "report.md").write_text("\n".join(doc.md))
+    body = "\n".join(doc.html)
+    (dest / "report.html").write_text(
+        "<!doctype html><html><head><meta charset='utf-8'><title>rsmbench report</title>"
+        "<style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
+        "table{border-collapse:collapse;font-size:12px}"
+        "td,th{border:1px solid #ccc;padding:2px 6px}figcaption,em{color:#444}</style></head><body>"
+        + body
+        + "</body></html>"
+    )
+    return dest / "report.md"

@@ -1,0 +1,281 @@
+"""The report's numbers: rows of a study, accuracy rates with their denominators,
+workload costs per pair from the rounds, the headline, and scaling slopes."""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..timing import ratio_interval, spread
+from .document import fmt_time, span
+
+__all__ = [
+    "DECIDED",
+    "EXTERNAL_PREFIX",
+    "RAN",
+    "column",
+    "flag",
+    "format_headline",
+    "headline",
+    "implementation_of",
+    "method_labels",
+    "numeric",
+    "rates",
+    "ratio_text",
+    "rounds_of",
+    "scaling_slopes",
+    "series_basis",
+    "study_rows",
+    "timing_rows",
+    "workload_costs",
+]
+
+
+DECIDED = ("free", "collision")
+
+
+RAN = ("free", "collision", "unknown")
+
+
+EXTERNAL_PREFIX = "external"
+
+
+def study_rows(df: pd.DataFrame, name: str) -> pd.DataFrame:
+    return df[df["study"] == name] if "study" in df else df.iloc[0:0]
+
+
+def column(df: pd.DataFrame, col: str, default: Any = math.nan) -> pd.Series:
+    if col in df:
+        return df[col]
+    return pd.Series(default, index=df.index, dtype=object if isinstance(default, str) else float)
+
+
+def numeric(df: pd.DataFrame, col: str) -> pd.Series:
+    return pd.to_numeric(column(df, col), errors="coerce")
+
+
+def flag(df: pd.DataFrame, col: str) -> pd.Series:
+    return column(df, col, default=False).map(lambda v: v is True or v == 1).astype(bool)
+
+
+def rounds_of(v: Any) -> np.ndarray | None:
+    if not isinstance(v, str):
+        return None
+    try:
+        a = np.asarray(json.loads(v), dtype=float)
+    except (TypeError, ValueError):
+        return None
+    return a if a.size and np.all(np.isfinite(a)) else None
+
+
+def timing_rows(df: pd.DataFrame) -> pd.DataFrame:
+    """Rows that carry their own rounds (cost figures)."""
+    if "cpu_rounds" not in df:
+        return df.iloc[0:0]
+    return df[df["cpu_rounds"].notna()]
+
+
+def method_labels(df: pd.DataFrame) -> pd.Series:
+    return column(df, "scheme", "").astype(str) + "/" + column(df, "bound", "").astype(str)
+
+
+def rates(g: pd.DataFrame, label_ok: pd.Series | None = None) -> dict[str, Any]:
+    """Verdict counts and accuracy rates with denominators.
+
+    Only rows whose truth is proven (free or collision) count towards false free and
+    false collision; `label_ok` further restricts them (workload labels that are proofs).
+    """
+    verdict = column(g, "verdict", "").astype(str)
+    truth = column(g, "truth", "").astype(str)
+    ran = verdict.isin(RAN)
+    proven = truth.isin(DECIDED) & ran
+    if label_ok is not None:
+        proven &= label_ok.reindex(g.index).fillna(False).astype(bool)
+    coll, free = proven & (truth == "collision"), proven & (truth == "free")
+    return {
+        "ran": int(ran.sum()),
+        "free": int((ran & (verdict == "free")).sum()),
+        "collision": int((ran & (verdict == "collision")).sum()),
+        "unknown": int((ran & (verdict == "unknown")).sum()),
+        "not applicable": int((verdict == "n/a").sum()),
+        "truth proven": int(proven.sum()),
+        "truth not proven": int((ran & ~proven).sum()),
+        "false free": int((coll & (verdict == "free")).sum()),
+        "of truth collision": int(coll.sum()),
+        "false collision": int((free & (verdict == "collision")).sum()),
+        "of truth free": int(free.sum()),
+    }
+
+
+def ratio_text(k: int, n: int) -> str:
+    return f"{k}/{n}" if n else "n/a (0 rows)"
+
+
+def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]:
+    """The figures a reader wants first, each with its unit, spread and basis.
+
+    Returns rows with keys ``figure``, ``value``, ``spread``, ``basis`` (printed by
+    `rsmbench run` and the report's first table).
+    """
+    meta = meta or {}
+    out: list[dict[str, str]] = []
+    cert = study_rows(df, "certify")
+    if len(cert):
+        certified = flag(cert, "certified")
+        r = rates(cert[certified])
+        out.append(
+            dict(
+                figure="certified false free (certify study)",
+                value=ratio_text(r["false free"], r["of truth collision"]),
+                spread="exact count",
+                basis=f"certified verdicts (hull, aabb, lipschitz) whose ground truth is a proven collision; must be 0. {r['truth not proven']} certified rows had no proven truth and are not counted",
+            )
+        )
+        samp = cert[column(cert, "bound", "").astype(str) == "sampled"]
+        if len(samp):
+            r = rates(samp)
+            out.append(
+                dict(
+                    figure="sampled false free (certify study)",
+                    value=ratio_text(r["false free"], r["of truth collision"]),
+                    spread="exact count",
+                    basis=f"sampled verdicts against a proven collision truth; {r['truth not proven']} sampled rows with unproven truth are not counted as passes",
+                )
+            )
+    wl = study_rows(df, "workload")
+    pairs = wl[column(wl, "mode", "") == "pair"]
+    for method, g in pairs.groupby("bound", sort=True):
+        r = rates(g, column(g, "label", "") == "proven")
+        out.append(
+            dict(
+                figure=f"workload verdicts of {method}",
+                value=f"false free {r['false free']}/{r['of truth collision']}, false collision {r['false collision']}/{r['of truth free']}, unknown {r['unknown']}/{r['ran']}",
+                spread="exact counts",
+                basis=f"every pair of the workload; false verdicts counted against proven labels only ({r['truth not proven']} pairs with a measured label not counted)",
+            )
+        )
+    out += _workload_headline(df, meta)
+    return out
+
+
+def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
+    """One row per (workload, tolerance, method, mode) with per-pair cost spreads.
+
+    A workload run in several chunks has one timing row per chunk: round r of the whole
+    workload is the sum of round r of every chunk (rounds are independent draws), divided
+    by the total number of pairs."""
+    rows: list[dict] = []
+    t = timing_rows(wl)
+    keys = ["keyframes", "tolerance", "bound", "mode"]
+    if not len(t) or any(k not in t for k in keys) or "pairs" not in t:
+        return pd.DataFrame(rows)
+    for (name, tol, method, mode), g in t.groupby(keys, sort=False, dropna=False):
+        cpu = [rounds_of(v) for v in g["cpu_rounds"]]
+        wall = [rounds_of(v) for v in g["wall_rounds"]]
+        pairs = numeric(g, "pairs")
+        if any(x is None for x in cpu + wall) or not (pairs > 0).all():
+            continue
+        n = min(x.size for x in cpu + wall)
+        total = float(pairs.sum())
+        cpu_pp = sum(x[:n] for x in cpu) / total
+        wall_pp = sum(x[:n] for x in wall) / total
+        sc, sw = spread(cpu_pp), spread(wall_pp)
+        rows.append(
+            {
+                "workload": name,
+                "tolerance": tol,
+                "method": method,
+                "mode": mode,
+                "implementation": implementation_of(g),
+                "pairs": int(total),
+                "rounds": sc.n,
+                "cpu µs/pair": sc.median * 1e6,
+                "cpu IQR": span(sc.q1, sc.q3),
+                "cpu 95% CI": span(sc.lo, sc.hi),
+                "wall µs/pair": sw.median * 1e6,
+                "wall IQR": span(sw.q1, sw.q3),
+                "_cpu": cpu_pp,
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _workload_headline(df: pd.DataFrame, meta: dict) -> list[dict[str, str]]:
+    """Per workload and mode: the hull's cost per pair, then every other method's cost as
+    a ratio to it (batch against batch, single queries against single queries)."""
+    wl = study_rows(df, "workload")
+    costs = workload_costs(wl)
+    if not len(costs):
+        return []
+    out = []
+    machine = (
+        f"{meta.get('cpu_model') or meta.get('cpu', '?')},"
+        f" {meta.get('usable_cpus') or meta.get('cores', '?')} CPUs, device {meta.get('device', 'cpu')}"
+    )
+    what = {
+        "batch": "batch (one certify_many call)",
+        "single": "single queries (one call per pair)",
+    }
+    for (name, tol, mode), g in costs.groupby(["workload", "tolerance", "mode"], sort=False):
+        hull = g[g["method"] == "hull"]
+        if not len(hull):
+            continue
+        h = hull.iloc[0]
+        work = f"{name}: {int(h['pairs'])} pairs, tolerance {tol * 1e3:g} mm; {machine}"
+        out.append(
+            dict(
+                figure=f"hull cost per pair, {what.get(mode, mode)}",
+                value=f"{fmt_time(h['cpu µs/pair'] * 1e-6)} CPU ({fmt_time(h['wall µs/pair'] * 1e-6)} wall)",
+                spread=f"CPU IQR {h['cpu IQR']}, 95% CI {h['cpu 95% CI']}, {h['rounds']} rounds",
+                basis=work,
+            )
+        )
+        for _, o in g.iterrows():
+            if o["method"] == "hull":
+                continue
+            ratio, lo, hi = ratio_interval(h["_cpu"], o["_cpu"])
+            ext = " (external)" if str(o["implementation"]).startswith(EXTERNAL_PREFIX) else ""
+            out.append(
+                dict(
+                    figure=f"cost of {o['method']}{ext} / cost of hull, {mode}",
+                    value=f"{ratio:.3g}× ({'hull cheaper' if ratio > 1 else 'hull not cheaper'})",
+                    spread=f"95% CI {lo:.3g}–{hi:.3g}×; {o['method']} {fmt_time(o['cpu µs/pair'] * 1e-6)} CPU per pair ({o['implementation']})",
+                    basis=f"median CPU time per pair of {o['method']} / that of the hull, same pairs and tolerance; above 1 the hull is cheaper. {work}",
+                )
+            )
+    return out
+
+
+def format_headline(rows: list[dict[str, str]]) -> list[str]:
+    """Printable lines of :func:`headline`."""
+    return [f"{r['figure']}: {r['value']} ({r['spread']}; {r['basis']})" for r in rows]
+
+
+def scaling_slopes(sc: pd.DataFrame) -> dict[str, float]:
+    """Fitted slope of log cost on log δ per method (censored series included: see
+    :func:`_slope_table` for how the report labels them)."""
+    out = {}
+    for method, g in sc.groupby("method"):
+        g = g[pd.to_numeric(g["cost"], errors="coerce") > 0]
+        if len(g) >= 2 and g["delta"].nunique() >= 2:
+            out[method] = float(np.polyfit(np.log(g["delta"]), np.log(g["cost"]), 1)[0])
+    return out
+
+
+def series_basis(g: pd.DataFrame) -> str:
+    method = str(g["method"].iloc[0])
+    legacy_formula = method == "uniform sampling" and column(g, "verdicts").isna().all()
+    if ("kind" in g and (g["kind"] == "formula").any()) or legacy_formula:
+        return "formula (samples needed, not run)"
+    if flag(g, "censored").any():
+        return "censored (cost capped at the depth cap: a lower bound)"
+    return "measured"
+
+
+def implementation_of(g: pd.DataFrame) -> str:
+    v = column(g, "implementation", "").dropna().astype(str)
+    return v.iloc[0] if len(v) else ""

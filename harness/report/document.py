@@ -1,0 +1,210 @@
+"""The report's document: Markdown and HTML side by side, tables exported as CSV and
+LaTeX, figures as PNG and SVG, and the number formats they share."""
+
+from __future__ import annotations
+
+import base64
+import html
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "Document",
+    "cell",
+    "fmt_time",
+    "latex_table",
+    "markdown_table",
+    "pyplot",
+    "slug",
+    "span",
+]
+
+
+def cell(v: Any) -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, bool | np.bool_):
+        return "yes" if v else "no"
+    if isinstance(v, int | np.integer):
+        return str(int(v))
+    if isinstance(v, float | np.floating):
+        v = float(v)
+        if math.isnan(v):
+            return "–"
+        if math.isinf(v):
+            return "∞" if v > 0 else "-∞"
+        if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
+            return f"{v:.3g}"
+        return f"{v:.4g}"
+    return str(v)
+
+
+def markdown_table(df: pd.DataFrame) -> str:
+    cols = list(df.columns)
+    lines = [
+        "| " + " | ".join(map(str, cols)) + " |",
+        "| " + " | ".join("---" for _ in cols) + " |",
+    ]
+    for row in df.itertuples(index=False):
+        lines.append("| " + " | ".join(cell(v).replace("|", "\\|") for v in row) + " |")
+    return "\n".join(lines)
+
+
+_TEX = {
+    "\\": r"\textbackslash{}",
+    "&": r"\&",
+    "%": r"\%",
+    "$": r"\$",
+    "#": r"\#",
+    "_": r"\_",
+    "{": r"\{",
+    "}": r"\}",
+    "~": r"\textasciitilde{}",
+    "^": r"\textasciicircum{}",
+    "×": r"$\times$",
+    "µ": r"$\mu$",
+    "δ": r"$\delta$",
+    "±": r"$\pm$",
+    "–": "--",
+    "∞": r"$\infty$",
+    "≥": r"$\geq$",
+    "≤": r"$\leq$",
+    "²": r"$^2$",
+}
+
+
+def _tex(s: str) -> str:
+    return "".join(_TEX.get(c, c) for c in s)
+
+
+def latex_table(df: pd.DataFrame, caption: str) -> str:
+    """A booktabs ``table`` environment of `df` (no pandas/jinja2 needed)."""
+    align = "".join("r" if pd.api.types.is_numeric_dtype(df[c]) else "l" for c in df.columns)
+    lines = [
+        r"\begin{table}[htbp]",
+        r"\centering\small",
+        rf"\begin{{tabular}}{{{align}}}",
+        r"\toprule",
+        " & ".join(_tex(str(c)) for c in df.columns) + r" \\",
+        r"\midrule",
+    ]
+    for row in df.itertuples(index=False):
+        lines.append(" & ".join(_tex(cell(v)) for v in row) + r" \\")
+    lines += [r"\bottomrule", r"\end{tabular}", rf"\caption{{{_tex(caption)}}}", r"\end{table}"]
+    return "\n".join(lines) + "\n"
+
+
+def slug(text: str) -> str:
+    return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")[:60] or "table"
+
+
+def span(lo: float, hi: float) -> str:
+    """``lo–hi`` in the unit that suits `hi` (s, ms or µs)."""
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        return "–"
+    unit, scale = ("s", 1.0) if hi >= 1 else ("ms", 1e3) if hi >= 1e-3 else ("µs", 1e6)
+    return f"{lo * scale:.3g}–{hi * scale:.3g} {unit}"
+
+
+def fmt_time(seconds: float) -> str:
+    if not np.isfinite(seconds):
+        return "–"
+    a = abs(seconds)
+    if a >= 1:
+        return f"{seconds:.3g} s"
+    if a >= 1e-3:
+        return f"{seconds * 1e3:.3g} ms"
+    return f"{seconds * 1e6:.3g} µs"
+
+
+class Document:
+    """Collects Markdown and HTML side by side, and exports tables and figures."""
+
+    def __init__(self, out: Path):
+        self.folder = out
+        self.md: list[str] = []
+        self.html: list[str] = []
+        self.figs = out / "figures"
+        self.tabs = out / "tables"
+        self.names: set[str] = set()
+        for d in (self.figs, self.tabs):
+            d.mkdir(parents=True, exist_ok=True)
+            for old in d.iterdir():  # a rewritten report leaves no figure of an older one
+                if old.suffix in (".png", ".svg", ".csv", ".tex") and old.is_file():
+                    old.unlink()
+
+    def _unique(self, name: str) -> str:
+        base, k = name, 2
+        while name in self.names:
+            name, k = f"{base}_{k}", k + 1
+        self.names.add(name)
+        return name
+
+    def h(self, text: str, level: int = 2) -> None:
+        self.md.append(f"{'#' * level} {text}\n")
+        self.html.append(f"<h{level}>{html.escape(text)}</h{level}>")
+
+    def p(self, text: str) -> None:
+        self.md.append(text + "\n")
+        self.html.append(f"<p>{html.escape(text)}</p>")
+
+    def bullets(self, items: list[str]) -> None:
+        self.md.append("\n".join(f"- {t}" for t in items) + "\n")
+        self.html.append("<ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in items) + "</ul>")
+
+    def table(self, df: pd.DataFrame, caption: str, name: str | None = None) -> None:
+        """Add a table, exported as ``tables/NAME.csv`` and ``.tex`` (NAME from the
+        caption when not given)."""
+        name = self._unique("table:" + slug(name or caption)).split(":", 1)[1]
+        df = df.reset_index(drop=True)
+        df.to_csv(self.tabs / f"{name}.csv", index=False)
+        (self.tabs / f"{name}.tex").write_text(latex_table(df, caption))
+        self.md.append(
+            markdown_table(df) + f"\n\n*{caption}* (tables/{name}.csv, tables/{name}.tex)\n"
+        )
+        cells = "".join(
+            "<tr>" + "".join(f"<td>{html.escape(cell(v))}</td>" for v in row) + "</tr>"
+            for row in df.itertuples(index=False)
+        )
+        head = "".join(f"<th>{html.escape(str(c))}</th>" for c in df.columns)
+        self.html.append(
+            f"<table><thead><tr>{head}</tr></thead><tbody>{cells}</tbody></table>"
+            f"<p><em>{html.escape(caption)}</em> (<a href='tables/{name}.csv'>CSV</a>,"
+            f" <a href='tables/{name}.tex'>LaTeX</a>)</p>"
+        )
+
+    def figure(self, fig, name: str, caption: str) -> None:
+        import matplotlib.pyplot as plt
+
+        name = self._unique("figure:" + name).split(":", 1)[1]
+        png = self.figs / f"{name}.png"
+        fig.savefig(png, dpi=130, bbox_inches="tight")
+        fig.savefig(self.figs / f"{name}.svg", bbox_inches="tight", metadata={"Date": None})
+        plt.close(fig)
+        self.image(png, caption, svg=True)
+
+    def image(self, path: Path, caption: str, svg: bool = False) -> None:
+        rel = path.relative_to(self.folder)
+        extra = f" (vector: {rel.with_suffix('.svg')})" if svg else ""
+        self.md.append(f"![{caption}]({rel})\n\n*{caption}*{extra}\n")
+        data = base64.b64encode(path.read_bytes()).decode()
+        link = f" <a href='{rel.with_suffix('.svg')}'>SVG</a>" if svg else ""
+        self.html.append(
+            f'<figure><img src="data:image/png;base64,{data}" style="max-width:100%">'
+            f"<figcaption>{html.escape(caption)}{link}</figcaption></figure>"
+        )
+
+
+def pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"svg.fonttype": "none", "svg.hashsalt": "rsmbench", "font.size": 9})
+    return plt

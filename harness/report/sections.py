@@ -1,0 +1,552 @@
+"""The report's sections: each writes its tables and figures into a
+:class:`~harness.report.document.Document`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from .data import (
+    EXTERNAL_PREFIX,
+    RAN,
+    column,
+    flag,
+    implementation_of,
+    method_labels,
+    numeric,
+    rates,
+    ratio_text,
+    scaling_slopes,
+    series_basis,
+    study_rows,
+    workload_costs,
+)
+from .document import Document, cell
+
+__all__ = [
+    "cache_text",
+    "certify_section",
+    "continuity_section",
+    "filmstrip",
+    "how_to_read",
+    "machine_text",
+    "memory_section",
+    "physics_section",
+    "scaling_section",
+    "startup_section",
+    "workload_section",
+]
+
+TOI_FLOOR = 1e-16
+"""|TOI error| / duration below this is drawn at this value (an exact match): log axes
+cannot show 0."""
+
+
+def machine_text(meta: dict, rows: int) -> str:
+    wall = meta.get("wall_seconds")
+    legs = meta.get("legs")
+    wall_txt = f"{wall:.0f} s" if isinstance(wall, int | float) else "?"
+    if isinstance(legs, list) and len(legs) > 1:
+        wall_txt += f" over {len(legs)} legs (resumed)"
+    elif meta.get("resumed") and not isinstance(legs, list):
+        wall_txt += " (last leg only: the run was resumed)"
+    ram = meta.get("ram_gb")
+    ram_txt = f", {ram:.1f} GB RAM" if isinstance(ram, int | float) else ""
+    load = meta.get("load_average")
+    load_txt = f", load average at start {load[0]}" if isinstance(load, list) and load else ""
+    return (
+        f"Run of {meta.get('started', '?')} on {meta.get('cpu_model') or meta.get('cpu', '?')}"
+        f" ({meta.get('usable_cpus') or meta.get('cores', '?')} usable CPUs{ram_txt}{load_txt}),"
+        f" device {meta.get('device', 'cpu')}, certify threads {meta.get('certify_threads', '?')};"
+        f" git {str(meta.get('git_revision'))[:10]}{' (dirty)' if meta.get('git_dirty') else ''};"
+        f" total wall time {wall_txt}; {rows} rows."
+        f" Versions: {', '.join(f'{k} {v}' for k, v in meta.get('versions', {}).items())}."
+    )
+
+
+def cache_text(df: pd.DataFrame) -> str:
+    st = study_rows(df, "startup")
+    states = sorted(set(column(st, "kernel_cache", "").dropna().astype(str)) - {""})
+    if not states:
+        return ""
+    what = {"cold": "cold (kernels compiled in this run)", "warm": "warm (kernels loaded)"}
+    return " Warp kernel cache: " + ", ".join(what.get(x, x) for x in states) + "."
+
+
+def how_to_read(doc: Document) -> None:
+    doc.h("How to read this report")
+    doc.bullets(
+        [
+            "Costs are medians over repeated rounds (the `rounds` column), with the interquartile range (IQR) and a bootstrap 95 % interval (CI) of the median. CPU time is the process's CPU time (every thread); wall time is elapsed time. The first call of each method (Warp kernel compile or cache load) is timed apart and never charged to a case.",
+            "'cost of X / cost of hull' divides X's median CPU time per pair by the hull's, on the same pairs at the same tolerance (above 1 the hull is cheaper); the interval resamples the rounds of both. Batch means one certify_many call over all pairs; single means one call per pair.",
+            "Rows named 'external' are implemented outside the Warp kernels (for example a Python loop around MuJoCo's mj_geomDistance): their cost includes that implementation, not only the algorithm.",
+            "A false free (verdict free, truth collision) is counted out of the rows whose truth is a proven collision; a false collision out of the rows whose truth is proven free. Rows with truth `unproven` (no proven speed bound) or `unknown`, and workload pairs whose clearance label is only measured, are listed apart and never counted as passes. `n/a` marks a figure that cannot be non-zero or a combination that does not apply.",
+            "Time in motions is the spline parameter: seconds for scene keyframes, the chordal parameter (length units) for random ones. TOI errors are therefore given as a fraction of the motion's duration.",
+        ]
+    )
+
+
+def startup_section(doc: Document, df: pd.DataFrame) -> None:
+    st = study_rows(df, "startup")
+    if not len(st):
+        return
+    doc.h("Start-up: kernel compile and first call")
+    cols = [
+        c
+        for c in ("method", "kernel_cache", "warmup_wall", "warmup_cpu", "compiled_modules")
+        if c in st
+    ]
+    t = st[cols].rename(
+        columns={"warmup_wall": "first call wall (s)", "warmup_cpu": "first call CPU (s)"}
+    )
+    doc.table(
+        t,
+        "The first certification call of each method in this process: Warp kernel compile (cache 'cold': a module was compiled) or cache load ('warm'), plus start-up. Measured once, before any case, and charged to none.",
+        "startup",
+    )
+
+
+def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
+    cert = study_rows(df, "certify")
+    if not len(cert):
+        return
+    doc.h("Certification accuracy")
+    cert = cert.assign(method=method_labels(cert))
+    overall = pd.DataFrame(
+        [{"method": m, **rates(g)} for m, g in cert.groupby("method", sort=True)]
+    )
+    doc.table(
+        overall,
+        "Per scheme/bound over every scene, keyframe set and tolerance of the study: verdict counts; false free out of the rows whose proven truth is collision; false collision out of those proven free. The ground truth is dense exact distances (MuJoCo mj_geomDistance) plus the Lipschitz margin of a proven speed bound; schemes without one have truth `unproven`, counted apart.",
+        "accuracy_by_method",
+    )
+    _rate_figure(doc, cert, plt)
+    per = []
+    for (scene, tol, m), g in cert.groupby(["scene", "tolerance", "method"], sort=True):
+        r = rates(g)
+        cpu = numeric(g, "cpu_median")
+        per.append(
+            {
+                "scene": scene,
+                "tolerance (mm)": float(tol) * 1e3,
+                "method": m,
+                "ran": r["ran"],
+                "free": r["free"],
+                "collision": r["collision"],
+                "unknown": r["unknown"],
+                "false free": ratio_text(r["false free"], r["of truth collision"]),
+                "false collision": ratio_text(r["false collision"], r["of truth free"]),
+                "truth not proven": r["truth not proven"],
+                "median nodes": float(numeric(g, "nodes").median()),
+                "median CPU ms/query": float(cpu.median() * 1e3) if cpu.notna().any() else math.nan,
+            }
+        )
+    per = pd.DataFrame(per)
+    for (scene, tol), g in per.groupby(["scene", "tolerance (mm)"], sort=True):
+        doc.h(f"{scene}, tolerance {tol:g} mm", 3)
+        doc.table(
+            g.drop(columns=["scene", "tolerance (mm)"]),
+            f"Scene {scene} at tolerance {tol:g} mm, every keyframe set: verdicts, accuracy with denominators, median bound evaluations and median CPU time per single certify call (median over the rows of their per-row median over rounds).",
+            f"certify_{scene}_{tol:g}mm",
+        )
+    na = (
+        cert[column(cert, "verdict", "") == "n/a"].groupby("method")["reason"].first().reset_index()
+    )
+    if len(na):
+        doc.table(
+            na,
+            "Combinations that do not apply (a bound needs a rational control structure or a proven speed bound).",
+            "not_applicable",
+        )
+    _toi_figure(doc, cert, plt)
+
+
+def _rate_figure(
+    doc: Document,
+    cert: pd.DataFrame,
+    plt,
+    *,
+    name: str = "verdict_rates",
+    xlabel: str = "scheme/bound",
+    label_ok: pd.Series | None = None,
+    what: str = "per scheme/bound",
+) -> None:
+    ran = cert[column(cert, "verdict", "").isin(RAN)]
+    if not len(ran):
+        doc.p("(No certification ran: no accuracy figure.)")
+        return
+    methods = sorted(ran["method"].unique())
+    stats = [rates(ran[ran["method"] == m], label_ok) for m in methods]
+    kinds = [
+        ("false free", "of truth collision", "false-negative rate (free, truth collision)"),
+        ("false collision", "of truth free", "false-positive rate (collision, truth free)"),
+        ("unknown", "ran", "unknown rate"),
+    ]
+    fig, ax = plt.subplots(figsize=(max(6, 0.7 * len(methods) + 2), 3.6))
+    x = np.arange(len(methods))
+    width = 0.27
+    for j, (k, d, label) in enumerate(kinds):
+        num = np.array([s[k] for s in stats], dtype=float)
+        den = np.array([s[d] for s in stats], dtype=float)
+        rate = np.divide(num, den, out=np.zeros_like(num), where=den > 0)
+        pos = x + (j - 1) * width
+        bars = ax.bar(pos, rate, width, label=label)
+        # a marker on every measured rate, so that a rate of 0 is visible as a measurement
+        ok = den > 0
+        ax.plot(pos[ok], rate[ok], "_", ms=9, mew=2, color=bars.patches[0].get_facecolor())
+        for xi, ni, di, ri in zip(pos, num, den, rate, strict=True):
+            ax.text(
+                xi,
+                ri + 0.02,
+                f"{int(ni)}/{int(di)}" if di else "n/a",
+                ha="center",
+                va="bottom",
+                rotation=90,
+                fontsize=6,
+            )
+    ax.set_xticks(x, methods, rotation=60, ha="right", fontsize=7)
+    ax.set_ylim(-0.03, 1.25)
+    ax.set_ylabel("rate (fraction of the denominator)")
+    ax.set_xlabel(xlabel)
+    ax.legend(fontsize=7, loc="upper left")
+    doc.figure(
+        fig,
+        name,
+        f"False-negative, false-positive and unknown rates {what}, each bar labelled with its count over its denominator (rows with proven truth collision, proven truth free, and rows that ran). 'n/a': no row in the denominator (for example no proven truth).",
+    )
+
+
+def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
+    both = cert[
+        (column(cert, "truth", "") == "collision") & (column(cert, "verdict", "") == "collision")
+    ]
+    err = numeric(both, "toi_error")
+    both = both[err.notna()]
+    if not len(both):
+        doc.p("(No collision case with a proven truth: no TOI-error figure.)")
+        return
+    err = numeric(both, "toi_error")
+    dur = numeric(both, "duration")
+    relative = dur.notna().all()
+    mag = (err.abs() / dur) if relative else err.abs()
+    late = int((err > 0).sum())
+    bounds = sorted(both["bound"].astype(str).unique())
+    data, labels = [], []
+    for b in bounds:
+        v = mag[both["bound"] == b].to_numpy(dtype=float)
+        exact = int((v <= TOI_FLOOR).sum())
+        data.append(np.log10(np.maximum(v, TOI_FLOOR)))
+        labels.append(f"{b}\nn={v.size}" + (f"\n({exact} exact)" if exact else ""))
+    fig, ax = plt.subplots(figsize=(max(4, 1.3 * len(bounds) + 1.5), 3.4))
+    ax.boxplot(data)
+    ax.set_xticks(range(1, len(bounds) + 1), labels, fontsize=7)
+    ax.set_ylabel(
+        "log10 |toi_lo − true first contact| / duration"
+        if relative
+        else "log10 |toi_lo − true first contact| (parameter units)"
+    )
+    ax.set_xlabel("bound")
+    doc.figure(
+        fig,
+        "toi_error",
+        f"Time-of-contact error of collision verdicts whose truth is a proven collision: |toi_lo minus the ground truth's first intersecting sample|, {'as a fraction of the motion duration' if relative else 'in motion parameter units'}, log scale; n per box. A certified toi_lo never lies after the true contact: {late} row(s) had toi_lo later than the ground truth's first intersecting sample.",
+    )
+
+
+def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
+    wl = study_rows(df, "workload")
+    if not len(wl):
+        return
+    doc.h("Certification workload")
+    pairs = wl[
+        column(wl, "mode", "pair").astype(str).isin(["pair", ""]) | column(wl, "mode").isna()
+    ]
+    pairs = pairs[column(pairs, "pair").notna()]
+    if len(pairs):
+        lab = column(pairs, "label", "measured").astype(str)
+        first = pairs[pairs["bound"] == pairs["bound"].iloc[0]]
+        lab1 = column(first, "label", "measured").astype(str)
+        free = int((numeric(first, "clearance") > 0).sum())
+        doc.p(
+            f"{len(first)} (motion, obstacle) pairs of 8-keyframe C² rational motions; obstacles placed for a minimum clearance log-uniform in [1 mm, 10 cm] (70 %) or a penetration (30 %): {free} free, {len(first) - free} penetrating by their labels."
+            f" Labels: {int((lab1 == 'proven').sum())} proven (a certified bracket of the clearance, or a proven penetration depth), {int((lab1 != 'proven').sum())} only measured (dense sampling, not a proof); only proven labels count as truth below."
+        )
+        ok = lab == "proven"
+        acc = pd.DataFrame(
+            [
+                {"method": b, "implementation": implementation_of(g), **rates(g, ok)}
+                for b, g in pairs.groupby("bound", sort=True)
+            ]
+        )
+        doc.table(
+            acc,
+            "Verdicts per method on every pair of the workload; false free and false collision out of the pairs whose label is proven.",
+            "workload_accuracy",
+        )
+        _rate_figure(
+            doc,
+            pairs.assign(method=pairs["bound"].astype(str)),
+            plt,
+            name="workload_rates",
+            xlabel="method",
+            label_ok=ok,
+            what="per method on the workload (truth: proven labels only)",
+        )
+    costs = workload_costs(wl)
+    if len(costs):
+        doc.table(
+            costs.drop(columns=["_cpu"]),
+            "Cost per pair: medians over rounds of the whole set of pairs (batch: one certify_many call; single: one call per pair), divided by the number of pairs; every method on the same pairs.",
+            "workload_cost",
+        )
+        _cost_figure(doc, costs, plt)
+    elif "batch_seconds" in wl:
+        doc.p("(This run predates repeated rounds: no cost table. Rerun the suite.)")
+    hull = (
+        pairs[(pairs["bound"] == "hull") & (numeric(pairs, "clearance") > 0)]
+        if len(pairs)
+        else pairs
+    )
+    if len(hull) and numeric(hull, "nodes").notna().any():
+        fig, ax = plt.subplots(figsize=(5.5, 3.2))
+        ax.scatter(numeric(hull, "clearance") * 1e3, numeric(hull, "nodes"), s=6)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("clearance label (mm)")
+        ax.set_ylabel("bound evaluations per pair")
+        ax.set_title(f"hull, n = {len(hull)} free pairs", fontsize=8)
+        doc.figure(
+            fig,
+            "workload_nodes",
+            "Bound evaluations of the adaptive hull subdivision per free pair against its clearance label: the cost grows only slowly as the clearance shrinks towards the tolerance.",
+        )
+
+
+def _cost_figure(doc: Document, costs: pd.DataFrame, plt) -> None:
+    labels = [
+        f"{r.method}\n{r.mode}"
+        + ("\n(external)" if str(r.implementation).startswith(EXTERNAL_PREFIX) else "")
+        + f"\nn={r.rounds} rounds\n{r.pairs} pairs"
+        for r in costs.itertuples()
+    ]
+    fig, ax = plt.subplots(figsize=(max(5, 1.1 * len(costs) + 1.5), 3.6))
+    ax.boxplot([c * 1e6 for c in costs["_cpu"]])
+    ax.set_xticks(range(1, len(costs) + 1), labels, fontsize=7)
+    ax.set_yscale("log")
+    ax.set_ylabel("CPU time per pair (µs)")
+    ax.set_xlabel("method, mode")
+    doc.figure(
+        fig,
+        "workload_cost",
+        "CPU time per pair of each method, one sample per round (n rounds per box; each round covers the pairs given, the same for every method in a mode); log scale.",
+    )
+
+
+def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
+    sc = study_rows(df, "scaling")
+    sc = sc[numeric(sc, "cost") > 0] if len(sc) else sc
+    if not len(sc):
+        return
+    doc.h("Cost against resolution")
+    slopes = scaling_slopes(sc)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    table = []
+    for method, g in sc.groupby("method"):
+        g = g.sort_values("delta")
+        basis = series_basis(g)
+        d_mm = g["delta"].to_numpy(dtype=float) * 1e3
+        cost = g["cost"].to_numpy(dtype=float)
+        cens = flag(g, "censored").to_numpy()
+        if basis.startswith("formula"):
+            (line,) = ax.loglog(d_mm, cost, "--", label=f"{method} (formula, not run)")
+        else:
+            (line,) = ax.loglog(d_mm, cost, "-", label=f"{method} ({basis.split(' ')[0]})")
+            ax.loglog(d_mm[~cens], cost[~cens], "o", color=line.get_color())
+        if cens.any():
+            ax.loglog(d_mm[cens], cost[cens], "^", mfc="none", color=line.get_color())
+        slope = slopes.get(method, math.nan)
+        table.append(
+            {
+                "method": method,
+                "fitted slope": slope if basis == "measured" else math.nan,
+                "slope of the plotted values": slope,
+                "basis": basis,
+                "points": len(g),
+            }
+        )
+    ax.set_xlabel("resolution δ (mm); pairs with clearance 2δ")
+    ax.set_ylabel("cost (poses or bound evaluations, all pairs)")
+    ax.legend(fontsize=7)
+    doc.figure(
+        fig,
+        "scaling",
+        "Cost to certify pairs with clearance 2δ at resolution δ, log-log. Solid lines with dots were measured; the dashed line is the number of samples uniform sampling would need (V·T/δ, computed, not run); open triangles are censored (uniform subdivision stopped at its depth cap without clearing, so the cost shown is a lower bound).",
+    )
+    doc.table(
+        pd.DataFrame(table),
+        "Slopes of log cost on log δ. A fitted slope is given only for measured, uncensored series; the slope of a formula or of censored values is shown apart and is not a measurement.",
+        "scaling_slopes",
+    )
+
+
+def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
+    src = df[df["study"].isin(["certify", "simulate"])]
+    if not len(src) or "continuity" not in src:
+        return
+    doc.h("Continuity measured at the knots")
+    src = src.dropna(subset=["continuity"]).drop_duplicates(["scene", "keyframes", "scheme"])
+    if not len(src):
+        return
+    g = src.groupby("scheme")
+    t = pd.DataFrame(
+        {
+            "motions": g.size(),
+            "measured class": g["continuity"].agg(lambda v: "/".join(sorted(set(map(str, v))))),
+            "max jump of acceleration": g["jump_acceleration"].max(),
+            "max jump of angular acceleration": g["jump_angular_acceleration"].max(),
+            "max jump of angular velocity": g["jump_angular_velocity"].max(),
+            "world-frame invariance error": g["invariance_world"].max(),
+            "body-frame invariance error": g["invariance_body"].max(),
+        }
+    ).reset_index()
+    doc.table(
+        t,
+        "Measured continuity class (a derivative counts as continuous when its one-sided jump at a knot falls at least 5× per decade of the offset) and the largest jumps at the smallest offset, in scene units per motion-parameter unit (m/s², rad/s², rad/s for scene keyframes); invariance: largest matrix difference after moving the world frame or turning the body.",
+        "continuity",
+    )
+    scene_kf = src[src["keyframes"] == "scene"]
+    use = scene_kf if len(scene_kf) else src
+    unit_t = "s" if len(scene_kf) else "t"
+    gg = use.groupby("scheme")
+    lin = gg["jump_acceleration"].max()
+    ang = gg["jump_angular_acceleration"].max()
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
+    for ax, series, label in (
+        (axes[0], lin, f"jump of acceleration (m/{unit_t}²)"),
+        (axes[1], ang, f"jump of angular acceleration (rad/{unit_t}²)"),
+    ):
+        vals = series.to_numpy(dtype=float)
+        x = np.arange(len(vals))
+        ok = np.isfinite(vals) & (vals > 0)
+        ax.bar(x[ok], vals[ok])
+        for xi in x[~ok]:
+            ax.text(xi, 1, "0" if np.isfinite(vals[xi]) else "n/a", ha="center", fontsize=7)
+        ax.set_yscale("log")
+        ax.set_xticks(x, series.index, rotation=45, ha="right", fontsize=7)
+        ax.set_ylabel(label)
+        ax.set_xlabel("scheme")
+    counts = gg.size()
+    fig.suptitle(
+        f"largest one-sided jump at interior knots; motions per scheme: {int(counts.min())}–{int(counts.max())}",
+        fontsize=8,
+    )
+    doc.figure(
+        fig,
+        "continuity_jumps",
+        f"Largest one-sided jumps of acceleration (left) and angular acceleration (right) at interior knots, at the smallest offset, {'scene keyframes (time in seconds)' if len(scene_kf) else 'random keyframes (t: the chordal parameter)'}: C² schemes jump only by the offset times the jerk; C¹ and C⁰ schemes jump by a finite amount.",
+    )
+
+
+def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
+    sim = study_rows(df, "simulate")
+    if not len(sim):
+        return
+    doc.h("Physics-side smoothness and the simulation cross-check")
+    cols = [
+        c
+        for c in (
+            "scene",
+            "scheme",
+            "carried",
+            "force_jump",
+            "force_rate_jump",
+            "jerk_jump",
+            "min_distance",
+            "verdict",
+            "crosscheck_ok",
+            "steps_per_second",
+        )
+        if c in sim
+    ]
+    t = sim[cols].copy()
+    carried = numeric(sim, "carried")
+    for c in ("force_jump", "force_rate_jump", "jerk_jump"):
+        if c in t:
+            t[c] = [
+                "n/a" if (np.isfinite(k) and k == 0) or not np.isfinite(v) else cell(float(v))
+                for v, k in zip(numeric(sim, c), carried.fillna(1), strict=True)
+            ]
+    doc.table(
+        t.rename(
+            columns={
+                "force_jump": "force jump (N)",
+                "force_rate_jump": "force rate jump (N/s)",
+                "jerk_jump": "jerk jump (m/s³)",
+                "min_distance": "min distance (m)",
+            }
+        ),
+        "MuJoCo simulation of every scene and scheme: jumps of the net constraint force on carried bodies and of its rate at the knots (lines fitted over 8 steps each side; n/a where the scene carries nothing), the smallest simulated clearance, and for rational motions the certificate; crosscheck_ok is False only if a certified-free motion touched in simulation.",
+        "physics",
+    )
+    rate = numeric(sim, "force_rate_jump")
+    has = sim[rate.notna() & (rate > 0) & (carried.fillna(1) > 0)]
+    if len(has):
+        fig, ax = plt.subplots(figsize=(6.5, 3.2))
+        schemes = sorted(has["scheme"].unique())
+        for scene, g in has.groupby("scene"):
+            ax.semilogy(
+                [schemes.index(s) for s in g["scheme"]],
+                numeric(g, "force_rate_jump"),
+                "o",
+                label=scene,
+            )
+        ax.set_xticks(range(len(schemes)), schemes, rotation=40, ha="right", fontsize=8)
+        ax.set_ylabel("force rate jump (N/s)")
+        ax.set_xlabel("scheme")
+        ax.legend(fontsize=7, title="scene (carries a body)", title_fontsize=7)
+        doc.figure(
+            fig,
+            "force_jumps",
+            f"Jump of the rate of change of the force on carried bodies at keyframes ({len(has)} simulations of scenes that carry something): C⁰ schemes jump most, C¹ ones clearly, C² ones least.",
+        )
+
+
+def memory_section(doc: Document, df: pd.DataFrame) -> None:
+    if "case_memory_mb" not in df:
+        return
+    mem = df[numeric(df, "case_memory_mb").notna()]
+    if not len(mem):
+        return
+    doc.h("Memory per case")
+    per_case = mem.drop_duplicates("case_id") if "case_id" in mem else mem
+    g = per_case.groupby("study")
+    t = pd.DataFrame(
+        {
+            "cases": g.size(),
+            "median added MB": g["case_memory_mb"].median(),
+            "max added MB": g["case_memory_mb"].max(),
+            "max peak resident MB": g["peak_memory_mb"].max(),
+            "method": g["memory_method"].agg(lambda v: "/".join(sorted(set(map(str, v))))),
+        }
+    ).reset_index()
+    doc.table(
+        t,
+        "Memory of each case, measured per case: the peak resident set during the case (the kernel's high-water mark reset before it, 'rss') and its excess over the resident set at the start of the case.",
+        "memory",
+    )
+
+
+def filmstrip(doc: Document) -> None:
+    try:
+        from .render import render
+
+        path, backend = render("cube_keyframes", out=doc.figs / "filmstrip.png", frames=5)
+        doc.h("Filmstrip")
+        doc.image(
+            path,
+            f"The rational C² motion of the cube scene through its five keyframes, drawn with the {backend} backend.",
+        )
+    except Exception as e:  # a picture is a nicety; say why it is missing
+        doc.p(f"(No filmstrip: {type(e).__name__}: {e})")

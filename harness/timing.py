@@ -1,0 +1,454 @@
+"""Repeated-rounds timing, spread statistics, per-case memory and machine facts
+(DESIGN §6 "Measurements a reviewer accepts").
+
+Every cost figure of the harness comes from :func:`repeat` (or :func:`interleave` for
+contenders timed A B A B): one warm-up call, kept apart (it pays Warp's kernel compile
+or cache load and first-call start-up), then ``rounds`` timed calls, each with wall time
+(``time.perf_counter``) and process CPU time (``time.process_time``, all threads of the
+process). :class:`Rounds` summarises them as a median with the interquartile range and a
+bootstrap 95% interval of the median; :func:`ratio_interval` gives the interval of a
+ratio of medians from the rounds of both sides.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import platform
+import time
+import tracemalloc
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "BOOTSTRAP_RESAMPLES",
+    "DEFAULT_ROUNDS",
+    "TIMING_ROUND_COLUMNS",
+    "CaseMemory",
+    "Rounds",
+    "Spread",
+    "bootstrap_interval",
+    "first_call",
+    "interleave",
+    "kernel_cache_entries",
+    "machine_info",
+    "ratio_interval",
+    "repeat",
+    "spread",
+]
+
+DEFAULT_ROUNDS = 5
+"""Timed rounds per figure unless a suite says otherwise (DESIGN §6: at least 5)."""
+BOOTSTRAP_RESAMPLES = 2000
+"""Resamples of a bootstrap interval: the 2.5 % and 97.5 % quantiles of 2000 resamples
+move by well under the spread of 5-round samples between seeds."""
+CONFIDENCE = 0.95
+TIMING_ROUND_COLUMNS = (
+    *(
+        f"{t}_{s}"
+        for t in ("wall", "cpu")
+        for s in ("median", "q1", "q3", "ci_lo", "ci_hi", "rounds")
+    ),
+    "warmup_wall",
+    "warmup_cpu",
+    "peak_memory_mb",
+    "case_memory_mb",
+    "memory_method",
+    "kernel_cache",
+    "compiled_modules",
+)
+"""Columns that vary between runs of the same suite and seed (times, memory, the state
+of Warp's kernel cache); every other column is reproducible."""
+
+
+@dataclass(frozen=True)
+class Spread:
+    """Median, quartiles and a bootstrap interval of the median of one sample.
+
+    Attributes:
+        median, q1, q3: of the rounds.
+        lo, hi: bootstrap 95 % interval of the median (equal to the median for one round).
+        n: number of rounds.
+    """
+
+    median: float
+    q1: float
+    q3: float
+    lo: float
+    hi: float
+    n: int
+
+    @property
+    def iqr(self) -> float:
+        return self.q3 - self.q1
+
+
+def _as_sample(x: Any, name: str) -> np.ndarray:
+    a = np.asarray(x, dtype=float).ravel()
+    if a.size == 0:
+        raise ValueError(f"Expected `{name}` to hold at least one measurement, got none.")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"Expected `{name}` to be finite, got {a.tolist()}.")
+    return a
+
+
+def bootstrap_interval(
+    x: Sequence[float] | np.ndarray,
+    *,
+    stat: Callable[[np.ndarray], np.ndarray] = lambda s: np.median(s, axis=-1),
+    level: float = CONFIDENCE,
+    resamples: int = BOOTSTRAP_RESAMPLES,
+    rng: np.random.Generator | None = None,
+) -> tuple[float, float]:
+    """Percentile bootstrap interval of ``stat`` (vectorised over the last axis) of x."""
+    a = _as_sample(x, "x")
+    if a.size == 1:
+        v = float(stat(a[None, :])[0])
+        return v, v
+    rng = np.random.default_rng(0) if rng is None else rng
+    boot = stat(a[rng.integers(0, a.size, size=(resamples, a.size))])
+    lo, hi = np.quantile(boot, [(1 - level) / 2, (1 + level) / 2])
+    return float(lo), float(hi)
+
+
+def spread(x: Sequence[float] | np.ndarray, rng: np.random.Generator | None = None) -> Spread:
+    """:class:`Spread` of a sample of rounds."""
+    a = _as_sample(x, "x")
+    q1, med, q3 = np.quantile(a, [0.25, 0.5, 0.75])
+    lo, hi = bootstrap_interval(a, rng=rng)
+    return Spread(float(med), float(q1), float(q3), lo, hi, int(a.size))
+
+
+def ratio_interval(
+    base: Sequence[Sequence[float]] | Sequence[float],
+    new: Sequence[Sequence[float]] | Sequence[float],
+    *,
+    level: float = CONFIDENCE,
+    resamples: int = BOOTSTRAP_RESAMPLES,
+    rng: np.random.Generator | None = None,
+) -> tuple[float, float, float]:
+    """Ratio ``sum of medians(new) / sum of medians(base)`` over matched cases, with a
+    two-level bootstrap interval (cases resampled together, then each case's rounds
+    resampled within each side).
+
+    Args:
+        base, new: one sample of rounds (a flat sequence) or one sample per case (a
+            sequence of sequences, the same number of cases on both sides; cases may have
+            different numbers of rounds).
+
+    Returns:
+        (ratio, lo, hi).
+    """
+    b = _cases(base, "base")
+    n = _cases(new, "new")
+    if len(b) != len(n):
+        raise ValueError(f"Expected as many cases in `new` as in `base` ({len(b)}), got {len(n)}.")
+    rng = np.random.default_rng(0) if rng is None else rng
+    point_b = sum(float(np.median(c)) for c in b)
+    point_n = sum(float(np.median(c)) for c in n)
+    if point_b <= 0:
+        return math.inf if point_n > 0 else 1.0, math.nan, math.nan
+    ratio = point_n / point_b
+    # Per-case bootstrap distributions of the median, then cases resampled jointly.
+    med_b = np.stack([_boot_medians(c, resamples, rng) for c in b])  # (C, B)
+    med_n = np.stack([_boot_medians(c, resamples, rng) for c in n])
+    pick = rng.integers(0, len(b), size=(resamples, len(b))) if len(b) > 1 else None
+    cols = np.arange(resamples)
+    if pick is None:
+        sb, sn = med_b[0], med_n[0]
+    else:
+        sb = med_b[pick, cols[:, None]].sum(axis=1)
+        sn = med_n[pick, cols[:, None]].sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        boot = np.where(sb > 0, sn / sb, np.inf)
+    lo, hi = np.quantile(boot, [(1 - level) / 2, (1 + level) / 2])
+    return ratio, float(lo), float(hi)
+
+
+def _cases(x: Any, name: str) -> list[np.ndarray]:
+    if isinstance(x, np.ndarray) and x.ndim == 1:
+        return [_as_sample(x, name)]
+    items = list(x)
+    if not items:
+        raise ValueError(f"Expected `{name}` to hold at least one case, got none.")
+    if all(np.ndim(v) == 0 for v in items):
+        return [_as_sample(items, name)]
+    return [_as_sample(v, f"{name}[{i}]") for i, v in enumerate(items)]
+
+
+def _boot_medians(a: np.ndarray, resamples: int, rng: np.random.Generator) -> np.ndarray:
+    if a.size == 1:
+        return np.full(resamples, a[0])
+    return np.median(a[rng.integers(0, a.size, size=(resamples, a.size))], axis=1)
+
+
+# ----------------------------------------------------------------------------- rounds
+@dataclass(frozen=True)
+class Rounds:
+    """Timed rounds of one figure.
+
+    Attributes:
+        wall: (R,) wall seconds per round (``time.perf_counter``).
+        cpu: (R,) process CPU seconds per round (``time.process_time``: every thread of
+            the process, so two busy threads count twice).
+        warmup_wall, warmup_cpu: the untimed first call(s) before the rounds, summed
+            (NaN when there was none).
+        result: the value returned by the last round.
+    """
+
+    wall: np.ndarray
+    cpu: np.ndarray
+    warmup_wall: float = math.nan
+    warmup_cpu: float = math.nan
+    result: Any = None
+
+    def scaled(self, factor: float) -> Rounds:
+        """The same rounds with every time multiplied by `factor` (e.g. 1 / pairs)."""
+        return Rounds(
+            self.wall * factor,
+            self.cpu * factor,
+            self.warmup_wall * factor,
+            self.warmup_cpu * factor,
+            self.result,
+        )
+
+    def columns(self, prefix: str = "") -> dict[str, Any]:
+        """Tidy-row columns: median, quartiles, bootstrap interval of wall and CPU time,
+        the rounds themselves (JSON lists, so that `rsmbench compare` can resample them)
+        and the warm-up."""
+        out: dict[str, Any] = {f"{prefix}rounds": int(self.wall.size)}
+        for name, x in (("wall", self.wall), ("cpu", self.cpu)):
+            s = spread(x)
+            out.update(
+                {
+                    f"{prefix}{name}_median": s.median,
+                    f"{prefix}{name}_q1": s.q1,
+                    f"{prefix}{name}_q3": s.q3,
+                    f"{prefix}{name}_ci_lo": s.lo,
+                    f"{prefix}{name}_ci_hi": s.hi,
+                    f"{prefix}{name}_rounds": json.dumps([float(v) for v in x]),
+                }
+            )
+        out[f"{prefix}warmup_wall"] = self.warmup_wall
+        out[f"{prefix}warmup_cpu"] = self.warmup_cpu
+        return out
+
+
+def _check_rounds(rounds: Any, warmup: Any) -> tuple[int, int]:
+    if isinstance(rounds, bool) or not isinstance(rounds, int | np.integer) or rounds < 1:
+        raise ValueError(f"Expected `rounds` to be an integer >= 1, got {rounds!r}.")
+    if isinstance(warmup, bool) or not isinstance(warmup, int | np.integer) or warmup < 0:
+        raise ValueError(f"Expected `warmup` to be an integer >= 0, got {warmup!r}.")
+    return int(rounds), int(warmup)
+
+
+def _timed(fn: Callable[[], Any]) -> tuple[float, float, Any]:
+    c0, w0 = time.process_time(), time.perf_counter()
+    out = fn()
+    w1, c1 = time.perf_counter(), time.process_time()
+    return w1 - w0, c1 - c0, out
+
+
+def repeat(fn: Callable[[], Any], *, rounds: int = DEFAULT_ROUNDS, warmup: int = 1) -> Rounds:
+    """Call ``fn()`` `warmup` times untimed-for-the-figure, then `rounds` times timed."""
+    return interleave({"_": fn}, rounds=rounds, warmup=warmup)["_"]
+
+
+def interleave(
+    fns: dict[Any, Callable[[], Any]], *, rounds: int = DEFAULT_ROUNDS, warmup: int = 1
+) -> dict[Any, Rounds]:
+    """Time contenders round-robin (A B A B ...), so that a change of machine load hits
+    them alike; each gets `warmup` untimed calls first, in the same order."""
+    rounds, warmup = _check_rounds(rounds, warmup)
+    if not fns:
+        raise ValueError("Expected at least one function in `fns`, got none.")
+    warm = {k: [0.0, 0.0] for k in fns}
+    for _ in range(warmup):
+        for k, f in fns.items():
+            w, c, _ = _timed(f)
+            warm[k][0] += w
+            warm[k][1] += c
+    wall = {k: np.empty(rounds) for k in fns}
+    cpu = {k: np.empty(rounds) for k in fns}
+    last: dict[str, Any] = {}
+    for r in range(rounds):
+        for k, f in fns.items():
+            wall[k][r], cpu[k][r], last[k] = _timed(f)
+    return {
+        k: Rounds(
+            wall[k],
+            cpu[k],
+            warm[k][0] if warmup else math.nan,
+            warm[k][1] if warmup else math.nan,
+            last[k],
+        )
+        for k in fns
+    }
+
+
+# ----------------------------------------------------------------------------- memory
+_CLEAR_REFS = Path("/proc/self/clear_refs")
+_STATUS = Path("/proc/self/status")
+
+
+def _status_kb(field: str) -> float | None:
+    try:
+        for line in _STATUS.read_text().splitlines():
+            if line.startswith(field + ":"):
+                return float(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+class CaseMemory:
+    """Peak memory of one case, not of the process so far.
+
+    On Linux the kernel's resident-set high-water mark is reset before the case (writing
+    5 to ``/proc/self/clear_refs``) and read after it: ``peak_mb`` is the largest resident
+    set during the case and ``added_mb`` its excess over the resident set at the start.
+    Elsewhere Python's allocator is traced instead (numpy arrays included, native
+    libraries such as Warp's not): ``method`` says which.
+    """
+
+    def __init__(self) -> None:
+        self.method = "rss"
+        self.peak_mb = math.nan
+        self.added_mb = math.nan
+        self._start_kb = 0.0
+        self._traced = False
+
+    def __enter__(self) -> CaseMemory:
+        try:
+            _CLEAR_REFS.write_text("5")
+            start = _status_kb("VmRSS")
+            if start is None:
+                raise OSError("no VmRSS")
+            self._start_kb = start
+        except OSError:
+            self.method = "tracemalloc"
+            self._traced = not tracemalloc.is_tracing()
+            if self._traced:
+                tracemalloc.start()
+            tracemalloc.reset_peak()
+            self._start_kb = tracemalloc.get_traced_memory()[0] / 1024
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.method == "rss":
+            peak = _status_kb("VmHWM")
+            if peak is not None:
+                self.peak_mb = peak / 1024
+                self.added_mb = max(0.0, peak - self._start_kb) / 1024
+            return
+        _, peak = tracemalloc.get_traced_memory()
+        if self._traced:
+            tracemalloc.stop()
+        self.peak_mb = peak / 2**20
+        self.added_mb = max(0.0, peak / 1024 - self._start_kb) / 1024
+
+    def columns(self) -> dict[str, Any]:
+        return {
+            "peak_memory_mb": self.peak_mb,
+            "case_memory_mb": self.added_mb,
+            "memory_method": self.method,
+        }
+
+
+# ----------------------------------------------------------------------------- machine
+def kernel_cache_entries() -> set[str] | None:
+    """Names of the compiled modules in Warp's kernel cache (None when it cannot be read).
+
+    Compare the set before and after the first certification of a run: a new entry means
+    the kernels were compiled in this run (a cold cache), none means they were loaded.
+    """
+    try:
+        import warp as wp
+
+        if wp.config.kernel_cache_dir is None:
+            wp.config.quiet = True
+            wp.init()
+        folder = wp.config.kernel_cache_dir
+        return {p.name for p in Path(folder).iterdir() if p.name.startswith("wp_")}
+    except Exception:  # a missing or unreadable cache: state unknown, never fatal
+        return None
+
+
+def _cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _ram_gb() -> float:
+    try:
+        kb = float(Path("/proc/meminfo").read_text().split("MemTotal:")[1].split()[0])
+        return kb / 2**20
+    except (OSError, IndexError, ValueError):
+        try:
+            return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+        except (ValueError, OSError, AttributeError):
+            return math.nan
+
+
+def machine_info() -> dict[str, Any]:
+    """Machine facts for meta.json: device, CPU model, RAM, threads, load, Warp cache."""
+    import inspect
+
+    import harness
+
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        usable = os.cpu_count()
+    try:
+        load = [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        load = None
+    device = os.environ.get("RSMBENCH_DEVICE", "cpu")
+    threads = inspect.signature(harness.certify_many).parameters.get("threads")
+    cache = None
+    with contextlib.suppress(Exception):
+        import warp as wp
+
+        cache = str(wp.config.kernel_cache_dir) if wp.config.kernel_cache_dir else None
+    return {
+        "device": device,
+        "cpu_model": _cpu_model(),
+        "logical_cpus": os.cpu_count(),
+        "usable_cpus": usable,
+        "ram_gb": round(_ram_gb(), 2),
+        "certify_threads": None if threads is None else threads.default,
+        "load_average": load,
+        "kernel_cache_dir": cache,
+        "kernel_cache_modules": sorted(kernel_cache_entries() or []),
+    }
+
+
+@contextlib.contextmanager
+def first_call() -> Iterator[dict[str, Any]]:
+    """Time a first call (kernel compile or cache load plus start-up) and report whether
+    Warp's kernel cache gained a module meanwhile (``kernel_cache``: "cold" or "warm")."""
+    before = kernel_cache_entries()
+    out: dict[str, Any] = {}
+    c0, w0 = time.process_time(), time.perf_counter()
+    yield out
+    out["wall"] = time.perf_counter() - w0
+    out["cpu"] = time.process_time() - c0
+    after = kernel_cache_entries()
+    if before is None or after is None:
+        out["kernel_cache"] = "unknown"
+    else:
+        new = sorted(after - before)
+        out["kernel_cache"] = "cold" if new else "warm"
+        out["compiled_modules"] = new

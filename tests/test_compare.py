@@ -1,0 +1,321 @@
+"""The noise-aware compare gate (harness.compare) and its CLI, on synthetic runs whose
+truth is known by construction: noise only, a 2x slowdown, accuracy changes, bad files."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from harness.compare import CompareError, compare
+
+NOISE = 0.15  # lognormal sigma of a round: rounds on a loaded 2-core machine scatter this much
+META = {"suite": "synthetic", "suite_hash": "0123456789abcdef", "seed": 0}
+
+
+def _run(folder: Path, rows: list[dict], meta: dict = META) -> Path:
+    folder.mkdir(parents=True)
+    pd.DataFrame(rows).to_parquet(folder / "results.parquet", index=False)
+    (folder / "meta.json").write_text(json.dumps(meta))
+    return folder
+
+
+def _rows(rng: np.random.Generator, factor: float = 1.0, rounds: int = 5, **override) -> list[dict]:
+    """Certify rows of three groups with per-round timings; accuracy columns fixed."""
+    out = []
+    for bound, cost in (("hull", 0.03), ("lipschitz", 0.08), ("sampled", 0.2)):
+        for case in range(4):
+            cpu = factor * cost * rng.lognormal(0.0, NOISE, size=rounds)
+            wall = cpu * rng.lognormal(0.1, NOISE, size=rounds)
+            row = dict(
+                study="certify",
+                scene="slot",
+                scheme="rational",
+                bound=bound,
+                case_id=f"{bound}-{case}",
+                verdict="free" if case else "collision",
+                truth="free" if case else "collision",
+                false_negative=False,
+                false_positive=False,
+                toi_error=np.nan if case else -1e-3,
+                continuity_order=2,
+                seconds=float(np.median(wall)),
+                cpu_rounds=json.dumps(cpu.tolist()),
+                wall_rounds=json.dumps(wall.tolist()),
+            )
+            out.append(row)
+    for r in out:
+        r.update(override.get(r["case_id"], {}))
+    return out
+
+
+def test_noise_alone_never_fails(tmp_path):
+    # 20 pairs of runs of the "same code" (same distribution, other noise)
+    rng = np.random.default_rng(1)
+    for k in range(20):
+        a = _run(tmp_path / f"a{k}", _rows(rng))
+        b = _run(tmp_path / f"b{k}", _rows(rng))
+        res = compare(a, b)
+        assert res.exit_code == 0, res.text()
+        assert {t.status for t in res.timing} <= {"ok", "faster"}
+
+
+def test_a_2x_slowdown_fails_and_names_the_group(tmp_path):
+    rng = np.random.default_rng(2)
+    a = _run(tmp_path / "a", _rows(rng))
+    b = _run(tmp_path / "b", _rows(rng, factor=2.0))
+    res = compare(a, b)
+    assert res.exit_code == 1
+    slow = [t for t in res.timing if t.status == "regression"]
+    assert {t.name for t in slow} == {
+        "certify/rational/hull",
+        "certify/rational/lipschitz",
+        "certify/rational/sampled",
+    }
+    assert all(1.6 < t.ratio < 2.5 and t.lo > 1 for t in slow)
+    # the same slowdown passes under a threshold above it, and in wall time too
+    assert compare(a, b, time_threshold=2.0).exit_code == 0
+    assert compare(a, b, timer="wall").exit_code == 1
+
+
+def test_a_significant_slowdown_below_the_threshold_passes(tmp_path):
+    rng = np.random.default_rng(4)
+    a = _run(tmp_path / "a", _rows(rng, rounds=40))
+    b = _run(tmp_path / "b", _rows(rng, factor=1.08, rounds=40))
+    res = compare(a, b, time_threshold=0.15)
+    assert res.exit_code == 0, res.text()
+    # ... but fails at a threshold of 0 once it is significant
+    assert compare(a, b, time_threshold=0.0).exit_code == 1
+
+
+def test_one_round_is_not_gated(tmp_path):
+    rng = np.random.default_rng(5)
+    rows_a = [r for r in _rows(rng, rounds=1) if r["case_id"] == "hull-1"]
+    rows_b = [r for r in _rows(rng, factor=3.0, rounds=1) if r["case_id"] == "hull-1"]
+    res = compare(_run(tmp_path / "a", rows_a), _run(tmp_path / "b", rows_b))
+    assert res.exit_code == 0
+    assert res.timing[0].status.startswith("not gated")
+
+
+def test_accuracy_regressions(tmp_path):
+    rng = np.random.default_rng(6)
+    base = _run(tmp_path / "base", _rows(rng))
+    cases = {
+        "false free": {"hull-0": {"verdict": "free", "false_negative": True}},
+        "false collisions": {"hull-1": {"verdict": "collision", "false_positive": True}},
+        "unknown rate": {"lipschitz-2": {"verdict": "unknown"}},
+        "TOI error": {"sampled-0": {"toi_error": -2e-3}},
+        "measured C1": {f"hull-{k}": {"continuity_order": 1} for k in range(4)},
+    }
+    for what, override in cases.items():
+        new = _run(tmp_path / _slug(what), _rows(np.random.default_rng(6), **override))
+        res = compare(base, new)
+        assert res.exit_code == 1, what
+        assert any(what in r for r in res.regressions), (what, res.regressions)
+    # a smaller TOI error, or a false collision within --fp-threshold, is fine
+    better = _run(
+        tmp_path / "better", _rows(np.random.default_rng(6), **{"sampled-0": {"toi_error": -1e-4}})
+    )
+    assert compare(base, better).exit_code == 0
+    fp = _run(tmp_path / "fp1", _rows(np.random.default_rng(6), **cases["false collisions"]))
+    assert compare(base, fp, fp_threshold=1).exit_code == 0
+    unk = _run(tmp_path / "unk", _rows(np.random.default_rng(6), **cases["unknown rate"]))
+    assert compare(base, unk, unknown_threshold=0.5).exit_code == 0
+
+
+def _slug(s: str) -> str:
+    return s.replace(" ", "_")
+
+
+def _bench(names: dict[str, list[float]]) -> dict:
+    return {
+        "benchmarks": [
+            {"fullname": n, "stats": {"data": d, "median": float(np.median(d)), "rounds": len(d)}}
+            for n, d in names.items()
+        ]
+    }
+
+
+def test_benchmark_json_uses_the_rounds(tmp_path):
+    rng = np.random.default_rng(8)
+
+    def draw(scale):
+        return (scale * rng.lognormal(0, NOISE, size=7)).tolist()
+
+    (tmp_path / "a.json").write_text(json.dumps(_bench({"x": draw(1.0), "y": draw(0.01)})))
+    (tmp_path / "b.json").write_text(json.dumps(_bench({"x": draw(1.0), "y": draw(0.01)})))
+    (tmp_path / "c.json").write_text(json.dumps(_bench({"x": draw(2.0), "y": draw(0.01)})))
+    assert compare(tmp_path / "a.json", tmp_path / "b.json").exit_code == 0
+    res = compare(tmp_path / "a.json", tmp_path / "c.json")
+    assert res.exit_code == 1 and [t.name for t in res.timing if t.status == "regression"] == ["x"]
+    # without per-round data the median and IQR stand in for the rounds
+    summary = {
+        "benchmarks": [
+            {"fullname": "x", "stats": {"median": 2.0, "iqr": 0.2, "rounds": 7}},
+            {"fullname": "y", "stats": {"median": 0.01, "iqr": 0.001, "rounds": 7}},
+        ]
+    }
+    (tmp_path / "d.json").write_text(json.dumps(summary))
+    assert compare(tmp_path / "a.json", tmp_path / "d.json").exit_code == 1
+
+
+@pytest.mark.parametrize(
+    ("doc", "match"),
+    [
+        ([1, 2], "`benchmarks` list"),
+        ({"benchmarks": "x"}, "`benchmarks` list"),
+        ({"benchmarks": [{"name": "x"}]}, "string `fullname`"),
+        ({"benchmarks": [{"fullname": "x", "stats": 3}]}, "`stats` object"),
+        ({"benchmarks": [{"fullname": "x", "stats": {"data": ["a"]}}]}, "`stats.data`"),
+        ({"benchmarks": [{"fullname": "x", "stats": {"min": 1.0}}]}, "per-round times"),
+    ],
+)
+def test_benchmark_json_of_the_wrong_shape(tmp_path, doc, match):
+    (tmp_path / "a.json").write_text(json.dumps(_bench({"x": [1.0] * 5})))
+    (tmp_path / "b.json").write_text(json.dumps(doc))
+    with pytest.raises(CompareError, match=match):
+        compare(tmp_path / "a.json", tmp_path / "b.json")
+
+
+def test_unreadable_and_mismatched_runs(tmp_path):
+    rng = np.random.default_rng(9)
+    good = _run(tmp_path / "good", _rows(rng))
+    garbage = _run(tmp_path / "garbage", _rows(rng))
+    (garbage / "results.parquet").write_bytes(b"not a parquet file at all")
+    with pytest.raises(CompareError, match="not a readable parquet"):
+        compare(good, garbage)
+    cut = _run(tmp_path / "cut", _rows(rng))
+    data = (cut / "results.parquet").read_bytes()
+    (cut / "results.parquet").write_bytes(data[: len(data) // 2])
+    with pytest.raises(CompareError, match="not a readable parquet"):
+        compare(good, cut)
+    nostudy = _run(
+        tmp_path / "nostudy", [{k: v for k, v in r.items() if k != "study"} for r in _rows(rng)]
+    )
+    with pytest.raises(CompareError, match=r"column\(s\) \['study'\] missing"):
+        compare(good, nostudy)
+    other = _run(tmp_path / "other", _rows(rng), {**META, "suite_hash": "f" * 16})
+    with pytest.raises(CompareError, match="suite_hash"):
+        compare(good, other)
+    with pytest.raises(CompareError, match=r"without results\.parquet"):
+        compare(good, tmp_path)
+    with pytest.raises(CompareError, match="does not exist"):
+        compare(good, tmp_path / "nowhere")
+    with pytest.raises(ValueError, match="`time_threshold`"):
+        compare(good, good, time_threshold=-0.5)
+    with pytest.raises(ValueError, match="`timer`"):
+        compare(good, good, timer="gpu")
+
+
+class _Result:
+    def __init__(self, code: int, out: str, err: str):
+        self.returncode, self.stdout, self.stderr = code, out, err
+
+
+def _cli(capsys, *args: str) -> _Result:
+    """`rsmbench ARGS` in this process (the same entry point as the console script)."""
+    from harness.cli import main
+
+    capsys.readouterr()
+    try:
+        code = main(list(args))
+    except SystemExit as e:  # argparse usage errors
+        code = e.code
+    out = capsys.readouterr()
+    return _Result(code, out.out, out.err)
+
+
+def test_cli_exit_codes_and_one_line_errors(tmp_path, capsys):
+    rng = np.random.default_rng(10)
+    a = _run(tmp_path / "a", _rows(rng))
+    b = _run(tmp_path / "b", _rows(rng, factor=2.0))
+    ok = _cli(capsys, "compare", str(a), str(a))
+    assert ok.returncode == 0 and "0 regression(s)." in ok.stdout
+    slow = _cli(capsys, "compare", str(a), str(b))
+    assert slow.returncode == 1 and "timing: certify/rational/hull" in slow.stdout
+    for bad in ("-50%", "abc", "nan"):
+        r = _cli(capsys, "compare", str(a), str(a), f"--time-threshold={bad}")
+        assert r.returncode == 2 and "--time-threshold" in r.stderr, bad
+        assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    (a / "results.parquet").write_bytes(b"garbage")
+    r = _cli(capsys, "compare", str(a), str(b))
+    assert r.returncode == 2 and "not a readable parquet" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    (tmp_path / "bad.json").write_text("{}")
+    (tmp_path / "good.json").write_text(json.dumps(_bench({"x": [1.0] * 5})))
+    r = _cli(capsys, "compare", str(tmp_path / "good.json"), str(tmp_path / "bad.json"))
+    assert r.returncode == 2 and "`benchmarks` list" in r.stderr
+    # and once through the console entry point, in a fresh process
+    proc = subprocess.run(
+        [sys.executable, "-m", "harness.cli", "compare", str(a), str(a), "--time-threshold=-1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+
+
+INJECT = """
+[suite]
+name = "inject"
+seed = 1
+
+[[study]]
+kind = "certify"
+scenes = ["slot"]
+keyframes = "scene"
+schemes = ["rational"]
+bounds = ["hull", "lipschitz", "sampled"]
+truth_resolution = 1e-2
+rounds = 5
+
+[[study]]
+kind = "workload"
+pairs = 40
+bounds = ["hull", "sampled"]
+single_pairs = 4
+rounds = 5
+"""
+
+
+@pytest.mark.slow
+def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
+    """Two real runs of a small suite; in the second every certification call of the
+    studies takes twice its CPU time (it runs, then the thread spins as long again): compare
+    must fail on timing and on nothing else."""
+    import harness.run.studies.certify as certify_study
+    import harness.run.studies.workload as workload_study
+    from harness.run import load_suite, run_suite
+
+    suite_file = tmp_path / "inject.toml"
+    suite_file.write_text(INJECT)
+    suite = load_suite(suite_file)
+    run_suite(suite, tmp_path / "base", progress=False)
+    for module in (certify_study, workload_study):
+        real = module.certify_many
+
+        def twice(*a, _real=real, **k):
+            c0 = time.process_time()
+            out = _real(*a, **k)
+            spent = time.process_time() - c0
+            while time.process_time() - c0 < 2 * spent:
+                pass
+            return out
+
+        monkeypatch.setattr(module, "certify_many", twice)
+    run_suite(suite, tmp_path / "slow", progress=False)
+    res = compare(tmp_path / "base", tmp_path / "slow")
+    assert res.exit_code == 1, res.text()
+    assert res.regressions and all(r.startswith("timing:") for r in res.regressions)
+    slow = [t for t in res.timing if t.status == "regression"]
+    assert slow and all(1.6 < t.ratio < 6.0 and t.lo > 1 for t in slow)
+    # the same runs pass when a 2x slowdown is allowed
+    assert compare(tmp_path / "base", tmp_path / "slow", time_threshold=2.0).exit_code == 0

@@ -1,0 +1,270 @@
+"""The rigid-motion CCD corpus: size and coverage, truth checked against the harness's
+exact GJK distances and its proven ground truth, export round trip, bad files."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections import Counter
+
+import numpy as np
+import pytest
+
+import harness
+from harness.corpus import CLASSES, FAMILIES, SCHEMES, TOLERANCE, generate
+from harness.corpus.io import VERSION, CorpusFormatError, export, load
+from harness.corpus.truth import (
+    aabb_signed_distance,
+    rotation_truth,
+    sinusoid_terms,
+    translation_truth,
+)
+from harness.truth import sample_distances
+
+GRID = 4001  # poses per motion in the distance checks
+EPS = 1e-9  # GJK distances and analytic minima agree to round-off at scene scale ~1
+
+
+@pytest.fixture(scope="module")
+def corpus():
+    """The cases of the built-in suite `rsmbench run corpus`."""
+    from harness.run import load_suite
+    from harness.run.studies.corpus import corpus_of
+
+    return list(corpus_of(load_suite("corpus").studies[0]))
+
+
+def test_corpus_size_and_coverage(corpus):
+    assert len(corpus) >= 500
+    ids = [c.id for c in corpus]
+    assert len(set(ids)) == len(ids)
+    klass = Counter(c.klass for c in corpus)
+    assert set(klass) == set(CLASSES)
+    assert min(klass.values()) >= 100, klass  # DESIGN §4: >= 100 decided cases per class
+    assert {c.family for c in corpus} == set(FAMILIES)
+    assert {c.scheme for c in corpus} == set(SCHEMES)
+    tags = Counter(t for c in corpus for t in c.tags)
+    for hazard in (
+        "fcl:screw-translation",
+        "fcl:libccd-box",
+        "fcl:linear-reference",
+        "fcl:180-step",
+    ):
+        assert tags[hazard] > 0, hazard
+    assert tags["far"] > 0 and tags["thin"] > 0 and tags["mesh"] > 0
+    # class agrees with the truth's distance and verdict
+    for c in corpus:
+        assert (c.truth.verdict == "collision") == (c.truth.distance < 0), c.id
+        assert (c.klass == "grazing") == (abs(c.truth.distance) < TOLERANCE), c.id
+        assert (math.isinf(c.truth.toi)) == (c.truth.verdict == "free"), c.id
+        assert c.truth.toi_lo <= c.truth.toi <= c.truth.toi_hi, c.id
+
+
+def test_generation_is_seeded():
+    a = generate(seed=3, size=0.2, families=["thin-wall", "spin"])
+    b = generate(seed=3, size=0.2, families=["thin-wall", "spin"])
+    c = generate(seed=4, size=0.2, families=["thin-wall", "spin"])
+    assert [x.id for x in a] == [x.id for x in b]
+    assert [x.truth for x in a] == [x.truth for x in b]
+    assert [x.truth.distance for x in a] != [x.truth.distance for x in c]
+
+
+def _sample(corpus, n, seed):
+    rng = np.random.default_rng(seed)
+    return [corpus[i] for i in rng.choice(len(corpus), n, replace=False)]
+
+
+def test_truth_against_exact_distances(corpus):
+    """Independent of the analytic formulas: the harness's float64 GJK at 4001 poses.
+    No pose is closer than a free case's clearance and the closest comes near it; no pose
+    before a collision's toi_lo intersects and the pose at its toi touches."""
+    for c in _sample(corpus, 40, 1):
+        t = np.linspace(*c.motion.domain, GRID)
+        lo, hi, _ = sample_distances(c.motion, c.body, list(c.obstacles), t, "gjk")
+        scale = 1 + np.abs(c.motion.pose(t)[1]).max()
+        tol = EPS * scale
+        if c.truth.verdict == "free":
+            v = c.motion.speed_bound(*c.motion.domain, c.body.bounding_radius)
+            step = (t[1] - t[0]) * v
+            assert lo.min() >= c.truth.distance - tol, c.id
+            assert hi.min() <= c.truth.distance + step + tol, c.id
+        else:
+            before = t < c.truth.toi_lo - 1e-12 * (t[-1] - t[0])
+            assert np.all(hi[before] >= -tol), c.id
+            _, at, _ = sample_distances(
+                c.motion, c.body, list(c.obstacles), np.array([c.truth.toi_hi]), "gjk"
+            )
+            assert at[0] <= tol + 1e-7 * scale, (c.id, at[0])
+
+
+def test_truth_agrees_with_proven_ground_truth(corpus):
+    """harness.ground_truth (MuJoCo distances plus a Lipschitz margin) never contradicts
+    the analytic verdict, and its contact bracket overlaps the analytic one."""
+    per_family = {}
+    for c in corpus:
+        if c.klass != "grazing":
+            per_family.setdefault(c.family, c)
+    decided = 0
+    for c in per_family.values():
+        res = min(1e-3, abs(c.truth.distance) / 3)
+        g = harness.ground_truth(c.motion, c.body, list(c.obstacles), resolution=res)
+        assert g.verdict in ("unknown", c.truth.verdict), c.id
+        if g.verdict == "collision":
+            assert g.toi_lo <= c.truth.toi_hi + 1e-9 and c.truth.toi_lo <= g.toi_hi + 1e-9, c.id
+        decided += g.verdict != "unknown"
+    assert decided >= len(per_family) - 1
+
+
+def test_translation_truth_closed_forms():
+    # a point passing a unit box at height 2 clears it by 1; through its middle: depth 1
+    free = translation_truth([-3, 2, 0], [3, 2, 0], [0, 0, 0], [1, 1, 1], 0.0)
+    assert free.distance == pytest.approx(1.0, abs=1e-15)
+    hit = translation_truth([-3, 0, 0], [3, 0, 0], [0, 0, 0], [1, 1, 1], 0.25)
+    assert hit.distance == pytest.approx(-1.25, abs=1e-15)
+    assert hit.s_in == pytest.approx((3 - 1.25) / 6, abs=1e-12)
+    assert hit.s_out == pytest.approx((3 + 1.25) / 6, abs=1e-12)
+    # diagonal past a corner: distance to the corner point
+    corner = translation_truth([2, 0, 0], [0, 2, 0], [0, 0, 0], [0.5, 0.5, 0.5], 0.0)
+    assert corner.distance == pytest.approx(math.sqrt(2) - 0.5 * math.sqrt(2), abs=1e-12)
+    assert aabb_signed_distance(np.array([0.2, 0, 0]), np.zeros(3), np.ones(3)) == pytest.approx(
+        -0.8
+    )
+
+
+def test_rotation_truth_closed_form():
+    # a point at radius 1 turning about z from 0 to 3 rad; face y = 0.5 (normal +y):
+    # its height is sin φ
+    terms = sinusoid_terms(
+        np.array([[1.0, 0.0, 0.0]]), np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    )
+    rt = rotation_truth(terms, 0.0, 0.5, 0.0, 3.0)
+    assert rt.distance == pytest.approx(-0.5, abs=1e-15)  # reaches y = 1 at φ = π/2
+    assert rt.phi_in == pytest.approx(math.asin(0.5), abs=1e-12)
+    assert rt.phi_out == pytest.approx(math.pi - math.asin(0.5), abs=1e-12)
+    back = rotation_truth(terms, 0.0, 0.5, 3.0, 0.0)  # the same sweep backwards
+    assert back.phi_in == pytest.approx(math.pi - math.asin(0.5), abs=1e-12)
+    assert back.phi_out == pytest.approx(math.asin(0.5), abs=1e-12)
+    assert rotation_truth(terms, 0.1, 2.0, 0.0, 3.0).distance == pytest.approx(0.9, abs=1e-15)
+
+
+# ----------------------------------------------------------------------------- export
+def test_export_round_trip(tmp_path, corpus):
+    cases = corpus[::7]
+    path = export(cases, tmp_path / "c", {"seed": 0})
+    assert (tmp_path / "c" / "corpus.schema.json").exists()
+    header, back = load(tmp_path / "c")
+    assert header["version"] == VERSION and header["generator"] == {"seed": 0}
+    assert [c.id for c in back] == [c.id for c in cases]
+    for a, b in zip(cases, back, strict=True):
+        t = np.linspace(*a.motion.domain, 17)
+        np.testing.assert_array_equal(a.motion.matrix(t), b.motion.matrix(t))
+        assert a.scheme == b.scheme and a.klass == b.klass and a.tags == b.tags
+        assert a.truth.verdict == b.truth.verdict and a.truth.distance == b.truth.distance
+        assert (a.truth.toi, a.truth.toi_lo, a.truth.toi_hi) == (
+            b.truth.toi,
+            b.truth.toi_lo,
+            b.truth.toi_hi,
+        )
+        np.testing.assert_allclose(a.body.sample_points(8), b.body.sample_points(8), atol=1e-15)
+        assert len(a.obstacles) == len(b.obstacles)
+    # every written case holds the keys the schema requires
+    schema = json.loads((tmp_path / "c" / "corpus.schema.json").read_text())
+    doc = json.loads(path.read_text())
+    assert set(schema["required"]) <= set(doc)
+    for d in doc["cases"]:
+        assert set(schema["$defs"]["case"]["required"]) <= set(d)
+        assert set(schema["$defs"]["truth"]["required"]) <= set(d["truth"])
+
+
+def _write(tmp_path, doc) -> str:
+    p = tmp_path / "bad.json"
+    p.write_text(json.dumps(doc))
+    return str(p)
+
+
+def test_bad_corpus_files_are_named_errors(tmp_path, corpus):
+    export(corpus[:3], tmp_path / "ok")
+    doc = json.loads((tmp_path / "ok" / "corpus.json").read_text())
+    with pytest.raises(CorpusFormatError, match="version 2 is not supported"):
+        load(_write(tmp_path, {**doc, "version": 2}))
+    with pytest.raises(CorpusFormatError, match="expected `format`"):
+        load(_write(tmp_path, {**doc, "format": "something"}))
+    broken = json.loads(json.dumps(doc))
+    broken["cases"][1]["motion"] = {"type": "bezier", "breaks": [0, 1], "ctrl": [[[1, 2]]]}
+    with pytest.raises(CorpusFormatError, match=r"cases\[1\].*ctrl"):
+        load(_write(tmp_path, broken))
+    broken = json.loads(json.dumps(doc))
+    del broken["cases"][0]["truth"]["verdict"]
+    with pytest.raises(CorpusFormatError, match="verdict"):
+        load(_write(tmp_path, broken))
+    (tmp_path / "junk.json").write_text("{not json")
+    with pytest.raises(CorpusFormatError, match="not valid JSON"):
+        load(tmp_path / "junk.json")
+
+
+def test_cli_corpus_export_and_check(tmp_path, capsys):
+    from harness.cli import main
+
+    assert (
+        main(["corpus", "export", str(tmp_path / "e"), "--size", "0.1", "--families", "thin-wall"])
+        == 0
+    )
+    assert "cases" in capsys.readouterr().out
+    assert main(["corpus", "check", str(tmp_path / "e")]) == 0
+    doc = json.loads((tmp_path / "e" / "corpus.json").read_text())
+    bad = _write(tmp_path, {**doc, "version": 99})
+    assert main(["corpus", "check", bad]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "version 99" in err[0]
+    assert main(["corpus", "export", str(tmp_path / "f"), "--families", "nope"]) == 2
+
+
+def test_generate_rejects_bad_arguments():
+    with pytest.raises(ValueError, match="Unknown corpus family"):
+        generate(0, 1.0, ["nope"])
+    with pytest.raises(ValueError, match="`size` > 0"):
+        generate(0, 0.0)
+
+
+def test_corpus_study_end_to_end(tmp_path):
+    """A small corpus suite: rows for every method on every case (n/a where a method cannot
+    represent the motion), certified bounds never say free on a collision, and the report
+    holds the corpus table and figure."""
+    from harness.report import write_report
+    from harness.run import load_suite, run_suite
+
+    suite = tmp_path / "c.toml"
+    suite.write_text(
+        "[suite]\nname = 'c'\n\n[[study]]\nkind = 'corpus'\nsize = 0.15\n"
+        "families = ['thin-wall', 'spin']\nmethods = ['hull', 'lipschitz', 'sampled', 'fcl']\n"
+        "rounds = 2\nround_seconds = 0.05\nmemory = false\n"
+    )
+    df = run_suite(load_suite(suite), tmp_path / "out", progress=False)
+    cases = df["keyframes"].nunique()
+    assert cases >= 20 and len(df) == 4 * cases
+    assert set(df["bound"]) == {"hull", "lipschitz", "sampled", "fcl"}
+    hull = df[df["bound"] == "hull"]
+    assert set(hull[hull["verdict"] == "n/a"]["scheme"]) <= {"sclerp", "slerp", "slerp-linear"}
+    proofs = df[df["proof"] & (df["verdict"] != "n/a")]
+    assert not proofs["false_negative"].any()
+    samp = df[df["bound"] == "sampled"]
+    assert (samp["samples"] >= 2).all() and set(samp["budget_from"]) <= {"hull", "lipschitz"}
+    report = write_report(tmp_path / "out").read_text()
+    assert "Rigid-motion CCD corpus" in report and "figures/corpus.png" in report
+    assert (tmp_path / "out" / "figures" / "corpus.svg").exists()
+
+
+def test_corpus_suite_errors_name_the_key(tmp_path):
+    from harness.errors import SuiteError
+    from harness.run import load_suite
+
+    bad = tmp_path / "b.toml"
+    bad.write_text("[[study]]\nkind = 'corpus'\nmethods = ['hull', 'gjk']\n")
+    with pytest.raises(SuiteError, match=r"study\[0\]\.methods.*gjk"):
+        load_suite(bad)
+    bad.write_text("[[study]]\nkind = 'corpus'\nrounds = 0\n")
+    with pytest.raises(SuiteError, match=r"study\[0\]\.rounds"):
+        load_suite(bad)
+    bad.write_text("[[study]]\nkind = 'corpus'\nfile = 'nowhere.json'\n")
+    with pytest.raises(SuiteError, match="no corpus file"):
+        load_suite(bad)

@@ -1,0 +1,104 @@
+"""Repeated-rounds timing, spread statistics and per-case memory (harness.timing)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from harness import timing
+
+SLEEP = 0.02  # seconds: long enough to dominate a call's own overhead, short for a test
+
+
+def test_rounds_keep_the_first_call_apart_and_split_cpu_from_wall():
+    calls = []
+
+    def f():
+        calls.append(len(calls))
+        if len(calls) == 1:  # the first call pays a "compile"
+            time.sleep(5 * SLEEP)
+        time.sleep(SLEEP)
+
+    r = timing.repeat(f, rounds=5)
+    assert len(calls) == 6
+    assert r.wall.shape == r.cpu.shape == (5,)
+    assert r.warmup_wall >= 6 * SLEEP
+    assert np.all(r.wall >= SLEEP) and np.all(r.wall < 5 * SLEEP)
+    # sleeping costs wall time, not CPU time
+    assert np.all(r.cpu < 0.5 * SLEEP)
+    cols = r.columns()
+    assert cols["rounds"] == 5
+    assert cols["wall_q1"] <= cols["wall_median"] <= cols["wall_q3"]
+    assert cols["wall_ci_lo"] <= cols["wall_median"] <= cols["wall_ci_hi"]
+    np.testing.assert_allclose(np.median(r.wall), cols["wall_median"])
+
+
+def test_interleave_alternates_contenders():
+    log = []
+    timing.interleave({"a": lambda: log.append("a"), "b": lambda: log.append("b")}, rounds=3)
+    assert "".join(log) == "ab" * 4  # one warm-up each, then A B A B A B
+
+
+def test_bootstrap_interval_covers_the_true_median():
+    # lognormal rounds (right-skewed, like timings): the 95 % interval of the median of
+    # 15 rounds must cover the true median (exp(0) = 1) in most trials
+    rng = np.random.default_rng(7)
+    trials = 200
+    hits = 0
+    for _ in range(trials):
+        x = rng.lognormal(0.0, 0.3, size=15)
+        lo, hi = timing.bootstrap_interval(x, rng=rng, resamples=500)
+        hits += lo <= 1.0 <= hi
+    assert hits / trials >= 0.88
+
+
+def test_ratio_interval_separates_a_slowdown_from_noise():
+    rng = np.random.default_rng(3)
+    base = [rng.lognormal(np.log(s), 0.1, size=7) for s in (0.01, 0.2, 0.05)]
+    same = [rng.lognormal(np.log(s), 0.1, size=7) for s in (0.01, 0.2, 0.05)]
+    slow = [2 * rng.lognormal(np.log(s), 0.1, size=7) for s in (0.01, 0.2, 0.05)]
+    r, lo, hi = timing.ratio_interval(base, same)
+    assert lo < 1 < hi and 0.85 < r < 1.15
+    r, lo, hi = timing.ratio_interval(base, slow)
+    assert lo > 1.5 and 1.7 < r < 2.3 and lo <= r <= hi
+    # a flat sequence is one case
+    r, lo, hi = timing.ratio_interval([1.0, 1.1, 0.9], [2.0, 2.2, 1.8])
+    assert r == pytest.approx(2.0) and lo <= 2.0 <= hi
+    with pytest.raises(ValueError, match="`new`"):
+        timing.ratio_interval(base, same[:2])
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(ValueError, match="`rounds`"):
+        timing.repeat(lambda: None, rounds=0)
+    with pytest.raises(ValueError, match="`warmup`"):
+        timing.repeat(lambda: None, warmup=-1)
+    with pytest.raises(ValueError, match="`x`"):
+        timing.spread([])
+    with pytest.raises(ValueError, match="finite"):
+        timing.spread([1.0, float("nan")])
+
+
+def test_case_memory_is_per_case_not_the_process_maximum():
+    with timing.CaseMemory() as big:
+        a = np.ones(40_000_000)  # 320 MB, pages touched
+        a[::4096] = 2.0
+        del a
+    with timing.CaseMemory() as small:
+        b = np.ones(1_000_000)  # 8 MB
+        del b
+    assert big.added_mb > 250
+    assert small.added_mb < 100
+    if big.method == "rss":  # the kernel's high-water mark was reset between the cases
+        assert small.peak_mb < big.peak_mb - 200
+    assert set(small.columns()) == {"peak_memory_mb", "case_memory_mb", "memory_method"}
+
+
+def test_machine_info_names_the_machine():
+    info = timing.machine_info()
+    for key in ("device", "cpu_model", "logical_cpus", "ram_gb", "certify_threads"):
+        assert key in info
+    assert info["ram_gb"] > 0 and info["logical_cpus"] >= 1
+    assert isinstance(info["kernel_cache_modules"], list)

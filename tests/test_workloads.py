@@ -1,0 +1,103 @@
+"""The certification workload's proven labels and the external competitors
+(harness.workloads), checked against independent exact distances."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from harness.mjdistance import MujocoDistance
+from harness.workloads import (
+    certify_workload,
+    conservative_advancement,
+    dense_sampling,
+    fair_grid,
+    min_clearance,
+)
+
+TOL = 1e-3
+DIST_EPS = 1e-9  # MuJoCo distances of primitives agree to round-off
+
+
+@pytest.fixture(scope="module")
+def workload():
+    return certify_workload(12, seed=3)
+
+
+def _distances(m, body, obstacles, t):
+    r, p = m.pose(np.atleast_1d(t))
+    return MujocoDistance(body, obstacles).distances(r, p).reshape(len(r), -1).min(axis=1)
+
+
+def test_labels_are_proofs_or_say_measured(workload):
+    w = workload
+    assert set(w.label) <= {"proven", "measured"}
+    for i in range(len(w.motions)):
+        if w.label[i] == "measured":
+            assert w.truth[i] == "unproven"
+            continue
+        m, b, o = w.motions[i], w.bodies[i], w.obstacles[i]
+        if w.truth[i] == "free":
+            # a certified lower bound below every exact distance on a dense grid, and below
+            # the measured minimum (an exact distance at one pose)
+            assert 0 < w.clearance_lo[i] <= w.clearance[i] + DIST_EPS
+            d = _distances(m, b, o, np.linspace(*m.domain, 2001))
+            assert d.min() >= w.clearance_lo[i] - DIST_EPS
+            assert np.isnan(w.penetration[i])
+        else:
+            # a proven penetration: finite, positive, seen at the witness pose
+            assert w.truth[i] == "collision"
+            assert np.isfinite(w.penetration[i]) and w.penetration[i] > 0
+            d = _distances(m, b, o, w.witness[i])
+            np.testing.assert_allclose(-d[0], w.penetration[i], rtol=1e-9, atol=DIST_EPS)
+    assert np.all(np.isfinite(w.clearance))  # penetrating pairs are no longer -inf
+    assert (w.truth == "collision").sum() >= 1 and (w.truth == "free").sum() >= 1
+
+
+def test_min_clearance_is_an_exact_distance_at_its_time(workload):
+    w = workload
+    c, t, _ = min_clearance(w.motions[:3], w.bodies[:3], [o[0] for o in w.obstacles[:3]])
+    for i in range(3):
+        d = _distances(w.motions[i], w.bodies[i], w.obstacles[i], t[i])
+        np.testing.assert_allclose(d[0], c[i], atol=DIST_EPS)
+
+
+def test_fair_grid_spacing_covers_the_tolerance(workload):
+    m, b = workload.motions[0], workload.bodies[0]
+    t, v = fair_grid(m, b, TOL)
+    assert t[0] == m.domain[0] and t[-1] == m.domain[1]
+    h = np.diff(t)
+    assert np.all(h > 0) and len(v) == len(h)
+    # spacing 2 tol / V on each knot interval: V h / 2 never exceeds the tolerance
+    assert np.all(v * h / 2 <= TOL * (1 + 1e-9))
+    for a, z in zip(m.knots[:-1], m.knots[1:], strict=True):
+        assert np.any(np.isclose(t, a)) and np.any(np.isclose(t, z))
+
+
+def test_external_competitors_agree_with_proven_labels(workload):
+    w = workload
+    for i in range(len(w.motions)):
+        for fn in (dense_sampling, conservative_advancement):
+            r = fn(w.motions[i], w.bodies[i], w.obstacles[i], TOL)
+            assert r.calls > 0 and r.seconds > 0
+            if w.truth[i] == "collision":
+                assert r.verdict in ("collision", "unknown"), (fn.__name__, i)
+            if w.truth[i] == "free":
+                assert r.verdict != "collision", (fn.__name__, i)
+                # a free verdict is a proof: with clearance >= tol it must be reached
+                if w.clearance_lo[i] >= TOL:
+                    assert r.verdict == "free", (fn.__name__, i)
+
+
+def test_dense_sampling_does_not_claim_a_proof_closer_than_its_spacing(workload):
+    # move a free pair's obstacle until the clearance is half the tolerance: no sample can
+    # cover its half-spacing times the speed bound there, so the verdict is unknown
+    w = workload
+    i = int(np.flatnonzero(w.truth == "free")[0])
+    m, b, o = w.motions[i], w.bodies[i], w.obstacles[i][0]
+    c, _, n = min_clearance([m], [b], [o])
+    closer = o.transformed(np.eye(3), -(c[0] - TOL / 2) * n[0])
+    c2, _, _ = min_clearance([m], [b], [closer])
+    assert 0 < c2[0] < TOL
+    assert dense_sampling(m, b, [closer], TOL).verdict == "unknown"
+    assert conservative_advancement(m, b, [closer], TOL).verdict == "unknown"
