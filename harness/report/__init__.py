@@ -25,6 +25,8 @@ from pathlib import Path
 import pandas as pd
 
 from ..errors import HarnessError
+from .avoid import repair_section
+from .corpus import corpus_section
 from .data import format_headline, headline, scaling_slopes
 from .document import Document, latex_table, pyplot
 from .sections import (
@@ -139,9 +141,6 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
     scaling_section(doc, df, plt)
     continuity_section(doc, df, plt)
     physics_section(doc, df, plt)
-    from ..report_avoid import repair_section
-    from ..report_corpus import corpus_section
-
     repair_section(doc, df, plt)
     corpus_section(doc, df, plt)
     memory_section(doc, df)

@@ -49,7 +49,7 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
 
 def _example(rep: pd.DataFrame):
     """Recompute one repaired case of the study for the picture (cases are seeded)."""
-    from .avoid import colliding_cases, repair, sampled_repair
+    from ..avoid import colliding_cases, repair, sampled_repair
 
     done = rep[
         (rep["method"] == "certified") & (rep["status"] == "repaired") & (rep["clearance"] == 0)
