@@ -281,3 +281,21 @@ def test_clearance_brackets_the_minimum_distance(scene):
         assert c.lower <= sampled.min() + 1e-9  # a lower bound of the minimum
         assert at <= c.upper + 1e-9  # upper is a pose's distance bound
     assert kinds == {"penetrating", "clear"}
+
+
+def test_collector_is_restored_after_a_batch(scene):
+    """The engine pauses Python's cyclic garbage collector while it works (its full
+    collections would traverse the caller's whole heap); the caller's setting comes back."""
+    import gc
+
+    ms, bodies, obstacles = scene
+    assert gc.isenabled()
+    certify_many(ms[:3], bodies[:3], obstacles[:3])
+    harness.clearance_many(ms[:2], bodies[:2], obstacles[:2])
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        certify_many(ms[:2], bodies[:2], obstacles[:2], bound="lipschitz")
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

@@ -18,7 +18,14 @@ import numpy as np
 
 from motions import Motion, RationalMotion
 
-from .api import DEFAULT_MAX_NODES, QueryError, body_list, check_options, obstacle_lists
+from .api import (
+    DEFAULT_MAX_NODES,
+    QueryError,
+    body_list,
+    check_options,
+    collector_paused,
+    obstacle_lists,
+)
 from .refine import MOTIONS_PER_CHUNK, _packed, clearance_chunk
 
 __all__ = ["Clearance", "clearance", "clearance_many"]
@@ -116,14 +123,15 @@ def clearance_many(
         return []
     start = time.perf_counter()
     ts, ns = [], []
-    for c in range(0, len(ms), MOTIONS_PER_CHUNK):
-        sl = slice(c, c + MOTIONS_PER_CHUNK)
-        t, n = clearance_chunk(
-            [_packed(m) for m in ms[sl]], bodies[sl], obst[sl], o["tol"], o["max_depth"],
-            o["max_nodes"], o["max_iter"], o["threads"], o["device"],
-        )  # fmt: skip
-        ts.append(t)
-        ns.append(n)
+    with collector_paused():
+        for c in range(0, len(ms), MOTIONS_PER_CHUNK):
+            sl = slice(c, c + MOTIONS_PER_CHUNK)
+            t, n = clearance_chunk(
+                [_packed(m) for m in ms[sl]], bodies[sl], obst[sl], o["tol"], o["max_depth"],
+                o["max_nodes"], o["max_iter"], o["threads"], o["device"],
+            )  # fmt: skip
+            ts.append(t)
+            ns.append(n)
     t, n = np.concatenate(ts), np.concatenate(ns)
     elapsed = time.perf_counter() - start
     share = elapsed * n[:, 0] / max(1, int(n[:, 0].sum()))
