@@ -52,8 +52,15 @@ def qconj(q: np.ndarray) -> np.ndarray:
 
 
 def qnorm(q: np.ndarray) -> np.ndarray:
-    """Euclidean norm ``|Q| = sqrt(Q * conj(Q))``, shape (...)."""
-    return np.linalg.norm(q, axis=-1)
+    """Euclidean norm ``|Q| = sqrt(Q * conj(Q))``, shape (...), for any norm.
+
+    Scaled by the largest component first: ``|Q|^2`` under- or overflows for
+    ``|Q| ~ 1e-200`` or ``1e200``, ``|Q|`` itself does not.
+    """
+    q = np.asarray(q, dtype=float)
+    m = np.abs(q).max(axis=-1, keepdims=True)
+    s = np.where(m > 0, m, 1.0)
+    return m[..., 0] * np.linalg.norm(q / s, axis=-1)
 
 
 def u0(q: np.ndarray) -> np.ndarray:
@@ -123,7 +130,20 @@ def rotation_matrix(q: np.ndarray, *, out: np.ndarray | None = None) -> np.ndarr
     `out` (..., 3, 3), when given, receives the result (no temporary for the output).
     """
     q = np.asarray(q, dtype=float)
-    return _u_direct(q, 1.0 / np.sqrt(u0(q)), out)
+    n2 = u0(q)
+    if not np.all((n2 >= _TINY) & (n2 <= _HUGE)):
+        # |Q|^2 under- or overflowed (|Q| ~ 1e-200 or 1e200): scale by the largest
+        # component first; the common case keeps the cheaper path above.
+        m = np.abs(q).max(axis=-1)
+        m = np.where(m > 0, m, 1.0)
+        q = q / m[..., None]
+        return _u_direct(q, 1.0 / np.sqrt(u0(q)), out)
+    return _u_direct(q, 1.0 / np.sqrt(n2), out)
+
+
+_TINY = np.finfo(float).tiny
+"""Smallest normal float64: ``|Q|^2`` below it has lost precision (or is 0)."""
+_HUGE = np.finfo(float).max
 
 
 def quat_from_matrix(r: np.ndarray) -> np.ndarray:

@@ -16,6 +16,7 @@ from motions import (
     qexp,
     qlog,
     qmul,
+    qnorm,
     quat_from_matrix,
     rotation_matrix,
     sign_continuity,
@@ -68,6 +69,25 @@ def test_rotation_matches_scipy_and_mujoco(q):
     rot = qmul(qmul(q, np.array([0.0, *p])), qconj(q))
     np.testing.assert_allclose(U(q) @ p, rot[1:], atol=EPS * u0(q) * 10)
     np.testing.assert_allclose(u0(q), np.dot(q, q), rtol=EPS)
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-310, 1e200, 1e300])
+def test_rotation_and_norm_of_tiny_and_huge_quaternions(scale):
+    # |Q|^2 under- or overflows at these scales but |Q| and U(Q)/u0(Q) do not: any
+    # non-zero norm gives the rotation (and norm) of the unit quaternion.
+    q = np.array([[1.0, 2.0, 3.0, 4.0], [0.5, -0.1, 0.0, 0.2]])
+    unit = q / np.linalg.norm(q, axis=1, keepdims=True)
+    ref = Rotation.from_quat(unit, scalar_first=True).as_matrix()
+    r = rotation_matrix(q * scale)
+    assert np.all(np.isfinite(r))
+    np.testing.assert_allclose(r, ref, atol=EPS)
+    out = np.empty((3, 3))
+    assert rotation_matrix(q[0] * scale, out=out) is out
+    np.testing.assert_allclose(out, ref[0], atol=EPS)
+    # 1e-310 is subnormal: its components carry fewer digits, the norm follows them
+    rtol = 1e-9 if scale < 1e-300 else EPS
+    np.testing.assert_allclose(qnorm(q * scale) / scale, np.linalg.norm(q, axis=1), rtol=rtol)
+    np.testing.assert_array_equal(qnorm(np.zeros((3, 4))), 0.0)
 
 
 @given(st.one_of(quats, special))
