@@ -14,7 +14,7 @@ import numpy as np
 
 from motions import ROTATION_TOL
 from motions._checks import as_array as _as_array
-from motions._checks import short
+from motions._checks import short, unit_quaternions
 from motions.quaternion import quat_from_matrix, rotation_matrix
 
 from .errors import DegenerateMeshError, ShapeError
@@ -53,12 +53,12 @@ def _rotation(rotation: Any, name: str = "rotation") -> np.ndarray:
         return np.eye(3)
     r = as_array(rotation, name)
     if r.shape == (4,):
-        n = np.linalg.norm(r)
-        if n == 0:
+        # any non-zero norm, however small: the largest component, not |r|^2 (underflows)
+        if np.abs(r).max() == 0:
             raise ShapeError(
                 f"Expected `{name}` to be a non-zero quaternion (w, x, y, z), got {short(r)}."
             )
-        return rotation_matrix(r / n)
+        return rotation_matrix(unit_quaternions(r))
     if r.shape == (3, 3):
         if np.abs(r.T @ r - np.eye(3)).max() > ROTATION_TOL or np.linalg.det(r) <= 0:
             raise ShapeError(f"Expected `{name}` to be a rotation matrix, got {short(r)}.")

@@ -114,8 +114,10 @@ def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
         raise SceneError(f"Expected the keyframe times to be strictly increasing, got {times}.")
     pos = np.array(model.key_mpos).reshape(model.nkey, -1, 3)[:, mid]
     quat = np.array(model.key_mquat).reshape(model.nkey, -1, 4)[:, mid]
-    norm = np.linalg.norm(quat, axis=1)
-    bad_q = ~np.isfinite(norm) | (norm == 0)
+    # any non-zero norm, however small (mquat="1e-200 0 0 0"): the largest component
+    # decides zero, and scaling by it first keeps |q|^2 from underflowing
+    big = np.abs(quat).max(axis=1)
+    bad_q = ~np.isfinite(big) | (big == 0)
     bad_p = ~np.all(np.isfinite(pos), axis=1)
     for bad, what, vals in ((bad_q, "mquat", quat), (bad_p, "mpos", pos)):
         if np.any(bad):
@@ -126,7 +128,8 @@ def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
                 f"{body!r} a {'non-zero, finite quaternion' if what == 'mquat' else 'finite position'}"
                 f" ({what}), got {vals[k].tolist()}."
             )
-    return Keyframes(times, quat / norm[:, None], pos)
+    quat = quat / big[:, None]
+    return Keyframes(times, quat / np.linalg.norm(quat, axis=1, keepdims=True), pos)
 
 
 def compile_file(path: str | os.PathLike) -> mujoco.MjModel:

@@ -224,3 +224,12 @@ def test_keyframe_rotations_are_never_nan():
     bad = XML.replace('mpos="0.5 0 0"', 'mpos="0.5 0 0" mquat="0 0 0 0"')
     with pytest.raises(scenes.SceneError, match=r"<key> 1 .*non-zero, finite quaternion"):
         scenes.from_xml(bad, "mover")
+
+
+@pytest.mark.parametrize("mquat", ["1e-200 0 0 0", "1e-200 2e-200 3e-200 4e-200"])
+def test_keyframe_quaternions_of_any_norm(mquat):
+    # |q|^2 underflows at 1e-200; any non-zero norm is a rotation (as in motions)
+    xml = XML.replace('mpos="0.5 0 0"', f'mpos="0.5 0 0" mquat="{mquat}"')
+    rot = scenes.from_xml(xml, "mover").keyframes.rotations
+    q = np.array([float(c) for c in mquat.split()]) * 1e200
+    assert quat_close(rot[1], q / np.linalg.norm(q)) < 1e-12

@@ -50,6 +50,8 @@ def test_box_own_rotation_and_centre_matter():
         (lambda: Box([1.0, 1.0]), "shape"),
         (lambda: Box([1.0, 1.0, 1.0], rotation=np.eye(3) * 2), "rotation"),
         (lambda: Box([1.0, 1.0, 1.0], rotation=[0.0, 0, 0, 0]), "non-zero quaternion"),
+        (lambda: Box([1.0, 1.0, 1.0], rotation=[np.nan, 0, 0, 0]), "finite"),
+        (lambda: Capsule(0.1, 0.5, rotation=[0.0, np.inf, 0, 0]), "finite"),
         (lambda: Sphere(0.0), "radius"),
         (lambda: Sphere(np.nan), "finite"),
         (lambda: Capsule(0.1, -1.0), "half_length"),
@@ -59,6 +61,25 @@ def test_box_own_rotation_and_centre_matter():
 def test_bad_shapes(make, match):
     with pytest.raises(ShapeError, match=match):
         make()
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e200])
+def test_quaternion_rotations_of_any_norm(scale):
+    # |q|^2 underflows at 1e-200: any non-zero norm is a rotation (as in motions)
+    q = np.array([1.0, 2.0, 3.0, 4.0])
+    d = np.random.default_rng(5).normal(size=(50, 3))
+    for make in (
+        lambda r: Box([0.3, 0.2, 0.1], rotation=r),
+        lambda r: Capsule(0.1, 0.5, rotation=r),
+    ):
+        tiny, unit = make(q * scale), make(q / np.linalg.norm(q))
+        assert np.all(np.isfinite(tiny.rotation))
+        np.testing.assert_allclose(tiny.rotation, unit.rotation, atol=TOL)
+        np.testing.assert_allclose(tiny.h(d), unit.h(d), atol=TOL)
+    # the identity scaled down is the identity
+    np.testing.assert_allclose(
+        Box([1.0, 1, 1], rotation=np.array([1.0, 0, 0, 0]) * scale).rotation, np.eye(3), atol=TOL
+    )
 
 
 def test_compound_rejects_non_shapes():
