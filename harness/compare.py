@@ -41,6 +41,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from motions._checks import short
+
 from .errors import HarnessError
 from .timing import ratio_interval
 
@@ -115,7 +117,7 @@ def _check_threshold(value: Any, name: str, integer: bool = False) -> float:
         bad = not math.isfinite(float(value)) or value < 0 or (integer and value != int(value))
     if bad:
         what = "an integer >= 0" if integer else "a finite number >= 0"
-        raise ValueError(f"Expected `{name}` to be {what}, got {value!r}.")
+        raise ValueError(f"Expected `{name}` to be {what}, got {short(value)}.")
     return float(value)
 
 
@@ -162,7 +164,7 @@ def compare(
     fpt = int(_check_threshold(fp_threshold, "fp_threshold", integer=True))
     ut = _check_threshold(unknown_threshold, "unknown_threshold")
     if timer not in TIMERS:
-        raise ValueError(f"Unknown `timer` {timer!r}; expected one of {list(TIMERS)}.")
+        raise ValueError(f"Unknown `timer` {short(timer)}; expected one of {list(TIMERS)}.")
     b, n = Path(base), Path(new)
     kb, kn = _kind(b), _kind(n)
     if kb != kn:

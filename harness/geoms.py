@@ -23,6 +23,7 @@ import numpy as np
 
 import scenes as scenes_pkg
 from motions import quat_from_matrix, rotation_matrix
+from motions._checks import short
 
 from .errors import HarnessError, ShapeError, UnsupportedGeomError
 from .shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere, parts
@@ -91,7 +92,7 @@ def _group_mask(groups: Any) -> np.ndarray | None:
     ):
         raise ValueError(
             f"Expected `groups` to be None or a non-empty list of MuJoCo geom groups "
-            f"(integers 0..{mujoco.mjNGROUP - 1}), got {groups!r}."
+            f"(integers 0..{mujoco.mjNGROUP - 1}), got {short(groups)}."
         )
     mask = np.zeros(mujoco.mjNGROUP, dtype=bool)
     mask[np.asarray(items, dtype=int)] = True
@@ -218,7 +219,7 @@ def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = Non
         raise HarnessError(
             f"Mocap body {mocap_body!r} has no geoms to certify"
             + (
-                f" in `groups` {groups!r}; its subtree's geoms are in groups "
+                f" in `groups` {short(groups)}; its subtree's geoms are in groups "
                 f"{sorted(set(model.geom_group[every].tolist()))}."
                 if every.size
                 else " (nor have its child bodies)."

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion, RationalMotion, build, quat_from_matrix
+from motions._checks import short
 
 from .errors import HarnessError
 from .shapes import Shape, parts
@@ -89,20 +90,20 @@ def render(
     from .sim import _scene, body_from_model, obstacles_from_model
 
     if backend not in BACKENDS:
-        raise ValueError(f"Unknown `backend` {backend!r}; expected one of {list(BACKENDS)}.")
+        raise ValueError(f"Unknown `backend` {short(backend)}; expected one of {list(BACKENDS)}.")
     if (
         isinstance(frames, bool)
         or not isinstance(frames, int | np.integer)
         or not 1 <= frames <= 60
     ):
-        raise ValueError(f"Expected `frames` to be an integer in [1, 60], got {frames!r}.")
+        raise ValueError(f"Expected `frames` to be an integer in [1, 60], got {short(frames)}.")
     if (
         not isinstance(size, tuple | list)
         or len(size) != 2
         or not all(isinstance(x, int | np.integer) and 16 <= x <= 4096 for x in size)
     ):
         raise ValueError(
-            f"Expected `size` to be (width, height) in pixels (16..4096), got {size!r}."
+            f"Expected `size` to be (width, height) in pixels (16..4096), got {short(size)}."
         )
     sc = _scene(scene)
     if motion is None:
@@ -119,7 +120,7 @@ def render(
         n = motion.segments
         if isinstance(control_segment, bool) or not isinstance(control_segment, int | np.integer):
             raise TypeError(
-                f"Expected `control_segment` to be an integer, got {control_segment!r}."
+                f"Expected `control_segment` to be an integer, got {short(control_segment)}."
             )
         if not 0 <= control_segment < n:
             raise ValueError(

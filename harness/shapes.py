@@ -339,7 +339,9 @@ class Compound(Shape):
     def __init__(self, shapes: Any):
         items = tuple(shapes) if isinstance(shapes, list | tuple) else None
         if not items:
-            raise ShapeError(f"Expected `shapes` to be a non-empty list of shapes, got {shapes!r}.")
+            raise ShapeError(
+                f"Expected `shapes` to be a non-empty list of shapes, got {short(shapes)}."
+            )
         flat: list[Shape] = []
         for i, s in enumerate(items):
             if isinstance(s, Compound):

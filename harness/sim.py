@@ -27,6 +27,7 @@ from mujoco import rollout
 
 import scenes as scenes_pkg
 from motions import Motion, RationalMotion, quat_from_matrix
+from motions._checks import short
 
 from .errors import HarnessError
 from .geoms import (
@@ -77,7 +78,7 @@ def _seconds(value: Any, name: str, default: float) -> float:
     if value is None:
         return default
     if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"Expected `{name}` to be a number of seconds, got {value!r}.")
+        raise TypeError(f"Expected `{name}` to be a number of seconds, got {short(value)}.")
     x = float(value)
     if not math.isfinite(x) or x <= 0:
         raise ValueError(f"Expected `{name}` > 0 (seconds), got {x!r}.")
@@ -102,7 +103,7 @@ def _control_times(
     dur = _seconds(duration, "duration", span)
     if dur > span * (1 + 1e-12):
         raise DomainError(
-            f"The motion's domain [{t0!r}, {t1!r}] covers {span:g} s; `duration` {dur:g} s is longer."
+            f"The motion's domain [{short(t0)}, {short(t1)}] covers {span:g} s; `duration` {dur:g} s is longer."
         )
     steps = math.floor(dur / step + 1e-9) + 1
     if steps * _step_bytes(model) > MAX_SIM_BYTES:

@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from motions._checks import short
+
 __all__ = [
     "BOOTSTRAP_RESAMPLES",
     "DEFAULT_ROUNDS",
@@ -242,9 +244,9 @@ class Rounds:
 
 def _check_rounds(rounds: Any, warmup: Any) -> tuple[int, int]:
     if isinstance(rounds, bool) or not isinstance(rounds, int | np.integer) or rounds < 1:
-        raise ValueError(f"Expected `rounds` to be an integer >= 1, got {rounds!r}.")
+        raise ValueError(f"Expected `rounds` to be an integer >= 1, got {short(rounds)}.")
     if isinstance(warmup, bool) or not isinstance(warmup, int | np.integer) or warmup < 0:
-        raise ValueError(f"Expected `warmup` to be an integer >= 0, got {warmup!r}.")
+        raise ValueError(f"Expected `warmup` to be an integer >= 0, got {short(warmup)}.")
     return int(rounds), int(warmup)
 
 

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion
+from motions._checks import short
 
 from .certification.advance import pose_matrices, pose_rows
 from .certification.api import Certificate, obstacle_lists
@@ -60,7 +61,7 @@ def sample_distances(
         lb = lb.reshape(len(t), -1).min(axis=1)
         scale = 1.0 + np.abs(p).max() + body.bounding_radius
         return lb, ub, 1e-12 * scale
-    raise ValueError(f"Unknown `method` {method!r}; expected one of {list(METHODS)}.")
+    raise ValueError(f"Unknown `method` {short(method)}; expected one of {list(METHODS)}.")
 
 
 def ground_truth(
@@ -96,9 +97,9 @@ def ground_truth(
     try:
         res = float(resolution)
     except (TypeError, ValueError):
-        raise TypeError(f"Expected `resolution` to be a number, got {resolution!r}.") from None
+        raise TypeError(f"Expected `resolution` to be a number, got {short(resolution)}.") from None
     if not math.isfinite(res) or res <= 0:
-        raise ValueError(f"Expected `resolution` > 0 (a length), got {resolution!r}.")
+        raise ValueError(f"Expected `resolution` > 0 (a length), got {short(resolution)}.")
     start = time.perf_counter()
     common = dict(depth=0, certified=True, bound="truth", tolerance=res)
     if not obst:

@@ -26,9 +26,10 @@ __all__ = [
 def short(x: Any, limit: int = 6) -> str:
     """A compact repr of an argument for error messages.
 
-    numpy scalars print as plain numbers (``0.5``, not ``np.float64(0.5)``, numpy 2's repr).
+    numpy scalars and 0-d arrays print as plain numbers (``0.5``, not ``np.float64(0.5)``,
+    numpy 2's repr, nor ``array(0.5)``).
     """
-    if isinstance(x, np.generic):
+    if isinstance(x, np.generic) or (isinstance(x, np.ndarray) and x.ndim == 0):
         x = x.item()
     try:
         a = np.asarray(x)

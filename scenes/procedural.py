@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from motions._checks import short
+
 from .errors import SceneError
 
 __all__ = ["BUILDERS", "clutter"]
@@ -29,12 +31,12 @@ def clutter(n_obstacles: int = 50, seed: int = 0, tube: float = 0.7) -> str:
         or not 1 <= n_obstacles <= 100_000
     ):
         raise SceneError(
-            f"Expected `n_obstacles` to be an integer in [1, 100000], got {n_obstacles!r}."
+            f"Expected `n_obstacles` to be an integer in [1, 100000], got {short(n_obstacles)}."
         )
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise SceneError(f"Expected `seed` to be a non-negative integer, got {seed!r}.")
+        raise SceneError(f"Expected `seed` to be a non-negative integer, got {short(seed)}.")
     if isinstance(tube, bool) or not isinstance(tube, int | float) or not 0 <= tube < 3:
-        raise SceneError(f"Expected `tube` to be a number in [0, 3) (metres), got {tube!r}.")
+        raise SceneError(f"Expected `tube` to be a number in [0, 3) (metres), got {short(tube)}.")
     rng = np.random.default_rng(seed)
     n_keys = 6
     pos = np.stack(

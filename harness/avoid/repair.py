@@ -32,6 +32,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 from motions import Motion, RationalMotion
+from motions._checks import short
 
 from ..certification import Certificate, Clearance, certify
 from ..certification import clearance as certified_clearance
@@ -117,7 +118,7 @@ class Repair:
 # ----------------------------------------------------------------------------- validation
 def _number(x: Any, name: str) -> float:
     if isinstance(x, bool) or not isinstance(x, int | float | np.integer | np.floating):
-        raise TypeError(f"Expected `{name}` to be a number (a length), got {x!r}.")
+        raise TypeError(f"Expected `{name}` to be a number (a length), got {short(x)}.")
     return float(x)
 
 
@@ -140,10 +141,10 @@ def _check(motion, body, obstacles, tolerance, clearance_) -> tuple:
         raise RepairError("Expected at least one obstacle in `obstacles`, got none.")
     tol = _number(tolerance, "tolerance")
     if not math.isfinite(tol) or tol <= 0:
-        raise RepairError(f"Expected `tolerance` > 0 (a length), got {tolerance!r}.")
+        raise RepairError(f"Expected `tolerance` > 0 (a length), got {short(tolerance)}.")
     c = _number(clearance_, "clearance")
     if not math.isfinite(c) or c < 0:
-        raise RepairError(f"Expected `clearance` >= 0 (a length), got {clearance_!r}.")
+        raise RepairError(f"Expected `clearance` >= 0 (a length), got {short(clearance_)}.")
     return motion, body, obst, tol, c
 
 
@@ -381,7 +382,7 @@ def repair(
         or max_iterations < 1
     ):
         raise RepairError(
-            f"Expected `max_iterations` to be a positive integer, got {max_iterations!r}."
+            f"Expected `max_iterations` to be a positive integer, got {short(max_iterations)}."
         )
     cert_opts = {
         k: v for k, v in options.items() if k in ("max_depth", "max_nodes", "threads", "device")

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion, RationalMotion
+from motions._checks import short
 from motions.pieces import UNIT_ROUNDOFF
 
 from ..errors import HarnessError
@@ -104,7 +105,7 @@ class QueryError(HarnessError):
 # ----------------------------------------------------------------------------- validation
 def _integer(value: Any, name: str, lo: int, hi: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise TypeError(f"Expected `{name}` to be an integer, got {value!r}.")
+        raise TypeError(f"Expected `{name}` to be an integer, got {short(value)}.")
     v = int(value)
     if v < lo or (hi is not None and v > hi):
         rng = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
@@ -124,11 +125,11 @@ def check_options(
 ) -> dict:
     """Validate the common query options; returns them normalised."""
     if not isinstance(bound, str) or bound not in BOUNDS:
-        raise QueryError(f"Unknown `bound` {bound!r}; expected one of {list(BOUNDS)}.")
+        raise QueryError(f"Unknown `bound` {short(bound)}; expected one of {list(BOUNDS)}.")
     if isinstance(tolerance, bool) or not isinstance(
         tolerance, int | float | np.floating | np.integer
     ):
-        raise TypeError(f"Expected `tolerance` to be a number (a length), got {tolerance!r}.")
+        raise TypeError(f"Expected `tolerance` to be a number (a length), got {short(tolerance)}.")
     tol = float(tolerance)
     if not math.isfinite(tol) or tol <= 0:
         raise QueryError(f"Expected `tolerance` > 0 (a length in scene units), got {tol!r}.")
@@ -160,7 +161,7 @@ def check_motions(motions: Any, bound: str) -> list[Motion]:
             )
         if not isinstance(m, need):
             raise QueryError(
-                f"Bound {bound!r} needs a rational motion's control structure; motions[{i}] is"
+                f"Bound {short(bound)} needs a rational motion's control structure; motions[{i}] is"
                 f" {m.scheme!r}. Use bound='lipschitz' (proven speed bound) or 'sampled'."
             )
     return out
@@ -315,7 +316,7 @@ def _comparators(bound, ms, bodies, obst, tol, options) -> list:
     if bound not in comparators.available():
         pkg = "python-fcl" if bound == "fcl" else "ipctk"
         raise QueryError(
-            f"Bound {bound!r} needs {pkg}: install the extra (pip install 'rsmbench[comparators]')."
+            f"Bound {short(bound)} needs {pkg}: install the extra (pip install 'rsmbench[comparators]')."
         )
     if options is not None and not isinstance(options, dict):
         raise TypeError(
@@ -325,7 +326,7 @@ def _comparators(bound, ms, bodies, obst, tol, options) -> list:
     try:
         return run(ms, bodies, obst, tolerance=tol, **(options or {}))
     except TypeError as e:
-        raise TypeError(f"Bad `comparator_options` for {bound!r}: {e}") from None
+        raise TypeError(f"Bad `comparator_options` for {short(bound)}: {e}") from None
 
 
 def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) -> list[Certificate]:

@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from motions._checks import short
+
 from ..errors import HarnessError
 
 __all__ = [
@@ -61,21 +63,23 @@ def resolve_device(device: Any) -> str:
     name = default_device() if device is None else device
     if not isinstance(name, str):
         raise TypeError(
-            f"Expected `device` to be a string such as 'cpu' or 'cuda:0', got {device!r}."
+            f"Expected `device` to be a string such as 'cpu' or 'cuda:0', got {short(device)}."
         )
     if name != "cpu" and not (name == "cuda" or name.startswith("cuda:")):
-        raise DeviceError(f"Unknown `device` {name!r}; expected 'cpu', 'cuda' or 'cuda:N'.")
+        raise DeviceError(f"Unknown `device` {short(name)}; expected 'cpu', 'cuda' or 'cuda:N'.")
     wp = warp()
     if name == "cpu":
         return name
     if not wp.is_cuda_available():
-        raise DeviceError(f"`device` {name!r} is not available: this machine has no CUDA device.")
+        raise DeviceError(
+            f"`device` {short(name)} is not available: this machine has no CUDA device."
+        )
     try:
         return str(wp.get_device(name))
     except (RuntimeError, ValueError):
         n = wp.get_cuda_device_count()
         raise DeviceError(
-            f"`device` {name!r} is not available; CUDA devices: {[f'cuda:{i}' for i in range(n)]}."
+            f"`device` {short(name)} is not available; CUDA devices: {[f'cuda:{i}' for i in range(n)]}."
         ) from None
 
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion
+from motions._checks import short
 
 from ..errors import HarnessError
 from ..shapes import Box, Capsule, ConvexMesh, Shape, Sphere, as_obstacles, as_shape
@@ -56,10 +57,12 @@ def check_tolerance(tolerance: Any) -> float:
         tol = float(tolerance)
     except (TypeError, ValueError):
         raise TypeError(
-            f"Expected `tolerance` to be a number (a length), got {tolerance!r}."
+            f"Expected `tolerance` to be a number (a length), got {short(tolerance)}."
         ) from None
     if not math.isfinite(tol) or tol <= 0:
-        raise ValueError(f"Expected `tolerance` > 0 (a length in scene units), got {tolerance!r}.")
+        raise ValueError(
+            f"Expected `tolerance` > 0 (a length in scene units), got {short(tolerance)}."
+        )
     return tol
 
 

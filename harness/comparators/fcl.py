@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion, RationalMotion
+from motions._checks import short
 from motions.baselines import ScLerpMotion
 from motions.quaternion import quat_from_matrix
 
@@ -190,10 +191,10 @@ def fcl_intervals(
     """
     if pure_translation not in ("trans", "screw"):
         raise ValueError(
-            f"Expected `pure_translation` to be 'trans' or 'screw', got {pure_translation!r}."
+            f"Expected `pure_translation` to be 'trans' or 'screw', got {short(pure_translation)}."
         )
     if linear not in ("refuse", "unsafe"):
-        raise ValueError(f"Expected `linear` to be 'refuse' or 'unsafe', got {linear!r}.")
+        raise ValueError(f"Expected `linear` to be 'refuse' or 'unsafe', got {short(linear)}.")
     if isinstance(motion, RationalMotion):
         segs = _rational_translation(motion)
         if segs is None:
@@ -364,7 +365,7 @@ def certify_fcl_many(
     """
     tol = check_tolerance(tolerance)
     if solver not in FCL_SOLVERS:
-        raise ValueError(f"Unknown `solver` {solver!r}; expected one of {list(FCL_SOLVERS)}.")
+        raise ValueError(f"Unknown `solver` {short(solver)}; expected one of {list(FCL_SOLVERS)}.")
     ms, bs, obs = check_batch(motions, bodies, obstacle_lists)
     fcl = _fcl()
     gjk = fcl.GJKSolverType.GST_INDEP if solver == "indep" else fcl.GJKSolverType.GST_LIBCCD

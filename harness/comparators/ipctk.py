@@ -46,6 +46,7 @@ import numpy as np
 from scipy.special import comb
 
 from motions import Motion, RationalMotion
+from motions._checks import short
 from motions.baselines import ScLerpMotion
 from motions.quaternion import quat_from_matrix
 
@@ -346,7 +347,9 @@ def certify_ipctk_many(
     tol = check_tolerance(tolerance)
     tess = tol if tessellation_error is None else check_tolerance(tessellation_error)
     if not isinstance(broad_pieces, int) or isinstance(broad_pieces, bool) or broad_pieces < 1:
-        raise ValueError(f"Expected `broad_pieces` to be an integer >= 1, got {broad_pieces!r}.")
+        raise ValueError(
+            f"Expected `broad_pieces` to be an integer >= 1, got {short(broad_pieces)}."
+        )
     ms, bs, obs = check_batch(motions, bodies, obstacle_lists)
     ipctk = _ipctk()
     ipctk.set_logger_level(ipctk.LoggerLevel.error)

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from motions._checks import short
+
 from .cases import CLASSES, SCHEMES, TOLERANCE, Case, Truth, classify
 from .families import FAMILIES
 
@@ -33,9 +35,9 @@ def generate(seed: int = 0, size: float = 1.0, families: list[str] | None = None
     try:
         scale = float(size)
     except (TypeError, ValueError):
-        raise TypeError(f"Expected `size` to be a number, got {size!r}.") from None
+        raise TypeError(f"Expected `size` to be a number, got {short(size)}.") from None
     if not np.isfinite(scale) or scale <= 0:
-        raise ValueError(f"Expected `size` > 0, got {size!r}.")
+        raise ValueError(f"Expected `size` > 0, got {short(size)}.")
     names = list(FAMILIES) if families is None else list(families)
     bad = [f for f in names if f not in FAMILIES]
     if bad:

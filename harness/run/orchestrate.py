@@ -25,6 +25,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from motions._checks import short
+
 from ..errors import SuiteError
 from .journal import (
     Journal,
@@ -118,9 +120,9 @@ def run_suite(
     """
     seed = suite.seed if seed is None else seed
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"Expected `seed` to be an integer >= 0, got {seed!r}.")
+        raise ValueError(f"Expected `seed` to be an integer >= 0, got {short(seed)}.")
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise ValueError(f"Expected `jobs` to be an integer >= 1, got {jobs!r}.")
+        raise ValueError(f"Expected `jobs` to be an integer >= 1, got {short(jobs)}.")
     if scheduler is not None and jobs > 1:
         raise ValueError(
             f"Give `jobs` (local processes) or `scheduler` (a Dask cluster), not both; got"

@@ -1,0 +1,86 @@
+"""Error messages show a bad argument's value as a plain number (DESIGN §7).
+
+numpy 2 scalars repr as ``np.float64(-1.0)`` and 0-d arrays as ``array(-1.)``; a message
+naming the argument should say ``got -1.0``.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import harness
+import harness.corpus
+import motions
+import scenes
+from harness import Box, RepairError, Sphere
+from harness.avoid import colliding_cases
+from motions._checks import short
+
+
+def _line():
+    return motions.interpolate([[1, 0, 0, 0]] * 3, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
+
+
+CASES = [
+    (
+        lambda: harness.ground_truth(
+            _line(),
+            Sphere(0.1),
+            [Box([0.1, 0.1, 0.1], center=[0, 3, 0])],
+            resolution=np.float64(-1.0),
+        ),
+        ValueError,
+        "`resolution`",
+        "-1.0",
+    ),
+    (
+        lambda: harness.repair(*_colliding(), clearance=np.float64(-1.0)),
+        RepairError,
+        "`clearance`",
+        "-1.0",
+    ),
+    (lambda: harness.render("slot", frames=np.int64(0)), ValueError, "`frames`", "0"),
+    (lambda: harness.render("slot", frames=np.float64(2.5)), ValueError, "`frames`", "2.5"),
+    (
+        lambda: harness.render("slot", control_segment=np.float64(1.5)),
+        TypeError,
+        "`control_segment`",
+        "1.5",
+    ),
+    (lambda: harness.corpus.generate(size=np.float64(-1.0)), ValueError, "`size`", "-1.0"),
+    (lambda: scenes.load("clutter", seed=np.float64(1.5)), scenes.SceneError, "`seed`", "1.5"),
+    (lambda: Sphere(-1.0), harness.ShapeError, "`radius`", "-1.0"),
+    (lambda: Sphere(np.float64(-2.0)), harness.ShapeError, "`radius`", "-2.0"),
+    (
+        lambda: harness.certify(_line(), Sphere(0.1), [], tolerance=np.float64(-1.0)),
+        ValueError,
+        "`tolerance`",
+        "-1.0",
+    ),
+]
+
+
+def _colliding():
+    case = colliding_cases(1, seed=3)[0]
+    return case.motion, case.body, case.obstacles
+
+
+@pytest.mark.parametrize(("call", "error", "name", "got"), CASES)
+def test_messages_show_plain_numbers(call, error, name, got):
+    with pytest.raises(error) as e:
+        call()
+    msg = str(e.value)
+    assert name in msg, msg
+    assert re.search(rf"got {re.escape(got)}\b", msg), msg
+    assert "np." not in msg and "array(" not in msg, msg
+
+
+def test_short_prints_numpy_scalars_and_0d_arrays_plainly():
+    assert short(np.float64(-1.0)) == "-1.0"
+    assert short(np.array(-1.0)) == "-1.0"
+    assert short(np.int64(3)) == "3"
+    assert short(np.str_("cpu")) == "'cpu'"
+    assert short(np.array([1.0, 2.0])) == "[1. 2.]"
