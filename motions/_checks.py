@@ -13,6 +13,7 @@ __all__ = [
     "ROTATION_TOL",
     "as_array",
     "as_bspline",
+    "as_count",
     "as_points",
     "as_quaternions",
     "as_rotations",
@@ -136,6 +137,15 @@ def as_times(x: Any, name: str = "times", n: int | None = None) -> np.ndarray:
     if np.any(np.diff(t) <= 0):
         raise ValueError(f"Expected `{name}` to be strictly increasing, got {short(t, 8)}.")
     return t
+
+
+def as_count(value: Any, name: str, lo: int, hi: int) -> int:
+    """An integer in ``[lo, hi]`` (numpy integers too; not bool, not 2.0)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise TypeError(f"Expected `{name}` to be an integer in [{lo}, {hi}], got {short(value)}.")
+    if not lo <= value <= hi:
+        raise ValueError(f"Expected `{name}` to be an integer in [{lo}, {hi}], got {int(value)}.")
+    return int(value)
 
 
 def check_choice(value: Any, name: str, choices) -> str:

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import as_points, short
+from ._checks import as_count, as_points, short
 from ._spline import gauss_nodes
 from .motion import Motion
 from .quaternion import quat_from_matrix, rotation_matrix
@@ -139,6 +139,10 @@ def _random_transform(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]
     return rotation_matrix(q / np.linalg.norm(q)), rng.normal(size=3) * 3.0
 
 
+MAX_INVARIANCE_SAMPLES = 1_000_000
+"""Most `samples` of :func:`invariance_errors` (three (samples, 3, 3) matrix stacks)."""
+
+
 def invariance_errors(
     motion: Motion, rng: np.random.Generator | None = None, samples: int = 257
 ) -> tuple[float, float]:
@@ -147,6 +151,7 @@ def invariance_errors(
     Rebuilds the motion from moved keyframes (its :attr:`Motion.recipe`) and compares with
     the moved motion at `samples` times. NaN when the motion has no recipe.
     """
+    samples = as_count(samples, "samples", 2, MAX_INVARIANCE_SAMPLES)
     recipe = motion.recipe
     if recipe is None:
         return float("nan"), float("nan")

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import itertools
 import json
+import re
 
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline, make_interp_spline
 
 import motions
+from motions.smoothness import invariance_errors
 
 
 @pytest.fixture
@@ -79,6 +81,30 @@ def test_rmf_approximation_converges_at_fourth_order():
     assert orders.mean() > 3.0, orders  # cubic Hermite: O(h^4)
     m = motions.rmf_motion(sp, 16)
     assert m.preimage_degree == 3 and m.scheme == "rational-hermite"
+
+
+def test_rmf_error_samples_are_checked():
+    sp = helix()
+    m = motions.rmf_motion(sp, 8)
+    for bad, err in ((0, ValueError), (1, ValueError), (-5, ValueError), (10**9, ValueError)):
+        with pytest.raises(err, match=rf"`samples` to be an integer in \[2, \d+\], got {bad}\."):
+            motions.rmf_error(m, sp, samples=bad)
+    for bad, got in ((2.0, "2.0"), (np.float64(3.5), "3.5"), ("x", "'x'"), (True, "True")):
+        with pytest.raises(TypeError, match=rf"`samples` .*, got {re.escape(got)}\."):
+            motions.rmf_error(m, sp, samples=bad)
+    with pytest.raises(TypeError, match="`motion`"):
+        motions.rmf_error("m", sp)
+    # the smallest count (numpy integers too) gives a number, not a traceback
+    e2 = motions.rmf_error(m, sp, samples=np.int64(2))
+    assert isinstance(e2, float) and 0.0 <= e2 < np.pi
+
+
+def test_invariance_errors_samples_are_checked():
+    m = motions.interpolate([[1, 0, 0, 0]] * 3, [[0, 0, 0], [1, 0, 0], [2, 0, 1]])
+    with pytest.raises(ValueError, match=r"`samples` to be an integer in \[2, \d+\], got 0\."):
+        invariance_errors(m, samples=0)
+    with pytest.raises(TypeError, match="`samples`"):
+        invariance_errors(m, samples=2.5)
 
 
 def test_sweep_surface_is_the_moved_profile(preimage, tmp_path):
