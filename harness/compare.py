@@ -232,10 +232,15 @@ def _load_benchmarks(p: Path) -> dict[str, dict]:
         doc = json.loads(p.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as e:
         raise CompareError(f"{p}: not a readable JSON file ({e}).") from None
-    if not isinstance(doc, dict) or not isinstance(doc.get("benchmarks"), list):
+    if not isinstance(doc, dict) or "benchmarks" not in doc:
         raise CompareError(
             f"{p}: not a pytest-benchmark JSON file: expected an object with a `benchmarks` list,"
             f" got {type(doc).__name__}{' without it' if isinstance(doc, dict) else ''}."
+        )
+    if not isinstance(doc["benchmarks"], list):
+        raise CompareError(
+            f"{p}: not a pytest-benchmark JSON file: expected `benchmarks` to be a list,"
+            f" got {type(doc['benchmarks']).__name__}."
         )
     out = {}
     for i, bm in enumerate(doc["benchmarks"]):

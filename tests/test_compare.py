@@ -170,7 +170,10 @@ def test_benchmark_json_uses_the_rounds(tmp_path):
     ("doc", "match"),
     [
         ([1, 2], "`benchmarks` list"),
-        ({"benchmarks": "x"}, "`benchmarks` list"),
+        ({"benchmarks": "x"}, r"`benchmarks` to be a list, got str\.$"),
+        ({"benchmarks": 5}, r"`benchmarks` to be a list, got int\.$"),
+        ({"benchmarks": None}, r"`benchmarks` to be a list, got NoneType\.$"),
+        ({"other": []}, r"`benchmarks` list, got dict without it\.$"),
         ({"benchmarks": [{"name": "x"}]}, "string `fullname`"),
         ({"benchmarks": [{"fullname": "x", "stats": 3}]}, "`stats` object"),
         ({"benchmarks": [{"fullname": "x", "stats": {"data": ["a"]}}]}, "`stats.data`"),
