@@ -94,21 +94,46 @@ def test_hull_is_decisive(cases, hull):
     assert min(decided.values()) >= 100, decided
 
 
-def test_tolerance_witnesses_are_near_poses(cases):
-    # Lipschitz stops at poses closer than the tolerance: each witness is re-checked
-    # with MuJoCo's distance, an engine independent of the certifier's GJK.
+MJ_DISTANCE_SLACK = 1e-9
+"""MuJoCo's distances are accurate to its ccd_tolerance (1e-10, harness.mjdistance); a
+pose the certifier found intersecting may read up to this much above 0 there."""
+DENSE = 257
+"""Samples per motion of the independent first-contact check."""
+
+
+def test_witnesses_and_contacts_are_checked_by_mujoco(cases):
+    # Every witness of a Lipschitz query is re-checked with MuJoCo's distance, an engine
+    # independent of the certifier's GJK: a "tolerance" witness is closer than the
+    # tolerance; a "contact" (collision) pose at toi_hi intersects, and toi_lo lies at or
+    # before the first intersecting pose of a dense MuJoCo sampling of the motion.
     sub = cases[::3]
     certs = run(sub, "lipschitz")
     check_sound(sub, certs, "lipschitz")
     check_decisive(sub, certs, "lipschitz")
-    witnessed = 0
+    witnessed = contacts = sampled_hits = 0
     for c, k in zip(sub, certs, strict=True):
-        if k.reason == "tolerance" or (k.verdict == "collision" and np.isfinite(k.witness_time)):
+        dist = MujocoDistance(c.body, c.obstacles)
+        if k.reason == "tolerance":
+            assert np.isfinite(k.witness_time), k
             r, p = c.motion.pose(np.array([k.witness_time]))
-            d = MujocoDistance(c.body, c.obstacles).distances(r, p).min()
-            assert d < TOL + 1e-9, (c.family, k.witness_time, d)
+            d = dist.distances(r, p).min()
+            assert d < TOL + MJ_DISTANCE_SLACK, (c.family, k.witness_time, d)
             witnessed += 1
-    assert witnessed > 10
+        elif k.verdict == "collision":
+            assert k.reason == "contact" and k.certified, k
+            assert k.toi_lo <= k.toi_hi and np.isfinite(k.toi_hi), k
+            r, p = c.motion.pose(np.array([k.toi_hi]))
+            d = dist.distances(r, p).min()
+            assert d <= MJ_DISTANCE_SLACK, (c.family, k.toi_hi, d)
+            t = np.linspace(*c.motion.domain, DENSE)
+            dd = dist.distances(*c.motion.pose(t)).reshape(t.size, -1).min(axis=1)
+            hit = np.flatnonzero(dd < -MJ_DISTANCE_SLACK)
+            if hit.size:  # a certified toi_lo is at or before every intersecting pose
+                assert k.toi_lo <= t[hit[0]], (c.family, k.toi_lo, t[hit[0]])
+                sampled_hits += 1
+            contacts += 1
+    assert witnessed > 10 and contacts > 50, (witnessed, contacts)
+    assert sampled_hits > contacts // 2, (sampled_hits, contacts)
 
 
 def test_aabb_is_sound_and_reports_its_rate(cases):
