@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion
-from motions._checks import short
+from motions._checks import as_float, short
 
 from .certification.advance import pose_matrices, pose_rows
 from .certification.api import Certificate, obstacle_lists
@@ -94,10 +94,7 @@ def ground_truth(
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     body = as_shape(body)
     obst = obstacle_lists(obstacles, 1)[0]
-    try:
-        res = float(resolution)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected `resolution` to be a number, got {short(resolution)}.") from None
+    res = as_float(resolution, "resolution")
     if not math.isfinite(res) or res <= 0:
         raise ValueError(f"Expected `resolution` > 0 (a length), got {short(resolution)}.")
     start = time.perf_counter()

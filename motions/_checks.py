@@ -14,6 +14,7 @@ __all__ = [
     "as_array",
     "as_bspline",
     "as_count",
+    "as_float",
     "as_points",
     "as_quaternions",
     "as_rotations",
@@ -137,6 +138,19 @@ def as_times(x: Any, name: str = "times", n: int | None = None) -> np.ndarray:
     if np.any(np.diff(t) <= 0):
         raise ValueError(f"Expected `{name}` to be strictly increasing, got {short(t, 8)}.")
     return t
+
+
+def as_float(x: Any, name: str, what: str = "a number") -> float:
+    """A Python float from a number (numpy scalars too; not bool, not a string).
+
+    Range and finiteness are the caller's to check, with its own message.
+    """
+    if not isinstance(x, bool | str | bytes):
+        try:
+            return float(x)
+        except (TypeError, ValueError):
+            pass
+    raise TypeError(f"Expected `{name}` to be {what}, got {short(x)}.")
 
 
 def as_count(value: Any, name: str, lo: int, hi: int) -> int:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import BPoly, BSpline, PPoly
 
-from ._checks import as_array, as_bspline, as_count, short
+from ._checks import as_array, as_bspline, as_count, as_float, short
 from .errors import MotionError
 from .interpolation import hermite
 from .motion import Motion
@@ -344,14 +344,7 @@ class SweepSurface:
             MotionError: if `tolerance` needs more than `max_vertices` grid points, or is
                 still missed (round-off) on the finest grid allowed.
         """
-        if isinstance(tolerance, bool | str | bytes):
-            raise TypeError(f"Expected `tolerance` to be a number, got {short(tolerance)}.")
-        try:
-            tol = float(tolerance)
-        except (TypeError, ValueError):
-            raise TypeError(
-                f"Expected `tolerance` to be a number, got {short(tolerance)}."
-            ) from None
+        tol = as_float(tolerance, "tolerance")
         if not np.isfinite(tol) or tol <= 0:
             raise ValueError(f"Expected `tolerance` > 0, got {short(tolerance)}.")
         if isinstance(max_vertices, bool) or not isinstance(max_vertices, int | np.integer):

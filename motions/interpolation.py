@@ -18,7 +18,7 @@ from scipy.linalg import solve_banded
 from scipy.sparse.linalg import spsolve
 from scipy.special import comb
 
-from ._checks import as_points, as_rotations, as_times, check_choice, short
+from ._checks import as_float, as_points, as_rotations, as_times, check_choice, short
 from ._spline import clamped_knots, gauss_nodes
 from .bernstein import bezier_derivative, bezier_eval
 from .errors import DegenerateMotionError, MotionError
@@ -116,12 +116,7 @@ def keyframes(
         )
     if n < min_count:
         raise ValueError(f"Expected at least {min_count} keyframes, got {n}.")
-    if isinstance(omega, bool | str | bytes):
-        raise TypeError(f"Expected `omega` to be a number, got {short(omega)}.")
-    try:
-        om = float(omega)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected `omega` to be a number, got {short(omega)}.") from None
+    om = as_float(omega, "omega")
     if not np.isfinite(om) or om < 0:
         raise ValueError(
             f"Expected `omega` to be finite and >= 0 (length per radian), got {short(omega)}."

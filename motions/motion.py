@@ -12,7 +12,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ._checks import as_points, short
+from ._checks import as_float, as_points, short
 
 __all__ = ["DOMAIN_SLACK", "Kinematics", "Motion", "Recipe", "skew", "vee"]
 
@@ -220,12 +220,7 @@ class Motion(abc.ABC):
         a, b = float(a[0]), float(b[0])
         if b < a:
             raise ValueError(f"Expected `t0` <= `t1`, got t0={a!r}, t1={b!r}.")
-        if isinstance(radius, str | bytes):
-            raise TypeError(f"Expected `radius` to be a number, got {short(radius)}.")
-        try:
-            r = float(radius)
-        except (TypeError, ValueError):
-            raise TypeError(f"Expected `radius` to be a number, got {short(radius)}.") from None
+        r = as_float(radius, "radius")
         if not np.isfinite(r) or r < 0:
             raise ValueError(f"Expected `radius` to be finite and >= 0, got {short(radius)}.")
         return a, b, r

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
-from ._checks import as_array, short
+from ._checks import as_array, as_float, short
 from .interpolation import interpolate
 from .rational import RationalMotion
 
@@ -35,10 +35,7 @@ def _interval(t_range: Any) -> tuple[float, float]:
 
 
 def _positive(x: Any, name: str, allow_zero: bool = False) -> float:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected `{name}` to be a number, got {short(x)}.") from None
+    v = as_float(x, name)
     if not np.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         raise ValueError(
             f"Expected `{name}` to be finite and {'>=' if allow_zero else '>'} 0, got {short(x)}."
@@ -57,10 +54,7 @@ def darboux(
     """
     r = _positive(radius, "radius")
     h = _positive(amplitude, "amplitude", allow_zero=True)
-    try:
-        ph = float(phase)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected `phase` to be a number, got {short(phase)}.") from None
+    ph = as_float(phase, "phase")
     a, b = _interval(t_range)
     knots = np.array([a, a, b, b])
     quats = np.array([[1.0, 0.0, 0.0, -a], [1.0, 0.0, 0.0, -b]])

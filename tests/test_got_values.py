@@ -84,3 +84,31 @@ def test_short_prints_numpy_scalars_and_0d_arrays_plainly():
     assert short(np.int64(3)) == "3"
     assert short(np.str_("cpu")) == "'cpu'"
     assert short(np.array([1.0, 2.0])) == "[1. 2.]"
+
+
+NUMBER_ARGS = [
+    (lambda v: motions.darboux(radius=v), "`radius`"),
+    (lambda v: motions.darboux(phase=v), "`phase`"),
+    (lambda v: _line().speed_bound(0.0, 1.0, v), "`radius`"),
+    (lambda v: harness.corpus.generate(size=v), "`size`"),
+    (
+        lambda v: harness.ground_truth(_line(), Sphere(0.1), [Box([0.1, 0.1, 0.1])], resolution=v),
+        "`resolution`",
+    ),
+]
+
+
+@pytest.mark.parametrize(("call", "name"), NUMBER_ARGS)
+@pytest.mark.parametrize(("value", "got"), [("0.5", "'0.5'"), (True, "True"), ([1, 2], "[1 2]")])
+def test_number_arguments_refuse_strings_bools_and_lists(call, name, value, got):
+    # one checker (motions._checks.as_float): a string or bool is not silently a number
+    with pytest.raises(TypeError) as e:
+        call(value)
+    msg = str(e.value)
+    assert name in msg and msg.endswith(f"got {got}."), msg
+
+
+@pytest.mark.parametrize(("call", "name"), NUMBER_ARGS[:3])
+def test_number_arguments_take_numpy_scalars(call, name):
+    # numpy scalars are numbers (the result is a motion or a float, not an error)
+    assert call(np.float64(0.5)) is not None

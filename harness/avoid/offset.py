@@ -18,6 +18,7 @@ from scipy.interpolate import BSpline
 from scipy.linalg import null_space
 
 from motions import RationalMotion
+from motions._spline import clamped_knots
 from motions.bernstein import bezier_product, bspline_bezier_pieces, elevate
 from motions.relative import restrict_control
 
@@ -47,7 +48,7 @@ class OffsetSpline:
         """The offset space with the given interior knots (sorted, inside the domain)."""
         k = OFFSET_DEGREE
         t0, t1 = domain
-        knots = np.concatenate([[t0] * (k + 1), np.asarray(interior, float), [t1] * (k + 1)])
+        knots = clamped_knots(np.concatenate([[t0], np.asarray(interior, float), [t1]]), k, 1)
         e = BSpline.design_matrix(np.clip(anchors, t0, t1), knots, k).toarray()
         return cls(knots, np.asarray(anchors, float), null_space(e))
 
@@ -78,9 +79,7 @@ def _c0_bspline(breaks: np.ndarray, pieces: np.ndarray) -> tuple[np.ndarray, np.
     k = pieces.shape[1] - 1
     if k == 0:
         return np.array([breaks[0], breaks[-1]]), pieces[:1, 0]
-    knots = np.concatenate(
-        [[breaks[0]] * (k + 1), np.repeat(breaks[1:-1], k), [breaks[-1]] * (k + 1)]
-    )
+    knots = clamped_knots(breaks, k, k)
     coef = np.concatenate([pieces[0, :-1], *[p[:-1] for p in pieces[1:]], pieces[-1, -1:]])
     return knots, coef
 

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion
-from motions._checks import short
+from motions._checks import as_float, short
 
 from ..errors import HarnessError
 from ..shapes import Box, Capsule, ConvexMesh, Shape, Sphere, as_obstacles, as_shape
@@ -53,12 +53,7 @@ class NotApplicable:
 
 
 def check_tolerance(tolerance: Any) -> float:
-    try:
-        tol = float(tolerance)
-    except (TypeError, ValueError):
-        raise TypeError(
-            f"Expected `tolerance` to be a number (a length), got {short(tolerance)}."
-        ) from None
+    tol = as_float(tolerance, "tolerance", "a number (a length)")
     if not math.isfinite(tol) or tol <= 0:
         raise ValueError(
             f"Expected `tolerance` > 0 (a length in scene units), got {short(tolerance)}."

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from motions._checks import short
+from motions._checks import as_float, short
 
 from .cases import CLASSES, SCHEMES, TOLERANCE, Case, Truth, classify
 from .families import FAMILIES
@@ -32,10 +32,7 @@ def generate(seed: int = 0, size: float = 1.0, families: list[str] | None = None
     Returns:
         Cases in a deterministic order with unique ids.
     """
-    try:
-        scale = float(size)
-    except (TypeError, ValueError):
-        raise TypeError(f"Expected `size` to be a number, got {short(size)}.") from None
+    scale = as_float(size, "size")
     if not np.isfinite(scale) or scale <= 0:
         raise ValueError(f"Expected `size` > 0, got {short(size)}.")
     names = list(FAMILIES) if families is None else list(families)
