@@ -258,15 +258,16 @@ def certify_many(
     a :class:`harness.comparators.NotApplicable` ("n/a" with the reason) in its place.
     """
     o = check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)
-    ms = check_motions(motions, o["bound"])
-    bodies = body_list(body, len(ms))
-    obst = obstacle_lists(obstacles, len(ms))
-    if not ms:
-        return []
     if o["bound"] in ("fcl", "ipctk"):
+        ms = check_motions(motions, o["bound"])
+        bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
+        if not ms:
+            return []
         return _comparators(o["bound"], ms, bodies, obst, o["tol"], comparator_options)
     with collector_paused():
-        return _engine(ms, bodies, obst, o)
+        ms = check_motions(motions, o["bound"])
+        bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
+        return _engine(ms, bodies, obst, o) if ms else []
 
 
 @contextmanager

@@ -105,6 +105,15 @@ def clearance_many(
 ) -> list[Clearance]:
     """:func:`clearance` for a batch (one lane per motion: a bracket never depends on the
     batch). `body` and `obstacles` as for ``certify_many``."""
+    with collector_paused():
+        return _clearance_many(
+            motions, body, obstacles, tolerance, max_depth, max_nodes, threads, device, max_iter
+        )
+
+
+def _clearance_many(
+    motions, body, obstacles, tolerance, max_depth, max_nodes, threads, device, max_iter
+) -> list[Clearance]:
     o = check_options("hull", tolerance, max_depth, None, max_nodes, threads, device, max_iter)
     if isinstance(motions, Motion) or not isinstance(motions, Sequence):
         raise TypeError(
@@ -123,15 +132,14 @@ def clearance_many(
         return []
     start = time.perf_counter()
     ts, ns = [], []
-    with collector_paused():
-        for c in range(0, len(ms), MOTIONS_PER_CHUNK):
-            sl = slice(c, c + MOTIONS_PER_CHUNK)
-            t, n = clearance_chunk(
-                [_packed(m) for m in ms[sl]], bodies[sl], obst[sl], o["tol"], o["max_depth"],
-                o["max_nodes"], o["max_iter"], o["threads"], o["device"],
-            )  # fmt: skip
-            ts.append(t)
-            ns.append(n)
+    for c in range(0, len(ms), MOTIONS_PER_CHUNK):
+        sl = slice(c, c + MOTIONS_PER_CHUNK)
+        t, n = clearance_chunk(
+            [_packed(m) for m in ms[sl]], bodies[sl], obst[sl], o["tol"], o["max_depth"],
+            o["max_nodes"], o["max_iter"], o["threads"], o["device"],
+        )  # fmt: skip
+        ts.append(t)
+        ns.append(n)
     t, n = np.concatenate(ts), np.concatenate(ns)
     elapsed = time.perf_counter() - start
     share = elapsed * n[:, 0] / max(1, int(n[:, 0].sum()))
