@@ -1,4 +1,5 @@
-"""`rsmbench compare BASE NEW`: a noise-aware CI gate on timing *and* accuracy (DESIGN §6).
+"""`rsmbench compare BASE NEW`: a noise-aware CI gate on timing *and* accuracy (README
+"Benchmarks and CI performance tracking").
 
 BASE and NEW are two run folders (``results.parquet`` + ``meta.json``) of the same suite
 and seed, or two pytest-benchmark JSON files. Exit codes: 0 no regression, 1 a
@@ -70,7 +71,11 @@ TOI_SLACK = 1e-9
 certified times are deterministic, so only round-off may move them."""
 TIMERS = ("cpu", "wall")
 _GROUP = ("study", "scheme", "bound", "mode")
-_ROW_KEY = ("case_id", "pair", "bound", "method", "mode")
+_ROW_KEY = ("study", "case_id", "keyframes", "scheme", "pair", "bound", "method", "mode")
+"""Columns that identify a row within one run, for every study kind: a certify row by its
+``case_id``; a workload row by ``pair``, ``bound`` and ``mode`` (one case holds every pair);
+a scaling row by ``method``; a corpus row by ``keyframes`` (the corpus case id, e.g.
+``thin-wall-000-rational``) and ``bound`` (its ``case_id`` names a chunk of cases)."""
 
 
 class CompareError(HarnessError):
@@ -347,14 +352,28 @@ def _load_run(p: Path) -> tuple[pd.DataFrame, dict]:
     if "mode" in df:
         df["mode"] = df["mode"].where(df["mode"].notna(), "")
     # plain Python strings: pandas' string dtype would turn a missing part into a missing key
-    df["_key"] = [
-        "|".join(str(v) for v in vals)
-        for vals in zip(*(df[k].tolist() for k in _ROW_KEY), strict=True)
-    ]
-    if df["_key"].duplicated().any():
-        dup = df.loc[df["_key"].duplicated(), "_key"].iloc[0]
-        raise CompareError(f"{table}: row key {dup!r} appears twice; the table is not one run.")
+    parts = [[_key_part(v) for v in df[k].tolist()] for k in _ROW_KEY]
+    df["_key"] = ["|".join(vals) for vals in zip(*parts, strict=True)]
+    dup = df["_key"].duplicated()
+    if dup.any():
+        i = int(np.flatnonzero(dup.to_numpy())[0])
+        named = ", ".join(f"{k}={parts[j][i]}" for j, k in enumerate(_ROW_KEY) if parts[j][i])
+        raise CompareError(
+            f"{table}: two rows have the same key ({named}); the table is not one run."
+        )
     return df, meta
+
+
+def _key_part(v: Any) -> str:
+    """One column's part of a row key: '' for a missing value (None, NaN), an integral
+    float as an integer (pair 3.0 -> '3')."""
+    if v is None or v is pd.NA:
+        return ""
+    if isinstance(v, float | np.floating):
+        if math.isnan(v):
+            return ""
+        return str(int(v)) if float(v).is_integer() else str(float(v))
+    return str(v)
 
 
 def _rounds(df: pd.DataFrame, timer: str) -> list[np.ndarray | None]:

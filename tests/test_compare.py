@@ -217,6 +217,57 @@ def test_unreadable_and_mismatched_runs(tmp_path):
         compare(good, good, timer="gpu")
 
 
+def _every_study_rows(rng: np.random.Generator) -> list[dict]:
+    """Rows shaped like every study kind of the default suite: certify rows (one case each),
+    workload rows (one case: pairs, batch and single), scaling rows (one case per delta,
+    one row per method) and corpus rows (one case per chunk of corpus cases, one row per
+    corpus case and method; no pair, method or mode)."""
+    rows = [{**r, "keyframes": "scene"} for r in _rows(rng)]
+    for bound in ("hull", "sampled"):
+        for i in range(3):
+            rows.append(dict(study="workload", scheme="rational", bound=bound, case_id="wl",
+                             keyframes="workload-0", mode="pair", pair=i, verdict="free",
+                             truth="free"))  # fmt: skip
+        for mode in ("batch", "single"):
+            cpu = 0.02 * rng.lognormal(0.0, NOISE, size=5)
+            rows.append(dict(study="workload", scheme="rational", bound=bound, case_id="wl",
+                             keyframes="workload-0", mode=mode, pairs=3,
+                             cpu_rounds=json.dumps(cpu.tolist()),
+                             wall_rounds=json.dumps(cpu.tolist())))  # fmt: skip
+    for delta in (1e-3, 1e-2):
+        for method in ("uniform sampling", "adaptive subdivision (hull)"):
+            rows.append(dict(study="scaling", scheme="rational", bound="all", method=method,
+                             case_id=f"scaling-{delta}", keyframes="scaling-7", delta=delta,
+                             cost=10.0))  # fmt: skip
+    for chunk in range(2):
+        for k in range(3):
+            for scheme in ("rational", "slerp"):
+                for bound in ("hull", "fcl"):
+                    rows.append(dict(study="corpus", scene="thin-wall", scheme=scheme,
+                                     bound=bound, case_id=f"chunk-{chunk}",
+                                     keyframes=f"thin-wall-{3 * chunk + k:03d}-{scheme}",
+                                     verdict="free", truth="free", false_negative=False,
+                                     false_positive=False))  # fmt: skip
+    return rows
+
+
+def test_every_study_kind_has_distinct_row_keys(tmp_path):
+    """A run of every study kind compares against itself: every row matched, no regression
+    (the corpus rows of one chunk share case_id and have no pair/method/mode)."""
+    rows = _every_study_rows(np.random.default_rng(12))
+    run = _run(tmp_path / "run", rows)
+    res = compare(run, run)
+    assert res.exit_code == 0, res.text()
+    assert res.lines[0].startswith(f"{len(rows)} matched rows (0 rows in only one run)")
+    # a row that really appears twice is refused, naming its key without 'nan'
+    twice = _run(tmp_path / "twice", [*rows, rows[-1]])
+    with pytest.raises(CompareError, match="same key") as e:
+        compare(twice, twice)
+    msg = str(e.value)
+    assert "nan" not in msg.lower() and "keyframes=thin-wall-005-slerp" in msg
+    assert "study=corpus" in msg and "bound=fcl" in msg and "case_id=chunk-1" in msg
+
+
 class _Result:
     def __init__(self, code: int, out: str, err: str):
         self.returncode, self.stdout, self.stderr = code, out, err
