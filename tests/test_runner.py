@@ -97,6 +97,15 @@ def test_smoke_suite_end_to_end(smoke_run):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         assert f"figures/{png.name}" in md
     assert (smoke_run / "report.html").read_text().startswith("<!doctype html>")
+    # the filmstrip is drawn (a missing module must not pass as "no filmstrip")
+    assert "## Filmstrip" in md and "No filmstrip" not in md
+    # single queries are one certify call per pair; batch rows one certify_many call
+    wl = df[(df["study"] == "workload") & df["mode"].isin(["batch", "single"])]
+    impl = wl.groupby("mode")["implementation"].agg(set).to_dict()
+    assert impl == {
+        "batch": {"in-kernel (Warp certify_many)"},
+        "single": {"in-kernel (one certify call per pair)"},
+    }
 
 
 @pytest.mark.slow
@@ -209,6 +218,29 @@ def test_two_runs_with_the_same_seed_are_identical(tiny, tmp_path):
     c = run_suite(suite, tmp_path / "c", seed=4, progress=False)
     rand = lambda df: df[df["keyframes"] == "random-0"]["jerk_energy"].to_numpy()  # noqa: E731
     assert rand(a).size and not np.allclose(rand(a), rand(c))
+
+
+def test_case_warnings_are_recorded_not_printed(tmp_path):
+    """The gripper's certified body holds its slide joint (a HeldJointsWarning): the runner
+    records it in the case's rows instead of letting it reach the console (it would cut
+    through the progress bar)."""
+    import warnings
+
+    from harness.geoms import HeldJointsWarning
+
+    suite = tmp_path / "w.toml"
+    suite.write_text(
+        '[suite]\nname = "w"\n\n[[study]]\nkind = "simulate"\nscenes = ["gripper"]\n'
+        'schemes = ["slerp"]\nrounds = 1\n'
+    )
+    with warnings.catch_warnings(record=True) as outer:
+        warnings.simplefilter("always")
+        df = run_suite(load_suite(suite), tmp_path / "out", progress=False)
+    assert not [w for w in outer if issubclass(w.category, HeldJointsWarning)]
+    sim = df[df["study"] == "simulate"]
+    assert len(sim) == 1
+    text = sim["warnings"].iloc[0]
+    assert text.startswith("HeldJointsWarning: ") and "left_slide" in text
 
 
 def test_bad_suites(tmp_path):

@@ -1,4 +1,4 @@
-"""Study kinds of a suite, one module each (DESIGN §6).
+"""Study kinds of a suite, one module each.
 
 A kind is read from its ``[[study]]`` table (``parse``), expanded into cases
 (``expand``) and run case by case (``run``); cases with the same ``group`` key run one
@@ -9,6 +9,7 @@ and add one line to :data:`STUDIES`.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -62,11 +63,20 @@ STUDIES: dict[str, StudyKind] = {
 
 def run_case(case: dict, ctx: Context) -> list[dict]:
     """Run one case; returns its row(s), each with the case's own peak memory (not the
-    process's maximum so far: see :class:`harness.timing.CaseMemory`)."""
+    process's maximum so far: see :class:`harness.timing.CaseMemory`).
+
+    Warnings raised while the case runs (a ``HeldJointsWarning`` of a robot scene, say)
+    are not printed (they would cut through the progress bar): each distinct one is
+    recorded as ``Category: message`` in the ``warnings`` column of every row of the case
+    (joined by newlines; absent when there were none). Filters still apply: an ignored
+    warning is not recorded, one turned into an error still raises."""
     st = ctx.suite.studies[case["block"]]
-    with CaseMemory() as mem:
+    with warnings.catch_warnings(record=True) as caught, CaseMemory() as mem:
         rows = STUDIES[case["study"]].run(case, st, ctx)
     cols = mem.columns()
+    seen = list(dict.fromkeys(f"{w.category.__name__}: {w.message}" for w in caught))
+    if seen:
+        cols["warnings"] = "\n".join(seen)
     for r in rows:  # a study that measures memory itself keeps its figures
         for k, v in cols.items():
             r.setdefault(k, v)
