@@ -57,6 +57,9 @@ KEYS = frozenset(
     }
 )
 KERNEL = "in-kernel (Warp certify_many)"
+"""Implementation of batch rows (and of pair rows, whose verdicts come from the batch)."""
+KERNEL_SINGLE = "in-kernel (one certify call per pair)"
+"""Implementation of single-query rows: one ``certify`` call per pair."""
 # A Dask worker building and certifying (hull) chunks of 1,000 pairs peaks at 0.6 GB
 # (min_clearance batches every pair's 800 poses); the aabb bound adds about 0.35 GB.
 DEFAULT_CHUNK = 1000
@@ -206,9 +209,9 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             rows.append(_timing_row(base, method, "batch", impl, n, timed[method]))
     for method, r in single.items():
         external = method in EXTERNAL
-        impl = EXTERNAL[method] if external else KERNEL
+        impl = EXTERNAL[method] if external else KERNEL_SINGLE
         row = _timing_row(base, method, "single", impl, len(ext_pairs) if external else k, r)
-        if not external:  # DESIGN: a certificate never depends on the batch it was in
+        if not external:  # a certificate never depends on the batch it was in
             row["single_agrees_with_batch"] = sum(
                 a.verdict == b.verdict
                 for a, b in zip(r.result, timed[method].result[:k], strict=True)
