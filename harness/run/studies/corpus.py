@@ -1,5 +1,5 @@
 """The ``corpus`` study: every method on every case of the rigid-motion CCD corpus that it
-can represent (DESIGN §6 "The CCD corpus").
+can represent (README "The CCD corpus and the external comparators").
 
 The corpus is generated from the study's own ``seed`` and ``size`` (or read from
 ``file``), so results compare across runs whatever ``--seed`` says. Cases are run in
@@ -143,7 +143,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             row = {**base, "bound": m.name, "method_bound": m.bound, "proof": m.proof}
             r = meas.result
             if getattr(r, "verdict", None) == "n/a":
-                rows.append({**row, "verdict": "n/a", "reason": r.reason[:200]})
+                rows.append({**row, "verdict": "n/a", "reason": r.reason})
                 continue
             row.update(cert_cols(r))
             row.update(accuracy_cols(r.verdict, t.verdict, r.toi_lo, t.toi))
