@@ -20,6 +20,7 @@ __all__ = [
     "latex_table",
     "markdown_table",
     "pyplot",
+    "shorten",
     "slug",
     "span",
 ]
@@ -99,8 +100,28 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def slug(text: str) -> str:
-    return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")[:60] or "table"
+def slug(text: str, limit: int = 40) -> str:
+    """A file name from `text`: lower-case words joined by '_', whole words only, at most
+    `limit` characters (a first word longer than that is kept whole)."""
+    words = re.sub(r"[^a-z0-9]+", " ", text.lower()).split()
+    out: list[str] = []
+    for w in words:
+        if out and len("_".join([*out, w])) > limit:
+            break
+        out.append(w)
+    return "_".join(out) or "table"
+
+
+def shorten(text: str, limit: int) -> str:
+    """`text` whole if it fits in `limit` characters, else cut at the last word boundary
+    before the limit, with '…' (never mid-word)."""
+    text = " ".join(str(text).split())
+    if len(text) <= limit:
+        return text
+    head = text[: limit - 1]
+    if " " not in head:  # one word longer than the limit: keep it whole
+        return text.split(" ", 1)[0] + "…"
+    return head.rsplit(" ", 1)[0].rstrip(" ,;:(") + "…"
 
 
 def span(lo: float, hi: float) -> str:
