@@ -16,6 +16,7 @@ from harness.report import ReportError, headline, write_report
 from harness.report.document import Document
 
 PAIRS = 50
+WARNING = "HeldJointsWarning: Mocap body 'hand': jointed children are certified held"
 META = {
     "suite": "synthetic",
     "suite_hash": "0123456789abcdef",
@@ -200,8 +201,10 @@ def synthetic_rows() -> list[dict]:
                     jump_acceleration=1e-4,
                     jump_angular_acceleration=1e-4,
                     case_id=f"sim-{scene}-{scheme}",
+                    warnings=WARNING if scene == "payload" else None,
                 )
             )
+    rows += corpus_rows()
     rows.append(
         dict(
             study="startup",
@@ -212,6 +215,59 @@ def synthetic_rows() -> list[dict]:
             case_id="startup-hull",
         )
     )
+    return rows
+
+
+FCL_REASON = (
+    "a rational spline motion that turns or whose origin is not linear: FCL's models"
+    " (translation, screw, linear interpolation) represent only motions whose origin moves on a"
+    " line or a helix, and this one does neither, so it is answered n/a rather than approximated"
+)  # 260 characters: longer than the report's reason column
+
+
+def corpus_rows() -> list[dict]:
+    """Four corpus cases in one chunk (one runner case), three methods. Known by
+    construction: hull n/a on slerp, right elsewhere; sampled misses the rational
+    collision; fcl n/a on the rational cases and says collision on the free slerp case."""
+    cases = [  # id, family, scheme, truth, class, tags
+        ("thin-wall-000-rational", "thin-wall", "rational", "collision", "collision", "thin-wall"),
+        ("thin-wall-001-rational", "thin-wall", "rational", "free", "free", "thin-wall"),
+        ("spin-000-slerp", "spin", "slerp", "collision", "grazing", "fcl:screw-translation,spin"),
+        ("spin-001-slerp", "spin", "slerp", "free", "free", "spin"),
+    ]
+    answers = {  # method: (proof, verdicts per case (None: n/a), wall seconds per case)
+        "hull": (True, ["collision", "free", None, None], [1e-3, 1e-3]),
+        "sampled": (False, ["free", "free", "collision", "free"], [2e-3, 3e-3, 4e-3, 5e-3]),
+        "fcl": (False, [None, None, "collision", "collision"], [1e-3, 3e-3]),
+    }
+    rows = []
+    for method, (proof, verdicts, seconds) in answers.items():
+        times = iter(seconds)
+        for (cid, fam, scheme, truth, klass, tags), verdict in zip(cases, verdicts, strict=True):
+            row = dict(study="corpus", scene=fam, keyframes=cid, scheme=scheme, bound=method,
+                       tolerance=1e-3, klass=klass, tags=tags, truth=truth, proof=proof,
+                       case_id="corpus-chunk-0", case_memory_mb=0.5, peak_memory_mb=400.0,
+                       memory_method="rss", contact_window=0.01, duration=1.0)  # fmt: skip
+            if verdict is None:
+                reason = FCL_REASON if method == "fcl" else "bound 'hull' needs a rational motion"
+                rows.append({**row, "verdict": "n/a", "reason": reason})
+                continue
+            wall = next(times)
+            rows.append(
+                {
+                    **row,
+                    "verdict": verdict,
+                    "false_negative": truth == "collision" and verdict == "free",
+                    "false_positive": truth == "free" and verdict == "collision",
+                    "seconds": wall,
+                    "seconds_q1": wall,
+                    "seconds_q3": wall,
+                    "cpu_seconds": 0.9 * wall,
+                    "rounds": 3,
+                    "memory_peak_mb": 0.0123456,
+                    **({"samples": 9, "sampling_step": 0.125} if method == "sampled" else {}),
+                }
+            )
     return rows
 
 
@@ -378,6 +434,12 @@ def test_unreadable_runs_are_named_errors(tmp_path, capsys, monkeypatch):
         write_report(bad)
     with pytest.raises(ReportError, match="does not exist"):
         write_report(tmp_path / "nowhere")
+    readme = tmp_path / "README.md"
+    readme.write_text("# not a run\n")
+    with pytest.raises(ReportError, match="is a file, not a run folder"):
+        write_report(readme)
+    assert main(["report", str(readme)]) == 2
+    assert "not a run folder" in capsys.readouterr().err
     assert main(["report", str(bad)]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "study" in err
@@ -430,3 +492,166 @@ def test_chunked_workload_costs_add_up():
         f"{want:.3g} µs CPU" in text["hull cost per pair, batch (one certify_many call)"]["value"]
     )
     assert f"{PAIRS} pairs" in text["hull cost per pair, batch (one certify_many call)"]["basis"]
+
+
+def _with_workload_rounds(rows: list[dict], bound: str, rounds: np.ndarray) -> list[dict]:
+    """`rows` with `bound`'s batch rounds replaced (single queries: 3x, as in the fixture)."""
+    out = []
+    for r in rows:
+        if (
+            r["study"] == "workload"
+            and r["bound"] == bound
+            and r.get("mode") in ("batch", "single")
+        ):
+            r = {**r, **_timing(rounds * (1.0 if r["mode"] == "batch" else 3.0))}
+        out.append(r)
+    return out
+
+
+def test_hull_cheaper_only_when_the_interval_lies_above_1():
+    # the hull's own rounds in another order, 1 % dearer: ratio above 1, interval across 1
+    rows = _with_workload_rounds(synthetic_rows(), "sampled", 1.01 * HULL_ROUNDS[::-1])
+    text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
+    assert text["cost of sampled / cost of hull, batch"]["value"] == "1.01× (no clear difference)"
+    # every round of sampled cheaper than every round of the hull: the hull is dearer
+    rows = _with_workload_rounds(synthetic_rows(), "sampled", 0.5 * HULL_ROUNDS)
+    text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
+    assert text["cost of sampled / cost of hull, batch"]["value"] == "0.5× (hull dearer)"
+
+
+def test_single_queries_are_labelled_one_certify_call_per_pair():
+    # a run from before the label was corrected: single rows said certify_many
+    rows = [
+        {**r, "implementation": "in-kernel (Warp certify_many)"} if "implementation" in r else r
+        for r in synthetic_rows()
+    ]
+    text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
+    single = text["cost of sampled / cost of hull, single"]["spread"]
+    assert "in-kernel (one certify call per pair)" in single and "certify_many" not in single
+    batch = text["cost of sampled / cost of hull, batch"]["spread"]
+    assert "in-kernel (Warp certify_many)" in batch
+
+
+def test_accuracy_by_method_says_na_where_nothing_ran(written):
+    _, run, _ = written
+    acc = pd.read_csv(run / "tables" / "accuracy_by_method.csv", keep_default_na=False)
+    acc = acc.set_index("method")
+    assert acc.loc["squad/hull", "ran"] == 0
+    assert acc.loc["squad/hull", "false free"] == "n/a (0 rows)"
+    assert acc.loc["squad/hull", "false collision"] == "n/a (0 rows)"
+    # per scene and tolerance: two proven collisions, the sampled bound missed one of them
+    assert acc.loc["rational/hull", "false free"] == "0/8"
+    assert acc.loc["rational/sampled", "false free"] == "4/8"
+    assert acc.loc["rational/sampled", "false collision"] == "0/4"
+
+
+def test_scaling_caption_and_legend_say_what_was_measured(written, tmp_path):
+    _, _, figures = written
+    fig, caption = next((f, c) for n, f, c in figures if n == "scaling")
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "uniform sampling (measured)" in legend
+    assert "not run" not in caption and "dashed" not in caption
+    assert "censored" in caption  # the synthetic aabb series is censored
+    # a run from before uniform sampling was run (no verdicts): a dashed formula line
+    from harness.report.document import pyplot
+    from harness.report.sections import scaling_section
+
+    old = pd.DataFrame(
+        [
+            dict(study="scaling", method=m, delta=d, cost=c, censored=False)
+            for d in (1e-3, 1e-2)
+            for m, c in (("uniform sampling", 10 / d), ("adaptive subdivision (hull)", 16.0))
+        ]
+    )
+    seen = []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Document, "figure", lambda self, f, n, c: seen.append((f, c)))
+        scaling_section(Document(tmp_path), old, pyplot())
+    fig, caption = seen[0]
+    legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "uniform sampling (formula, not run)" in legend and "dashed" in caption
+    assert "censored" not in caption
+
+
+def test_filmstrip_hides_only_a_rendering_failure(written, tmp_path, monkeypatch):
+    md = written[0].read_text()
+    assert "## Filmstrip" in md and "No filmstrip" not in md
+    import harness.render
+    from harness.report.sections import filmstrip
+
+    def broken(*a, **k):
+        raise ImportError("No module named 'harness.report.render'")
+
+    monkeypatch.setattr(harness.render, "render", broken)
+    with pytest.raises(ImportError):
+        filmstrip(Document(tmp_path / "a"))
+
+    def no_backend(*a, **k):
+        raise harness.render.RenderError("no backend could draw")
+
+    monkeypatch.setattr(harness.render, "render", no_backend)
+    doc = Document(tmp_path / "b")
+    filmstrip(doc)
+    assert doc.md == ["(No filmstrip: no backend could draw)\n"]
+
+
+def test_corpus_headline_lines_with_denominators_and_wall_time():
+    text = {r["figure"]: r for r in headline(pd.DataFrame(synthetic_rows()), META)}
+    hull, samp, fcl = (text[f"corpus verdicts of {m}"] for m in ("hull", "sampled", "fcl"))
+    assert hull["value"] == "false negatives 0/1, false positives 0/1, unknown 0/2"
+    assert samp["value"] == "false negatives 1/2, false positives 0/2, unknown 0/4"
+    assert fcl["value"] == "false negatives 0/1, false positives 1/1, unknown 0/2"
+    assert samp["spread"].startswith("3.5 ms wall per query (median; IQR over cases")
+    assert fcl["spread"].startswith("2 ms wall per query")
+    assert "2 of 4 corpus cases" in hull["basis"] and "free is a proof" in hull["basis"]
+    assert "4 of 4 corpus cases" in samp["basis"] and "its own claim" in samp["basis"]
+
+
+def test_corpus_tables_are_named_and_labelled_whole(written):
+    md_path, run, _ = written
+    md = md_path.read_text()
+    tabs = run / "tables"
+    summary = pd.read_csv(tabs / "corpus_methods.csv").set_index("method")
+    heap = [c for c in summary.columns if c.startswith("Python-heap")]
+    assert len(heap) == 1 and "not Warp" in heap[0]
+    assert summary.loc["sampled", heap[0]] == 0.012  # two significant figures
+    assert summary.loc["sampled", "wall time per query"] == "3.5 ms"
+    assert summary.loc["sampled", "CPU time per query"] == "3.15 ms"
+    assert pd.read_csv(tabs / "corpus_by_class.csv").columns[0] == "class"
+    assert "klass" not in md and "of our research" not in md
+    assert "Known FCL hazards" in md
+    na = pd.read_csv(tabs / "corpus_not_applicable.csv")
+    full = {FCL_REASON, "bound 'hull' needs a rational motion"}
+    for reason in na["reason"]:
+        if reason not in full:  # shortened: at a word boundary of the whole reason, with "…"
+            assert reason.endswith("…") and len(reason) <= 160
+            stem = reason[:-1]
+            assert FCL_REASON.startswith(stem) and FCL_REASON[len(stem)] in " ,;:("
+    # file names: short, whole words of the caption
+    for csv in tabs.glob("*.csv"):
+        assert len(csv.stem) <= 45, csv.name
+    mem = pd.read_csv(tabs / "memory.csv").set_index("study")
+    assert mem.loc["corpus", "runner cases measured"] == 1
+    assert "chunk of corpus cases" in mem.loc["corpus", "measured per"]
+
+
+def test_slug_and_shorten_keep_words_whole():
+    from harness.report.document import shorten, slug
+
+    caption = (
+        "Cases each method answered n/a, by reason: it does not approximate a motion it"
+        " cannot represent."
+    )
+    words = caption.lower().replace("/", " ").replace(",", " ").replace(":", " ").split()
+    got = slug(caption).split("_")
+    assert got == [w.strip(".") for w in words[: len(got)]] and len(slug(caption)) <= 40
+    for limit in (10, 40, 80, 159):
+        s = shorten(FCL_REASON, limit)
+        assert len(s) <= limit and s.endswith("…")
+        assert FCL_REASON[len(s) - 1] in " ,;:(" and FCL_REASON.startswith(s[:-1])
+    assert shorten("short reason", 40) == "short reason"
+
+
+def test_warnings_are_listed_once(written):
+    md = written[0].read_text()
+    assert md.count(WARNING) == 1 and "(2 cases)" in md

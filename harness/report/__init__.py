@@ -1,4 +1,4 @@
-"""`rsmbench report RUN_DIR`: a paper-grade report of a run (DESIGN §6).
+"""`rsmbench report RUN_DIR`: a paper-grade report of a run (README "Reading the report").
 
 Writes ``report.md`` and a standalone ``report.html``; every figure as PNG and SVG under
 ``figures/`` (labelled axes with units, ``n`` shown, censored data marked, never an empty
@@ -40,6 +40,7 @@ from .sections import (
     physics_section,
     scaling_section,
     startup_section,
+    warnings_section,
     workload_section,
 )
 
@@ -66,8 +67,13 @@ class ReportError(HarnessError):
 
 def _read_run(run: Path) -> tuple[pd.DataFrame, dict]:
     table = run / "results.parquet"
-    if not run.is_dir():
+    if not run.exists():
         raise ReportError(f"Run folder {str(run)!r} does not exist.")
+    if not run.is_dir():
+        raise ReportError(
+            f"{str(run)!r} is a file, not a run folder (give the folder `rsmbench run` wrote,"
+            " with results.parquet)."
+        )
     if not table.exists():
         raise ReportError(f"{run} has no results.parquet; run `rsmbench run` into it first.")
     try:
@@ -144,6 +150,7 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
     repair_section(doc, df, plt)
     corpus_section(doc, df, plt)
     memory_section(doc, df)
+    warnings_section(doc, df)
     filmstrip(doc)
     (dest / "report.md").write_text("\n".join(doc.md))
     body = "\n".join(doc.html)

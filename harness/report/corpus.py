@@ -13,6 +13,8 @@ import math
 import numpy as np
 import pandas as pd
 
+from .document import shorten
+
 __all__ = ["corpus_section", "corpus_summary"]
 
 
@@ -26,10 +28,29 @@ def _ms(x: float) -> str:
     return f"{x * 1e3:.3g} ms" if x >= 1e-3 else f"{x * 1e6:.3g} µs"
 
 
+HEAP = "Python-heap peak per query (MB; not Warp, FCL or ipctk memory)"
+"""The heap column's name carries its caveat: tracemalloc sees Python allocations only."""
+
+
+def _median(app: pd.DataFrame, col: str) -> float:
+    if col not in app:
+        return math.nan
+    v = pd.to_numeric(app[col], errors="coerce")
+    return float(v.median()) if v.notna().any() else math.nan
+
+
+def _heap(mb: float) -> str:
+    """Two significant figures: the figure is a rough size, not a precise measurement."""
+    return f"{mb:.2g}" if math.isfinite(mb) else "–"
+
+
 def corpus_summary(df: pd.DataFrame) -> pd.DataFrame:
     """One row per method: applicable cases, false negatives / positives and unknowns with
     their denominators, and cost (median over cases of each case's median round, with the
-    quartiles over cases), CPU time and Python-heap memory."""
+    quartiles over cases), CPU time and Python-heap memory.
+
+    Times are per single query: ``seconds`` is wall time, ``cpu_seconds`` process CPU time;
+    the column names say which."""
     rows = []
     for method, g in df.groupby("bound", sort=False):
         app = g[g["verdict"] != "n/a"]
@@ -49,15 +70,11 @@ def corpus_summary(df: pd.DataFrame) -> pd.DataFrame:
                 "false negatives": _frac(fn, len(coll)),
                 "false positives": _frac(fp, len(free)),
                 "unknown": _frac(unk, len(app)),
-                "time per query": _ms(med),
-                "time IQR over cases": f"{_ms(q1)} – {_ms(q3)}",
-                "CPU per query": _ms(
-                    float(np.nanmedian(app["cpu_seconds"])) if len(app) else math.nan
-                ),
-                "rounds (median)": float(np.nanmedian(app["rounds"])) if len(app) else math.nan,
-                "Python heap (MB, median)": float(np.nanmedian(app["memory_peak_mb"]))
-                if len(app) and app["memory_peak_mb"].notna().any()
-                else math.nan,
+                "wall time per query": _ms(med),
+                "wall IQR over cases": f"{_ms(q1)} – {_ms(q3)}",
+                "CPU time per query": _ms(_median(app, "cpu_seconds")),
+                "rounds (median)": _median(app, "rounds"),
+                HEAP: _heap(_median(app, "memory_peak_mb")),
                 "_fn": fn,
                 "_fp": fp,
                 "_unk": unk,
@@ -100,7 +117,7 @@ def _na_reasons(na: pd.DataFrame) -> pd.DataFrame:
         na["reason"]
         .str.replace(r"\[[^\]]*\]", "[…]", regex=True)
         .str.replace(r"\d+(\.\d+)?(e-?\d+)?", "#", regex=True)
-        .str.slice(0, 110)
+        .map(lambda r: shorten(r, 160))
     )
     table = na.assign(reason=reason).pivot_table(
         index="reason", columns="bound", values="keyframes", aggfunc="count", fill_value=0
@@ -127,24 +144,32 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
     doc.table(
         summary[[c for c in summary.columns if not c.startswith("_")]],
         "Per method: applicable cases / all cases; false negatives / applicable collision cases; false"
-        " positives / applicable free cases; unknown / applicable. Time per query: median over cases of"
-        " each case's median over timed rounds (interleaved A B A B, single queries, warm kernels), with the"
-        " quartiles over cases; CPU = process time. Memory: Python-heap peak of one query (tracemalloc),"
-        " which does not see allocations inside Warp, FCL or ipctk.",
+        " positives / applicable free cases; unknown / applicable. Wall time per query: median over cases"
+        " of each case's median wall time over timed rounds (interleaved A B A B, single queries, warm"
+        " kernels), with the quartiles over cases; CPU time per query: the same median of process CPU"
+        " time. Memory: Python-heap peak of one query (tracemalloc), a rough size only: it does not see"
+        " allocations inside Warp, FCL or ipctk.",
+        "corpus_methods",
     )
     methods = list(summary["method"])
     cell = "cells: false negatives/collision cases · false positives/free cases · unknown/cases"
     doc.table(
-        _by(cor, "klass", methods),
+        _by(cor, "klass", methods).rename(columns={"klass": "class"}),
         f"Per truth class (grazing: |distance| < 1 mm, either verdict) and method; {cell}.",
+        "corpus_by_class",
     )
-    doc.table(_by(cor, "scene", methods), f"Per family and method; {cell}.")
+    doc.table(
+        _by(cor, "scene", methods).rename(columns={"scene": "family"}),
+        f"Per family and method; {cell}.",
+        "corpus_by_family",
+    )
     na = cor[cor["verdict"] == "n/a"]
     if len(na):
         doc.table(
             _na_reasons(na),
             "Cases each method answered n/a, by reason: it does not approximate a motion it"
             " cannot represent.",
+            "corpus_not_applicable",
         )
     if "tags" in cor:
         tagged = cor.assign(tag=cor["tags"].fillna("").str.split(",")).explode("tag")
@@ -153,10 +178,12 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
         if len(tagged) and fcl:
             doc.table(
                 _by(tagged, "tag", fcl),
-                "The FCL hazards of our research, per solver setting: fcl (GST_INDEP, pure"
+                "Known FCL hazards (found while building the corpus), per solver setting:"
+                " fcl (GST_INDEP, pure"
                 " translations as TRANS), fcl-libccd (python-fcl's default solver), fcl-screw"
                 " (FCL's SCREW on pure translations: moves |Δp| times too far), fcl-linear"
                 f" (FCL's LINEAR with its uninitialised reference point); {cell}.",
+                "corpus_fcl_hazards",
             )
     samp = cor[(cor["bound"] == "sampled") & (cor["truth"] == "collision")]
     if len(samp) and "sampling_step" in samp:

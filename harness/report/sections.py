@@ -36,6 +36,7 @@ __all__ = [
     "physics_section",
     "scaling_section",
     "startup_section",
+    "warnings_section",
     "workload_section",
 ]
 
@@ -80,7 +81,7 @@ def how_to_read(doc: Document) -> None:
     doc.bullets(
         [
             "Costs are medians over repeated rounds (the `rounds` column), with the interquartile range (IQR) and a bootstrap 95 % interval (CI) of the median. CPU time is the process's CPU time (every thread); wall time is elapsed time. The first call of each method (Warp kernel compile or cache load) is timed apart and never charged to a case.",
-            "'cost of X / cost of hull' divides X's median CPU time per pair by the hull's, on the same pairs at the same tolerance (above 1 the hull is cheaper); the interval resamples the rounds of both. Batch means one certify_many call over all pairs; single means one call per pair.",
+            "'cost of X / cost of hull' divides X's median CPU time per pair by the hull's, on the same pairs at the same tolerance; the interval resamples the rounds of both. It reads 'hull cheaper' only when the whole 95 % interval lies above 1, 'hull dearer' when it lies below 1, and 'no clear difference' otherwise. Batch means one certify_many call over all pairs; single means one certify call per pair.",
             "Rows named 'external' are implemented outside the Warp kernels (for example a Python loop around MuJoCo's mj_geomDistance): their cost includes that implementation, not only the algorithm.",
             "A false free (verdict free, truth collision) is counted out of the rows whose truth is a proven collision; a false collision out of the rows whose truth is proven free. Rows with truth `unproven` (no proven speed bound) or `unknown`, and workload pairs whose clearance label is only measured, are listed apart and never counted as passes. `n/a` marks a figure that cannot be non-zero or a combination that does not apply.",
             "Time in motions is the spline parameter: seconds for scene keyframes, the chordal parameter (length units) for random ones. TOI errors are therefore given as a fraction of the motion's duration.",
@@ -108,6 +109,21 @@ def startup_section(doc: Document, df: pd.DataFrame) -> None:
     )
 
 
+def _accuracy_row(method: str, r: dict) -> dict:
+    """One row of the accuracy-by-method table: the counts, and the false verdicts as
+    count/denominator ('n/a (0 rows)' where nothing ran against that truth, as in the
+    per-scene tables, not a vacuous 0 of 0)."""
+    keep = ("ran", "free", "collision", "unknown", "not applicable")
+    return {
+        "method": method,
+        **{k: r[k] for k in keep},
+        "truth proven": r["truth proven"],
+        "truth not proven": r["truth not proven"],
+        "false free": ratio_text(r["false free"], r["of truth collision"]),
+        "false collision": ratio_text(r["false collision"], r["of truth free"]),
+    }
+
+
 def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
     cert = study_rows(df, "certify")
     if not len(cert):
@@ -115,7 +131,7 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
     doc.h("Certification accuracy")
     cert = cert.assign(method=method_labels(cert))
     overall = pd.DataFrame(
-        [{"method": m, **rates(g)} for m, g in cert.groupby("method", sort=True)]
+        [_accuracy_row(m, rates(g)) for m, g in cert.groupby("method", sort=True)]
     )
     doc.table(
         overall,
@@ -353,9 +369,11 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
     slopes = scaling_slopes(sc)
     fig, ax = plt.subplots(figsize=(6, 4))
     table = []
+    kinds: dict[str, str] = {}
     for method, g in sc.groupby("method"):
         g = g.sort_values("delta")
         basis = series_basis(g)
+        kinds[str(method)] = basis.split(" ")[0]
         d_mm = g["delta"].to_numpy(dtype=float) * 1e3
         cost = g["cost"].to_numpy(dtype=float)
         cens = flag(g, "censored").to_numpy()
@@ -379,11 +397,26 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
     ax.set_xlabel("resolution δ (mm); pairs with clearance 2δ")
     ax.set_ylabel("cost (poses or bound evaluations, all pairs)")
     ax.legend(fontsize=7)
-    doc.figure(
-        fig,
-        "scaling",
-        "Cost to certify pairs with clearance 2δ at resolution δ, log-log. Solid lines with dots were measured; the dashed line is the number of samples uniform sampling would need (V·T/δ, computed, not run); open triangles are censored (uniform subdivision stopped at its depth cap without clearing, so the cost shown is a lower bound).",
-    )
+    caption = [
+        "Cost to certify pairs with clearance 2δ at resolution δ, log-log.",
+        " Solid lines with dots were measured (subdivision: pieces or nodes",
+    ]
+    if kinds.get("uniform sampling") != "formula":
+        caption.append(
+            "; uniform sampling: the poses the in-kernel sampled bound evaluated at tolerance δ"
+        )
+    caption.append(")")
+    if "formula" in kinds.values():  # runs from before uniform sampling was run
+        caption.append(
+            "; the dashed line is the number of samples uniform sampling would need (V·T/δ,"
+            " computed, not run)"
+        )
+    if "censored" in kinds.values():
+        caption.append(
+            "; open triangles are censored (uniform subdivision stopped at its depth cap"
+            " without clearing, so the cost shown is a lower bound)"
+        )
+    doc.figure(fig, "scaling", "".join(caption) + ".")
     doc.table(
         pd.DataFrame(table),
         "Slopes of log cost on log δ. A fitted slope is given only for measured, uncensored series; the slope of a formula or of censored values is shown apart and is not a measurement.",
@@ -513,6 +546,18 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
         )
 
 
+MEMORY_UNIT = {
+    "certify": "scene, keyframe set, scheme, bound, tolerance",
+    "workload": "chunk of workload pairs (every bound)",
+    "scaling": "resolution δ (every method)",
+    "simulate": "scene and scheme",
+    "startup": "first call of one method",
+    "corpus": "chunk of corpus cases (every method)",
+    "repair": "clearance target (all its motions)",
+}
+"""What one runner case (one journal record, whose memory is measured) is, per study."""
+
+
 def memory_section(doc: Document, df: pd.DataFrame) -> None:
     if "case_memory_mb" not in df:
         return
@@ -524,7 +569,10 @@ def memory_section(doc: Document, df: pd.DataFrame) -> None:
     g = per_case.groupby("study")
     t = pd.DataFrame(
         {
-            "cases": g.size(),
+            "measured per": pd.Series(
+                {k: MEMORY_UNIT.get(k, "runner case") for k in g.groups}, dtype=object
+            ),
+            "runner cases measured": g.size(),
             "median added MB": g["case_memory_mb"].median(),
             "max added MB": g["case_memory_mb"].max(),
             "max peak resident MB": g["peak_memory_mb"].max(),
@@ -533,20 +581,45 @@ def memory_section(doc: Document, df: pd.DataFrame) -> None:
     ).reset_index()
     doc.table(
         t,
-        "Memory of each case, measured per case: the peak resident set during the case (the kernel's high-water mark reset before it, 'rss') and its excess over the resident set at the start of the case.",
+        "Memory measured per runner case (one journal record; 'measured per' says what that is in each study, so a corpus chunk holds many corpus cases): the peak resident set during the case (the kernel's high-water mark reset before it, 'rss') and its excess over the resident set at the start of the case.",
         "memory",
     )
 
 
 def filmstrip(doc: Document) -> None:
-    try:
-        from .render import render
+    """The cube scene's filmstrip. Only a failure to draw (:class:`~harness.render.RenderError`:
+    no backend could write the picture) leaves it out, with the reason; any other error,
+    an ImportError included, is a bug and propagates."""
+    from ..render import RenderError, render
 
+    try:
         path, backend = render("cube_keyframes", out=doc.figs / "filmstrip.png", frames=5)
-        doc.h("Filmstrip")
-        doc.image(
-            path,
-            f"The rational C² motion of the cube scene through its five keyframes, drawn with the {backend} backend.",
-        )
-    except Exception as e:  # a picture is a nicety; say why it is missing
-        doc.p(f"(No filmstrip: {type(e).__name__}: {e})")
+    except RenderError as e:  # a picture is a nicety; say why it is missing
+        doc.p(f"(No filmstrip: {e})")
+        return
+    doc.h("Filmstrip")
+    doc.image(
+        path,
+        f"The rational C² motion of the cube scene through its five keyframes, drawn with the {backend} backend.",
+    )
+
+
+def warnings_section(doc: Document, df: pd.DataFrame) -> None:
+    """Each distinct warning raised while cases ran (the runner's ``warnings`` column), once,
+    with the number of cases that raised it."""
+    if "warnings" not in df:
+        return
+    keys = [c for c in ("study", "case_id") if c in df]
+    per_case = df.dropna(subset=["warnings"]).drop_duplicates(keys)
+    counts: dict[str, int] = {}
+    for text in per_case["warnings"].astype(str):
+        for w in dict.fromkeys(text.split("\n")):
+            if w:
+                counts[w] = counts.get(w, 0) + 1
+    if not counts:
+        return
+    doc.h("Warnings")
+    doc.p(
+        "Warnings raised while cases ran (recorded per case in the `warnings` column), each once:"
+    )
+    doc.bullets([f"{w} ({n} case{'s' if n != 1 else ''})" for w, n in counts.items()])
