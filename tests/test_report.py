@@ -576,20 +576,23 @@ def test_scaling_caption_and_legend_say_what_was_measured(written, tmp_path):
 def test_filmstrip_hides_only_a_rendering_failure(written, tmp_path, monkeypatch):
     md = written[0].read_text()
     assert "## Filmstrip" in md and "No filmstrip" not in md
-    import harness.render
+    import importlib
+
     from harness.report.sections import filmstrip
+
+    module = importlib.import_module("harness.render")  # `harness.render` is also a function
 
     def broken(*a, **k):
         raise ImportError("No module named 'harness.report.render'")
 
-    monkeypatch.setattr(harness.render, "render", broken)
+    monkeypatch.setattr(module, "render", broken)
     with pytest.raises(ImportError):
         filmstrip(Document(tmp_path / "a"))
 
     def no_backend(*a, **k):
-        raise harness.render.RenderError("no backend could draw")
+        raise module.RenderError("no backend could draw")
 
-    monkeypatch.setattr(harness.render, "render", no_backend)
+    monkeypatch.setattr(module, "render", no_backend)
     doc = Document(tmp_path / "b")
     filmstrip(doc)
     assert doc.md == ["(No filmstrip: no backend could draw)\n"]

@@ -223,6 +223,7 @@ def _figure(doc, summary: pd.DataFrame, cor: pd.DataFrame, plt) -> None:
     ]
     ax1.set_ylim(0, 1.3 * max([*rates, 0.05]))  # room for the count labels
     ax1.set_xticks(x, summary["method"], rotation=45, ha="right")
+    ax1.set_xlabel("method")
     ax1.set_ylabel("fraction of applicable cases")
     ax1.set_title(
         f"Corpus accuracy (n = {cor['keyframes'].nunique()} cases; labels: count/denominator)"
@@ -238,6 +239,7 @@ def _figure(doc, summary: pd.DataFrame, cor: pd.DataFrame, plt) -> None:
         ax2.boxplot(data, showfliers=False)
         ax2.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=45, ha="right", fontsize=7)
         ax2.set_yscale("log")
+        ax2.set_xlabel("method (n: applicable cases)")
         ax2.set_ylabel("wall time per query (ms, log)")
         ax2.set_title("Cost per query: each case's median round")
     fig.tight_layout()

@@ -578,7 +578,8 @@ def memory_section(doc: Document, df: pd.DataFrame) -> None:
             "max peak resident MB": g["peak_memory_mb"].max(),
             "method": g["memory_method"].agg(lambda v: "/".join(sorted(set(map(str, v))))),
         }
-    ).reset_index()
+    )
+    t = t.rename_axis("study").reset_index()
     doc.table(
         t,
         "Memory measured per runner case (one journal record; 'measured per' says what that is in each study, so a corpus chunk holds many corpus cases): the peak resident set during the case (the kernel's high-water mark reset before it, 'rss') and its excess over the resident set at the start of the case.",
