@@ -371,5 +371,7 @@ def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
     assert res.regressions and all(r.startswith("timing:") for r in res.regressions)
     slow = [t for t in res.timing if t.status == "regression"]
     assert slow and all(1.6 < t.ratio < 6.0 and t.lo > 1 for t in slow)
-    # the same runs pass when a 2x slowdown is allowed
-    assert compare(tmp_path / "base", tmp_path / "slow", time_threshold=2.0).exit_code == 0
+    # nothing but timing fails: the same runs pass once slowdowns up to the bound above
+    # are allowed (an injected 2x measured up to 3.06x on a short group of this loaded
+    # machine, so "allow 2x" would be flaky)
+    assert compare(tmp_path / "base", tmp_path / "slow", time_threshold=5.0).exit_code == 0
