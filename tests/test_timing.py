@@ -102,3 +102,27 @@ def test_machine_info_names_the_machine():
         assert key in info
     assert info["ram_gb"] > 0 and info["logical_cpus"] >= 1
     assert isinstance(info["kernel_cache_modules"], list)
+
+
+def test_rounds_run_without_the_garbage_collector_and_restore_it():
+    """Like timeit: a collection's cost depends on the heap earlier code left, not on the
+    timed function, so timed calls run with the collector off; the caller's setting comes
+    back, also when the timed call raises."""
+    import gc
+
+    seen = []
+    timing.repeat(lambda: seen.append(gc.isenabled()), rounds=3, warmup=0)
+    assert seen == [False, False, False] and gc.isenabled()
+
+    def boom():
+        raise RuntimeError("inside")
+
+    with pytest.raises(RuntimeError, match="inside"):
+        timing.repeat(boom, rounds=1, warmup=0)
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        timing.repeat(lambda: None, rounds=1, warmup=0)
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
