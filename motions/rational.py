@@ -5,8 +5,11 @@ either the generating parts (preimage quaternion pieces ``Q``, plus origin piece
 with ``v = u0 p``, or numerator pieces ``v``) or, when rebuilt from control matrices, the
 homogeneous control matrices alone. Poses are evaluated through the preimage when it is
 known (cheaper than the degree-n matrices, DESIGN §9), by Horner's rule in numpy on the
-local power form: every array operation releases the GIL, so ``pose(t, threads=2)`` runs
-on two cores (scipy's ``PPoly`` evaluation holds the GIL for its whole loop).
+local power form: every array operation releases the GIL, so ``pose(t, threads=2)`` can
+run on two cores (scipy's ``PPoly`` evaluation holds the GIL for its whole loop). The gain
+depends on the times: measured 1.68x for 10^6 unsorted times on a 49-segment motion, but
+0.78x (slower) for 10^6 sorted times on 10 segments, where the Python between the numpy
+calls of each chunk dominates (tests/benchmarks/test_00_pose.py); the default is one.
 
 Matrix layout is weight last (docs/conventions.md): ``M_h = [[U, v], [0, 0, 0, u0]]``. Seed index
 translation: seed ``m_{0,0}`` -> ``M[3, 3]``; ``m_{i,0}`` -> ``M[i-1, 3]``; ``m_{i,j}`` ->
@@ -511,7 +514,8 @@ class RationalMotion(Motion):
 
         Large batches are evaluated in cache-sized chunks; ``threads > 1`` spreads the
         chunks over Python threads. Every step is a numpy array operation that releases
-        the GIL, so the threads run at once (measured in tests/benchmarks/test_00_pose.py).
+        the GIL, but the Python between them does not: two threads gained 1.68x on
+        unsorted times and lost (0.78x) on sorted ones (module docstring).
         """
         if isinstance(threads, bool) or not isinstance(threads, int | np.integer) or threads < 1:
             raise ValueError(f"Expected `threads` to be a positive integer, got {short(threads)}.")
