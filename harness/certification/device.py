@@ -87,11 +87,6 @@ def is_cpu(device: str) -> bool:
     return device == "cpu"
 
 
-LANE_GAP = 128
-"""Bytes between two lanes' scratch rows (two cache lines: the adjacent-line prefetcher
-pairs them)."""
-
-
 class Buffers:
     """Grow-only kernel buffers of one device: ``put`` writes an input, ``out`` gives an
     output; both return (numpy view, warp array). Arrays keep their trailing dimensions;
@@ -151,17 +146,9 @@ class Buffers:
         return arr
 
     def scratch(self, name: str, shape: tuple, np_dtype, wp_dtype):
-        """A per-lane scratch array of `shape` = (lanes, n, ...), kept between calls.
-
-        With several lanes, axis 1 gets `LANE_GAP` bytes of padding so that no two lanes
-        write the same cache line: two host threads on neighbouring lanes' rows (the
-        root slot of one next to the pose slot of the other) ran no faster than one.
-        Kernels index axis 1 within the `n` asked for.
-        """
-        if len(shape) >= 2 and shape[0] > 1:
-            inner = int(np.prod(shape[2:], dtype=np.int64)) * np.dtype(np_dtype).itemsize
-            shape = (shape[0], shape[1] + -(-LANE_GAP // inner), *shape[2:])
-        name = f"{name}/{shape[0]}"  # one set per lane count: no reallocation when it alternates
+        """A scratch array of exactly `shape` (kept between calls; one per lane count, so
+        a caller alternating `threads` neither reallocates it nor re-records launches)."""
+        name = f"{name}/{shape[0]}"
         cur = self._arrays.get(name)
         if cur is not None and cur[0].shape == shape:
             return cur[1]

@@ -52,6 +52,15 @@ class NotApplicable:
     verdict: str = "n/a"
 
 
+def single(many: Any, motion: Any, body: Any, obstacles: Any, options: dict) -> Any:
+    """One motion through a comparator's batch call `many`: its certificate, or
+    :class:`NotRepresentable` where the batch would answer n/a."""
+    out = many([motion], body, obstacles, **options)[0]
+    if isinstance(out, NotApplicable):
+        raise NotRepresentable(out.reason)
+    return out
+
+
 def check_tolerance(tolerance: Any) -> float:
     tol = as_float(tolerance, "tolerance", "a number (a length)")
     if not math.isfinite(tol) or tol <= 0:

@@ -70,6 +70,7 @@ from ._common import (
     check_tolerance,
     core_of,
     part_frame,
+    single,
 )
 
 __all__ = [
@@ -303,34 +304,12 @@ def _parts(fcl: Any, shape: Shape, cache: dict) -> list[_Part]:
 
 
 # ----------------------------------------------------------------------------- queries
-def certify_fcl(
-    motion: Motion,
-    body: Shape,
-    obstacles: Any,
-    *,
-    tolerance: float = 1e-3,
-    solver: str = "indep",
-    pure_translation: str = "trans",
-    linear: str = "refuse",
-    max_iterations: int = 10,
-) -> Certificate:
+def certify_fcl(motion: Motion, body: Shape, obstacles: Any, **options: Any) -> Certificate:
     """FCL conservative advancement of one motion; raises :class:`NotRepresentable`.
 
     See :func:`certify_fcl_many`.
     """
-    out = certify_fcl_many(
-        [motion],
-        body,
-        obstacles,
-        tolerance=tolerance,
-        solver=solver,
-        pure_translation=pure_translation,
-        linear=linear,
-        max_iterations=max_iterations,
-    )[0]
-    if isinstance(out, NotApplicable):
-        raise NotRepresentable(out.reason)
-    return out
+    return single(certify_fcl_many, motion, body, obstacles, options)
 
 
 def certify_fcl_many(

@@ -52,7 +52,15 @@ from motions.quaternion import quat_from_matrix
 
 from ..certification import Certificate
 from ..shapes import Shape, parts
-from ._common import Core, NotApplicable, NotRepresentable, check_batch, check_tolerance, core_of
+from ._common import (
+    Core,
+    NotApplicable,
+    NotRepresentable,
+    check_batch,
+    check_tolerance,
+    core_of,
+    single,
+)
 
 __all__ = ["certify_ipctk", "certify_ipctk_many"]
 
@@ -301,10 +309,7 @@ def certify_ipctk(motion: Motion, body: Shape, obstacles: Any, **options: Any) -
 
     See :func:`certify_ipctk_many`.
     """
-    out = certify_ipctk_many([motion], body, obstacles, **options)[0]
-    if isinstance(out, NotApplicable):
-        raise NotRepresentable(out.reason)
-    return out
+    return single(certify_ipctk_many, motion, body, obstacles, options)
 
 
 def certify_ipctk_many(
