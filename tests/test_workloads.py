@@ -8,6 +8,8 @@ import pytest
 
 from harness.mjdistance import MujocoDistance
 from harness.workloads import (
+    _MinSearch,
+    _moved,
     certify_workload,
     conservative_advancement,
     dense_sampling,
@@ -60,6 +62,48 @@ def test_min_clearance_is_an_exact_distance_at_its_time(workload):
     for i in range(3):
         d = _distances(w.motions[i], w.bodies[i], w.obstacles[i], t[i])
         np.testing.assert_allclose(d[0], c[i], atol=DIST_EPS)
+
+
+def test_pruned_minimum_search_is_the_full_grid_minimum():
+    # the Lipschitz pruning skips samples, never the minimum: the same grid argmin and
+    # value as measuring all 800 samples, before and after the obstacle moves (including
+    # penetrating pairs, whose MuJoCo depths are not relied on)
+    import motions
+    from harness.workloads import random_keyframes, random_primitive
+
+    rng = np.random.default_rng(5)
+    kinds = set()
+    for _ in range(25):
+        m = motions.interpolate(*random_keyframes(rng, 8))
+        b = random_primitive(rng)
+        o = _moved(random_primitive(rng, 2.0), rng.normal(size=3) * 0.5)
+        s = _MinSearch(m, b, [o], 800)
+        for step in range(3):
+            k, d = s.grid_minimum()
+            full = _distances(m, b, [o], s.grid)
+            kinds.add("penetrating" if full.min() < 0 else "free")
+            assert k == int(np.argmin(full)) and d == full.min()
+            # every sample's kept bound is below its distance
+            assert np.all(s.lower <= full + 1e-9)
+            shift = rng.normal(size=3) * 0.05 * (step + 1)
+            o = _moved(o, shift)
+            s.move(o, float(np.linalg.norm(shift)))
+    assert kinds == {"free", "penetrating"}
+
+
+def test_placed_only_workload_is_the_measured_one_before_measuring():
+    w = certify_workload(6, seed=3)
+    p = certify_workload(6, seed=3, measure=False)
+    np.testing.assert_array_equal(p.target, w.target)
+    assert set(p.label) == {"unlabelled"} and set(p.truth) == {"unproven"}
+    assert np.isnan(p.clearance).all() and np.isnan(p.clearance_lo).all()
+    for i in range(6):
+        np.testing.assert_array_equal(p.motions[i].ctrl, w.motions[i].ctrl)
+        if w.target[i] < 0:  # penetrating obstacles are never moved
+            np.testing.assert_array_equal(p.obstacles[i][0].center, w.obstacles[i][0].center)
+        else:  # placed target clear of the body along one direction at the placement pose
+            d = _distances(p.motions[i], p.bodies[i], p.obstacles[i], p.witness[i])
+            assert d[0] >= p.target[i] - DIST_EPS
 
 
 def test_fair_grid_spacing_covers_the_tolerance(workload):
