@@ -39,6 +39,8 @@ BAD = [
     (WORKLOAD + "max_nodes = -1", r"study\[0\]\.max_nodes", ">= 1, got -1"),
     (WORKLOAD + "single_pairs = -1", r"study\[0\]\.single_pairs", ">= 0, got -1"),
     (WORKLOAD + "chunk_pairs = 0", r"study\[0\]\.chunk_pairs", "got 0"),
+    (WORKLOAD + 'labels = "guess"', r"study\[0\]\.labels", r"expected one of \['measured', 'none', 'proven'\], got 'guess'"),
+    (WORKLOAD + "labels = [1]", r"study\[0\]\.labels", r"got \[1\]"),
     (SCALING + "motions = 0", r"study\[0\]\.motions", "got 0"),
     (SCALING + "seed = -3", r"study\[0\]\.seed", ">= 0, got -3"),
     ('[[study]]\nkind = "simulate"\ndt = -0.01', r"study\[0\]\.dt", "positive number"),

@@ -178,7 +178,7 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
                 figure=f"workload verdicts of {method}",
                 value=f"false free {r['false free']}/{r['of truth collision']}, false collision {r['false collision']}/{r['of truth free']}, unknown {r['unknown']}/{r['ran']}",
                 spread="exact counts",
-                basis=f"every pair of the workload; false verdicts counted against proven labels only ({r['truth not proven']} pairs with a measured label not counted)",
+                basis=f"every pair of the workload; false verdicts counted against proven labels only ({r['truth not proven']} pairs whose label is not proven not counted)",
             )
         )
     out += _workload_headline(df, meta)

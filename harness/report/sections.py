@@ -284,10 +284,18 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
         lab = column(pairs, "label", "measured").astype(str)
         first = pairs[pairs["bound"] == pairs["bound"].iloc[0]]
         lab1 = column(first, "label", "measured").astype(str)
-        free = int((numeric(first, "clearance") > 0).sum())
+        clear = numeric(first, "clearance")
+        free = int((clear > 0).sum())
+        placed = int((lab1 == "unlabelled").sum())
         doc.p(
-            f"{len(first)} (motion, obstacle) pairs of 8-keyframe C² rational motions; obstacles placed for a minimum clearance log-uniform in [1 mm, 10 cm] (70 %) or a penetration (30 %): {free} free, {len(first) - free} penetrating by their labels."
-            f" Labels: {int((lab1 == 'proven').sum())} proven (a certified bracket of the clearance, or a proven penetration depth), {int((lab1 != 'proven').sum())} only measured (dense sampling, not a proof); only proven labels count as truth below."
+            f"{len(first)} (motion, obstacle) pairs of 8-keyframe C² rational motions; obstacles placed for a minimum clearance log-uniform in [1 mm, 10 cm] (70 %) or a penetration (30 %): {free} free, {int((clear <= 0).sum())} penetrating by their labels."
+            f" Labels: {int((lab1 == 'proven').sum())} proven (a certified bracket of the clearance, or a proven penetration depth), {int((lab1 == 'measured').sum())} only measured (dense sampling, not a proof)"
+            + (
+                f', {placed} unlabelled (labels = "none": placed at the target clearance from one pose, minimum never measured, so other poses may come closer or collide)'
+                if placed
+                else ""
+            )
+            + "; only proven labels count as truth below."
         )
         ok = lab == "proven"
         acc = pd.DataFrame(
