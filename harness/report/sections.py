@@ -322,7 +322,7 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
     if len(costs):
         doc.table(
             costs.drop(columns=["_cpu"]),
-            "Cost per pair: medians over rounds of the whole set of pairs (batch: one certify_many call; single: one call per pair), divided by the number of pairs; every method on the same pairs.",
+            "Cost per pair: medians over rounds of the whole set of pairs (batch: one certify_many call; single: one call per pair), divided by the number of pairs; every method on the same pairs. The rounds follow one untimed first call, which also prepares each new motion (its control matrices, round-off bounds and positivity split, cached on the motion): 'first call' (batch rows) is that call's CPU time per pair, what certifying new motions once costs; the first method in the study's order pays the preparation the others share (lipschitz and sampled add their speed bounds).",
             "workload_cost",
         )
         _cost_figure(doc, costs, plt)

@@ -5,6 +5,9 @@ Not a pytest-benchmark case (one round takes minutes); run it as a script:
 
     python -m tests.benchmarks.scaleout --pairs 4000 --chunk 500 --modes local,dask1,dask2 --rounds 2
 
+``--labels none`` only places the pairs (the million suite's workload): the figures are
+then certification at scale, not labelling.
+
 Each (round, mode) runs in a fresh subprocess (clean peak-memory figures) with a fresh
 LocalCluster for the Dask modes; modes are interleaved within a round. Printed per run:
 wall seconds, pairs per second end to end (building the workload and certifying it),
@@ -32,6 +35,7 @@ kind = "workload"
 pairs = {pairs}
 chunk_pairs = {chunk}
 bounds = [{bounds}]
+labels = "{labels}"
 single_pairs = 0
 rounds = 1
 """
@@ -46,13 +50,15 @@ def _warm() -> None:
     import harness.run  # noqa: F401
 
 
-def one(mode: str, pairs: int, chunk: int, bounds: str, folder: Path) -> dict:
+def one(mode: str, pairs: int, chunk: int, bounds: str, labels: str, folder: Path) -> dict:
     from harness.run import load_suite, run_suite
 
-    (folder / "s.toml").write_text(SUITE.format(pairs=pairs, chunk=chunk, bounds=bounds))
+    (folder / "s.toml").write_text(
+        SUITE.format(pairs=pairs, chunk=chunk, bounds=bounds, labels=labels)
+    )
     suite = load_suite(folder / "s.toml")
     out = folder / "run"
-    res: dict = {"mode": mode, "pairs": pairs, "chunk": chunk}
+    res: dict = {"mode": mode, "pairs": pairs, "chunk": chunk, "labels": labels}
     if mode == "local":
         _warm()
         c0, t0 = time.process_time(), time.perf_counter()
@@ -102,19 +108,23 @@ def main() -> None:
     p.add_argument("--pairs", type=int, default=4000)
     p.add_argument("--chunk", type=int, default=500)
     p.add_argument("--bounds", default='"hull"')
+    p.add_argument("--labels", default="proven", choices=["proven", "measured", "none"])
     p.add_argument("--modes", default="local,dask1,dask2")
     p.add_argument("--rounds", type=int, default=2)
     p.add_argument("--one", default=None, help=argparse.SUPPRESS)
     p.add_argument("--folder", default=None, help=argparse.SUPPRESS)
     a = p.parse_args()
     if a.one:
-        print(json.dumps(one(a.one, a.pairs, a.chunk, a.bounds, Path(a.folder))), flush=True)
+        print(
+            json.dumps(one(a.one, a.pairs, a.chunk, a.bounds, a.labels, Path(a.folder))), flush=True
+        )
         return
     for r in range(a.rounds):
         for mode in a.modes.split(","):
             with tempfile.TemporaryDirectory() as d:
                 cmd = [sys.executable, "-m", "tests.benchmarks.scaleout", "--one", mode]
                 cmd += ["--pairs", str(a.pairs), "--chunk", str(a.chunk), "--bounds", a.bounds]
+                cmd += ["--labels", a.labels]
                 cmd += ["--folder", d]
                 proc = subprocess.run(cmd, capture_output=True, text=True)
                 line = proc.stdout.strip().splitlines()[-1] if proc.stdout.strip() else ""
@@ -127,7 +137,8 @@ def main() -> None:
                     for w in res["workers"].values()
                 )
                 print(
-                    f"round {r} {mode:6s} pairs {res['pairs']} chunk {res['chunk']}: wall"
+                    f"round {r} {mode:6s} pairs {res['pairs']} chunk {res['chunk']}"
+                    f" labels {res['labels']}: wall"
                     f" {res['wall']:.1f} s, {res['pairs_per_s']:.1f} pairs/s end to end,"
                     f" {res['certify_pairs_per_s']:.0f} pairs/s certifying; client cpu"
                     f" {res['client_cpu']:.1f} s; workers: {workers}",
