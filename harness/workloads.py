@@ -170,8 +170,13 @@ class _MinSearch:
         (old,) = self.obstacles
         (og,) = {g2 for _, g2 in self.md.pairs}
         rot = [getattr(o, "rotation", np.eye(3)) for o in (old, obstacle)]
-        if np.array_equal(*(motions.quat_from_matrix(r) for r in rot)):
-            self.md.model.geom_pos[og] = obstacle.center
+        model = self.md.model
+        # a world geom at the origin without rotation compiles to "same frame as the
+        # body": MuJoCo then ignores geom_pos, so such a model is built anew
+        if not model.geom_sameframe[og] and np.array_equal(
+            *(motions.quat_from_matrix(r) for r in rot)
+        ):
+            model.geom_pos[og] = obstacle.center
         else:  # a new model, not a new orientation: MuJoCo normalises it on its own
             self.md = MujocoDistance(self.body, [obstacle])
         self.obstacles = [obstacle]
@@ -204,7 +209,9 @@ class _MinSearch:
             lower = np.maximum(lower, np.where(known[j], d[j] - self._disp(j, idx), -np.inf))
         # only a separated pair's distance is exact (MuJoCo's penetration depths of some
         # primitive pairs are not the true depth): prune only samples proven separated
-        todo = np.flatnonzero(~known & (lower <= max(d[known].min(), 0.0) + self.slack))
+        # (written so that a NaN bound or best, never seen, prunes nothing)
+        thr = max(d[known].min(), 0.0) + self.slack
+        todo = np.flatnonzero(~known & ~(lower > thr))
         if len(todo):
             d[todo] = self._measure(todo)
             known[todo] = True
@@ -334,29 +341,23 @@ def certify_workload(
         return Workload(ms, bodies, *w)
     # Other poses may come closer than the placement pose: move free obstacles along the
     # direction of the current closest approach (where d distance / d shift = 1) until the
-    # measured minimum matches the target.
+    # measured minimum matches the target (at most 12 moves). One pair at a time: a
+    # search holds a MuJoCo model and data (~0.5 MB resident each).
     n = len(ms)
     clear, when, closest = np.empty(n), np.empty(n), np.zeros((n, 3))
-    searches = {}  # the pairs still moving keep their search (model and distance bounds)
     for i in range(n):
         s = _MinSearch(ms[i], bodies[i], [obst[i]], MIN_SAMPLES)
         clear[i], when[i], closest[i] = s.minimum(ZOOM_LEVELS)
-        if target[i] > 0:
-            searches[i] = s
-    for _ in range(12):
-        adjust = (target > 0) & ~(np.abs(clear - target) <= 1e-3 * target)
-        for i in set(searches) - set(np.flatnonzero(adjust)):
-            del searches[i]
-        if not adjust.any():
-            break
-        for i in np.flatnonzero(adjust):
+        for _ in range(12 if target[i] > 0 else 0):
+            if abs(clear[i] - target[i]) <= 1e-3 * target[i]:
+                break
             if clear[i] > 0:
                 shift = (target[i] - clear[i]) * closest[i]
             else:  # overlapping elsewhere: step out along the placement direction
                 shift = 0.25 * dirs[i]
             obst[i] = _moved(obst[i], shift)
-            searches[i].move(obst[i], float(np.linalg.norm(shift)))
-            clear[i], when[i], closest[i] = searches[i].minimum(ZOOM_LEVELS)
+            s.move(obst[i], float(np.linalg.norm(shift)))
+            clear[i], when[i], closest[i] = s.minimum(ZOOM_LEVELS)
     obstacles = [[o] for o in obst]
     label, truth, c_lo, depth = _labels(ms, bodies, obstacles, clear, when, prove)
     return Workload(ms, bodies, obstacles, clear, target, when, label, truth, c_lo, depth)

@@ -13,7 +13,6 @@ import pandas as pd
 import pytest
 
 from harness.report import ReportError, headline, write_report
-from harness.report.data import workload_costs
 from harness.report.document import Document
 
 PAIRS = 50
@@ -493,31 +492,6 @@ def test_chunked_workload_costs_add_up():
         f"{want:.3g} µs CPU" in text["hull cost per pair, batch (one certify_many call)"]["value"]
     )
     assert f"{PAIRS} pairs" in text["hull cost per pair, batch (one certify_many call)"]["basis"]
-
-
-def test_first_call_cost_adds_up_over_chunks():
-    # each chunk's untimed first call (new motions: their preparation) per pair of the
-    # whole workload; single-query rows have none (their motions were prepared already)
-    rows = [r for r in synthetic_rows() if r.get("mode") not in ("batch", "single")]
-    for k, first in enumerate([0.2, 0.3]):
-        for mode in ("batch", "single"):
-            rows.append(
-                dict(
-                    study="workload",
-                    keyframes="workload-0",
-                    scheme="rational",
-                    bound="hull",
-                    tolerance=1e-3,
-                    mode=mode,
-                    pairs=PAIRS // 2,
-                    implementation="warp kernel",
-                    case_id=f"chunk-{k}",
-                    **{**_timing(HULL_ROUNDS), "warmup_cpu": first},
-                )
-            )
-    costs = workload_costs(pd.DataFrame(rows)).set_index("mode")
-    assert costs.loc["batch", "first call cpu µs/pair"] == pytest.approx(0.5 / PAIRS * 1e6)
-    assert np.isnan(costs.loc["single", "first call cpu µs/pair"])
 
 
 def _with_workload_rounds(rows: list[dict], bound: str, rounds: np.ndarray) -> list[dict]:

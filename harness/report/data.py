@@ -231,7 +231,6 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
         cpu_pp = sum(x[:n] for x in cpu) / total
         wall_pp = sum(x[:n] for x in wall) / total
         sc, sw = spread(cpu_pp), spread(wall_pp)
-        first = numeric(g, "warmup_cpu")
         rows.append(
             {
                 "workload": name,
@@ -246,13 +245,6 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
                 "cpu 95% CI": span(sc.lo, sc.hi),
                 "wall µs/pair": sw.median * 1e6,
                 "wall IQR": span(sw.q1, sw.q3),
-                # the untimed first call on the chunk's new motions (which prepares and
-                # caches each motion's control structure): what a pair costs once
-                "first call cpu µs/pair": (
-                    float(first.sum()) / total * 1e6
-                    if mode == "batch" and first.notna().all()
-                    else math.nan
-                ),
                 "_cpu": cpu_pp,
             }
         )

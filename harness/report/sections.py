@@ -83,7 +83,7 @@ def how_to_read(doc: Document) -> None:
             "Costs are medians over repeated rounds (the `rounds` column), with the interquartile range (IQR) and a bootstrap 95 % interval (CI) of the median. CPU time is the process's CPU time (every thread); wall time is elapsed time. The first call of each method (Warp kernel compile or cache load) is timed apart and never charged to a case.",
             "'cost of X / cost of hull' divides X's median CPU time per pair by the hull's, on the same pairs at the same tolerance; the interval resamples the rounds of both. It reads 'hull cheaper' only when the whole 95 % interval lies above 1, 'hull dearer' when it lies below 1, and 'no clear difference' otherwise. Batch means one certify_many call over all pairs; single means one certify call per pair.",
             "Rows named 'external' are implemented outside the Warp kernels (for example a Python loop around MuJoCo's mj_geomDistance): their cost includes that implementation, not only the algorithm.",
-            "A false free (verdict free, truth collision) is counted out of the rows whose truth is a proven collision; a false collision out of the rows whose truth is proven free. Rows with truth `unproven` (no proven speed bound) or `unknown`, and workload pairs whose clearance label is only measured, are listed apart and never counted as passes. `n/a` marks a figure that cannot be non-zero or a combination that does not apply.",
+            'A false free (verdict free, truth collision) is counted out of the rows whose truth is a proven collision; a false collision out of the rows whose truth is proven free. Rows with truth `unproven` (no proven speed bound) or `unknown`, and workload pairs whose clearance label is only measured or absent (`labels = "none"`), are listed apart and never counted as passes. `n/a` marks a figure that cannot be non-zero or a combination that does not apply.',
             "Time in motions is the spline parameter: seconds for scene keyframes, the chordal parameter (length units) for random ones. TOI errors are therefore given as a fraction of the motion's duration.",
         ]
     )
@@ -285,13 +285,17 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
         first = pairs[pairs["bound"] == pairs["bound"].iloc[0]]
         lab1 = column(first, "label", "measured").astype(str)
         clear = numeric(first, "clearance")
-        free = int((clear > 0).sum())
         placed = int((lab1 == "unlabelled").sum())
         doc.p(
-            f"{len(first)} (motion, obstacle) pairs of 8-keyframe C² rational motions; obstacles placed for a minimum clearance log-uniform in [1 mm, 10 cm] (70 %) or a penetration (30 %): {free} free, {int((clear <= 0).sum())} penetrating by their labels."
-            f" Labels: {int((lab1 == 'proven').sum())} proven (a certified bracket of the clearance, or a proven penetration depth), {int((lab1 == 'measured').sum())} only measured (dense sampling, not a proof)"
+            f"{len(first)} (motion, obstacle) pairs of 8-keyframe C² rational motions; obstacles placed for a minimum clearance log-uniform in [1 mm, 10 cm] (70 %) or a penetration (30 %)"
             + (
-                f', {placed} unlabelled (labels = "none": placed at the target clearance from one pose, minimum never measured, so other poses may come closer or collide)'
+                f": {int((clear > 0).sum())} free, {int((clear <= 0).sum())} penetrating by their labels."
+                if placed < len(first)
+                else "."
+            )
+            + f" Labels: {int((lab1 == 'proven').sum())} proven (a certified bracket of the clearance, or a proven penetration depth), {int((lab1 == 'measured').sum())} only measured (dense sampling, not a proof)"
+            + (
+                f', {placed} unlabelled (labels = "none": each obstacle placed at its target from one pose and never moved, so most pairs meant to be free collide elsewhere on their motion: a different, collision-heavy workload, timed for throughput, not the measured one)'
                 if placed
                 else ""
             )
@@ -322,7 +326,7 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
     if len(costs):
         doc.table(
             costs.drop(columns=["_cpu"]),
-            "Cost per pair: medians over rounds of the whole set of pairs (batch: one certify_many call; single: one call per pair), divided by the number of pairs; every method on the same pairs. The rounds follow one untimed first call, which also prepares each new motion (its control matrices, round-off bounds and positivity split, cached on the motion): 'first call' (batch rows) is that call's CPU time per pair, what certifying new motions once costs; the first method in the study's order pays the preparation the others share (lipschitz and sampled add their speed bounds).",
+            "Cost per pair: medians over rounds of the whole set of pairs (batch: one certify_many call; single: one call per pair), divided by the number of pairs; every method on the same pairs.",
             "workload_cost",
         )
         _cost_figure(doc, costs, plt)
