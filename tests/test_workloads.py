@@ -91,6 +91,27 @@ def test_pruned_minimum_search_is_the_full_grid_minimum():
     assert kinds == {"free", "penetrating"}
 
 
+def test_moving_an_obstacle_compiled_in_the_body_frame():
+    # a world geom at the origin without rotation compiles to MuJoCo's "same frame":
+    # writing its geom_pos would not move it, so the search must rebuild its model
+    import motions
+    from harness.shapes import Box, Sphere
+    from harness.workloads import random_keyframes
+
+    rng = np.random.default_rng(2)
+    m = motions.interpolate(*random_keyframes(rng, 8))
+    body = Sphere(0.1)
+    for o in (Sphere(0.3), Box([0.2, 0.3, 0.1])):
+        s = _MinSearch(m, body, [o], 200)
+        s.grid_minimum()
+        shift = np.array([0.7, -0.4, 0.3])
+        o = _moved(o, shift)
+        s.move(o, float(np.linalg.norm(shift)))
+        k, d = s.grid_minimum()
+        full = _distances(m, body, [o], s.grid)
+        assert k == int(np.argmin(full)) and d == full.min()
+
+
 def test_placed_only_workload_is_the_measured_one_before_measuring():
     w = certify_workload(6, seed=3)
     p = certify_workload(6, seed=3, measure=False)
