@@ -67,8 +67,8 @@ KERNEL = "in-kernel (Warp certify_many)"
 """Implementation of batch rows (and of pair rows, whose verdicts come from the batch)."""
 KERNEL_SINGLE = "in-kernel (one certify call per pair)"
 """Implementation of single-query rows: one ``certify`` call per pair."""
-# A Dask worker building and certifying (hull) chunks of 1,000 pairs peaked at 0.39-0.44 GB (measured, README "Runs")
-# (min_clearance batches every pair's 800 poses); the aabb bound adds about 0.35 GB.
+# A Dask worker building and certifying (hull) chunks of 1,000 pairs peaked at 0.39-0.44 GB
+# over 5 chunks and 0.50 GB over 500 (measured, README "Runs"); the aabb bound adds ~0.35 GB.
 DEFAULT_CHUNK = 1000
 
 
