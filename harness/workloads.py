@@ -301,8 +301,9 @@ def certify_workload(
         prove: prove the labels (see the module docstring); without it every label is
             "measured".
         measure: measure each pair's minimum and move free obstacles to their target
-            (about 20 ms per pair, 15x a pair's certification). Without it the pairs are
-            only placed, at the target clearance from one pose (others may come closer):
+            (about 20 ms per pair, hundreds of times its certification). Without it the
+            pairs are only placed, at the target clearance from one pose (others may come
+            closer, and most pairs meant to be free collide elsewhere):
             the same motions, bodies and first placements, ``label="unlabelled"``,
             clearance NaN, the witness the placement time. For throughput at scale.
     """
@@ -332,18 +333,24 @@ def certify_workload(
         placed.append(t)
     target = np.array(target)
     dirs = np.array(dirs)
+    n = len(ms)
     if not measure:
-        n = len(ms)
-        label = np.full(n, "unlabelled", dtype=object)
-        truth = np.full(n, "unproven", dtype=object)
-        nan = [np.full(n, np.nan) for _ in range(3)]
-        w = [[o] for o in obst], nan[0], target, np.array(placed), label, truth, *nan[1:]
-        return Workload(ms, bodies, *w)
+        return Workload(
+            ms,
+            bodies,
+            [[o] for o in obst],
+            clearance=np.full(n, np.nan),
+            target=target,
+            witness=np.array(placed),
+            label=np.full(n, "unlabelled", dtype=object),
+            truth=np.full(n, "unproven", dtype=object),
+            clearance_lo=np.full(n, np.nan),
+            penetration=np.full(n, np.nan),
+        )
     # Other poses may come closer than the placement pose: move free obstacles along the
     # direction of the current closest approach (where d distance / d shift = 1) until the
     # measured minimum matches the target (at most 12 moves). One pair at a time: a
     # search holds a MuJoCo model and data (~0.5 MB resident each).
-    n = len(ms)
     clear, when, closest = np.empty(n), np.empty(n), np.zeros((n, 3))
     for i in range(n):
         s = _MinSearch(ms[i], bodies[i], [obst[i]], MIN_SAMPLES)

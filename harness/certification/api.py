@@ -8,10 +8,8 @@
 
 from __future__ import annotations
 
-import gc
 import math
 from collections.abc import Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,6 +21,7 @@ from motions.pieces import UNIT_ROUNDOFF
 
 from ..errors import HarnessError
 from ..shapes import Shape, as_obstacles, as_shape
+from ..timing import collector_paused
 from .device import resolve_device
 
 __all__ = [
@@ -268,21 +267,6 @@ def certify_many(
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
         return _engine(ms, bodies, obst, o) if ms else []
-
-
-@contextmanager
-def collector_paused():
-    """Python's cyclic garbage collector off while the engine works. Its allocations
-    (packing, certificates) trigger full collections that traverse every object of the
-    caller's heap: with 10⁴ motions alive that made a pair 1.3x dearer than with 10³
-    (measured, ``test_batch_size_scaling``). Nothing the engine keeps is cyclic."""
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
 
 
 def _engine(ms, bodies, obst, o: dict) -> list[Certificate]:

@@ -18,14 +18,8 @@ import numpy as np
 
 from motions import Motion, RationalMotion
 
-from .api import (
-    DEFAULT_MAX_NODES,
-    QueryError,
-    body_list,
-    check_options,
-    collector_paused,
-    obstacle_lists,
-)
+from ..timing import collector_paused
+from .api import DEFAULT_MAX_NODES, QueryError, body_list, check_options, obstacle_lists
 from .refine import MOTIONS_PER_CHUNK, _packed, clearance_chunk
 
 __all__ = ["Clearance", "clearance", "clearance_many"]
@@ -91,6 +85,7 @@ def clearance(
     )[0]
 
 
+@collector_paused()
 def clearance_many(
     motions: Sequence[Motion],
     body: Any,
@@ -105,15 +100,6 @@ def clearance_many(
 ) -> list[Clearance]:
     """:func:`clearance` for a batch (one lane per motion: a bracket never depends on the
     batch). `body` and `obstacles` as for ``certify_many``."""
-    with collector_paused():
-        return _clearance_many(
-            motions, body, obstacles, tolerance, max_depth, max_nodes, threads, device, max_iter
-        )
-
-
-def _clearance_many(
-    motions, body, obstacles, tolerance, max_depth, max_nodes, threads, device, max_iter
-) -> list[Clearance]:
     o = check_options("hull", tolerance, max_depth, None, max_nodes, threads, device, max_iter)
     if isinstance(motions, Motion) or not isinstance(motions, Sequence):
         raise TypeError(
