@@ -99,6 +99,26 @@ def test_batch_never_changes_a_certificate(scene, bound, kw):
     assert len(verdicts) >= 2, verdicts  # the scene is not trivial
 
 
+def test_single_queries_in_any_order_equal_the_batch(scene):
+    # a single query reuses what the previous one left (packed shapes, recorded launches
+    # with their scalars, argument structs): any order of queries and options must give
+    # the batch's certificates
+    ms, bodies, obstacles = scene
+    options = [{}, {"max_nodes": 12}, {"tolerance": 0.05}, {"bound": "aabb", "max_nodes": 300}]
+    shared = {  # one body and one obstacle list for every motion: their packing is reused
+        j: certify_many(ms, bodies[0], obstacles[0], **kw) for j, kw in enumerate(options)
+    }
+    own = {j: certify_many(ms, bodies, obstacles, **kw) for j, kw in enumerate(options)}
+    rng = np.random.default_rng(5)
+    for _ in range(3 * len(ms)):
+        i, j = int(rng.integers(len(ms))), int(rng.integers(len(options)))
+        if rng.random() < 0.5:
+            got, want = certify(ms[i], bodies[0], obstacles[0], **options[j]), shared[j][i]
+        else:
+            got, want = certify(ms[i], bodies[i], obstacles[i], **options[j]), own[j][i]
+        assert _same(got, want), (i, options[j], got, want)
+
+
 def test_node_budget_is_never_exceeded(scene):
     ms, bodies, obstacles = scene
     hit = 0

@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -122,7 +123,30 @@ def check_options(
     device: Any,
     max_iter: Any,
 ) -> dict:
-    """Validate the common query options; returns them normalised."""
+    """Validate the common query options; returns them normalised (a copy: the same
+    options again, as in a loop of single queries, are looked up, not validated anew)."""
+    key = (
+        bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter,
+        os.environ.get("RSMBENCH_DEVICE") if device is None else None,
+    )  # fmt: skip
+    try:
+        hit = _checked.get(tuple((type(x), x) for x in key))
+    except TypeError:  # unhashable: validation names it below
+        hit = key = None
+    if hit is not None:
+        return dict(hit)
+    out = _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)
+    if key is not None:
+        if len(_checked) >= 64:
+            _checked.clear()
+        _checked[tuple((type(x), x) for x in key)] = dict(out)
+    return out
+
+
+_checked: dict = {}
+
+
+def _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter):
     if not isinstance(bound, str) or bound not in BOUNDS:
         raise QueryError(f"Unknown `bound` {short(bound)}; expected one of {list(BOUNDS)}.")
     if isinstance(tolerance, bool) or not isinstance(

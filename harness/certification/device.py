@@ -9,6 +9,7 @@ on the CPU; copied to the device elsewhere). Python packs once, launches once pe
 
 from __future__ import annotations
 
+import operator
 import os
 import threading
 from collections.abc import Callable
@@ -96,7 +97,10 @@ class Buffers:
         self.device = device
         self._arrays: dict[str, tuple[np.ndarray, Any]] = {}
         self._launches: dict[Any, list] = {}
+        self._sets: dict[tuple, list] = {}
+        self._cpu = is_cpu(device)
         self.packed = None  # (identities, arrays, K_max) of the small query packed last
+        self.shapes_put = None  # (shape packing, its arrays) when the buffers hold it
 
     def _get(self, name: str, shape: tuple, np_dtype, wp_dtype, exact: bool = False):
         cur = self._arrays.get(name)
@@ -128,6 +132,17 @@ class Buffers:
     def put(self, name: str, data: np.ndarray, wp_dtype):
         """Write `data` into buffer `name` (its first axis grows; trailing axes belong to
         the Warp dtype, e.g. (4, 4) for mat44d)."""
+        cur = self._arrays.get(name)
+        if (
+            self._cpu
+            and cur is not None
+            and type(data) is np.ndarray
+            and cur[0].dtype == data.dtype
+            and cur[0].shape[0] >= len(data)
+            and cur[0].shape[1:] == data.shape[1:]
+        ):
+            cur[0][: len(data)] = data  # the common case, without the general path's checks
+            return cur[1]
         data = np.asarray(data)
         host, arr = self._get(name, data.shape, data.dtype, wp_dtype)
         host[: len(data)] = data
@@ -154,6 +169,16 @@ class Buffers:
             return cur[1]
         return self._get(name, shape, np_dtype, wp_dtype, exact=True)[1]
 
+    def scratch_set(self, key: tuple, make: Callable[[], list]) -> list:
+        """The scratch arrays ``make()`` returns, made once per `key` (the call's lanes and
+        sizes) and kept: a single query asks for the same ones every time."""
+        hit = self._sets.get(key)
+        if hit is None:
+            if len(self._sets) >= 32:
+                self._sets.clear()
+            hit = self._sets[key] = make()
+        return hit
+
     def out(self, name: str, shape: tuple, np_dtype, wp_dtype):
         host, arr = self._get(name, shape, np_dtype, wp_dtype)
         return host, arr
@@ -170,50 +195,84 @@ class Buffers:
         ``args[first_index]`` set to the lane), elsewhere one launch of `lanes` threads.
 
         Launches are recorded once and replayed while the array arguments are the same
-        objects (only scalars change): a replay costs a fraction of ``wp.launch``.
+        objects; scalars that changed are set on the recorded launches (an update costs
+        ~10 µs).
         """
         wp = warp()
-        cpu = is_cpu(self.device)
-        firsts = list(range(lanes)) if cpu else [0]
-        sig = [a if isinstance(a, int | float) else ("array", id(a)) for a in args]
+        cpu = self._cpu
         key = (kernel.key, lanes)
         hit = self._launches.get(key)
-        if hit is not None and hit[2] == sig:
-            pass  # the very launch again
-        elif hit is not None and all(
-            type(x) is type(y) and (x == y or not isinstance(x, tuple))
-            for x, y in zip(hit[2], sig, strict=True)
-        ):
-            # the same arrays: set only the scalars that changed (an update costs ~10 µs)
-            for i, (old, new) in enumerate(zip(hit[2], sig, strict=True)):
-                if old != new and i != first_index:
+        scalars = [a for a in args if type(a) is int or type(a) is float]
+        arrays = [a for a in args if type(a) is not int and type(a) is not float]
+        same = (
+            hit is not None
+            and len(hit[0]) == len(arrays)
+            and all(map(operator.is_, hit[0], arrays))
+        )
+        if same and hit[2] != scalars:
+            for i, a in enumerate(args):
+                if (type(a) is int or type(a) is float) and i != first_index and a != hit[3][i]:
                     for cmd in hit[1]:
-                        cmd.set_param_at_index(i, new)
-            hit[2] = sig
-        else:
+                        cmd.set_param_at_index(i, a)
+            hit[2], hit[3], hit[4] = scalars, list(args), [None] * len(hit[1])
+        elif not same:
             cmds = []
-            for f in firsts:
+            for f in list(range(lanes)) if cpu else [0]:
                 a = list(args)
                 a[first_index] = f
                 cmds.append(
                     wp.launch(
-                        kernel,
-                        dim=1 if cpu else lanes,
-                        inputs=a,
-                        device=self.device,
+                        kernel, dim=1 if cpu else lanes, inputs=a, device=self.device,
                         record_cmd=True,
                     )
-                )
-            # the recorded arrays are kept alive with the launch (ids stay theirs)
-            hit = [list(args), cmds, sig]
+                )  # fmt: skip
+            # the recorded arrays are kept alive with the launch (identities stay theirs)
+            hit = [arrays, cmds, scalars, list(args), [None] * len(cmds)]
             self._launches[key] = hit
-        cmds = hit[1]
+        cmds, runs = hit[1], hit[4]
         if len(cmds) == 1:
-            cmds[0].launch()
+            _run(cmds, runs, 0)
         else:
-            run_lanes(len(cmds), lambda i: cmds[i].launch())
+            run_lanes(len(cmds), lambda i: _run(cmds, runs, i))
         if not cpu:
             wp.synchronize_device(self.device)
+
+
+def _run(cmds: list, runs: list, i: int) -> None:
+    """Run recorded launch ``cmds[i]``. On the CPU its argument struct is built once and
+    kept in ``runs[i]`` (Warp's ``Launch.launch`` builds a ctypes struct of every
+    argument on each call: ~15 µs of the engine's ~30 arguments); where Warp's internals
+    are not as expected, its own launch runs."""
+    run = runs[i]
+    if run is None:
+        cmds[i].launch()
+        runs[i] = _direct(cmds[i]) or cmds[i].launch
+        return
+    run()
+
+
+def _direct(cmd) -> Callable[[], None] | None:
+    """A call of the CPU kernel of recorded launch `cmd` with a prebuilt argument struct,
+    as Warp's ``invoke`` makes it (Warp 1.19), or None."""
+    import ctypes
+
+    try:
+        if not cmd.device.is_cpu or cmd.adjoint or getattr(cmd, "block_dim", 1) > 1:
+            return None
+        params = cmd.params
+        cached = cmd.kernel._invoke_cache.get((tuple(type(p) for p in params[1:]), False))
+        if cached is None:
+            return None
+        struct_type, fields = cached
+        if len(fields) != len(params) - 1:
+            return None
+        args = struct_type()
+        for j, field in enumerate(fields):
+            setattr(args, field[0], params[1 + j])
+        forward, bounds, argp = cmd.hooks.forward, ctypes.byref(params[0]), ctypes.byref(args)
+    except (AttributeError, TypeError, ValueError, KeyError):
+        return None
+    return lambda: forward(bounds, argp)
 
 
 _buffers: dict[tuple[str, str], Buffers] = {}

@@ -233,6 +233,11 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         ):
             return cur[1], cur[2]
     buf.packed = None
+    if n == 1:
+        arrays, kmax = _pack_one(buf, packs[0], bodies, obst)
+        buf.packed = (refs, arrays, kmax)
+        return arrays, kmax
+    buf.shapes_put = None
     table, m_parts, m_obst, o_idx, n_obst = pack_shapes(bodies, obst)
     ctrls, ks, ts, errs, extra = zip(*packs, strict=True)
     p_k = np.concatenate(ks)
@@ -263,6 +268,44 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     return arrays, kmax
 
 
+def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
+    """:func:`pack_inputs` for one motion, in as few numpy calls as it takes (a single
+    query's packing cost more than its kernel): the shape inputs are not written again
+    when they are the very packing written last (one body and obstacles queried with
+    motion after motion)."""
+    from ._geometry import Shape as WpShape
+
+    wp = warp()
+    ctrl, p_k, p_t, p_err, extra = pack
+    shaped = pack_shapes(bodies, obst)
+    table, m_parts, m_obst, o_idx, n_obst = shaped
+    p_start = np.cumsum(p_k, dtype=np.int32) - p_k
+    nodes0 = extra * max(1, int(n_obst[0]))
+    arrays = {
+        "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
+        "p_start": buf.put("p_start", p_start, wp.int32),
+        "p_k": buf.put("p_k", p_k, wp.int32),
+        "p_t": buf.put("p_t", p_t, wp.vec2d),
+        "p_err": buf.put("p_err", p_err, wp.vec3d),
+        "m_pieces": buf.put("m_pieces", np.array([[0, len(p_k)]], dtype=np.int32), wp.vec2i),
+        "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
+    }
+    last = buf.shapes_put
+    if last is not None and last[0] is shaped:
+        arrays.update(last[1])
+    else:
+        put = {
+            "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
+            "m_obst": buf.put("m_obst", m_obst, wp.vec2i),
+            "o_idx": buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
+            "shapes": buf.put("shapes", table.records, WpShape),
+            "verts": buf.put("verts", table.verts, wp.vec3d),
+        }
+        buf.shapes_put = (shaped, put)
+        arrays.update(put)
+    return arrays, int(p_k.max())
+
+
 REFINE_INPUTS = (
     "ctrl", "p_start", "p_k", "p_t", "p_err", "m_pieces", "m_parts", "m_obst", "m_nodes0",
     "o_idx", "shapes", "verts",
@@ -287,15 +330,20 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         0,
         lanes,
         n,
-        buf.scratch("st_ctrl", (lanes, slots, kmax, 4, 4), np.float64, wp.mat44d),
-        buf.scratch("st_t", (lanes, slots, 2), np.float64, wp.vec2d),
-        buf.scratch("st_err", (lanes, slots, 3), np.float64, wp.vec3d),
-        buf.scratch("st_warm", (lanes, slots, 3), np.float64, wp.vec3d),
-        buf.scratch("st_ub", (lanes, slots, 2), np.float64, wp.vec2d),
-        buf.scratch("st_flags", (lanes, slots), np.int32, wp.int32),
-        buf.scratch("st_depth", (lanes, slots), np.int32, wp.int32),
-        buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
-        buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
+        *buf.scratch_set(
+            ("refine", lanes, slots, kmax),
+            lambda: [
+                buf.scratch("st_ctrl", (lanes, slots, kmax, 4, 4), np.float64, wp.mat44d),
+                buf.scratch("st_t", (lanes, slots, 2), np.float64, wp.vec2d),
+                buf.scratch("st_err", (lanes, slots, 3), np.float64, wp.vec3d),
+                buf.scratch("st_warm", (lanes, slots, 3), np.float64, wp.vec3d),
+                buf.scratch("st_ub", (lanes, slots, 2), np.float64, wp.vec2d),
+                buf.scratch("st_flags", (lanes, slots), np.int32, wp.int32),
+                buf.scratch("st_depth", (lanes, slots), np.int32, wp.int32),
+                buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
+                buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
+            ],
+        ),
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
     ]
