@@ -24,6 +24,8 @@ from ..errors import HarnessError
 from ..shapes import Shape, as_obstacles, as_shape
 from ..timing import collector_paused
 from .device import resolve_device
+from .refine import BIG
+from .refine import REASONS as UNK
 
 __all__ = [
     "BOUNDS",
@@ -144,6 +146,7 @@ def check_options(
 
 
 _checked: dict = {}
+_REASON_NAMES = list(UNK.values())
 
 
 def _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter):
@@ -343,9 +346,6 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
 
     `certified` is a bool or a per-motion bool array (sampling proves some and not others).
     """
-    from .refine import BIG
-    from .refine import REASONS as UNK
-
     t, c = out.t.tolist(), out.c.tolist()
     n = len(c)
     total = max(1, sum(r[0] for r in c))
@@ -353,7 +353,7 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
         cert = [certified] * n
     else:
         cert = [bool(x) for x in certified]
-    names = list(UNK.values())
+    names = _REASON_NAMES
     inf = math.inf
     res = []
     for i in range(n):

@@ -268,6 +268,10 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     return arrays, kmax
 
 
+_solo: dict[int, tuple] = {}
+"""Per recent one-motion packing (by identity, holding it): its piece starts and range."""
+
+
 def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     """:func:`pack_inputs` for one motion, in as few numpy calls as it takes (a single
     query's packing cost more than its kernel): the shape inputs are not written again
@@ -279,15 +283,20 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     ctrl, p_k, p_t, p_err, extra = pack
     shaped = pack_shapes(bodies, obst)
     table, m_parts, m_obst, o_idx, n_obst = shaped
-    p_start = np.cumsum(p_k, dtype=np.int32) - p_k
+    index = _solo.get(id(pack))
+    if index is None or index[0] is not pack:
+        if len(_solo) >= SHAPE_CACHE:
+            _solo.clear()
+        p_start = np.cumsum(p_k, dtype=np.int32) - p_k
+        index = _solo[id(pack)] = (pack, p_start, np.array([[0, len(p_k)]], dtype=np.int32))
     nodes0 = extra * max(1, int(n_obst[0]))
     arrays = {
         "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
-        "p_start": buf.put("p_start", p_start, wp.int32),
+        "p_start": buf.put("p_start", index[1], wp.int32),
         "p_k": buf.put("p_k", p_k, wp.int32),
         "p_t": buf.put("p_t", p_t, wp.vec2d),
         "p_err": buf.put("p_err", p_err, wp.vec3d),
-        "m_pieces": buf.put("m_pieces", np.array([[0, len(p_k)]], dtype=np.int32), wp.vec2i),
+        "m_pieces": buf.put("m_pieces", index[2], wp.vec2i),
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
     }
     last = buf.shapes_put
