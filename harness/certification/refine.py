@@ -9,6 +9,7 @@ in the batch and however the batch is chunked or threaded.
 
 from __future__ import annotations
 
+import operator
 import time
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -217,19 +218,17 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     wp = warp()
     n = len(packs)
     refs = None
-    if n <= 8:
-        # the same small query again (packed pieces are cached per motion): the buffers
-        # still hold its inputs
-        refs = (
-            tuple(packs) + tuple(bodies) + tuple(o for lst in obst for o in lst),
-            tuple(map(len, obst)),
-        )
+    lens = tuple(map(len, obst))
+    if n <= 8 or sum(lens) <= 4 * n:
+        # the same query again (packed pieces are cached per motion, shapes are
+        # immutable): the buffers still hold its inputs. Checked by identity, O(items).
+        refs = (tuple(packs) + tuple(bodies) + tuple(o for lst in obst for o in lst), lens)
         cur = buf.packed
         if (
             cur is not None
-            and cur[0][1] == refs[1]
+            and cur[0][1] == lens
             and len(cur[0][0]) == len(refs[0])
-            and all(a is b for a, b in zip(cur[0][0], refs[0], strict=True))
+            and all(map(operator.is_, cur[0][0], refs[0]))
         ):
             return cur[1], cur[2]
     buf.packed = None

@@ -99,6 +99,16 @@ def test_batch_against_compiled_ca(benchmark, workload, compiled):
     )
     n = len(w.motions)
     hull = lambda: harness.certify_many(w.motions, w.bodies, w.obstacles, tolerance=TOL)  # noqa: E731
+    # one thread, as the compiled competitor; and the batch in reverse order, so that the
+    # buffers do not hold its inputs and every round packs them again
+    hull_1 = lambda: harness.certify_many(  # noqa: E731
+        w.motions, w.bodies, w.obstacles, tolerance=TOL, threads=1
+    )
+    rev = [x[::-1] for x in (w.motions, w.bodies, w.obstacles)]
+    hull_packing = lambda: (  # noqa: E731
+        harness.certify_many(*rev, tolerance=TOL, threads=1),
+        harness.certify_many(w.motions, w.bodies, w.obstacles, tolerance=TOL, threads=1),
+    )
     lip = lambda: harness.certify_many(  # noqa: E731
         w.motions, w.bodies, w.obstacles, bound="lipschitz", tolerance=TOL
     )
@@ -106,7 +116,19 @@ def test_batch_against_compiled_ca(benchmark, workload, compiled):
         w.motions, w.bodies, w.obstacles, bound="sampled", tolerance=TOL
     )
     ca = lambda: compiled.run(prep, tolerance=TOL)  # noqa: E731
-    med = interleave({"hull": hull, "compiled_ca": ca, "lipschitz": lip, "sampled_fair": fair})
+    med = interleave(
+        {
+            "hull": hull,
+            "compiled_ca": ca,
+            "hull_one_thread": hull_1,
+            "hull_one_thread_packing_twice": hull_packing,
+            "lipschitz": lip,
+            "sampled_fair": fair,
+        }
+    )
+    med["hull_one_thread_packing"] = {
+        k: v / 2 for k, v in med.pop("hull_one_thread_packing_twice").items()
+    }
     certs = hull()
     ca_out = ca()
     evals = sum(c.nodes + c.pose_tests for c in certs)
@@ -116,6 +138,10 @@ def test_batch_against_compiled_ca(benchmark, workload, compiled):
         "us_per_pair": per_pair,
         "compiled_ca_over_hull_cpu": med["compiled_ca"]["cpu"] / med["hull"]["cpu"],
         "compiled_ca_over_hull_wall": med["compiled_ca"]["wall"] / med["hull"]["wall"],
+        "compiled_ca_over_hull_one_thread_cpu": med["compiled_ca"]["cpu"]
+        / med["hull_one_thread"]["cpu"],
+        "compiled_ca_over_hull_packing_cpu": med["compiled_ca"]["cpu"]
+        / med["hull_one_thread_packing"]["cpu"],
         "lipschitz_over_hull_cpu": med["lipschitz"]["cpu"] / med["hull"]["cpu"],
         "sampled_fair_over_hull_cpu": med["sampled_fair"]["cpu"] / med["hull"]["cpu"],
         "hull_evaluations_per_pair": evals / n,
