@@ -354,45 +354,40 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
     else:
         cert = [bool(x) for x in certified]
     names = _REASON_NAMES
-    inf = math.inf
+    inf, nan = math.inf, math.nan
+    # every certificate starts as a copy of this (fields in declaration order)
+    free = {
+        "verdict": "free", "reason": "clear", "toi_lo": inf, "toi_hi": inf, "nodes": 0,
+        "depth": 0, "seconds": 0.0, "certified": True, "bound": bound, "tolerance": tol,
+        "witness_time": nan, "witness_distance": nan, "unresolved": None, "clearance": nan,
+        "penetration": nan, "pose_tests": 0,
+    }  # fmt: skip
+    new = object.__new__
     res = []
     for i in range(n):
         ti, ci = t[i], c[i]
-        lo = ti[0] if ti[0] <= BIG else inf
-        hi_t = ti[1] if ti[1] <= BIG else inf
-        wt, wd = (ti[2], ti[3]) if ti[2] <= BIG else (math.nan, math.nan)
-        counts = ci[4:7]
-        if lo != inf and lo > ends[i][0]:
-            # halved pieces' times are computed by averaging: lower by their round-off
-            scale = max(abs(lo), abs(ends[i][0]), abs(ends[i][1]))
-            lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0])
-        unresolved = {k: x for k, x in zip(names, counts, strict=True) if x} if any(counts) else {}
-        if hi_t != inf:
-            head = ("collision", "contact", lo, hi_t, math.nan, math.nan)
-        elif ci[3]:
-            head = ("unknown", UNK[ci[3]], lo, inf, wt, wd)
+        d = free.copy()
+        d["nodes"], d["depth"], d["pose_tests"] = ci[0], ci[2], ci[1]
+        d["seconds"] = elapsed * ci[0] / total
+        d["certified"] = cert[i]
+        if ci[4] or ci[5] or ci[6]:
+            d["unresolved"] = {k: x for k, x in zip(names, ci[4:7], strict=True) if x}
         else:
-            head = ("free", "clear", inf, inf, math.nan, math.nan)
-        obj = object.__new__(Certificate)
-        obj.__dict__.update(
-            {
-                "verdict": head[0],
-                "reason": head[1],
-                "toi_lo": head[2],
-                "toi_hi": head[3],
-                "nodes": ci[0],
-                "depth": ci[2],
-                "seconds": elapsed * ci[0] / total,
-                "certified": cert[i],
-                "bound": bound,
-                "tolerance": tol,
-                "witness_time": head[4],
-                "witness_distance": head[5],
-                "unresolved": unresolved,
-                "clearance": math.nan,
-                "penetration": math.nan,
-                "pose_tests": ci[1],
-            }
-        )
+            d["unresolved"] = {}
+        if ti[1] <= BIG or ci[3]:
+            lo = ti[0] if ti[0] <= BIG else inf
+            if lo != inf and lo > ends[i][0]:
+                # halved pieces' times are computed by averaging: lower by their round-off
+                scale = max(abs(lo), abs(ends[i][0]), abs(ends[i][1]))
+                lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0])
+            d["toi_lo"] = lo
+            if ti[1] <= BIG:
+                d["verdict"], d["reason"], d["toi_hi"] = "collision", "contact", ti[1]
+            else:
+                d["verdict"], d["reason"] = "unknown", UNK[ci[3]]
+                if ti[2] <= BIG:
+                    d["witness_time"], d["witness_distance"] = ti[2], ti[3]
+        obj = new(Certificate)
+        obj.__dict__.update(d)
         res.append(obj)
     return res
