@@ -7,6 +7,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import subprocess
+import sys
+import textwrap
 
 import numpy as np
 import pytest
@@ -117,6 +120,48 @@ def test_single_queries_in_any_order_equal_the_batch(scene):
         else:
             got, want = certify(ms[i], bodies[i], obstacles[i], **options[j]), own[j][i]
         assert _same(got, want), (i, options[j], got, want)
+
+
+COLD_THREADS = textwrap.dedent(
+    """
+    import threading
+    import numpy as np
+    import harness, motions
+    from harness import Box, Sphere
+    from motions.demo import demo_keyframes
+
+    ms = [motions.interpolate(*demo_keyframes(6, seed=s)) for s in range(4)]
+    rng = np.random.default_rng(3)
+    obst = [[Sphere(0.2, center=m.pose(np.array([t]))[1][0] + rng.normal(size=3) * 0.5)
+             for t in rng.uniform(*m.domain, 2)] for m in ms]
+    body = Box([0.2, 0.1, 0.05])
+    kinds = [(harness.certify, "hull"), (harness.certify, "lipschitz"), (harness.clearance, None)]
+    queries = [[(f, i, b) for i in (k, k + 2) for f, b in kinds] for k in range(2)]
+
+    def run(qs):
+        return [repr({k: v for k, v in vars(f(ms[i], body, obst[i], **({"bound": b} if b else {}))).items()
+                      if k != "seconds"}) for f, i, b in qs]
+
+    got = [None, None]
+    def lane(k):
+        got[k] = run(queries[k])
+    ts = [threading.Thread(target=lane, args=(k,)) for k in range(2)]
+    [t.start() for t in ts]
+    [t.join() for t in ts]
+    print("ok" if got == [run(queries[0]), run(queries[1])] else ("differ", got))
+    """
+)
+
+
+def test_two_threads_query_at_once_from_a_cold_start():
+    # Warp loads a kernel module at its first launch and its loader is not thread-safe:
+    # two threads making their first queries at once crashed the process (SIGSEGV), so
+    # the cold start runs in a subprocess
+    proc = subprocess.run(
+        [sys.executable, "-c", COLD_THREADS], capture_output=True, text=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip().endswith("ok"), proc.stdout[-2000:]
 
 
 def test_node_budget_is_never_exceeded(scene):

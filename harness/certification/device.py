@@ -33,6 +33,7 @@ __all__ = [
 
 _wp = None
 _lock = threading.Lock()
+_record_lock = threading.Lock()
 
 
 class DeviceError(HarnessError):
@@ -217,15 +218,18 @@ class Buffers:
             hit[2], hit[3], hit[4] = scalars, list(args), [None] * len(hit[1])
         elif not same:
             cmds = []
-            for f in list(range(lanes)) if cpu else [0]:
-                a = list(args)
-                a[first_index] = f
-                cmds.append(
-                    wp.launch(
-                        kernel, dim=1 if cpu else lanes, inputs=a, device=self.device,
-                        record_cmd=True,
-                    )
-                )  # fmt: skip
+            # recording loads the kernel's module on first use, and Warp's Module.load is
+            # not thread-safe: two threads loading it at once crash the process (SIGSEGV)
+            with _record_lock:
+                for f in list(range(lanes)) if cpu else [0]:
+                    a = list(args)
+                    a[first_index] = f
+                    cmds.append(
+                        wp.launch(
+                            kernel, dim=1 if cpu else lanes, inputs=a, device=self.device,
+                            record_cmd=True,
+                        )
+                    )  # fmt: skip
             # the recorded arrays are kept alive with the launch (identities stay theirs)
             hit = [arrays, cmds, scalars, list(args), [None] * len(cmds)]
             self._launches[key] = hit
