@@ -164,6 +164,28 @@ def test_two_threads_query_at_once_from_a_cold_start():
     assert proc.stdout.strip().endswith("ok"), proc.stdout[-2000:]
 
 
+def test_warps_own_launch_gives_the_same_certificates(scene, monkeypatch):
+    # the engine calls a recorded CPU kernel through an argument struct it built once
+    # (Warp's private internals); where those are not as expected Warp's own launch runs.
+    # Both give the same certificates, and on the installed Warp the direct call is used.
+    from harness.certification import device
+
+    ms, bodies, obstacles = scene
+    fast = [certify_many(ms, bodies, obstacles, bound=b) for b in ("hull", "aabb")]
+    recorded = [r for buf in device._buffers.values() for r in buf._launches.values()]
+    assert recorded and all(
+        run is not None and getattr(run, "__name__", "") == "<lambda>"
+        for r in recorded
+        for run in r.runs
+    ), "the direct call is not used on this Warp"
+    monkeypatch.setattr(device, "_direct", lambda cmd: None)
+    for buf in device._buffers.values():
+        buf._launches.clear()
+    slow = [certify_many(ms, bodies, obstacles, bound=b) for b in ("hull", "aabb")]
+    for a, b in zip(fast, slow, strict=True):
+        assert all(_same(x, y) for x, y in zip(a, b, strict=True))
+
+
 def test_node_budget_is_never_exceeded(scene):
     ms, bodies, obstacles = scene
     hit = 0

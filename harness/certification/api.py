@@ -25,7 +25,7 @@ from ..shapes import Shape, as_obstacles, as_shape
 from ..timing import collector_paused
 from .device import resolve_device
 from .refine import BIG
-from .refine import REASONS as UNK
+from .refine import REASONS as KERNEL_REASONS
 
 __all__ = [
     "BOUNDS",
@@ -131,8 +131,9 @@ def check_options(
         bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter,
         os.environ.get("RSMBENCH_DEVICE") if device is None else None,
     )  # fmt: skip
+    key = tuple((type(x), x) for x in key)  # 1 and True, 1 and 1.0 are other options
     try:
-        hit = _checked.get(tuple((type(x), x) for x in key))
+        hit = _checked.get(key)
     except TypeError:  # unhashable: validation names it below
         hit = key = None
     if hit is not None:
@@ -141,12 +142,12 @@ def check_options(
     if key is not None:
         if len(_checked) >= 64:
             _checked.clear()
-        _checked[tuple((type(x), x) for x in key)] = dict(out)
+        _checked[key] = dict(out)
     return out
 
 
 _checked: dict = {}
-_REASON_NAMES = list(UNK.values())
+_REASON_NAMES = list(KERNEL_REASONS.values())
 
 
 def _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter):
@@ -384,7 +385,7 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
             if ti[1] <= BIG:
                 d["verdict"], d["reason"], d["toi_hi"] = "collision", "contact", ti[1]
             else:
-                d["verdict"], d["reason"] = "unknown", UNK[ci[3]]
+                d["verdict"], d["reason"] = "unknown", KERNEL_REASONS[ci[3]]
                 if ti[2] <= BIG:
                     d["witness_time"], d["witness_distance"] = ti[2], ti[3]
         obj = new(Certificate)

@@ -13,6 +13,7 @@ import operator
 import os
 import threading
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -97,7 +98,7 @@ class Buffers:
     def __init__(self, device: str):
         self.device = device
         self._arrays: dict[str, tuple[np.ndarray, Any]] = {}
-        self._launches: dict[Any, list] = {}
+        self._launches: dict[Any, _Recorded] = {}
         self._sets: dict[tuple, list] = {}
         self._cpu = is_cpu(device)
         self.packed = None  # (identities, arrays, K_max) of the small query packed last
@@ -202,20 +203,20 @@ class Buffers:
         wp = warp()
         cpu = self._cpu
         key = (kernel.key, lanes)
-        hit = self._launches.get(key)
+        rec = self._launches.get(key)
         scalars = [a for a in args if type(a) is int or type(a) is float]
         arrays = [a for a in args if type(a) is not int and type(a) is not float]
         same = (
-            hit is not None
-            and len(hit[0]) == len(arrays)
-            and all(map(operator.is_, hit[0], arrays))
+            rec is not None
+            and len(rec.arrays) == len(arrays)
+            and all(map(operator.is_, rec.arrays, arrays))
         )
-        if same and hit[2] != scalars:
+        if same and rec.scalars != scalars:
             for i, a in enumerate(args):
-                if (type(a) is int or type(a) is float) and i != first_index and a != hit[3][i]:
-                    for cmd in hit[1]:
+                if (type(a) is int or type(a) is float) and i != first_index and a != rec.args[i]:
+                    for cmd in rec.cmds:
                         cmd.set_param_at_index(i, a)
-            hit[2], hit[3], hit[4] = scalars, list(args), [None] * len(hit[1])
+            rec.scalars, rec.args, rec.runs = scalars, list(args), [None] * len(rec.cmds)
         elif not same:
             cmds = []
             # recording loads the kernel's module on first use, and Warp's Module.load is
@@ -230,16 +231,27 @@ class Buffers:
                             record_cmd=True,
                         )
                     )  # fmt: skip
-            # the recorded arrays are kept alive with the launch (identities stay theirs)
-            hit = [arrays, cmds, scalars, list(args), [None] * len(cmds)]
-            self._launches[key] = hit
-        cmds, runs = hit[1], hit[4]
+            rec = _Recorded(arrays, cmds, scalars, list(args), [None] * len(cmds))
+            self._launches[key] = rec
+        cmds, runs = rec.cmds, rec.runs
         if len(cmds) == 1:
             _run(cmds, runs, 0)
         else:
             run_lanes(len(cmds), lambda i: _run(cmds, runs, i))
         if not cpu:
             wp.synchronize_device(self.device)
+
+
+@dataclass
+class _Recorded:
+    """Recorded launches of one kernel and lane count, with what they were recorded with
+    (the array arguments are kept alive with them, so their identities stay theirs)."""
+
+    arrays: list  # the array arguments, in order
+    cmds: list  # one recorded launch per lane (one on a CUDA device)
+    scalars: list  # the scalar arguments, in order
+    args: list  # every argument, as last set
+    runs: list  # per lane, its direct call once built (see _run), else None
 
 
 def _run(cmds: list, runs: list, i: int) -> None:

@@ -10,9 +10,11 @@ in the batch and however the batch is chunked or threaded.
 from __future__ import annotations
 
 import operator
+import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -144,6 +146,7 @@ SHAPE_CACHE = 32
 """Packed shape tables kept for small batches (a few motions, the same shapes again: the
 single-query path), keyed by the shapes' identities and holding them alive."""
 _shape_cache: OrderedDict = OrderedDict()
+_shape_lock = threading.Lock()
 
 
 def pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
@@ -155,14 +158,16 @@ def pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
         return _pack_shapes(bodies, obst)
     items = tuple(bodies) + tuple(o for lst in obst for o in lst)
     key = (tuple(map(id, items)), tuple(map(len, obst)))
-    hit = _shape_cache.get(key)
-    if hit is not None and all(a is b for a, b in zip(hit[0], items, strict=True)):
-        _shape_cache.move_to_end(key)
-        return hit[1]
+    with _shape_lock:  # one cache for every thread
+        hit = _shape_cache.get(key)
+        if hit is not None and all(a is b for a, b in zip(hit[0], items, strict=True)):
+            _shape_cache.move_to_end(key)
+            return hit[1]
     out = _pack_shapes(bodies, obst)
-    _shape_cache[key] = (items, out)
-    if len(_shape_cache) > SHAPE_CACHE:
-        _shape_cache.popitem(last=False)
+    with _shape_lock:
+        _shape_cache[key] = (items, out)
+        if len(_shape_cache) > SHAPE_CACHE:
+            _shape_cache.popitem(last=False)
     return out
 
 
@@ -267,8 +272,15 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     return arrays, kmax
 
 
-_solo: dict[int, tuple] = {}
-"""Per recent one-motion packing (by identity, holding it): its piece starts and range."""
+class _Solo(NamedTuple):
+    """A one-motion packing's piece starts and piece range (see :func:`_pack_one`)."""
+
+    pack: tuple  # the packing itself (held: the key is its identity)
+    p_start: np.ndarray
+    m_pieces: np.ndarray
+
+
+_solo: dict[int, _Solo] = {}
 
 
 def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
@@ -282,26 +294,27 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     ctrl, p_k, p_t, p_err, extra = pack
     shaped = pack_shapes(bodies, obst)
     table, m_parts, m_obst, o_idx, n_obst = shaped
-    index = _solo.get(id(pack))
-    if index is None or index[0] is not pack:
+    solo = _solo.get(id(pack))
+    if solo is None or solo.pack is not pack:
         if len(_solo) >= SHAPE_CACHE:
             _solo.clear()
         p_start = np.cumsum(p_k, dtype=np.int32) - p_k
-        index = _solo[id(pack)] = (pack, p_start, np.array([[0, len(p_k)]], dtype=np.int32))
+        solo = _solo[id(pack)] = _Solo(pack, p_start, np.array([[0, len(p_k)]], dtype=np.int32))
     nodes0 = extra * max(1, int(n_obst[0]))
     arrays = {
         "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
-        "p_start": buf.put("p_start", index[1], wp.int32),
+        "p_start": buf.put("p_start", solo.p_start, wp.int32),
         "p_k": buf.put("p_k", p_k, wp.int32),
         "p_t": buf.put("p_t", p_t, wp.vec2d),
         "p_err": buf.put("p_err", p_err, wp.vec3d),
-        "m_pieces": buf.put("m_pieces", index[2], wp.vec2i),
+        "m_pieces": buf.put("m_pieces", solo.m_pieces, wp.vec2i),
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
     }
     last = buf.shapes_put
     if last is not None and last[0] is shaped:
         arrays.update(last[1])
     else:
+        buf.shapes_put = None  # until every shape input is written
         put = {
             "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
             "m_obst": buf.put("m_obst", m_obst, wp.vec2i),

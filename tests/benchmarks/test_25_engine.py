@@ -236,7 +236,7 @@ def test_kernel_time_per_evaluation(benchmark, workload):
         max_nodes=200_000, max_iter=32, threads=1, device="cpu",
     )  # fmt: skip
     buf = buffers("cpu", "refine")
-    cmds = list(buf._launches.values())[-1][1]
+    cmds = list(buf._launches.values())[-1].cmds
     times = []
     for _ in range(ROUNDS):
         c = time.process_time()
