@@ -224,9 +224,11 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     n = len(packs)
     refs = None
     lens = tuple(map(len, obst))
-    if n <= 8 or sum(lens) <= 4 * n:
+    distinct = {id(lst): len(lst) for lst in obst}  # an obstacle list shared is packed once
+    if n <= 8 or sum(lens) <= 4 * (n + sum(distinct.values())):
         # the same query again (packed pieces are cached per motion, shapes are
-        # immutable): the buffers still hold its inputs. Checked by identity, O(items).
+        # immutable): the buffers still hold its inputs. Checked by identity, in time
+        # linear in what packing them costs (not for one long list shared by all).
         refs = (tuple(packs) + tuple(bodies) + tuple(o for lst in obst for o in lst), lens)
         cur = buf.packed
         if (
