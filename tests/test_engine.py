@@ -186,6 +186,37 @@ def test_warps_own_launch_gives_the_same_certificates(scene, monkeypatch):
         assert all(_same(x, y) for x, y in zip(a, b, strict=True))
 
 
+def test_one_motion_shape_packing_is_the_general_one():
+    # a single query packs its shapes by a plain-Python path: the same table and ranges as
+    # the general packing of a batch (meshes, compounds, repeated and absent obstacles)
+    from harness import Compound, ConvexMesh
+    from harness.certification.refine import _pack_shapes_many, _pack_shapes_one
+
+    rng = np.random.default_rng(3)
+
+    def shape(k: int):
+        c = rng.normal(size=3)
+        return [
+            Box(rng.uniform(0.1, 0.5, 3), center=c, rotation=rng.normal(size=4)),
+            Sphere(0.2, center=c),
+            Capsule(0.1, 0.3, center=c, rotation=rng.normal(size=4)),
+            ConvexMesh(rng.normal(size=(12, 3)) + c),
+            Compound([Sphere(0.1, center=c), ConvexMesh(rng.normal(size=(8, 3)) - c)]),
+        ][k % 5]
+
+    for trial in range(40):
+        body = shape(trial)
+        pool = [shape(int(k)) for k in rng.integers(0, 5, 4)]
+        obst = [pool[int(i)] for i in rng.integers(0, 4, int(rng.integers(0, 6)))]
+        one = _pack_shapes_one(body, obst)
+        gen = _pack_shapes_many([body], [obst])
+        assert one[0].records.tobytes() == gen[0].records.tobytes()
+        assert np.array_equal(one[0].verts, gen[0].verts)
+        assert np.array_equal(one[0].offsets, gen[0].offsets)
+        for a, b in zip(one[1:], gen[1:], strict=True):
+            assert a.dtype == b.dtype and np.array_equal(a, b), (trial, a, b)
+
+
 def test_node_budget_is_never_exceeded(scene):
     ms, bodies, obstacles = scene
     hit = 0

@@ -172,6 +172,12 @@ def pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
 
 
 def _pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
+    if len(bodies) == 1:
+        return _pack_shapes_one(bodies[0], obst[0])
+    return _pack_shapes_many(bodies, obst)
+
+
+def _pack_shapes_many(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     index: dict[int, int] = {}
     shapes: list[Shape] = []
     body_ix = []
@@ -213,6 +219,30 @@ def _pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     m_parts = np.stack([off[bix], off[bix + 1]], axis=1).astype(np.int32)
     n_obst = ls[lists + 1] - ls[lists]
     return table, m_parts, m_obst, o_idx, n_obst
+
+
+def _pack_shapes_one(body: Shape, obst: list[Shape]) -> tuple:
+    """:func:`_pack_shapes` of one motion, in plain Python where numpy calls on arrays of a
+    few entries cost more than the work (a single query packs its shapes in ~10 µs)."""
+    index = {id(body): 0}
+    shapes = [body]
+    flat = []
+    for o in obst:
+        k = index.get(id(o))
+        if k is None:
+            k = index[id(o)] = len(shapes)
+            shapes.append(o)
+        flat.append(k)
+    table = ShapeTable.build(shapes)
+    off = table.offsets.tolist()
+    o_idx = [p for k in flat for p in range(off[k], off[k + 1])]
+    return (
+        table,
+        np.array([[off[0], off[1]]], dtype=np.int32),
+        np.array([[0, len(o_idx)]], dtype=np.int32),
+        np.array(o_idx, dtype=np.int32),
+        np.array([len(obst)], dtype=np.int64),
+    )
 
 
 def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:

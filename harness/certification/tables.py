@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import accumulate
 
 import numpy as np
 
@@ -116,11 +117,11 @@ class ShapeTable:
             blobs.append(g[0])
             nparts.append(g[1])
             meshes.append(len(g[2]))
-        offsets = np.zeros(len(got) + 1, dtype=np.int64)
-        np.cumsum(nparts, out=offsets[1:])
-        records = np.frombuffer(b"".join(blobs), dtype=record_dtype()).copy()
-        nv = np.asarray(meshes, dtype=np.int64)
-        if nv.any():
+        offsets = np.fromiter(accumulate(nparts, initial=0), dtype=np.int64, count=len(got) + 1)
+        # a writable array over one copy of the bytes (copying a structured array is slow)
+        records = np.frombuffer(bytearray(b"".join(blobs)), dtype=record_dtype())
+        if any(meshes):
+            nv = np.asarray(meshes, dtype=np.int64)
             # mesh parts index one shared vertex array (row 0 is padding)
             vbase = 1 + np.concatenate([[0], np.cumsum(nv)[:-1]])
             mesh = records["kind"] == 3
