@@ -383,25 +383,44 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         0,
         lanes,
         n,
-        *buf.scratch_set(
-            ("refine", lanes, slots, kmax),
-            lambda: [
-                buf.scratch("st_ctrl", (lanes, slots, kmax, 4, 4), np.float64, wp.mat44d),
-                buf.scratch("st_t", (lanes, slots, 2), np.float64, wp.vec2d),
-                buf.scratch("st_err", (lanes, slots, 3), np.float64, wp.vec3d),
-                buf.scratch("st_warm", (lanes, slots, 3), np.float64, wp.vec3d),
-                buf.scratch("st_ub", (lanes, slots, 2), np.float64, wp.vec2d),
-                buf.scratch("st_flags", (lanes, slots), np.int32, wp.int32),
-                buf.scratch("st_depth", (lanes, slots), np.int32, wp.int32),
-                buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
-                buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
-            ],
-        ),
+        *_stack(buf, "refine", lanes, slots, kmax),
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
     ]
     buf.launch(_refine, args, 17, lanes)
     return Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n))
+
+
+def _stack(buf, kernel: str, lanes: int, slots: int, kmax: int) -> list:
+    """The per-lane scratch of the refinement kernels, in their argument order: the stack
+    (control matrices, times, error bounds, warm directions, the ends' bounds, flags,
+    depths; the clearance kernel's lower bounds) and the prepared affine images."""
+    wp = warp()
+
+    def make() -> list:
+        def a(name, shape, np_dtype, wp_dtype):
+            return buf.scratch(name, (lanes, *shape), np_dtype, wp_dtype)
+
+        ends = (
+            a("st_ub", (slots, 2), np.float64, wp.vec2d)
+            if kernel == "refine"
+            else a("st_ends", (slots, 4), np.float64, wp.vec4d)
+        )
+        lower = [] if kernel == "refine" else [a("st_lb", (slots,), np.float64, wp.float64)]
+        return [
+            a("st_ctrl", (slots, kmax, 4, 4), np.float64, wp.mat44d),
+            a("st_t", (slots, 2), np.float64, wp.vec2d),
+            a("st_err", (slots, 3), np.float64, wp.vec3d),
+            a("st_warm", (slots, 3), np.float64, wp.vec3d),
+            ends,
+            a("st_flags", (slots,), np.int32, wp.int32),
+            a("st_depth", (slots,), np.int32, wp.int32),
+            *lower,
+            a("pre_m", (kmax + 1, 3, 3), np.float64, wp.mat33d),
+            a("pre_c", (kmax + 1, 3), np.float64, wp.vec3d),
+        ]
+
+    return buf.scratch_set((kernel, lanes, slots, kmax), make)
 
 
 def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, threads, device):
@@ -422,16 +441,7 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
         0,
         lanes,
         n,
-        buf.scratch("st_ctrl", (lanes, slots, kmax, 4, 4), np.float64, wp.mat44d),
-        buf.scratch("st_t", (lanes, slots, 2), np.float64, wp.vec2d),
-        buf.scratch("st_err", (lanes, slots, 3), np.float64, wp.vec3d),
-        buf.scratch("st_warm", (lanes, slots, 3), np.float64, wp.vec3d),
-        buf.scratch("st_ends", (lanes, slots, 4), np.float64, wp.vec4d),
-        buf.scratch("st_flags", (lanes, slots), np.int32, wp.int32),
-        buf.scratch("st_depth", (lanes, slots), np.int32, wp.int32),
-        buf.scratch("st_lb", (lanes, slots), np.float64, wp.float64),
-        buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
-        buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
+        *_stack(buf, "clearance", lanes, slots, kmax),
         buf.out("out_t", (n, 3), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 4), np.int32, wp.int32)[1],
     ]
