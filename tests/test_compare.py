@@ -343,8 +343,10 @@ rounds = 5
 @pytest.mark.slow
 def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
     """Two real runs of a small suite; in the second every certification call of the
-    studies takes twice its CPU time (it runs, then the thread spins as long again): compare
-    must fail on timing and on nothing else."""
+    studies takes three times its CPU time (it runs, then the thread spins twice as long
+    again): compare must fail on timing and on nothing else. (An injected 2x measured
+    1.50-3.06x on this loaded machine, the two runs being one after the other, and fell
+    below the 1.75 gate in 2 of 15 runs, once in CI; 3x clears it.)"""
     import harness.run.studies.certify as certify_study
     import harness.run.studies.workload as workload_study
     from harness.run import load_suite, run_suite
@@ -360,7 +362,7 @@ def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
             c0 = time.process_time()
             out = _real(*a, **k)
             spent = time.process_time() - c0
-            while time.process_time() - c0 < 2 * spent:
+            while time.process_time() - c0 < 3 * spent:
                 pass
             return out
 
@@ -370,8 +372,8 @@ def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
     assert res.exit_code == 1, res.text()
     assert res.regressions and all(r.startswith("timing:") for r in res.regressions)
     slow = [t for t in res.timing if t.status == "regression"]
-    assert slow and all(1.6 < t.ratio < 6.0 and t.lo > 1 for t in slow)
+    assert slow and all(1.75 < t.ratio < 9.0 and t.lo > 1 for t in slow)
     # nothing but timing fails: the same runs pass once slowdowns up to the bound above
     # are allowed (an injected 2x measured up to 3.06x on a short group of this loaded
-    # machine, so "allow 2x" would be flaky)
-    assert compare(tmp_path / "base", tmp_path / "slow", time_threshold=5.0).exit_code == 0
+    # machine, so "allow 3x" would be flaky)
+    assert compare(tmp_path / "base", tmp_path / "slow", time_threshold=9.0).exit_code == 0
