@@ -147,7 +147,6 @@ def check_options(
 
 
 _checked: dict = {}
-_REASON_NAMES = list(KERNEL_REASONS.values())
 
 
 def _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter):
@@ -354,7 +353,6 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
         cert = [certified] * n
     else:
         cert = [bool(x) for x in certified]
-    names = _REASON_NAMES
     inf, nan = math.inf, math.nan
     # every certificate starts as a copy of this (fields in declaration order)
     free = {
@@ -372,7 +370,9 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
         d["seconds"] = elapsed * ci[0] / total
         d["certified"] = cert[i]
         if ci[4] or ci[5] or ci[6]:
-            d["unresolved"] = {k: x for k, x in zip(names, ci[4:7], strict=True) if x}
+            d["unresolved"] = {
+                k: x for k, x in zip(KERNEL_REASONS.values(), ci[4:7], strict=True) if x
+            }
         else:
             d["unresolved"] = {}
         if ti[1] <= BIG or ci[3]:

@@ -9,7 +9,6 @@ on the CPU; copied to the device elsewhere). Python packs once, launches once pe
 
 from __future__ import annotations
 
-import operator
 import os
 import threading
 from collections.abc import Callable
@@ -134,17 +133,6 @@ class Buffers:
     def put(self, name: str, data: np.ndarray, wp_dtype):
         """Write `data` into buffer `name` (its first axis grows; trailing axes belong to
         the Warp dtype, e.g. (4, 4) for mat44d)."""
-        cur = self._arrays.get(name)
-        if (
-            self._cpu
-            and cur is not None
-            and type(data) is np.ndarray
-            and cur[0].dtype == data.dtype
-            and cur[0].shape[0] >= len(data)
-            and cur[0].shape[1:] == data.shape[1:]
-        ):
-            cur[0][: len(data)] = data  # the common case, without the general path's checks
-            return cur[1]
         data = np.asarray(data)
         host, arr = self._get(name, data.shape, data.dtype, wp_dtype)
         host[: len(data)] = data
@@ -204,20 +192,8 @@ class Buffers:
         cpu = self._cpu
         key = (kernel.key, lanes)
         rec = self._launches.get(key)
-        scalars = [a for a in args if type(a) is int or type(a) is float]
-        arrays = [a for a in args if type(a) is not int and type(a) is not float]
-        same = (
-            rec is not None
-            and len(rec.arrays) == len(arrays)
-            and all(map(operator.is_, rec.arrays, arrays))
-        )
-        if same and rec.scalars != scalars:
-            for i, a in enumerate(args):
-                if (type(a) is int or type(a) is float) and i != first_index and a != rec.args[i]:
-                    for cmd in rec.cmds:
-                        cmd.set_param_at_index(i, a)
-            rec.scalars, rec.args, rec.runs = scalars, list(args), [None] * len(rec.cmds)
-        elif not same:
+        changed = None if rec is None else _changed_scalars(rec.args, args, first_index)
+        if changed is None:  # nothing recorded, or other arrays: record anew
             cmds = []
             # recording loads the kernel's module on first use, and Warp's Module.load is
             # not thread-safe: two threads loading it at once crash the process (SIGSEGV)
@@ -231,8 +207,13 @@ class Buffers:
                             record_cmd=True,
                         )
                     )  # fmt: skip
-            rec = _Recorded(arrays, cmds, scalars, list(args), [None] * len(cmds))
+            rec = _Recorded(cmds, list(args), [None] * len(cmds))
             self._launches[key] = rec
+        elif changed:
+            for i in changed:
+                for cmd in rec.cmds:
+                    cmd.set_param_at_index(i, args[i])
+            rec.args, rec.runs = list(args), [None] * len(rec.cmds)
         cmds, runs = rec.cmds, rec.runs
         if len(cmds) == 1:
             _run(cmds, runs, 0)
@@ -244,14 +225,28 @@ class Buffers:
 
 @dataclass
 class _Recorded:
-    """Recorded launches of one kernel and lane count, with what they were recorded with
-    (the array arguments are kept alive with them, so their identities stay theirs)."""
+    """Recorded launches of one kernel and lane count, with the arguments they were last
+    set to (the arrays among them are kept alive, so their identities stay theirs)."""
 
-    arrays: list  # the array arguments, in order
     cmds: list  # one recorded launch per lane (one on a CUDA device)
-    scalars: list  # the scalar arguments, in order
     args: list  # every argument, as last set
     runs: list  # per lane, its direct call once built (see _run), else None
+
+
+def _changed_scalars(old: list, new: list, first_index: int) -> list[int] | None:
+    """Positions of the scalar arguments that differ between `old` and `new`, or None when
+    an array argument is another object (the launch must be recorded anew)."""
+    if len(old) != len(new):
+        return None
+    changed = []
+    for i, (a, b) in enumerate(zip(new, old, strict=True)):
+        if a is b:
+            continue
+        if type(a) is not int and type(a) is not float:
+            return None
+        if a != b and i != first_index:
+            changed.append(i)
+    return changed
 
 
 def _run(cmds: list, runs: list, i: int) -> None:

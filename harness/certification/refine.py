@@ -14,7 +14,6 @@ import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
@@ -248,8 +247,6 @@ def _pack_shapes_one(body: Shape, obst: list[Shape]) -> tuple:
 def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     """The kernels' inputs on pieces, motions and shapes, written to `buf`: a dict of
     Warp arrays by kernel argument name, and K_max."""
-    from ._geometry import Shape as WpShape
-
     wp = warp()
     n = len(packs)
     refs = None
@@ -273,8 +270,8 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         arrays, kmax = _pack_one(buf, packs[0], bodies, obst)
         buf.packed = (refs, arrays, kmax)
         return arrays, kmax
-    buf.shapes_put = None
-    table, m_parts, m_obst, o_idx, n_obst = pack_shapes(bodies, obst)
+    shaped = pack_shapes(bodies, obst)
+    n_obst = shaped[4]
     ctrls, ks, ts, errs, extra = zip(*packs, strict=True)
     p_k = np.concatenate(ks)
     counts = np.fromiter(map(len, ks), dtype=np.int64, count=n)
@@ -289,14 +286,10 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         "p_t": buf.put_concat("p_t", ts, wp.vec2d),
         "p_err": buf.put_concat("p_err", errs, wp.vec3d),
         "m_pieces": buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
-        "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
-        "m_obst": buf.put("m_obst", m_obst, wp.vec2i),
         "m_nodes0": buf.put(
             "m_nodes0", (np.asarray(extra) * np.maximum(1, n_obst)).astype(np.int32), wp.int32
         ),
-        "o_idx": buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
-        "shapes": buf.put("shapes", table.records, WpShape),
-        "verts": buf.put("verts", table.verts, wp.vec3d),
+        **_put_shapes(buf, shaped),
     }
     kmax = int(p_k.max())
     if refs is not None:
@@ -304,59 +297,47 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     return arrays, kmax
 
 
-class _Solo(NamedTuple):
-    """A one-motion packing's piece starts and piece range (see :func:`_pack_one`)."""
-
-    pack: tuple  # the packing itself (held: the key is its identity)
-    p_start: np.ndarray
-    m_pieces: np.ndarray
-
-
-_solo: dict[int, _Solo] = {}
-
-
 def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     """:func:`pack_inputs` for one motion, in as few numpy calls as it takes (a single
-    query's packing cost more than its kernel): the shape inputs are not written again
-    when they are the very packing written last (one body and obstacles queried with
-    motion after motion)."""
-    from ._geometry import Shape as WpShape
-
+    query's packing cost more than its kernel)."""
     wp = warp()
     ctrl, p_k, p_t, p_err, extra = pack
     shaped = pack_shapes(bodies, obst)
-    table, m_parts, m_obst, o_idx, n_obst = shaped
-    solo = _solo.get(id(pack))
-    if solo is None or solo.pack is not pack:
-        if len(_solo) >= SHAPE_CACHE:
-            _solo.clear()
-        p_start = np.cumsum(p_k, dtype=np.int32) - p_k
-        solo = _solo[id(pack)] = _Solo(pack, p_start, np.array([[0, len(p_k)]], dtype=np.int32))
-    nodes0 = extra * max(1, int(n_obst[0]))
+    nodes0 = extra * max(1, int(shaped[4][0]))
     arrays = {
         "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
-        "p_start": buf.put("p_start", solo.p_start, wp.int32),
+        "p_start": buf.put("p_start", np.cumsum(p_k, dtype=np.int32) - p_k, wp.int32),
         "p_k": buf.put("p_k", p_k, wp.int32),
         "p_t": buf.put("p_t", p_t, wp.vec2d),
         "p_err": buf.put("p_err", p_err, wp.vec3d),
-        "m_pieces": buf.put("m_pieces", solo.m_pieces, wp.vec2i),
+        "m_pieces": buf.put("m_pieces", np.array([[0, len(p_k)]], dtype=np.int32), wp.vec2i),
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
+        **_put_shapes(buf, shaped),
     }
+    return arrays, int(p_k.max())
+
+
+def _put_shapes(buf, shaped: tuple) -> dict:
+    """The shape inputs of a packing from :func:`pack_shapes`, written to `buf` unless they
+    are the very packing written last (one body and obstacles queried with motion after
+    motion: the packing is cached, so it is the same object)."""
+    from ._geometry import Shape as WpShape
+
     last = buf.shapes_put
     if last is not None and last[0] is shaped:
-        arrays.update(last[1])
-    else:
-        buf.shapes_put = None  # until every shape input is written
-        put = {
-            "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
-            "m_obst": buf.put("m_obst", m_obst, wp.vec2i),
-            "o_idx": buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
-            "shapes": buf.put("shapes", table.records, WpShape),
-            "verts": buf.put("verts", table.verts, wp.vec3d),
-        }
-        buf.shapes_put = (shaped, put)
-        arrays.update(put)
-    return arrays, int(p_k.max())
+        return last[1]
+    wp = warp()
+    table, m_parts, m_obst, o_idx, _n_obst = shaped
+    buf.shapes_put = None  # until every shape input is written
+    put = {
+        "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
+        "m_obst": buf.put("m_obst", m_obst, wp.vec2i),
+        "o_idx": buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
+        "shapes": buf.put("shapes", table.records, WpShape),
+        "verts": buf.put("verts", table.verts, wp.vec3d),
+    }
+    buf.shapes_put = (shaped, put)
+    return put
 
 
 REFINE_INPUTS = (
