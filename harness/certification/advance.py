@@ -23,7 +23,14 @@ from motions.pieces import speed_bounds
 from ..shapes import Shape
 from .api import MAX_SAMPLES, Certificate, QueryError, assemble
 from .device import buffers, is_cpu, warp
-from .refine import GPU_LANES, MOTIONS_PER_CHUNK, Outcome, pack_inputs, pack_shapes
+from .refine import (
+    GPU_LANES,
+    MOTIONS_PER_CHUNK,
+    Outcome,
+    pack_inputs,
+    pack_pieces,
+    pack_shapes,
+)
 from .tables import ShapeTable
 
 __all__ = ["advance_many", "default_samples", "pose_matrices", "pose_rows", "sample_many"]
@@ -102,7 +109,7 @@ def pose_rows(
 
 # ----------------------------------------------------------------------------- speeds
 def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
-    """(packed pieces as in refine._packed, speed bounds (P,)) for stepping: the positive
+    """(packed pieces as :func:`.refine.pack_pieces` gives them, speed bounds (P,)) for stepping: the positive
     pieces cut at the motion's knots (keyframe times and breakpoints), so that the speed
     bound is per knot interval as DESIGN §6 states the fair grid and CA competitor, for
     points within `radius` (cached on the motion per radius). The cut pieces are
@@ -127,14 +134,7 @@ def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
         u0[np.r_[True, np.diff(rows) != 0]] = 0.0  # piece ends stay exact
         u1[np.r_[np.diff(rows) != 0, True]] = 1.0
         pc = pc.take(np.asarray(rows)).restrict(u0, u1, cover=True)
-        packed = (
-            np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
-            np.full(len(pc), pc.n_ctrl, dtype=np.int32),
-            np.stack([pc.t0, pc.t1], axis=1),
-            np.ascontiguousarray(pc.error),
-            0,
-        )
-        hit = (packed, speed_bounds(pc, radius))
+        hit = (pack_pieces(pc, 0), speed_bounds(pc, radius))
         cache[radius] = hit
     return hit
 
@@ -353,7 +353,8 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
         if o["samples"] is None:
             counts = np.zeros(len(rm), dtype=np.int64)
             for j, (m, b) in enumerate(zip(rm, rb, strict=True)):
-                (_c, _k, tt, _e, _x), v = _stepping_pieces(m, b.bounding_radius)
+                pack, v = _stepping_pieces(m, b.bounding_radius)
+                tt = pack[2]
                 total = int(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
                 if total > MAX_SAMPLES:
                     raise QueryError(

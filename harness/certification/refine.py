@@ -23,7 +23,7 @@ from ..shapes import Shape
 from .device import buffers, is_cpu, warp
 from .tables import ShapeTable
 
-__all__ = ["MOTIONS_PER_CHUNK", "Outcome", "refine_many"]
+__all__ = ["MOTIONS_PER_CHUNK", "Outcome", "pack_pieces", "refine_many"]
 
 MOTIONS_PER_CHUNK = 4096
 """Motions packed per launch: bounds the packed copies of their control matrices."""
@@ -89,20 +89,28 @@ class Outcome:
 
 
 def _packed(m: RationalMotion) -> tuple:
-    """(ctrl (sum K, 4, 4), k (P,), t (P, 2), err (P, 3), extra pieces) of a motion's
-    positive pieces, cached on the motion (it is immutable)."""
+    """:func:`pack_pieces` of a motion's positive pieces, cached on the motion (it is
+    immutable)."""
     cached = getattr(m, "_certify_packed", None)
     if cached is None:
         pc = m.positive_pieces()
-        cached = (
-            np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
-            np.full(len(pc), pc.n_ctrl, dtype=np.int32),
-            np.stack([pc.t0, pc.t1], axis=1),
-            np.ascontiguousarray(pc.error),
-            len(pc) - m.segments,
-        )
-        m._certify_packed = cached
+        cached = m._certify_packed = pack_pieces(pc, len(pc) - m.segments)
     return cached
+
+
+def pack_pieces(pc, extra: int) -> tuple:
+    """(ctrl (sum K, 4, 4), k (P,), t (P, 2), err (P, 3), `extra` pieces, piece starts
+    (P,), piece range (1, 2)) of a piece table: the kernels' piece inputs, the last two
+    for a query of this motion alone."""
+    return (
+        np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
+        np.full(len(pc), pc.n_ctrl, dtype=np.int32),
+        np.stack([pc.t0, pc.t1], axis=1),
+        np.ascontiguousarray(pc.error),
+        extra,
+        np.arange(0, len(pc) * pc.n_ctrl, pc.n_ctrl, dtype=np.int32),
+        np.array([[0, len(pc)]], dtype=np.int32),
+    )
 
 
 def refine_many(
@@ -272,7 +280,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         return arrays, kmax
     shaped = pack_shapes(bodies, obst)
     n_obst = shaped[4]
-    ctrls, ks, ts, errs, extra = zip(*packs, strict=True)
+    ctrls, ks, ts, errs, extra = list(zip(*packs, strict=True))[:5]
     p_k = np.concatenate(ks)
     counts = np.fromiter(map(len, ks), dtype=np.int64, count=n)
     p_start = np.zeros(len(p_k), dtype=np.int32)
@@ -301,16 +309,16 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     """:func:`pack_inputs` for one motion, in as few numpy calls as it takes (a single
     query's packing cost more than its kernel)."""
     wp = warp()
-    ctrl, p_k, p_t, p_err, extra = pack
+    ctrl, p_k, p_t, p_err, extra, p_start, m_pieces = pack
     shaped = pack_shapes(bodies, obst)
     nodes0 = extra * max(1, int(shaped[4][0]))
     arrays = {
         "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
-        "p_start": buf.put("p_start", np.cumsum(p_k, dtype=np.int32) - p_k, wp.int32),
+        "p_start": buf.put("p_start", p_start, wp.int32),
         "p_k": buf.put("p_k", p_k, wp.int32),
         "p_t": buf.put("p_t", p_t, wp.vec2d),
         "p_err": buf.put("p_err", p_err, wp.vec3d),
-        "m_pieces": buf.put("m_pieces", np.array([[0, len(p_k)]], dtype=np.int32), wp.vec2i),
+        "m_pieces": buf.put("m_pieces", m_pieces, wp.vec2i),
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
         **_put_shapes(buf, shaped),
     }
@@ -321,8 +329,6 @@ def _put_shapes(buf, shaped: tuple) -> dict:
     """The shape inputs of a packing from :func:`pack_shapes`, written to `buf` unless they
     are the very packing written last (one body and obstacles queried with motion after
     motion: the packing is cached, so it is the same object)."""
-    from ._geometry import Shape as WpShape
-
     last = buf.shapes_put
     if last is not None and last[0] is shaped:
         return last[1]
@@ -333,7 +339,7 @@ def _put_shapes(buf, shaped: tuple) -> dict:
         "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
         "m_obst": buf.put("m_obst", m_obst, wp.vec2i),
         "o_idx": buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
-        "shapes": buf.put("shapes", table.records, WpShape),
+        "shapes": buf.put("shapes", table.records, _kernels().Shape),
         "verts": buf.put("verts", table.verts, wp.vec3d),
     }
     buf.shapes_put = (shaped, put)
@@ -346,9 +352,22 @@ REFINE_INPUTS = (
 )  # fmt: skip
 
 
-def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threads, device):
-    from ._refine_kernels import _refine
+def _kernels():
+    """The refinement kernels' module, imported on first use (``import harness`` does not
+    load Warp) and then kept: a function-level import costs microseconds per call."""
+    global _kmod
+    if _kmod is None:
+        from . import _refine_kernels
 
+        _kmod = _refine_kernels
+    return _kmod
+
+
+_kmod = None
+
+
+def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threads, device):
+    _refine = _kernels()._refine
     wp = warp()
     n = len(packs)
     buf = buffers(device, "refine")
@@ -406,8 +425,7 @@ def _stack(buf, kernel: str, lanes: int, slots: int, kmax: int) -> list:
 
 def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, threads, device):
     """One launch of the clearance kernel: (out_t (n, 3), out_n (n, 4)) arrays."""
-    from ._refine_kernels import _clearance
-
+    _clearance = _kernels()._clearance
     wp = warp()
     n = len(packs)
     buf = buffers(device, "clearance")

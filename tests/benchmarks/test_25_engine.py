@@ -95,7 +95,8 @@ def _stepping_speeds(ms, bodies):
 
     out = []
     for m, b in zip(ms, bodies, strict=True):
-        (_c, _k, t, _e, _x), v = _stepping_pieces(m, b.bounding_radius)
+        pack, v = _stepping_pieces(m, b.bounding_radius)
+        t = pack[2]
         out.append((np.append(t[:, 0], t[-1, 1]), v))
     return out
 
