@@ -377,11 +377,14 @@ def _gjk(
     The gap along a unit n is ``min_b n.b - max_a n.a``: a lower bound of the distance
     (up to the rounding the caller's margin covers); iteration stops once it reaches
     `stop_gap`, or once the upper bound |v| falls to `floor` (no gap above it exists).
+    `d0` (zero: none) is a direction from A to B, such as the direction a previous call
+    returned: the first support is taken along it, on the sides of A and B that face
+    each other, where the closest points are when the shapes have moved little.
     """
     dir0 = d0
     if wp.dot(dir0, dir0) <= F0:
         dir0 = wp.vec3d(F1, F0, F0)
-    s0 = _support_diff(mode, pre_m, pre_c, lane, i0, i1, part, obst, verts, lo, hi, core, -dir0)
+    s0 = _support_diff(mode, pre_m, pre_c, lane, i0, i1, part, obst, verts, lo, hi, core, dir0)
     s1 = s0
     s2 = s0
     ns = wp.int32(1)
