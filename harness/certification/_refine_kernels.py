@@ -376,7 +376,12 @@ def _refine(
                             st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0, use_aabb
                         )
                         clear = wp.int32(0)
-                        if prep.ok == 1:
+                        flags = st_flags[lane, sp]
+                        # an end pose already proven to intersect lies in the node's exact
+                        # hull, so no bound of the node can clear (the computed gap is at
+                        # most the exact distance plus the margin): skip the bound tests
+                        known_x = ((flags & 3) == 3) or ((flags & 12) == 12)
+                        if prep.ok == 1 and not known_x:
                             margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
                             if _boxes_apart(prep.lo, prep.hi, obst.lo, obst.hi, margin) == 1:
                                 clear = 1
@@ -414,7 +419,6 @@ def _refine(
                             sp -= 1
                             continue
                         # the bound does not clear: the node's end poses decide
-                        flags = st_flags[lane, sp]
                         ubs = st_ub[lane, sp]
                         ub0 = ubs[0]
                         ub1 = ubs[1]
