@@ -242,6 +242,28 @@ def test_budget_stop_keeps_a_sound_toi_lo(scene):
             assert f.verdict == "free"
 
 
+@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz"])
+def test_budget_stop_covers_the_obstacles_not_yet_searched(bound):
+    # the budget runs out on the first obstacle, which the path clears by 0.1; the second,
+    # not searched yet, is penetrated by 0.05 at t = 0 (the independent ground truth says
+    # so): toi_lo must not pass that contact, whatever the order of the search
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[0, 0, 0], [1, 0, 0]])
+    body = Sphere(0.1)
+    near, hit = Sphere(0.1, center=(0.5, 0.3, 0)), Sphere(0.1, center=(0, 0.15, 0))
+    truth = ground_truth(m, body, [near, hit])
+    assert truth.verdict == "collision" and truth.toi_hi == 0.0
+    stopped = 0
+    for obstacles in ([near, hit], [hit, near]):
+        for budget in (1, 2, 3, 5, 8):
+            c = certify(m, body, obstacles, bound=bound, max_nodes=budget)
+            assert c.verdict != "free", (obstacles, budget, c)
+            assert c.toi_lo <= truth.toi_hi, (obstacles, budget, c)
+            stopped += c.reason == "budget"
+    # advancement searches obstacle after obstacle, so its budget binds on the first;
+    # subdivision meets the contact at its first node's pose test
+    assert stopped > 0 if bound == "lipschitz" else stopped == 0
+
+
 def test_positivity_splitter_is_shared():
     # one splitter: split_positive, the certifier's pieces and swept_aabbs' pieces agree
     t = np.array([0.0, 0, 0, 0, 1, 1, 1, 1])

@@ -169,10 +169,15 @@ def _advance(
                 warm = wp.vec3d(F0, F0, F0)
                 while t < tcoll:
                     if nodes >= max_nodes:
-                        toi_lo = wp.min(toi_lo, t)
+                        # budget: this track from t on, and every track after it from
+                        # the start (tracks run one after another), stay unsearched
+                        cand = t
+                        if oo + 1 < orng[1] or b + 1 < br[1]:
+                            cand = t_start
+                        toi_lo = wp.min(toi_lo, cand)
                         n_budget += 1
-                        if t < unk_t:
-                            unk_t = t
+                        if cand < unk_t:
+                            unk_t = cand
                             unk_r = R_BUDGET
                         stopped = 1
                         break
