@@ -109,12 +109,12 @@ def pose_rows(
 
 # ----------------------------------------------------------------------------- speeds
 def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
-    """(packed pieces as :func:`.refine.pack_pieces` gives them, speed bounds (P,)) for stepping: the positive
-    pieces cut at the motion's knots (keyframe times and breakpoints), so that the speed
-    bound is per knot interval as DESIGN §6 states the fair grid and CA competitor, for
-    points within `radius` (cached on the motion per radius). The cut pieces are
-    restricted with their interval widened by a few units in the last place, so that
-    together they certainly cover the domain."""
+    """(packed pieces as :func:`.refine.pack_pieces` gives them, speed bounds (P,)) for
+    stepping: the positive pieces cut at the motion's knots (keyframe times and
+    breakpoints), so that the speed bound is per knot interval as DESIGN §6 states the fair
+    grid and CA competitor, for points within `radius` (cached on the motion per radius).
+    The cut pieces are restricted with their interval widened by a few units in the last
+    place, so that together they certainly cover the domain."""
     cache = getattr(m, "_certify_speeds", None)
     if cache is None:
         cache = {}
