@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import pickle
 import subprocess
 import sys
 import textwrap
@@ -215,6 +216,19 @@ def test_one_motion_shape_packing_is_the_general_one():
         assert np.array_equal(one[0].offsets, gen[0].offsets)
         for a, b in zip(one[1:], gen[1:], strict=True):
             assert a.dtype == b.dtype and np.array_equal(a, b), (trial, a, b)
+
+
+def test_caches_pickled_by_another_version_are_rebuilt(scene):
+    # motions carry the engine's packed pieces in pickles (Dask workers, result caches); a
+    # packing of another layout (an older harness's five fields) is rebuilt, not unpacked
+    ms, bodies, obstacles = scene
+    m, body, obst = ms[0], bodies[0], obstacles[0]
+    want = [certify(m, body, obst, bound=b) for b in ("hull", "lipschitz")]
+    old = pickle.loads(pickle.dumps(m))
+    old._certify_packed = old._certify_packed[:5]
+    old._certify_speeds = {r: (p[:5], v) for r, (p, v) in old._certify_speeds.items()}
+    got = [certify(old, body, obst, bound=b) for b in ("hull", "lipschitz")]
+    assert all(_same(a, b) for a, b in zip(want, got, strict=True))
 
 
 def test_node_budget_is_never_exceeded(scene):

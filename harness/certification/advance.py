@@ -26,6 +26,7 @@ from .device import buffers, is_cpu, warp
 from .refine import (
     GPU_LANES,
     MOTIONS_PER_CHUNK,
+    PACKED_FIELDS,
     Outcome,
     pack_inputs,
     pack_pieces,
@@ -120,7 +121,7 @@ def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
         cache = {}
         m._certify_speeds = cache
     hit = cache.get(radius)
-    if hit is None:
+    if hit is None or len(hit[0]) != PACKED_FIELDS:  # (or pickled by another version)
         pc = m.positive_pieces()
         knots = m.knots
         rows, u0, u1 = [], [], []

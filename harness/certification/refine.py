@@ -92,10 +92,13 @@ def _packed(m: RationalMotion) -> tuple:
     """:func:`pack_pieces` of a motion's positive pieces, cached on the motion (it is
     immutable)."""
     cached = getattr(m, "_certify_packed", None)
-    if cached is None:
+    if cached is None or len(cached) != PACKED_FIELDS:  # (or pickled by another version)
         pc = m.positive_pieces()
         cached = m._certify_packed = pack_pieces(pc, len(pc) - m.segments)
     return cached
+
+
+PACKED_FIELDS = 7
 
 
 def pack_pieces(pc, extra: int) -> tuple:
