@@ -98,7 +98,8 @@ def _prepare(
     ma = F0
     mb = F0
     mw = F0
-    for i in range(i0, i1):
+    i = i0
+    while i < i1:
         m = st_ctrl[lane, sp, i]
         w = m[3, 3]
         a = wp.mat33d(
@@ -146,6 +147,7 @@ def _prepare(
                 ball = wp.vec3d(rad, rad, rad)
                 lo = wp.min(lo, cc - ball)
                 hi = wp.max(hi, cc + ball)
+        i += 1
     out.mag = wp.vec3d(ma, mb, mw)
     out.lo = lo
     out.hi = hi
@@ -170,9 +172,11 @@ def _extent(
     m0 = pre_m[lane, 0]
     c0 = pre_c[lane, 0]
     out = F0
-    for i in range(1, k):
+    i = wp.int32(1)
+    while i < k:
         dm = pre_m[lane, i] - m0
         out = wp.max(out, wp.length(pre_c[lane, i] - c0) + rloc * wp.sqrt(wp.ddot(dm, dm)))
+        i += 1
     return out
 
 
@@ -182,10 +186,14 @@ def _halve(st_ctrl: wp.array3d(dtype=wp.mat44d), lane: wp.int32, sp: wp.int32, k
     goes to slot sp + 1."""
     half = wp.float64(0.5)
     st_ctrl[lane, sp + 1, 0] = st_ctrl[lane, sp, 0]
-    for r in range(1, k):
-        for i in range(k - r):
+    r = wp.int32(1)
+    while r < k:
+        i = wp.int32(0)
+        while i < k - r:
             st_ctrl[lane, sp, i] = half * (st_ctrl[lane, sp, i] + st_ctrl[lane, sp, i + 1])
+            i += 1
         st_ctrl[lane, sp + 1, r] = st_ctrl[lane, sp, 0]
+        r += 1
 
 
 @wp.func
