@@ -135,17 +135,6 @@ class Buffers:
     def put(self, name: str, data: np.ndarray, wp_dtype):
         """Write `data` into buffer `name` (its first axis grows; trailing axes belong to
         the Warp dtype, e.g. (4, 4) for mat44d)."""
-        cur = self._arrays.get(name)
-        if cur is not None and self._cpu and type(data) is np.ndarray:
-            # the buffer fits (a single query's inputs, every time): write, nothing else
-            host = cur[0]
-            if (
-                host.dtype == data.dtype
-                and host.shape[1:] == data.shape[1:]
-                and host.shape[0] >= data.shape[0]
-            ):
-                host[: len(data)] = data
-                return cur[1]
         data = np.asarray(data)
         host, arr = self._get(name, data.shape, data.dtype, wp_dtype)
         host[: len(data)] = data
