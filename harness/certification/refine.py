@@ -27,6 +27,9 @@ __all__ = ["MOTIONS_PER_CHUNK", "Outcome", "pack_pieces", "refine_many"]
 
 MOTIONS_PER_CHUNK = 4096
 """Motions packed per launch: bounds the packed copies of their control matrices."""
+PACKED_FIELDS = 7
+"""Entries of :func:`pack_pieces`' tuple (a cached packing of another length, pickled by
+another version, is rebuilt)."""
 GPU_LANES = 65536
 """Lanes of one launch on a CUDA device (scratch memory grows with lanes x depth x K)."""
 REASONS = {2: "tolerance", 3: "depth", 4: "budget"}
@@ -96,9 +99,6 @@ def _packed(m: RationalMotion) -> tuple:
         pc = m.positive_pieces()
         cached = m._certify_packed = pack_pieces(pc, len(pc) - m.segments)
     return cached
-
-
-PACKED_FIELDS = 7
 
 
 def pack_pieces(pc, extra: int) -> tuple:
