@@ -122,6 +122,23 @@ def test_clearance_against_analytic_distance():
         assert cl.upper - cl.lower <= TOL
 
 
+def test_penetration_not_yet_proven_keeps_a_signed_lower_bound():
+    """A sphere of radius 0.1 whose centre passes through the centre of a box of half size
+    0.5: its signed distance reaches -0.6 (minus the penetration depth). A bracket that
+    stops before a pose proves the penetration (a wide tolerance, a depth or node limit)
+    must still have `lower` at or below -0.6, not the unsigned box distance 0."""
+    q = np.tile([1.0, 0, 0, 0], (3, 1))
+    m = motions.interpolate(q, [[0.65, 0, 0], [0, 0, 0], [0.65, 0, 0]])
+    body, box = Sphere(0.1), Box([0.5, 0.5, 0.5])
+    cut = 0
+    for kw in ({"tolerance": 0.1}, {"max_depth": 0}, {"max_nodes": 1}, {"max_nodes": 2}, {}):
+        cl = clearance(m, body, [box], **kw)
+        assert cl.lower <= -0.6 + EXACT, (kw, cl)
+        assert cl.upper >= -0.6 - EXACT, (kw, cl)
+        cut += not cl.penetrating
+    assert cut > 0, "some limit stops the search before a pose proves the penetration"
+
+
 def test_finer_tolerance_tightens_the_bracket():
     """Halving the tolerance never loosens the bracket (refinement, not resampling)."""
     x = np.linspace(-1, 1, 6)

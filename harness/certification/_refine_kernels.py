@@ -548,9 +548,15 @@ def _refine(
 
 @wp.func
 def _box_gap(lo: wp.vec3d, hi: wp.vec3d, olo: wp.vec3d, ohi: wp.vec3d) -> wp.float64:
-    """Euclidean distance between two axis-aligned boxes (0 when they meet)."""
-    g = wp.max(wp.max(olo - hi, lo - ohi), wp.vec3d(F0, F0, F0))
-    return wp.length(g)
+    """Signed distance between two axis-aligned boxes: their Euclidean distance when apart,
+    else minus their penetration depth (the least overlap along an axis). A lower bound of
+    the signed distance of any shapes inside them (the distance of separated shapes, minus
+    the penetration depth of overlapping ones: ``max_n min_b n.b - max_a n.a`` over unit
+    n, which only grows as the shapes shrink)."""
+    g = wp.max(olo - hi, lo - ohi)  # per axis: the gap, negative where they overlap
+    if g[0] <= F0 and g[1] <= F0 and g[2] <= F0:
+        return wp.max(wp.max(g[0], g[1]), g[2])
+    return wp.length(wp.max(g, wp.vec3d(F0, F0, F0)))
 
 
 @wp.kernel

@@ -30,10 +30,12 @@ class Clearance:
     """A certified bracket of ``min over t and obstacles`` of the body's distance.
 
     Attributes:
-        lower: a proven lower bound of the minimum distance (``-inf`` when a pose was
-            proven to penetrate: the engine does not bound penetration depth).
-        upper: a proven upper bound: the exact distance of some pose is at most this
-            (negative: a proven penetration of at least ``-upper``).
+        lower: a proven lower bound of the minimum signed distance (negative: minus a
+            bound of the penetration depth; ``-inf`` when a pose was proven to penetrate,
+            the engine then stops, or when a node limit stopped the search with obstacles
+            or pieces not yet searched).
+        upper: a proven upper bound: the exact signed distance of some pose is at most
+            this (negative: a proven penetration of at least ``-upper``).
         time: a time whose pose is within ``upper`` of an obstacle.
         width_ok: ``upper - lower <= tolerance`` (False when a depth or node limit, or a
             penetration, cut the search).
