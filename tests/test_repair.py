@@ -83,6 +83,41 @@ def test_repair_with_clearance(colliding):
         check_repaired(case, r, want)
 
 
+def test_close_pose_search_is_bounded(colliding, monkeypatch):
+    # along a long close stretch the search's grid would grow without bound (36 million
+    # poses in one case, out of memory inside numpy): each round evaluates at most
+    # MAX_GRID poses, and the repairs it still feeds are certified as before
+    import importlib
+
+    from harness.avoid import distance
+
+    # the module (harness.avoid.repair the attribute is the function of that name)
+    monkeypatch.setattr(importlib.import_module("harness.avoid.repair"), "MAX_GRID", 40)
+    sizes = []
+    to_obstacles = distance.DistanceModel.to_obstacles
+
+    def counted(self, r, p, **kw):
+        sizes.append(len(r))
+        return to_obstacles(self, r, p, **kw)
+
+    monkeypatch.setattr(distance.DistanceModel, "to_obstacles", counted)
+    repaired = 0
+    for case in colliding[:8]:
+        try:
+            r = repair(case.motion, case.body, case.obstacles, tolerance=TOL)
+        except RepairError:
+            continue
+        repaired += 1
+        # the claim stands (a coarser search may leave it closer than the truth's
+        # resolution, so the truth may not prove it free, but must not find a contact)
+        assert r.certificate.verdict == "free" and r.certificate.certified
+        assert r.clearance.lower >= 0.0
+        truth = ground_truth(r.motion, case.body, case.obstacles, resolution=TOL)
+        assert truth.verdict != "collision"
+    assert sizes and max(sizes) <= 40, max(sizes)
+    assert repaired > 0
+
+
 def test_clear_motion_is_returned_unchanged():
     m = motions.interpolate([[1, 0, 0, 0]] * 4, [[0, 0, 0], [1, 0, 0], [2, 0.2, 0], [3, 0, 0]])
     r = repair(m, Sphere(0.1), [Box([0.5, 0.5, 0.5], center=[1.5, 2.0, 0.0])], clearance=0.5)

@@ -51,6 +51,11 @@ COARSE_STEPS = 64.0
 """The coarse grid's spacing, in dense steps."""
 MAX_CONSTRAINTS = 4000
 """Close poses kept in the programme (the closest first, per iteration)."""
+MAX_GRID = 100_000
+"""Most poses one round of the close-pose search evaluates. Along a long stretch within
+reach of an obstacle its grid grows to about stretch x speed bound / tolerance poses (36
+million in one case, which ran out of memory inside numpy); past this the search keeps
+the poses found so far, and the certifier, not this search, decides the repair."""
 
 
 class RepairError(HarnessError):
@@ -261,7 +266,7 @@ def _close_poses(
     v = max(motion.speed_bound(t0, t1, radius), 1e-300)
     h = COARSE_STEPS * step / v
     cutoff = reach + COARSE_STEPS * step
-    ts = np.linspace(t0, t1, max(2, math.ceil((t1 - t0) / h) + 1))
+    ts = np.linspace(t0, t1, min(max(2, math.ceil((t1 - t0) / h) + 1), MAX_GRID))
     h = ts[1] - ts[0]
     found = []
 
@@ -279,7 +284,7 @@ def _close_poses(
         # stretch (both ends deeper than the dip could matter): those ends are cuts already
         live = (0.5 * (ml + mr - v * h) < reach) & (np.maximum(ml, mr) >= reach - 0.5 * v * h)
         left, right, ml, mr = left[live], right[live], ml[live], mr[live]
-        if not left.size or h * v <= step * (1 + 1e-9):
+        if not left.size or h * v <= step * (1 + 1e-9) or 3 * left.size > MAX_GRID:
             break
         h = h / 4
         mids = left[:, None] + h * np.arange(1, 4)[None, :]  # (I, 3)
