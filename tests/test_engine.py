@@ -220,13 +220,15 @@ def test_one_motion_shape_packing_is_the_general_one():
 
 def test_caches_pickled_by_another_version_are_rebuilt(scene):
     # motions carry the engine's packed pieces in pickles (Dask workers, result caches); a
-    # packing of another layout (an older harness's five fields) is rebuilt, not unpacked
+    # packing of another layout (another harness version's, here with seven fields) is
+    # rebuilt, not unpacked
     ms, bodies, obstacles = scene
     m, body, obst = ms[0], bodies[0], obstacles[0]
     want = [certify(m, body, obst, bound=b) for b in ("hull", "lipschitz")]
     old = pickle.loads(pickle.dumps(m))
-    old._certify_packed = old._certify_packed[:5]
-    old._certify_speeds = {r: (p[:5], v) for r, (p, v) in old._certify_speeds.items()}
+    extra = (np.zeros(3, np.int32), np.zeros((1, 2), np.int32))
+    old._certify_packed = old._certify_packed + extra
+    old._certify_speeds = {r: (p + extra, v) for r, (p, v) in old._certify_speeds.items()}
     got = [certify(old, body, obst, bound=b) for b in ("hull", "lipschitz")]
     assert all(_same(a, b) for a, b in zip(want, got, strict=True))
 

@@ -194,10 +194,7 @@ class Buffers:
         cpu = self._cpu
         key = (kernel.key, lanes)
         rec = self._launches.get(key)
-        if rec is not None and rec.args == args:  # arrays compare by identity: a replay
-            changed = []
-        else:
-            changed = None if rec is None else _changed_scalars(rec.args, args, first_index)
+        changed = None if rec is None else _changed_scalars(rec.args, args, first_index)
         if changed is None:  # nothing recorded, or other arrays: record anew
             cmds = []
             # recording loads the kernel's module on first use, and Warp's Module.load is
@@ -241,6 +238,8 @@ class _Recorded:
 def _changed_scalars(old: list, new: list, first_index: int) -> list[int] | None:
     """Positions of the scalar arguments that differ between `old` and `new`, or None when
     an array argument is another object (the launch must be recorded anew)."""
+    if old == new:  # a replay (arrays compare by identity): one comparison, no scan
+        return []
     if len(old) != len(new):
         return None
     changed = []

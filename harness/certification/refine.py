@@ -27,7 +27,7 @@ __all__ = ["MOTIONS_PER_CHUNK", "Outcome", "pack_pieces", "refine_many"]
 
 MOTIONS_PER_CHUNK = 4096
 """Motions packed per launch: bounds the packed copies of their control matrices."""
-PACKED_FIELDS = 7
+PACKED_FIELDS = 5
 """Entries of :func:`pack_pieces`' tuple (a cached packing of another length, pickled by
 another version, is rebuilt)."""
 GPU_LANES = 65536
@@ -102,17 +102,14 @@ def _packed(m: RationalMotion) -> tuple:
 
 
 def pack_pieces(pc, extra: int) -> tuple:
-    """(ctrl (sum K, 4, 4), k (P,), t (P, 2), err (P, 3), `extra` pieces, piece starts
-    (P,), piece range (1, 2)) of a piece table: the kernels' piece inputs, the last two
-    for a query of this motion alone."""
+    """(ctrl (sum K, 4, 4), k (P,), t (P, 2), err (P, 3), `extra` pieces) of a piece
+    table: the kernels' piece inputs."""
     return (
         np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
         np.full(len(pc), pc.n_ctrl, dtype=np.int32),
         np.stack([pc.t0, pc.t1], axis=1),
         np.ascontiguousarray(pc.error),
         extra,
-        np.arange(0, len(pc) * pc.n_ctrl, pc.n_ctrl, dtype=np.int32),
-        np.array([[0, len(pc)]], dtype=np.int32),
     )
 
 
@@ -283,7 +280,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         return arrays, kmax
     shaped = pack_shapes(bodies, obst)
     n_obst = shaped[4]
-    ctrls, ks, ts, errs, extra = list(zip(*packs, strict=True))[:5]
+    ctrls, ks, ts, errs, extra = zip(*packs, strict=True)
     p_k = np.concatenate(ks)
     counts = np.fromiter(map(len, ks), dtype=np.int64, count=n)
     p_start = np.zeros(len(p_k), dtype=np.int32)
@@ -312,16 +309,17 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     """:func:`pack_inputs` for one motion, in as few numpy calls as it takes (a single
     query's packing cost more than its kernel)."""
     wp = warp()
-    ctrl, p_k, p_t, p_err, extra, p_start, m_pieces = pack
+    ctrl, p_k, p_t, p_err, extra = pack
     shaped = pack_shapes(bodies, obst)
     nodes0 = extra * max(1, int(shaped[4][0]))
+    k, n_pieces = int(p_k[0]), len(p_k)  # a motion's pieces share their number of controls
     arrays = {
         "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
-        "p_start": buf.put("p_start", p_start, wp.int32),
+        "p_start": buf.put("p_start", np.arange(0, n_pieces * k, k, dtype=np.int32), wp.int32),
         "p_k": buf.put("p_k", p_k, wp.int32),
         "p_t": buf.put("p_t", p_t, wp.vec2d),
         "p_err": buf.put("p_err", p_err, wp.vec3d),
-        "m_pieces": buf.put("m_pieces", m_pieces, wp.vec2i),
+        "m_pieces": buf.put("m_pieces", np.array([[0, n_pieces]], dtype=np.int32), wp.vec2i),
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
         **_put_shapes(buf, shaped),
     }
