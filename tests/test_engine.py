@@ -218,6 +218,57 @@ def test_one_motion_shape_packing_is_the_general_one():
             assert a.dtype == b.dtype and np.array_equal(a, b), (trial, a, b)
 
 
+def test_batch_shape_packing_against_a_plain_packing():
+    # the batch packing dedupes shapes by identity with numpy; a plain loop over the same
+    # batch (shared and repeated lists, shapes repeated within and across lists, empty
+    # lists, meshes and compounds) must give the same table rows for every motion's body
+    # parts and obstacle parts, in the motion's own order
+    from harness import Compound, ConvexMesh
+    from harness.certification.refine import _pack_shapes_many
+    from harness.certification.tables import ShapeTable
+
+    rng = np.random.default_rng(4)
+
+    def shape(k: int):
+        c = rng.normal(size=3)
+        return [
+            Box(rng.uniform(0.1, 0.5, 3), center=c, rotation=rng.normal(size=4)),
+            Sphere(0.2, center=c),
+            Capsule(0.1, 0.3, center=c, rotation=rng.normal(size=4)),
+            ConvexMesh(rng.normal(size=(12, 3)) + c),
+            Compound([Sphere(0.1, center=c), ConvexMesh(rng.normal(size=(8, 3)) - c)]),
+        ][k % 5]
+
+    for trial in range(25):
+        pool = [shape(int(k)) for k in rng.integers(0, 5, 8)]
+        lists = [
+            [pool[int(i)] for i in rng.integers(0, 8, int(rng.integers(0, 7)))] for _ in range(4)
+        ]
+        n = int(rng.integers(2, 12))
+        obst = [lists[int(i)] for i in rng.integers(0, 4, n)]
+        bodies = [pool[int(i)] for i in rng.integers(0, 8, n)]
+        table, m_parts, m_obst, o_idx, n_obst = _pack_shapes_many(bodies, obst)
+        for j in range(n):
+            # the motion's body parts, then its obstacles' parts, against each packed alone
+            for lo_hi, shapes in ((m_parts[j], [bodies[j]]), (m_obst[j], obst[j])):
+                rows = np.arange(lo_hi[0], lo_hi[1])
+                if shapes is obst[j]:
+                    rows = o_idx[rows]
+                    assert n_obst[j] == len(shapes)
+                want = ShapeTable.build(shapes)
+                assert len(rows) == len(want.records)
+                for a, b in zip(table.records[rows], want.records, strict=True):
+                    for f in ("kind", "pos", "rot", "size", "rho", "rloc", "lo", "hi", "vcount"):
+                        assert np.array_equal(a[f], b[f]), (trial, j, f)
+                    # vertex starts differ between tables: compare the vertices
+                    va = table.verts[a["vstart"] : a["vstart"] + a["vcount"]]
+                    vb = want.verts[b["vstart"] : b["vstart"] + b["vcount"]]
+                    assert np.array_equal(va, vb)
+        # each distinct shape once
+        distinct = {id(s) for s in bodies} | {id(o) for lst in obst for o in lst}
+        assert len(table.offsets) - 1 == len(distinct)
+
+
 def test_caches_pickled_by_another_version_are_rebuilt(scene):
     # motions carry the engine's packed pieces in pickles (Dask workers, result caches); a
     # packing of another layout (another harness version's, here with seven fields) is

@@ -14,6 +14,7 @@ import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 
@@ -185,33 +186,29 @@ def _pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
 
 
 def _pack_shapes_many(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
-    index: dict[int, int] = {}
-    shapes: list[Shape] = []
-    body_ix = []
-    for s in bodies:
-        k = id(s)
-        if k not in index:
-            index[k] = len(shapes)
-            shapes.append(s)
-        body_ix.append(index[k])
+    # the distinct obstacle lists (by identity), then every shape once, in order of first
+    # appearance, with numpy on the shapes' identities: a batch's scenes may hold
+    # thousands of obstacles per motion (per-shape dict work cost ~1 us a shape)
     list_ix: dict[int, int] = {}
-    list_start: list[int] = []
-    flat: list[int] = []
+    uniq: list[list[Shape]] = []
+    lists = []
     for lst in obst:
-        if id(lst) in list_ix:
-            continue
-        list_ix[id(lst)] = len(list_start)
-        list_start.append(len(flat))
-        for o in lst:
-            k = id(o)
-            if k not in index:
-                index[k] = len(shapes)
-                shapes.append(o)
-            flat.append(index[k])
-    list_start.append(len(flat))
-    table = ShapeTable.build(shapes)
+        j = list_ix.get(id(lst))
+        if j is None:
+            j = list_ix[id(lst)] = len(uniq)
+            uniq.append(lst)
+        lists.append(j)
+    items = list(chain(bodies, chain.from_iterable(uniq)))
+    ids = np.fromiter(map(id, items), dtype=np.int64, count=len(items))  # addresses < 2**63
+    _u, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")  # distinct shapes by first appearance
+    rank = np.empty(len(order), dtype=np.int64)
+    rank[order] = np.arange(len(order))
+    index = rank[inverse.reshape(-1)]  # each item's row in the table
+    table = ShapeTable.build(list(map(items.__getitem__, first[order].tolist())))
     off = table.offsets
-    flat_a = np.asarray(flat, dtype=np.int64)
+    nb = len(bodies)
+    flat_a = index[nb:]
     counts = off[flat_a + 1] - off[flat_a]
     part_start = np.zeros(len(flat_a) + 1, dtype=np.int64)
     np.cumsum(counts, out=part_start[1:])
@@ -219,12 +216,15 @@ def _pack_shapes_many(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     o_idx = (np.repeat(off[flat_a] - part_start[:-1], counts) + np.arange(part_start[-1])).astype(
         np.int32
     )
-    ls = np.asarray(list_start, dtype=np.int64)
-    lists = np.asarray([list_ix[id(lst)] for lst in obst], dtype=np.int64)
-    m_obst = np.stack([part_start[ls[lists]], part_start[ls[lists + 1]]], axis=1).astype(np.int32)
-    bix = np.asarray(body_ix, dtype=np.int64)
+    ls = np.zeros(len(uniq) + 1, dtype=np.int64)
+    np.cumsum(np.fromiter(map(len, uniq), dtype=np.int64, count=len(uniq)), out=ls[1:])
+    lists_a = np.asarray(lists, dtype=np.int64)
+    m_obst = np.stack([part_start[ls[lists_a]], part_start[ls[lists_a + 1]]], axis=1).astype(
+        np.int32
+    )
+    bix = index[:nb]
     m_parts = np.stack([off[bix], off[bix + 1]], axis=1).astype(np.int32)
-    n_obst = ls[lists + 1] - ls[lists]
+    n_obst = ls[lists_a + 1] - ls[lists_a]
     return table, m_parts, m_obst, o_idx, n_obst
 
 
@@ -264,7 +264,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         # the same query again (packed pieces are cached per motion, shapes are
         # immutable): the buffers still hold its inputs. Checked by identity, in time
         # linear in what packing them costs (not for one long list shared by all).
-        refs = (tuple(packs) + tuple(bodies) + tuple(o for lst in obst for o in lst), lens)
+        refs = (tuple(chain(packs, bodies, chain.from_iterable(obst))), lens)
         cur = buf.packed
         if (
             cur is not None

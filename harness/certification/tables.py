@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from itertools import accumulate
+from operator import attrgetter, itemgetter
 
 import numpy as np
 
@@ -95,6 +95,10 @@ def _records(shape: Shape) -> tuple[bytes, int, np.ndarray]:
     return hit
 
 
+_cached = attrgetter("_kernel_records")
+_blob, _nparts, _verts = itemgetter(0), itemgetter(1), itemgetter(2)
+
+
 @dataclass(frozen=True)
 class ShapeTable:
     """Convex parts of several shapes packed for the kernels.
@@ -111,17 +115,18 @@ class ShapeTable:
 
     @classmethod
     def build(cls, shapes: Sequence[Shape]) -> ShapeTable:
-        got = [_records(s) for s in shapes]
-        blobs, nparts, meshes = [], [], []
-        for g in got:
-            blobs.append(g[0])
-            nparts.append(g[1])
-            meshes.append(len(g[2]))
-        offsets = np.fromiter(accumulate(nparts, initial=0), dtype=np.int64, count=len(got) + 1)
+        try:  # shapes seen before carry their records: C-level passes, no Python loop
+            got = list(map(_cached, shapes))
+        except AttributeError:
+            got = [_records(s) for s in shapes]
+        n = len(got)
+        nparts = np.fromiter(map(_nparts, got), dtype=np.int64, count=n)
+        offsets = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(nparts, out=offsets[1:])
         # a writable array over one copy of the bytes (copying a structured array is slow)
-        records = np.frombuffer(bytearray(b"".join(blobs)), dtype=record_dtype())
-        if any(meshes):
-            nv = np.asarray(meshes, dtype=np.int64)
+        records = np.frombuffer(bytearray(b"".join(map(_blob, got))), dtype=record_dtype())
+        nv = np.fromiter(map(len, map(_verts, got)), dtype=np.int64, count=n)
+        if nv.any():
             # mesh parts index one shared vertex array (row 0 is padding)
             vbase = 1 + np.concatenate([[0], np.cumsum(nv)[:-1]])
             mesh = records["kind"] == 3
