@@ -198,7 +198,8 @@ class BezierPieces:
 
         A piece whose weights are all provably negative is negated (the same motion:
         ``M_h`` and ``-M_h`` give the same matrix). Rows stay in their order, each
-        replaced by its positive sub-pieces in time order.
+        replaced by its positive sub-pieces in time order; a table whose weights are all
+        provably positive is returned itself.
 
         Args:
             max_depth: halvings allowed below each piece.
@@ -210,6 +211,8 @@ class BezierPieces:
                 unproven sign after `max_depth` halvings. The error has attributes
                 ``owner`` and ``time``.
         """
+        if np.all(self.ctrl[:, :, 3, 3] > self.error[:, W_BLOCK][:, None]):
+            return self  # the common case: every weight already provably positive
         table = self.take(np.arange(len(self)))
         done: list[tuple[BezierPieces, np.ndarray]] = []
         row = np.arange(len(table))  # the input row each piece descends from

@@ -47,32 +47,28 @@ def part_aabb(p: Shape) -> tuple[np.ndarray, np.ndarray]:
     return p.center - ext, p.center + ext
 
 
-def _part_record(p: Shape, rec) -> np.ndarray | None:
-    """Fill `rec` for part p; return its vertices (meshes) or None."""
+_EYE = np.eye(3)
+_ZERO = np.zeros(3)
+_GAMMA16 = gamma(16)
+
+
+def _part_record(p: Shape) -> tuple[tuple, np.ndarray | None]:
+    """The record of part p (a tuple in the fields' order of ``record_dtype()``, vertex
+    start 0) and its vertices (meshes) or None."""
     lo, hi = part_aabb(p)
-    pad = gamma(16) * (np.abs(lo).max() + np.abs(hi).max())
-    rec["lo"], rec["hi"] = lo - pad, hi + pad
-    rec["rho"] = p.bounding_radius
-    rec["vstart"], rec["vcount"] = 0, 0
-    rec["rot"] = np.eye(3)
-    rec["pos"] = np.zeros(3)
-    rec["size"] = np.zeros(3)
+    pad = _GAMMA16 * (max(map(abs, lo.tolist())) + max(map(abs, hi.tolist())))
+    lo, hi = lo - pad, hi + pad
+    rho = p.bounding_radius
     if p.kind == "box":
-        rec["kind"], rec["pos"], rec["rot"], rec["size"] = 0, p.center, p.rotation, p.half_extents
-        rec["rloc"] = float(np.linalg.norm(p.half_extents))
-    elif p.kind == "sphere":
-        rec["kind"], rec["pos"], rec["size"] = 1, p.center, (p.radius, 0.0, 0.0)
-        rec["rloc"] = p.radius
-    elif p.kind == "capsule":
-        rec["kind"], rec["pos"], rec["rot"] = 2, p.center, p.rotation
-        rec["size"] = (p.radius, p.half_length, 0.0)
-        rec["rloc"] = p.radius + p.half_length
-    else:
-        rec["kind"] = 3
-        rec["vcount"] = len(p.vertices_)
-        rec["rloc"] = p.bounding_radius
-        return p.vertices_
-    return None
+        rloc = float(np.linalg.norm(p.half_extents))
+        return (0, p.center, p.rotation, p.half_extents, 0, 0, rho, rloc, lo, hi), None
+    if p.kind == "sphere":
+        return (1, p.center, _EYE, (p.radius, 0.0, 0.0), 0, 0, rho, p.radius, lo, hi), None
+    if p.kind == "capsule":
+        size, rloc = (p.radius, p.half_length, 0.0), p.radius + p.half_length
+        return (2, p.center, p.rotation, size, 0, 0, rho, rloc, lo, hi), None
+    v = p.vertices_
+    return (3, _ZERO, _EYE, _ZERO, 0, len(v), rho, p.bounding_radius, lo, hi), v
 
 
 def _records(shape: Shape) -> tuple[bytes, int, np.ndarray]:
@@ -80,16 +76,17 @@ def _records(shape: Shape) -> tuple[bytes, int, np.ndarray]:
     the records' vertex starts are relative to the shape's own vertices."""
     hit = shape.__dict__.get("_kernel_records")
     if hit is None:
-        ps = parts(shape)
-        recs = np.zeros(len(ps), dtype=record_dtype())
+        got = [_part_record(p) for p in parts(shape)]
+        recs = np.zeros(len(got), dtype=record_dtype())  # padding bytes zero
+        for i, (r, _) in enumerate(got):
+            recs[i] = r
         verts, start = [], 0
-        for i, p in enumerate(ps):
-            v = _part_record(p, recs[i : i + 1])
+        for i, (_, v) in enumerate(got):
             if v is not None:
                 recs[i]["vstart"] = start
                 verts.append(v)
                 start += len(v)
-        hit = (recs.tobytes(), len(ps), np.concatenate(verts) if verts else np.zeros((0, 3)))
+        hit = (recs.tobytes(), len(got), np.concatenate(verts) if verts else np.zeros((0, 3)))
         # shapes are immutable: keep the records on the shape (one attribute lookup)
         object.__setattr__(shape, "_kernel_records", hit)
     return hit
