@@ -269,6 +269,16 @@ def test_batch_shape_packing_against_a_plain_packing():
         assert len(table.offsets) - 1 == len(distinct)
 
 
+def test_shape_records_reset_to_none_are_rebuilt():
+    # `_kernel_records` None means "not built" (as for every lazy cache here)
+    from harness.certification.tables import ShapeTable
+
+    a, b = Box([0.1, 0.2, 0.3], center=[1, 0, 0]), Sphere(0.5)
+    want = ShapeTable.build([a, b]).records.tobytes()
+    object.__setattr__(a, "_kernel_records", None)
+    assert ShapeTable.build([a, b]).records.tobytes() == want
+
+
 def test_caches_pickled_by_another_version_are_rebuilt(scene):
     # motions carry the engine's packed pieces in pickles (Dask workers, result caches); a
     # packing of another layout (another harness version's, here with seven fields) is

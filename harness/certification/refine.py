@@ -199,7 +199,7 @@ def _pack_shapes_many(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
             uniq.append(lst)
         lists.append(j)
     items = list(chain(bodies, chain.from_iterable(uniq)))
-    ids = np.fromiter(map(id, items), dtype=np.int64, count=len(items))  # addresses < 2**63
+    ids = np.fromiter(map(id, items), dtype=np.uint64, count=len(items))
     _u, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
     order = np.argsort(first, kind="stable")  # distinct shapes by first appearance
     rank = np.empty(len(order), dtype=np.int64)

@@ -114,14 +114,16 @@ class ShapeTable:
     def build(cls, shapes: Sequence[Shape]) -> ShapeTable:
         try:  # shapes seen before carry their records: C-level passes, no Python loop
             got = list(map(_cached, shapes))
-        except AttributeError:
+            blob = b"".join(map(_blob, got))
+        except (AttributeError, TypeError):  # some not built yet (or their cache reset)
             got = [_records(s) for s in shapes]
+            blob = b"".join(map(_blob, got))
         n = len(got)
         nparts = np.fromiter(map(_nparts, got), dtype=np.int64, count=n)
         offsets = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(nparts, out=offsets[1:])
         # a writable array over one copy of the bytes (copying a structured array is slow)
-        records = np.frombuffer(bytearray(b"".join(map(_blob, got))), dtype=record_dtype())
+        records = np.frombuffer(bytearray(blob), dtype=record_dtype())
         nv = np.fromiter(map(len, map(_verts, got)), dtype=np.int64, count=n)
         if nv.any():
             # mesh parts index one shared vertex array (row 0 is padding)
