@@ -187,27 +187,30 @@ def test_warps_own_launch_gives_the_same_certificates(scene, monkeypatch):
         assert all(_same(x, y) for x, y in zip(a, b, strict=True))
 
 
+def _random_shape(rng, k: int):
+    """Box, sphere, capsule, mesh or compound (by k mod 5) at a random centre."""
+    from harness import Compound, ConvexMesh
+
+    c = rng.normal(size=3)
+    return [
+        Box(rng.uniform(0.1, 0.5, 3), center=c, rotation=rng.normal(size=4)),
+        Sphere(0.2, center=c),
+        Capsule(0.1, 0.3, center=c, rotation=rng.normal(size=4)),
+        ConvexMesh(rng.normal(size=(12, 3)) + c),
+        Compound([Sphere(0.1, center=c), ConvexMesh(rng.normal(size=(8, 3)) - c)]),
+    ][k % 5]
+
+
 def test_one_motion_shape_packing_is_the_general_one():
     # a single query packs its shapes by a plain-Python path: the same table and ranges as
     # the general packing of a batch (meshes, compounds, repeated and absent obstacles)
-    from harness import Compound, ConvexMesh
     from harness.certification.refine import _pack_shapes_many, _pack_shapes_one
 
     rng = np.random.default_rng(3)
 
-    def shape(k: int):
-        c = rng.normal(size=3)
-        return [
-            Box(rng.uniform(0.1, 0.5, 3), center=c, rotation=rng.normal(size=4)),
-            Sphere(0.2, center=c),
-            Capsule(0.1, 0.3, center=c, rotation=rng.normal(size=4)),
-            ConvexMesh(rng.normal(size=(12, 3)) + c),
-            Compound([Sphere(0.1, center=c), ConvexMesh(rng.normal(size=(8, 3)) - c)]),
-        ][k % 5]
-
     for trial in range(40):
-        body = shape(trial)
-        pool = [shape(int(k)) for k in rng.integers(0, 5, 4)]
+        body = _random_shape(rng, trial)
+        pool = [_random_shape(rng, int(k)) for k in rng.integers(0, 5, 4)]
         obst = [pool[int(i)] for i in rng.integers(0, 4, int(rng.integers(0, 6)))]
         one = _pack_shapes_one(body, obst)
         gen = _pack_shapes_many([body], [obst])
@@ -219,28 +222,17 @@ def test_one_motion_shape_packing_is_the_general_one():
 
 
 def test_batch_shape_packing_against_a_plain_packing():
-    # the batch packing dedupes shapes by identity with numpy; a plain loop over the same
+    # the batch packing dedupes shapes by identity with numpy; for every motion of a
     # batch (shared and repeated lists, shapes repeated within and across lists, empty
-    # lists, meshes and compounds) must give the same table rows for every motion's body
-    # parts and obstacle parts, in the motion's own order
-    from harness import Compound, ConvexMesh
+    # lists, meshes and compounds) its body's and obstacles' rows must be those of its
+    # shapes packed alone, in the motion's own order
     from harness.certification.refine import _pack_shapes_many
     from harness.certification.tables import ShapeTable
 
     rng = np.random.default_rng(4)
 
-    def shape(k: int):
-        c = rng.normal(size=3)
-        return [
-            Box(rng.uniform(0.1, 0.5, 3), center=c, rotation=rng.normal(size=4)),
-            Sphere(0.2, center=c),
-            Capsule(0.1, 0.3, center=c, rotation=rng.normal(size=4)),
-            ConvexMesh(rng.normal(size=(12, 3)) + c),
-            Compound([Sphere(0.1, center=c), ConvexMesh(rng.normal(size=(8, 3)) - c)]),
-        ][k % 5]
-
     for trial in range(25):
-        pool = [shape(int(k)) for k in rng.integers(0, 5, 8)]
+        pool = [_random_shape(rng, int(k)) for k in rng.integers(0, 5, 8)]
         lists = [
             [pool[int(i)] for i in rng.integers(0, 8, int(rng.integers(0, 7)))] for _ in range(4)
         ]
