@@ -221,7 +221,7 @@ def test_one_motion_shape_packing_is_the_general_one():
             assert a.dtype == b.dtype and np.array_equal(a, b), (trial, a, b)
 
 
-def test_batch_shape_packing_against_a_plain_packing():
+def test_batch_shape_packing_gives_each_motion_its_shapes_rows():
     # the batch packing dedupes shapes by identity with numpy; for every motion of a
     # batch (shared and repeated lists, shapes repeated within and across lists, empty
     # lists, meshes and compounds) its body's and obstacles' rows must be those of its

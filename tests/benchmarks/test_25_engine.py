@@ -190,7 +190,7 @@ def test_first_call_on_fresh_motions(benchmark, workload, compiled):
     from harness.timing import collector_paused
 
     raw = pickle.dumps(workload)
-    parts: dict[str, float] = {}
+    parts: dict[str, list[float]] = {}
 
     def ca(x):
         c = time.process_time()
