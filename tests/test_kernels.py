@@ -126,6 +126,39 @@ def test_prepare_kernel_equals_numpy(device, body, pieces):
 
 
 @pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
+def test_image_error_bounds_cover_the_products_and_the_inherited_error(body, pieces):
+    # The kernels refine the part's images [[A R, A p + b], [0, 0, 0, w]]: their error
+    # bounds must cover the products' rounding and what the control matrices' own error
+    # (E_A, E_b) can become through them. Exact rational check, with the worst case of the
+    # inherited error: A* = A + E_A sign(R_kj) (entry (i, j) of A* R as far as it goes).
+    from fractions import Fraction as F
+
+    ctrl, err = pieces
+    ctrl, err = ctrl[::3], err[::3]
+    rec = ShapeTable.build([body]).records[0]
+    rot, pos = rec["rot"], rec["pos"]
+    got = probes.prepare_rows(ctrl, err, body)
+    img, e_img = got["images"], got["image_error"]
+    rq = [[F(x) for x in row] for row in rot.tolist()]
+    pq = [F(x) for x in pos.tolist()]
+    for r in range(len(ctrl)):
+        ea, eb = F(err[r, 0]), F(err[r, 1])
+        for i_k in range(ctrl.shape[1]):
+            m = ctrl[r, i_k]
+            aq = [[F(x) for x in row] for row in m[:3, :3].tolist()]
+            for i in range(3):
+                for j in range(3):
+                    exact = sum(aq[i][k] * rq[k][j] for k in range(3))
+                    worst = sum(abs(rq[k][j]) for k in range(3)) * ea
+                    assert abs(F(img[r, i_k, i, j]) - exact) + worst <= F(e_img[r, 0])
+                exact = sum(aq[i][k] * pq[k] for k in range(3)) + F(m[i, 3])
+                worst = sum(abs(x) for x in pq) * ea + eb
+                assert abs(F(img[r, i_k, i, 3]) - exact) + worst <= F(e_img[r, 1])
+            assert img[r, i_k, 3, 3] == m[3, 3] and np.all(img[r, i_k, 3, :3] == 0)
+        assert e_img[r, 2] == err[r, 2]
+
+
+@pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
 def test_node_box_contains_sampled_positions(body, motion):
     # the box `_prepare` computes (plus its margin) holds every position on the piece
     t = motion.positive_pieces().halve()

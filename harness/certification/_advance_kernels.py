@@ -14,7 +14,7 @@ from __future__ import annotations
 import warp as wp
 
 from ._geometry import F0, F1, HUGE, Shape, _core_radius, _gjk
-from ._refine_kernels import GAMMA_C, R_BUDGET, R_TOL, UNIT, _prepare
+from ._refine_kernels import GAMMA_C, R_BUDGET, R_TOL, UNIT, _images, _prepare
 
 wp.set_module_options({"enable_backward": False})
 
@@ -77,9 +77,10 @@ def _pose_bracket(
     max_iter: wp.int32,
 ) -> tuple[wp.float64, wp.float64, wp.int32, wp.vec3d]:
     """(ub, lb, intersects, direction) of the signed distance of the part at the pose
-    st_ctrl[lane, 0, 0] to the obstacle, widened by the pose's margin (see
-    ``_refine_kernels._pose_test``)."""
-    prep = _prepare(st_ctrl, lane, 0, 0, 1, part, verts, err, pre_m, pre_c, 0, 0)
+    st_ctrl[lane, 0, 0] (with entry errors `err`; replaced by the part's image there) to
+    the obstacle, widened by the pose's margin (see ``_refine_kernels._pose_test``)."""
+    img_err = _images(st_ctrl, lane, 0, 1, part, err)
+    prep = _prepare(st_ctrl, lane, 0, 0, 1, part, verts, img_err, pre_m, pre_c, 0, 0)
     if prep.ok == 0:
         return HUGE, -HUGE, 0, warm
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)

@@ -8,7 +8,7 @@ import warp as wp
 
 from ._advance_kernels import _eval_pose
 from ._geometry import F0, HUGE, Shape, _gjk
-from ._refine_kernels import GAMMA_C, _extent, _halve, _prepare
+from ._refine_kernels import GAMMA_C, _extent, _halve, _images, _prepare
 
 wp.set_module_options({"enable_backward": False})
 
@@ -31,15 +31,20 @@ def _prepare_rows(
     lo_out: wp.array(dtype=wp.vec3d),
     hi_out: wp.array(dtype=wp.vec3d),
     extent_out: wp.array(dtype=wp.float64),
+    image_err_out: wp.array(dtype=wp.vec3d),
 ):
-    """`_prepare` of row tid's control matrices ctrl[tid, 0, :k] for body part part_idx[tid]."""
+    """`_prepare` of row tid's control matrices ctrl[tid, 0, :k] (replaced by their images)
+    for body part part_idx[tid]."""
     tid = wp.tid()
-    p = _prepare(ctrl, tid, 0, 0, k, shapes[part_idx[tid]], verts, err[tid], pre_m, pre_c, 0, 1)
+    part = shapes[part_idx[tid]]
+    e = _images(ctrl, tid, 0, k, part, err[tid])
+    p = _prepare(ctrl, tid, 0, 0, k, part, verts, e, pre_m, pre_c, 0, 1)
     ok_out[tid] = p.ok
     margin_out[tid] = p.margin
     lo_out[tid] = p.lo
     hi_out[tid] = p.hi
-    extent_out[tid] = _extent(pre_m, pre_c, tid, k, shapes[part_idx[tid]].rloc)
+    extent_out[tid] = _extent(pre_m, pre_c, tid, k, part.rloc)
+    image_err_out[tid] = e
 
 
 @wp.kernel
@@ -62,12 +67,14 @@ def _hull_gap_rows(
     dir_out: wp.array(dtype=wp.vec3d),
 ):
     """The refinement's clearance test of one node (its hull, or its box, against the
-    obstacle by GJK, with the node's margin), row by row."""
+    obstacle by GJK, with the node's margin), row by row (ctrl's rows are replaced by
+    their images)."""
     tid = wp.tid()
     part = shapes[part_idx[tid]]
     obst = shapes[obst_idx[tid]]
     z = wp.vec3d(F0, F0, F0)
-    p = _prepare(ctrl, tid, 0, 0, k, part, verts, z, pre_m, pre_c, 0, 1)
+    e = _images(ctrl, tid, 0, k, part, z)
+    p = _prepare(ctrl, tid, 0, 0, k, part, verts, e, pre_m, pre_c, 0, 1)
     margin = p.margin + GAMMA_C * (p.scale + obst.rho)
     _u, gap, d, ov, _dp, _c = _gjk(
         use_aabb, pre_m, pre_c, tid, 0, k, part, obst, verts, p.lo, p.hi, 0, z, max_iter,

@@ -8,22 +8,35 @@ certificate never depends on the rest of the batch. Layout:
 - ``ctrl``: flat array of ``mat44d`` control matrices ``[[A, b], [0, 0, 0, w]]`` (weight
   last); piece p owns ``ctrl[p_start[p] : p_start[p] + p_k[p]]``.
 - scratch per lane: the stack ``st_*[lane, slot]`` (slot 0 the piece, each split adds one
-  slot: at most ``max_depth + 2``) and the precomputed affine images ``pre_*[lane, i]``
-  (columns ``0..K-1`` the node's hull, column ``K_MAX`` a pose).
+  slot: at most ``max_depth + 1``; the last slot keeps the piece's images for the next
+  obstacle) and the precomputed affine images ``pre_*[lane, i]`` (columns ``0..K-1`` the
+  node's hull, column ``K_MAX`` a pose).
 
-The round-off margin of a node (``_prepare``) is derived from its conditioning: with the
-node's error bounds ``E = (E_A, E_b, E_w)`` on its control matrices (propagated from the
-motion's ``ctrl_error`` through every halving), ``rho`` the body part's radius about the
-body origin, and for each control matrix ``N = rho |A|_F + |b|``,
+The stack holds a body part's **images** of the control matrices, ``[[G, g], [0, 0, 0,
+w]]`` with ``G = A R`` and ``g = A p + b`` (R, p the part's rotation and position): the
+part at a control matrix is ``{(G x + g) / w : x in B}``, B the part in its own frame.
+De Casteljau is linear, so the images of a node's control matrices are the node's
+images of its parent's: a piece is multiplied out once (``_images``), not at every node.
+Error bounds ``E = (E_G, E_g, E_w)`` (absolute, per entry) come from the motion's
+``ctrl_error`` ``(E_A, E_b, E_w)`` and the products' rounding (``gamma_n`` of n terms):
 
-    |h_exact(n) - h_computed(n)| <= (rho 3 E_A + sqrt(3) E_b + N E_w / w) / (w - E_w)
+    E_G = c_R (E_A + gamma_3 max|A_ij|),    c_R = max_j sum_k |R_kj|,
+    E_g = |p|_1 E_A + E_b + gamma_4 (|p|_1 max|A_ij| + max|b_i|),
+
+and grow through every halving as the control matrices' do (``motions.pieces``).
+
+The round-off margin of a node (``_prepare``) is derived from its conditioning: with
+``r`` the part's radius about its own origin and, for each image, ``N = r |G|_F + |g|``,
+
+    |h_exact(n) - h_computed(n)| <= (r 3 E_G + sqrt(3) E_g + N E_w / w) / (w - E_w)
                                     + GAMMA_C N / w
 
-for every unit n (support functions of the exact and computed affine images of the part:
-``|h_B(A*^T n) - h_B(A^T n)| <= rho |A* - A|_2``, then the quotient rule with
-``w* >= w - E_w > 0``; the last term is the rounding of the support evaluation). The
-largest over the node's control matrices, plus ``GAMMA_C`` times the size of the support
-points (the GJK gap's own arithmetic), is the margin a separation must exceed.
+for every unit n (support functions of the exact and computed images of the part:
+``h(n) = (n.g + h_B(G^T n)) / w``; ``|h_B(G*^T n) - h_B(G^T n)| <= r |G* - G|_2 <= r 3
+E_G``, ``|n.(g* - g)| <= sqrt(3) E_g``, ``|n.g + h_B(G^T n)| <= N``, then the quotient
+rule with ``w* >= w - E_w > 0``; the last term is the rounding of the support
+evaluation). The largest over the node's images, plus ``GAMMA_C`` times the size of the
+support points (the GJK gap's own arithmetic), is the margin a separation must exceed.
 """
 
 from __future__ import annotations
@@ -48,7 +61,9 @@ wp.set_module_options({"enable_backward": False})
 UNIT = wp.constant(wp.float64(2.0**-53))
 GAMMA_C = wp.constant(wp.float64(64.0 * 2.0**-53 / (1.0 - 64.0 * 2.0**-53)))
 """γ_64: relative rounding of one support evaluation (M^T d, |.|, dot products, the
-precomputation A R / w: fewer than 64 roundings of terms bounded by the support's size)."""
+division G / w: fewer than 64 roundings of terms bounded by the support's size)."""
+GAMMA_3 = wp.constant(wp.float64(3.0 * 2.0**-53 / (1.0 - 3.0 * 2.0**-53)))
+GAMMA_4 = wp.constant(wp.float64(4.0 * 2.0**-53 / (1.0 - 4.0 * 2.0**-53)))
 SQRT3 = wp.constant(wp.float64(1.7320508075688772))
 
 # outcome codes (also in refine.py)
@@ -69,6 +84,58 @@ class Prep:
 
 
 @wp.func
+def _absmax(v: wp.vec3d) -> wp.float64:
+    return wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.abs(v[2]))
+
+
+@wp.func
+def _images(
+    st_ctrl: wp.array3d(dtype=wp.mat44d),
+    lane: wp.int32,
+    sp: wp.int32,
+    k: wp.int32,
+    part: Shape,
+    err: wp.vec3d,
+) -> wp.vec3d:
+    """Replace the control matrices st_ctrl[lane, sp, :k] (entry errors `err`) by the
+    part's images ``[[A R, A p + b], [0, 0, 0, w]]``; returns the images' error bounds
+    (see module doc)."""
+    amax = F0
+    bmax = F0
+    i = wp.int32(0)
+    while i < k:
+        m = st_ctrl[lane, sp, i]
+        a = wp.mat33d(
+            m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2]
+        )
+        b = wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
+        amax = wp.max(amax, wp.max(wp.max(_absmax(a[0]), _absmax(a[1])), _absmax(a[2])))
+        bmax = wp.max(bmax, _absmax(b))
+        g = a * part.rot
+        c = a * part.pos + b
+        st_ctrl[lane, sp, i] = wp.mat44d(
+            g[0, 0], g[0, 1], g[0, 2], c[0],
+            g[1, 0], g[1, 1], g[1, 2], c[1],
+            g[2, 0], g[2, 1], g[2, 2], c[2],
+            F0, F0, F0, m[3, 3],
+        )  # fmt: skip
+        i += 1
+    r = part.rot
+    c_r = wp.max(
+        wp.max(
+            wp.abs(r[0, 0]) + wp.abs(r[1, 0]) + wp.abs(r[2, 0]),
+            wp.abs(r[0, 1]) + wp.abs(r[1, 1]) + wp.abs(r[2, 1]),
+        ),
+        wp.abs(r[0, 2]) + wp.abs(r[1, 2]) + wp.abs(r[2, 2]),
+    )
+    p1 = wp.abs(part.pos[0]) + wp.abs(part.pos[1]) + wp.abs(part.pos[2])
+    e_g = c_r * (err[0] + GAMMA_3 * amax)
+    e_b = p1 * err[0] + err[1] + GAMMA_4 * (p1 * amax + bmax)
+    # these bounds' own few roundings (relative): widen them by as much
+    return wp.vec3d(e_g * (F1 + GAMMA_C), e_b * (F1 + GAMMA_C), err[2])
+
+
+@wp.func
 def _prepare(
     st_ctrl: wp.array3d(dtype=wp.mat44d),
     lane: wp.int32,
@@ -83,7 +150,7 @@ def _prepare(
     slot0: wp.int32,
     exact_box: wp.int32,
 ) -> Prep:
-    """Precompute ``M = A R / w``, ``c = (A p + b) / w`` of st_ctrl[lane, sp, i0:i1] into
+    """Precompute ``M = G / w``, ``c = g / w`` of the images st_ctrl[lane, sp, i0:i1] into
     pre[lane, slot0:], with the node's margin and box (see module doc).
 
     The box is exact (the closed forms of each control position's box: six support
@@ -106,7 +173,8 @@ def _prepare(
             m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2]
         )
         b = wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
-        # norms bound the blocks' largest entries (the magnitudes of error propagation)
+        # (a, b: the image's blocks G, g) norms bound the blocks' largest entries (the
+        # magnitudes of error propagation)
         amag = wp.sqrt(wp.ddot(a, a))
         bmag = wp.length(b)
         ma = wp.max(ma, amag)
@@ -117,13 +185,13 @@ def _prepare(
             out.ok = 0
         else:
             inv = F1 / w
-            nm = part.rho * amag + bmag
-            delta = (part.rho * wp.float64(3.0) * err[0] + SQRT3 * err[1] + nm * err[2] * inv) / el
+            nm = part.rloc * amag + bmag
+            delta = (part.rloc * wp.float64(3.0) * err[0] + SQRT3 * err[1] + nm * err[2] * inv) / el
             delta = delta + GAMMA_C * nm * inv
             out.margin = wp.max(out.margin, delta)
             out.scale = wp.max(out.scale, nm * inv)
-            mm = (a * part.rot) * inv
-            cc = (a * part.pos + b) * inv
+            mm = a * inv
+            cc = b * inv
             pre_m[lane, slot0 + i - i0] = mm
             pre_c[lane, slot0 + i - i0] = cc
             if exact_box == 1:
@@ -300,6 +368,7 @@ def _refine(
     """
     lane = first + wp.tid()
     pose_slot = st_ctrl.shape[2]
+    img_slot = st_ctrl.shape[1] - 1
     m = lane
     while m < n_motions:
         nodes = m_nodes0[m]
@@ -328,11 +397,17 @@ def _refine(
                 if stopped == 1:
                     break
                 part = shapes[b]
-                # the piece's box against each obstacle's: pairs that miss never refine
+                # the piece's images, kept in the last slot for every obstacle
                 for i in range(k):
-                    st_ctrl[lane, 0, i] = ctrl[start + i]
-                # the exact box here: once per piece, against every obstacle (broad phase)
-                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 1)
+                    st_ctrl[lane, img_slot, i] = ctrl[start + i]
+                img_err = _images(st_ctrl, lane, img_slot, k, part, p_err[pi])
+                # the piece's box against each obstacle's: pairs that miss never refine
+                # (the exact box here: once per piece, against every obstacle)
+                root = _prepare(
+                    st_ctrl, lane, img_slot, 0, k, part, verts, img_err, pre_m, pre_c, 0, 1
+                )
+                # pre[lane, :k] holds the root's preparation until a node prepares another
+                fresh = wp.int32(1)
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break
@@ -342,9 +417,9 @@ def _refine(
                         if _boxes_apart(root.lo, root.hi, obst.lo, obst.hi, rm) == 1:
                             continue
                     for i in range(k):
-                        st_ctrl[lane, 0, i] = ctrl[start + i]
+                        st_ctrl[lane, 0, i] = st_ctrl[lane, img_slot, i]
                     st_t[lane, 0] = p_t[pi]
-                    st_err[lane, 0] = p_err[pi]
+                    st_err[lane, 0] = img_err
                     st_warm[lane, 0] = wp.vec3d(F0, F0, F0)
                     st_ub[lane, 0] = wp.vec2d(F0, F0)
                     st_flags[lane, 0] = 0
@@ -380,9 +455,17 @@ def _refine(
                         deepest = wp.max(deepest, depth)
                         err = st_err[lane, sp]
                         warm = st_warm[lane, sp]
-                        prep = _prepare(
-                            st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0, use_aabb
-                        )
+                        # the piece itself (depth 0) was prepared for the broad phase: the
+                        # same images, margin and magnitudes; its box is the exact one, which
+                        # the broad phase found to meet the obstacle's (so does any box
+                        # around it: the pre-test below fails either way)
+                        prep = root
+                        if fresh == 0 or depth > 0:
+                            prep = _prepare(
+                                st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0,
+                                use_aabb,
+                            )  # fmt: skip
+                        fresh = 0
                         clear = wp.int32(0)
                         flags = st_flags[lane, sp]
                         # an end pose already proven to intersect lies in the node's exact
@@ -612,6 +695,7 @@ def _clearance(
     """
     lane = first + wp.tid()
     pose_slot = st_ctrl.shape[2]
+    img_slot = st_ctrl.shape[1] - 1
     m = lane
     while m < n_motions:
         nodes = m_nodes0[m]
@@ -636,8 +720,13 @@ def _clearance(
                     break
                 part = shapes[b]
                 for i in range(k):
-                    st_ctrl[lane, 0, i] = ctrl[start + i]
-                root = _prepare(st_ctrl, lane, 0, 0, k, part, verts, p_err[pi], pre_m, pre_c, 0, 1)
+                    st_ctrl[lane, img_slot, i] = ctrl[start + i]
+                img_err = _images(st_ctrl, lane, img_slot, k, part, p_err[pi])
+                root = _prepare(
+                    st_ctrl, lane, img_slot, 0, k, part, verts, img_err, pre_m, pre_c, 0, 1
+                )
+                # pre[lane, :k] holds the root's preparation until a node prepares another
+                fresh = wp.int32(1)
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break
@@ -650,9 +739,9 @@ def _clearance(
                             low = wp.min(low, box_lb)
                             continue
                     for i in range(k):
-                        st_ctrl[lane, 0, i] = ctrl[start + i]
+                        st_ctrl[lane, 0, i] = st_ctrl[lane, img_slot, i]
                     st_t[lane, 0] = p_t[pi]
-                    st_err[lane, 0] = p_err[pi]
+                    st_err[lane, 0] = img_err
                     st_warm[lane, 0] = wp.vec3d(F0, F0, F0)
                     st_ends[lane, 0] = wp.vec4d(F0, F0, F0, F0)
                     st_flags[lane, 0] = 0
@@ -680,9 +769,14 @@ def _clearance(
                         deepest = wp.max(deepest, depth)
                         err = st_err[lane, sp]
                         warm = st_warm[lane, sp]
-                        prep = _prepare(
-                            st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0, 0
-                        )
+                        # the piece itself was prepared for the broad phase (the same images,
+                        # margin and magnitudes; the box is not used here)
+                        prep = root
+                        if fresh == 0 or depth > 0:
+                            prep = _prepare(
+                                st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0, 0
+                            )
+                        fresh = 0
                         lbn = st_lb[lane, sp]
                         if prep.ok == 1:
                             margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)

@@ -38,7 +38,9 @@ def _ws(device: str):
 
 
 def prepare_rows(ctrl: np.ndarray, err: np.ndarray, part: Shape, device: str = "cpu") -> dict:
-    """Kernel `_prepare` of rows ctrl (R, K, 4, 4) with error bounds err (R, 3)."""
+    """Kernel `_prepare` of rows ctrl (R, K, 4, 4) with error bounds err (R, 3); also the
+    part's images of the rows ("images" (R, K, 4, 4)) and their error bounds
+    ("image_error" (R, 3)) as `_images` computes them."""
     from ._probe_kernels import _prepare_rows
 
     wp, WpShape = _ws(device)
@@ -50,12 +52,14 @@ def prepare_rows(ctrl: np.ndarray, err: np.ndarray, part: Shape, device: str = "
         "lo": wp.zeros(r, dtype=wp.vec3d, device=device),
         "hi": wp.zeros(r, dtype=wp.vec3d, device=device),
         "extent": wp.zeros(r, dtype=wp.float64, device=device),
+        "image_error": wp.zeros(r, dtype=wp.vec3d, device=device),
     }
+    rows = wp.array(ctrl.reshape(r, 1, k, 4, 4), dtype=wp.mat44d, device=device)
     wp.launch(
         _prepare_rows,
         dim=r,
         inputs=[
-            wp.array(ctrl.reshape(r, 1, k, 4, 4), dtype=wp.mat44d, device=device),
+            rows,
             k,
             wp.zeros(r, dtype=wp.int32, device=device),
             wp.array(err, dtype=wp.vec3d, device=device),
@@ -67,25 +71,40 @@ def prepare_rows(ctrl: np.ndarray, err: np.ndarray, part: Shape, device: str = "
         outputs=list(out.values()),
         device=device,
     )
-    return {key: v.numpy() for key, v in out.items()}
+    return {key: v.numpy() for key, v in out.items()} | {"images": rows.numpy()[:, 0]}
 
 
 def prepare_numpy(ctrl: np.ndarray, err: np.ndarray, part: Shape) -> dict:
-    """Oracle of `_prepare` for one convex part (see _refine_kernels' module doc)."""
+    """Oracle of `_prepare` for one convex part (see _refine_kernels' module doc): the
+    part's images ``G = A R``, ``g = A p + b`` of the control matrices, their error
+    bounds, the margin and the box."""
     w = ctrl[..., 3, 3]
     a = ctrl[..., :3, :3]
     b = ctrl[..., :3, 3]
     ok = np.all(w - err[:, 2:3] > 0, axis=1)
-    rho = part.bounding_radius
-    nm = rho * np.linalg.norm(a, axis=(-2, -1)) + np.linalg.norm(b, axis=-1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        delta = (rho * 3 * err[:, :1] + np.sqrt(3) * err[:, 1:2] + nm * err[:, 2:3] / w) / (
-            w - err[:, 2:3]
-        ) + GAMMA_C * nm / w
     rec_rot = part.rotation if part.kind in ("box", "capsule") else np.eye(3)
     pos = part.center if part.kind != "mesh" else np.zeros(3)
-    m = a @ rec_rot / w[..., None, None]
-    c = (np.einsum("rkij,j->rki", a, pos) + b) / w[..., None]
+    rloc = {
+        "box": lambda: np.linalg.norm(part.half_extents),
+        "sphere": lambda: part.radius,
+        "capsule": lambda: part.radius + part.half_length,
+        "mesh": lambda: part.bounding_radius,
+    }[part.kind]()
+    g_blk = a @ rec_rot
+    g_col = np.einsum("rkij,j->rki", a, pos) + b
+    amax = np.abs(a).max(axis=(1, 2, 3))[:, None]
+    bmax = np.abs(b).max(axis=(1, 2))[:, None]
+    c_r = np.abs(rec_rot).sum(axis=0).max()
+    p1 = np.abs(pos).sum()
+    e_g = c_r * (err[:, :1] + gamma(3) * amax) * (1 + GAMMA_C)
+    e_b = (p1 * err[:, :1] + err[:, 1:2] + gamma(4) * (p1 * amax + bmax)) * (1 + GAMMA_C)
+    nm = rloc * np.linalg.norm(g_blk, axis=(-2, -1)) + np.linalg.norm(g_col, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        delta = (rloc * 3 * e_g + np.sqrt(3) * e_b + nm * err[:, 2:3] / w) / (
+            w - err[:, 2:3]
+        ) + GAMMA_C * nm / w
+    m = g_blk / w[..., None, None]
+    c = g_col / w[..., None]
     rows = m  # (R, K, 3, 3): rows of M
     if part.kind == "box":
         ext_up = np.abs(rows) @ part.half_extents
@@ -105,12 +124,6 @@ def prepare_numpy(ctrl: np.ndarray, err: np.ndarray, part: Shape) -> dict:
         ext_dn = -proj.min(axis=-1)
     lo = (c - ext_dn).min(axis=1)
     hi = (c + ext_up).max(axis=1)
-    rloc = {
-        "box": lambda: np.linalg.norm(part.half_extents),
-        "sphere": lambda: part.radius,
-        "capsule": lambda: part.radius + part.half_length,
-        "mesh": lambda: part.bounding_radius,
-    }[part.kind]()
     dm = np.linalg.norm(m - m[:, :1], axis=(-2, -1))
     extent = (np.linalg.norm(c - c[:, :1], axis=-1) + rloc * dm).max(axis=1)
     return {

@@ -25,9 +25,11 @@ def control_aabbs(table: BezierPieces, body: Shape) -> tuple[np.ndarray, np.ndar
     Closed forms per control matrix ``[[A, b], [0, 0, 0, w]]`` and part (centre c,
     rotation R): centre ``(A c + b)/w``; half-extent ``|A R| h / w`` (box),
     ``r |row_j(A)| / w`` (sphere), ``(L |(A R e_z)_j| + r |row_j(A)|) / w`` (capsule);
-    meshes enumerate their vertices. The margin is the one the kernels use (see
-    :mod:`._refine_kernels`): ``(rho 3 E_A + sqrt(3) E_b + N E_w / w) / (w - E_w)`` plus the
-    rounding of the box itself, with ``N = rho |A|_F + |b|``. Pieces must be positive.
+    meshes enumerate their vertices. The margin follows the kernels' derivation (see
+    :mod:`._refine_kernels`, which applies it to the part's images ``A R``, ``A c + b``),
+    here on the control matrices themselves and the part about the body origin:
+    ``(rho 3 E_A + sqrt(3) E_b + N E_w / w) / (w - E_w)`` plus the rounding of the box
+    itself, with ``N = rho |A|_F + |b|``. Pieces must be positive.
     """
     c = table.ctrl
     w = c[..., 3, 3]

@@ -290,7 +290,7 @@ def test_two_threads(benchmark, workload):
     benchmark.pedantic(lambda: None, rounds=1, iterations=1)
 
 
-FLOPS_PREPARE = 156  # per control matrix: max-abs, norms, margin, A R / w, (A p + b) / w, box
+FLOPS_PREPARE = 93  # per control matrix: norms, margin, G / w, g / w, box (images G, g: per piece)
 FLOPS_SUPPORT = (29, 180)  # per GJK support: 29 per control matrix + obstacle, simplex, dots
 FLOPS_SPLIT_PER_PAIR = 32  # one mat44 average (16 adds, 16 multiplies)
 FLOPS_POSE_TEST = 1000  # prepare one matrix + about four single-pose GJK iterations
