@@ -86,7 +86,7 @@ def _pose_bracket(
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
     ub, gap, d, overlap, depth, _c = _gjk(
-        0, pre_m, pre_c, lane, 0, 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE, F0
+        0, pre_m, pre_c, lane, 0, 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE, F0, 0, z
     )
     radii = _core_radius(part) + _core_radius(obst)
     hi = ub - radii + margin

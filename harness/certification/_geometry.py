@@ -123,27 +123,6 @@ def _core_radius(sh: Shape) -> wp.float64:
 
 
 @wp.func
-def _affine_h(
-    pre_m: wp.array2d(dtype=wp.mat33d),
-    pre_c: wp.array2d(dtype=wp.vec3d),
-    lane: wp.int32,
-    i0: wp.int32,
-    i1: wp.int32,
-    part: Shape,
-    verts: wp.array(dtype=wp.vec3d),
-    d: wp.vec3d,
-) -> wp.float64:
-    """Support function of the hull of the affine images i0 <= i < i1 of a body part."""
-    best = -HUGE
-    i = i0
-    while i < i1:
-        val = wp.dot(d, pre_c[lane, i]) + _local_h(part, verts, wp.transpose(pre_m[lane, i]) * d, 0)
-        best = wp.max(best, val)
-        i += 1
-    return best
-
-
-@wp.func
 def _affine_support(
     pre_m: wp.array2d(dtype=wp.mat33d),
     pre_c: wp.array2d(dtype=wp.vec3d),
@@ -154,8 +133,9 @@ def _affine_support(
     verts: wp.array(dtype=wp.vec3d),
     d: wp.vec3d,
     core: wp.int32,
-) -> wp.vec3d:
-    """Support point of the hull of the affine images i0 <= i < i1 (see module doc)."""
+) -> tuple[wp.vec3d, wp.float64]:
+    """Support point of the hull of the affine images i0 <= i < i1 (see module doc), and
+    the hull's support function at d (the largest ``d.c_i + h_local(M_i^T d)``)."""
     best = -HUGE
     bi = i0
     i = i0
@@ -168,7 +148,7 @@ def _affine_support(
             bi = i
         i += 1
     m = pre_m[lane, bi]
-    return pre_c[lane, bi] + m * _local_support(part, verts, wp.transpose(m) * d, core)
+    return pre_c[lane, bi] + m * _local_support(part, verts, wp.transpose(m) * d, core), best
 
 
 @wp.func
@@ -354,7 +334,7 @@ def _support_diff(
     """
     sa = wp.vec3d(F0, F0, F0)
     if mode == 0:
-        sa = _affine_support(pre_m, pre_c, lane, i0, i1, part, verts, d, core)
+        sa, _h = _affine_support(pre_m, pre_c, lane, i0, i1, part, verts, d, core)
     else:
         sa = _box_support(lo, hi, d)
     return sa - _placed_support(obst, verts, -d, core)
@@ -378,6 +358,8 @@ def _gjk(
     max_iter: wp.int32,
     stop_gap: wp.float64,
     floor: wp.float64,
+    s0_known: wp.int32,
+    s0_given: wp.vec3d,
 ) -> tuple[wp.float64, wp.float64, wp.vec3d, wp.int32, wp.float64, wp.int32]:
     """GJK distance between A and B (see `_support_diff`).
 
@@ -390,11 +372,17 @@ def _gjk(
     `d0` (zero: none) is a direction from A to B, such as the direction a previous call
     returned: the first support is taken along it, on the sides of A and B that face
     each other, where the closest points are when the shapes have moved little.
+    When `s0_known`, `s0_given` is that first support (the caller evaluated it: not
+    counted again).
     """
     dir0 = d0
     if wp.dot(dir0, dir0) <= F0:
         dir0 = wp.vec3d(F1, F0, F0)
-    s0 = _support_diff(mode, pre_m, pre_c, lane, i0, i1, part, obst, verts, lo, hi, core, dir0)
+    s0 = s0_given
+    calls = wp.int32(0)
+    if s0_known == 0:
+        s0 = _support_diff(mode, pre_m, pre_c, lane, i0, i1, part, obst, verts, lo, hi, core, dir0)
+        calls = 1
     s1 = s0
     s2 = s0
     ns = wp.int32(1)
@@ -403,7 +391,6 @@ def _gjk(
     best_dir = dir0 / wp.length(dir0)
     overlap = wp.int32(0)
     depth = F0
-    calls = wp.int32(1)
     for _it in range(max_iter):
         vv = wp.dot(v, v)
         if vv <= F0:

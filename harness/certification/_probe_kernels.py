@@ -78,7 +78,7 @@ def _hull_gap_rows(
     margin = p.margin + GAMMA_C * (p.scale + obst.rho)
     _u, gap, d, ov, _dp, _c = _gjk(
         use_aabb, pre_m, pre_c, tid, 0, k, part, obst, verts, p.lo, p.hi, 0, z, max_iter,
-        HUGE, F0,
+        HUGE, F0, 0, z,
     )  # fmt: skip
     gap_out[tid] = gap
     dir_out[tid] = d

@@ -48,7 +48,7 @@ from ._geometry import (
     F1,
     HUGE,
     Shape,
-    _affine_h,
+    _affine_support,
     _boxes_apart,
     _core_radius,
     _gjk,
@@ -297,8 +297,9 @@ def _pose_test(
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
     ub, gap, _d, overlap, depth, _c = _gjk(
-        0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE, F0
-    )
+        0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter,
+        HUGE, F0, 0, z,
+    )  # fmt: skip
     radii = _core_radius(part) + _core_radius(obst)
     hi = ub - radii + margin
     lb = gap - radii - margin
@@ -314,7 +315,7 @@ def _pose_test(
     elif use_aabb == 1:
         _u, bgap, _bd, bov, _bp, _bc = _gjk(
             1, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, prep.lo, prep.hi, 0,
-            warm, max_iter, wp.float64(2.0) * margin, margin,
+            warm, max_iter, wp.float64(2.0) * margin, margin, 0, z,
         )  # fmt: skip
         if bov == 1 or bgap <= margin:
             hopeless = 1
@@ -480,27 +481,33 @@ def _refine(
                                 _u, gap, dirn, ov, _dp, calls = _gjk(
                                     1, pre_m, pre_c, lane, 0, k, part, obst, verts,
                                     prep.lo, prep.hi, 0, warm, max_iter, wp.float64(2.0) * margin,
-                                    margin,
+                                    margin, 0, warm,
                                 )  # fmt: skip
                                 warm = dirn
                                 supports += calls
                                 if ov == 0 and gap > margin:
                                     clear = 1
                             else:
+                                known = wp.int32(0)
+                                s0 = warm
                                 if wp.dot(warm, warm) > F0:
-                                    # the inherited direction as a separating axis first
+                                    # the inherited direction as a separating axis first; its
+                                    # support is GJK's first (GJK starts along the same d0)
                                     sb = _placed_support(obst, verts, -warm, 0)
-                                    gap = wp.dot(warm, sb) - _affine_h(
-                                        pre_m, pre_c, lane, 0, k, part, verts, warm
+                                    sa, ha = _affine_support(
+                                        pre_m, pre_c, lane, 0, k, part, verts, warm, 0
                                     )
+                                    gap = wp.dot(warm, sb) - ha
                                     supports += 1
                                     if gap > margin:
                                         clear = 1
+                                    known = 1
+                                    s0 = sa - sb
                                 if clear == 0:
                                     _u, gap, dirn, ov, _dp, calls = _gjk(
                                         0, pre_m, pre_c, lane, 0, k, part, obst, verts,
                                         prep.lo, prep.hi, 0, warm, max_iter,
-                                        wp.float64(2.0) * margin, margin,
+                                        wp.float64(2.0) * margin, margin, known, s0,
                                     )  # fmt: skip
                                     warm = dirn
                                     supports += calls
@@ -782,7 +789,7 @@ def _clearance(
                             margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
                             _u, gap, dirn, ov, _dp, _calls = _gjk(
                                 0, pre_m, pre_c, lane, 0, k, part, obst, verts, prep.lo,
-                                prep.hi, 0, warm, max_iter, HUGE, F0,
+                                prep.hi, 0, warm, max_iter, HUGE, F0, 0, warm,
                             )  # fmt: skip
                             warm = dirn
                             if ov == 0:
