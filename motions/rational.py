@@ -19,6 +19,7 @@ translation: seed ``m_{0,0}`` -> ``M[3, 3]``; ``m_{i,0}`` -> ``M[i-1, 3]``; ``m_
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -897,13 +898,43 @@ def _restrict(c: np.ndarray, u0: np.ndarray, u1: np.ndarray) -> np.ndarray:
     return right
 
 
+@lru_cache(maxsize=64)
+def _control_maps(d: int, k: int, absolute: bool) -> tuple[np.ndarray, ...]:
+    """The constant linear maps of :func:`control_matrices` for preimage degree d and a
+    translation part of degree k (read-only):
+
+    - ``w`` (2d+1, (d+1)^2): Bernstein products, from the products ``q_i[a] q_j[b]``
+      (flattened over (i, j)) to the coefficients of ``Q_a Q_b`` at degree 2d;
+    - ``t`` (16, 10): from those (flattened over (a, b)) to the nine entries of ``U``
+      (``U_TENSOR``, or its absolute values) and ``u0 = sum_a Q_a^2``;
+    - ``e`` (2d+k+1, 2d+1): degree elevation by k;
+    - ``pw`` (2d+k+1, (2d+1)(k+1)): Bernstein products of ``u0`` and a degree-k piece.
+    """
+    w = bezier_product_weights(d, d).reshape((d + 1) ** 2, 2 * d + 1).T
+    tensor = np.abs(U_TENSOR) if absolute else U_TENSOR
+    t = np.concatenate([tensor.reshape(9, 16).T, np.eye(4).reshape(16, 1)], axis=1)
+    e = elevate(np.eye(2 * d + 1), k)
+    pw = bezier_product_weights(2 * d, k).reshape((2 * d + 1) * (k + 1), -1).T
+    out = tuple(np.ascontiguousarray(x) for x in (w, t, e, pw))
+    for x in out:
+        x.setflags(write=False)
+    return out
+
+
 def control_matrices(
     q: np.ndarray, p: np.ndarray | None, v: np.ndarray | None, *, absolute: bool = False
 ) -> np.ndarray:
     """Exact control matrices (S, n+1, 4, 4) from preimage and translation pieces.
 
     ``U`` and ``u0`` are quadratic in Q, so their Bernstein coefficients of degree 2d are
-    ``sum_{i+j=k} C(d,i) C(d,j) / C(2d,k) T(B_i, B_j)`` with T the polarised map.
+    ``sum_{i+j=k} C(d,i) C(d,j) / C(2d,k) T(B_i, B_j)`` with T the polarised map. Computed
+    as a few small matrix products with constant maps (:func:`_control_maps`); every
+    entry is a sum of terms ``c q_ia q_jb`` (times ``p_l`` in the origin column) with
+    non-negative constants c, each through at most ``3d + k + 10`` roundings, the rounded
+    constants included (products 3, constants 3, sums: d in the Bernstein product, 3 in
+    U or u0, k in the elevation, 2d in the product with p); the error bound of
+    :attr:`RationalMotion.ctrl_error` allows ``9d + 3k + 46``. Each motion's matrices are
+    computed alone, so they do not depend on what else is computed.
 
     Args:
         q: (S, d+1, 4) Bézier control quaternions of the preimage per segment.
@@ -913,28 +944,25 @@ def control_matrices(
             non-negative inputs this gives the magnitude polynomial of the round-off
             analysis in :attr:`RationalMotion.ctrl_error`).
     """
-    d = q.shape[1] - 1
-    w = bezier_product_weights(d, d)
-    tensor = np.abs(U_TENSOR) if absolute else U_TENSOR
-    outer = np.einsum("ijk,sia,sjb->skab", w, q, q)  # (S, 2d+1, 4, 4)
-    uc = np.einsum("jkab,snab->snjk", tensor, outer)  # (S, 2d+1, 3, 3)
-    u0c = np.einsum("snaa->sn", outer)  # (S, 2d+1)
+    s, d = q.shape[0], q.shape[1] - 1
     if p is not None:
         k = p.shape[1] - 1
-        vc = bezier_product(u0c[..., None], p, axis=1)
-        uc = elevate(uc, k, axis=1)
-        u0c = elevate(u0c, k, axis=1)
     elif v is not None:
-        n = max(2 * d, v.shape[1] - 1)
-        vc = elevate(v, n - v.shape[1] + 1, axis=1)
-        uc = elevate(uc, n - 2 * d, axis=1)
-        u0c = elevate(u0c, n - 2 * d, axis=1)
+        k = max(0, v.shape[1] - 1 - 2 * d)
     else:
-        vc = np.zeros(uc.shape[:2] + (3,))
-    out = np.zeros(uc.shape[:2] + (4, 4))
-    out[..., :3, :3] = uc
-    out[..., :3, 3] = vc
-    out[..., 3, 3] = u0c
+        k = 0
+    w, t, e, pw = _control_maps(d, k, absolute)
+    qq = (q[:, :, None, :, None] * q[:, None, :, None, :]).reshape(s, (d + 1) ** 2, 16)
+    y = (w @ qq) @ t  # (S, 2d+1, 10): U's nine entries and u0 at degree 2d
+    out = np.zeros((s, 2 * d + k + 1, 4, 4))
+    ye = e @ y if k else y  # elevated to the translation's degree
+    out[..., :3, :3] = ye[..., :9].reshape(s, -1, 3, 3)
+    out[..., 3, 3] = ye[..., 9]
+    if p is not None:
+        up = (y[..., 9, None, None] * p[:, None, :, :]).reshape(s, -1, 3)
+        out[..., :3, 3] = pw @ up
+    elif v is not None:
+        out[..., :3, 3] = elevate(v, 2 * d + k - v.shape[1] + 1, axis=1)
     return out
 
 

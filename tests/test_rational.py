@@ -384,3 +384,117 @@ def test_from_bezier_takes_and_propagates_an_error_bound():
         RationalMotion.from_bezier(breaks, ctrl, ctrl_error=-e)
     with pytest.raises(ValueError, match="ctrl_error"):
         RationalMotion.from_bezier(breaks, ctrl, ctrl_error=e[:, :2])
+
+
+# ----------------------------------------------------------- control matrices, exactly
+def _exact_product(f: list, g: list) -> list:
+    """Bernstein coefficients of f g (lists of Fractions or Fraction vectors as lists)."""
+    from fractions import Fraction
+    from math import comb
+
+    m, n = len(f) - 1, len(g) - 1
+    out = [Fraction(0)] * (m + n + 1)
+    for i, fi in enumerate(f):
+        for j, gj in enumerate(g):
+            out[i + j] += Fraction(comb(m, i) * comb(n, j), comb(m + n, i + j)) * fi * gj
+    return out
+
+
+def _exact_elevate(c: list, r: int) -> list:
+    from fractions import Fraction
+    from math import comb
+
+    n = len(c) - 1
+    return [
+        sum(
+            (Fraction(comb(n, i) * comb(r, k - i), comb(n + r, k)) * c[i]
+             for i in range(max(0, k - r), min(n, k) + 1)),
+            Fraction(0),
+        )
+        for k in range(n + r + 1)
+    ]  # fmt: skip
+
+
+def _exact_control_matrices(q: np.ndarray, p: np.ndarray | None, v: np.ndarray | None):
+    """(S, n+1, 4, 4) Fractions: the control matrices of the pieces, in exact arithmetic."""
+    from fractions import Fraction
+
+    from motions.quaternion import U_TENSOR
+
+    out = []
+    for s in range(q.shape[0]):
+        qs = [[Fraction(x) for x in row] for row in q[s].tolist()]
+        blocks = {}
+        for j in range(3):
+            for k in range(3):
+                terms = [(a, b, int(U_TENSOR[j, k, a, b])) for a in range(4) for b in range(4)]
+                terms = [t for t in terms if t[2]]
+                # U_jk(Q) = sum_ab T[jkab] Q_a Q_b: a sum of products of coordinate polynomials
+                acc = None
+                for a, b, c in terms:
+                    prod = _exact_product([x[a] for x in qs], [x[b] for x in qs])
+                    prod = [c * x for x in prod]
+                    acc = prod if acc is None else [x + y for x, y in zip(acc, prod, strict=True)]
+                blocks[j, k] = acc
+        u0c = None
+        for a in range(4):
+            prod = _exact_product([x[a] for x in qs], [x[a] for x in qs])
+            u0c = prod if u0c is None else [x + y for x, y in zip(u0c, prod, strict=True)]
+        vcol = [[Fraction(0)] * len(u0c) for _ in range(3)]
+        if p is not None:
+            k = p.shape[1] - 1
+            vcol = [_exact_product(u0c, [Fraction(x) for x in p[s, :, c]]) for c in range(3)]
+            blocks = {jk: _exact_elevate(b, k) for jk, b in blocks.items()}
+            u0c = _exact_elevate(u0c, k)
+        elif v is not None:
+            n = max(len(u0c) - 1, v.shape[1] - 1)
+            vcol = [_exact_elevate([Fraction(x) for x in v[s, :, c]], n - v.shape[1] + 1)
+                    for c in range(3)]  # fmt: skip
+            blocks = {jk: _exact_elevate(b, n - len(u0c) + 1) for jk, b in blocks.items()}
+            u0c = _exact_elevate(u0c, n - len(u0c) + 1)
+        seg = []
+        for i in range(len(u0c)):
+            mat = [[Fraction(0)] * 4 for _ in range(4)]
+            for (j, k), b in blocks.items():
+                mat[j][k] = b[i]
+            for c in range(3):
+                mat[c][3] = vcol[c][i]
+            mat[3][3] = u0c[i]
+            seg.append(mat)
+        out.append(seg)
+    return out
+
+
+@pytest.mark.parametrize(
+    "mode, d, k, scale",
+    [("origin", 3, 3, 1.0), ("origin", 2, 5, 1e3), ("numerator", 3, 4, 1.0),
+     ("numerator", 2, 6, 1e3), ("none", 4, 0, 1.0)],
+)  # fmt: skip
+def test_control_matrices_are_within_their_error_bound_of_the_exact_ones(mode, d, k, scale, rng):
+    # Pieces given exactly (no conversion error), so ctrl_error is the computation's own
+    # rounding: every entry of the float control matrices must lie within it of the exact
+    # control matrices of the same pieces (rational arithmetic).
+    from fractions import Fraction
+
+    segs = 3
+    q = rng.normal(size=(segs, d + 1, 4)) * rng.uniform(0.2, 5.0, size=(segs, 1, 1))
+    t = rng.normal(size=(segs, k + 1, 3)) * scale
+    if mode == "numerator":
+        t = t * scale  # a numerator scales like u0 times the origin
+    kw = {"origin": {"origin": t}, "numerator": {"numerator": t}, "none": {}}[mode]
+    m = RationalMotion(np.arange(segs + 1.0), preimage=q, **kw)
+    ctrl, err = m.ctrl, m.ctrl_error
+    exact = _exact_control_matrices(q, kw.get("origin"), kw.get("numerator"))
+    worst = 0.0
+    for s in range(segs):
+        for i in range(ctrl.shape[1]):
+            for r in range(4):
+                for c in range(4):
+                    if r == 3 and c < 3:
+                        continue
+                    blk = 2 if (r, c) == (3, 3) else (1 if c == 3 else 0)
+                    diff = abs(Fraction(ctrl[s, i, r, c]) - exact[s][i][r][c])
+                    assert diff <= Fraction(err[s, blk]), (s, i, r, c)
+                    if err[s, blk] > 0:
+                        worst = max(worst, float(diff) / err[s, blk])
+    print(f"\n{mode} d={d} k={k}: largest |computed - exact| / bound {worst:.2g}")
