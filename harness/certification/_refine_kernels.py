@@ -838,7 +838,15 @@ def _clearance(
                         # bounds, less that, bound the whole node's distance from below
                         leaf = lbn
                         if prep.ok == 1:
-                            ext = _extent(pre_m, pre_c, lane, k, part.rloc)
+                            # `_extent` measures the computed images: every exact control
+                            # position lies within the margin of its computed one, so a
+                            # difference of two grows by at most twice it; its own
+                            # arithmetic rounds terms bounded by the support's size
+                            ext = (
+                                _extent(pre_m, pre_c, lane, k, part.rloc)
+                                + wp.float64(2.0) * prep.margin
+                                + GAMMA_C * prep.scale
+                            )
                             leaf = wp.max(leaf, wp.max(lb0 - ext, lb1 - wp.float64(2.0) * ext))
                         if leaf >= up - tol:
                             low = wp.min(low, leaf)
