@@ -125,8 +125,9 @@ def test_prepare_kernel_equals_numpy(device, body, pieces):
     assert np.all(got["margin"] > 0)
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
-def test_image_error_bounds_cover_the_products_and_the_inherited_error(body, pieces):
+def test_image_error_bounds_cover_the_products_and_the_inherited_error(device, body, pieces):
     # The kernels refine the part's images [[A R, A p + b], [0, 0, 0, w]]: their error
     # bounds must cover the products' rounding and what the control matrices' own error
     # (E_A, E_b) can become through them. Exact rational check, with the worst case of the
@@ -137,7 +138,7 @@ def test_image_error_bounds_cover_the_products_and_the_inherited_error(body, pie
     ctrl, err = ctrl[::3], err[::3]
     rec = ShapeTable.build([body]).records[0]
     rot, pos = rec["rot"], rec["pos"]
-    got = probes.prepare_rows(ctrl, err, body)
+    got = probes.prepare_rows(ctrl, err, body, device)
     img, e_img = got["images"], got["image_error"]
     rq = [[F(x) for x in row] for row in rot.tolist()]
     pq = [F(x) for x in pos.tolist()]
