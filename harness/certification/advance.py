@@ -206,10 +206,10 @@ def advance_many(ms, bodies, obst, o) -> list[Certificate]:
             "advance", [ms[i] for i in rational], [bodies[i] for i in rational],
             [obst[i] for i in rational], o,
         )  # fmt: skip
-        ends = [ms[i].domain for i in rational]
+        mr = [ms[i] for i in rational]
         for i, c in zip(
             rational,
-            assemble(out, elapsed, "lipschitz", o["tol"], certified=True, ends=ends),
+            assemble(out, elapsed, "lipschitz", o["tol"], certified=True, motions=mr),
             strict=True,
         ):
             res[i] = c
@@ -312,7 +312,7 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
     )  # fmt: skip
     return assemble(
         out, time.perf_counter() - start, "lipschitz", tol, certified=True,
-        ends=[m.domain for m in ms],
+        motions=ms,
     )  # fmt: skip
 
 

@@ -12,6 +12,7 @@ import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -196,15 +197,22 @@ def check_motions(motions: Any, bound: str) -> list[Motion]:
 def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
     """One shared obstacle list (the same list object for every motion), or one per motion."""
     if (
-        isinstance(obstacles, list | tuple)
-        and len(obstacles)
-        and all(isinstance(o, list | tuple) for o in obstacles)
+        not isinstance(obstacles, list | tuple)
+        or not obstacles
+        or not isinstance(obstacles[0], list | tuple)
     ):
-        if len(obstacles) != n:
-            raise QueryError(f"Expected one obstacle list per motion ({n}), got {len(obstacles)}.")
-        return [as_obstacles(o, f"obstacles[{i}]") for i, o in enumerate(obstacles)]
-    shared = as_obstacles(obstacles)
-    return [shared] * n
+        return [as_obstacles(obstacles)] * n
+    # the types present, each looked at once (a batch's lists are checked in C loops);
+    # a list mixing shapes and lists is one list, whose bad entry as_obstacles names
+    if not all(issubclass(k, list | tuple) for k in set(map(type, obstacles))):
+        return [as_obstacles(obstacles)] * n
+    if len(obstacles) != n:
+        raise QueryError(f"Expected one obstacle list per motion ({n}), got {len(obstacles)}.")
+    if all(issubclass(k, Shape) for k in set(map(type, chain.from_iterable(obstacles)))):
+        # the lists as given (the kernels' inputs are packed from them before the query
+        # returns)
+        return [o if type(o) is list else list(o) for o in obstacles]
+    return [as_obstacles(o, f"obstacles[{i}]") for i, o in enumerate(obstacles)]
 
 
 def body_list(body: Any, n: int) -> list[Shape]:
@@ -214,6 +222,8 @@ def body_list(body: Any, n: int) -> list[Shape]:
     if isinstance(body, Sequence) and not isinstance(body, str):
         if len(body) != n:
             raise QueryError(f"Expected one body per motion ({n}), got {len(body)}.")
+        if all(issubclass(k, Shape) for k in set(map(type, body))):
+            return list(body)
         return [as_shape(b, f"body[{i}]") for i, b in enumerate(body)]
     return [as_shape(body)]
 
@@ -312,9 +322,7 @@ def _engine(ms, bodies, obst, o: dict) -> list[Certificate]:
             threads=o["threads"],
             device=o["device"],
         )
-        return assemble(
-            out, elapsed, o["bound"], o["tol"], certified=True, ends=[m.domain for m in ms]
-        )
+        return assemble(out, elapsed, o["bound"], o["tol"], certified=True, motions=ms)
     from .advance import advance_many, sample_many
 
     if o["bound"] == "lipschitz":
@@ -341,8 +349,11 @@ def _comparators(bound, ms, bodies, obst, tol, options) -> list:
         raise TypeError(f"Bad `comparator_options` for {short(bound)}: {e}") from None
 
 
-def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) -> list[Certificate]:
-    """Certificates from per-motion outcome arrays (see :class:`.refine.Outcome`).
+def assemble(
+    out, elapsed: float, bound: str, tol: float, *, certified, motions
+) -> list[Certificate]:
+    """Certificates from per-motion outcome arrays (see :class:`.refine.Outcome`) of
+    `motions` (their domains are read where a time needs clamping to one).
 
     `certified` is a bool or a per-motion bool array (sampling proves some and not others).
     """
@@ -377,10 +388,13 @@ def assemble(out, elapsed: float, bound: str, tol: float, *, certified, ends) ->
             d["unresolved"] = {}
         if ti[1] <= BIG or ci[3]:
             lo = ti[0] if ti[0] <= BIG else inf
-            if lo != inf and lo > ends[i][0]:
-                # halved pieces' times are computed by averaging: lower by their round-off
-                scale = max(abs(lo), abs(ends[i][0]), abs(ends[i][1]))
-                lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, ends[i][0])
+            if lo != inf:
+                a, b = motions[i].domain
+                if lo > a:
+                    # halved pieces' times are computed by averaging: lower by their
+                    # round-off
+                    scale = max(abs(lo), abs(a), abs(b))
+                    lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, a)
             d["toi_lo"] = lo
             if ti[1] <= BIG:
                 d["verdict"], d["reason"], d["toi_hi"] = "collision", "contact", ti[1]
