@@ -119,16 +119,22 @@ class ShapeTable:
             got = [_records(s) for s in shapes]
             blob = b"".join(map(_blob, got))
         n = len(got)
-        nparts = np.fromiter(map(_nparts, got), dtype=np.int64, count=n)
-        offsets = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(nparts, out=offsets[1:])
         # a writable array over one copy of the bytes (copying a structured array is slow)
         records = np.frombuffer(bytearray(blob), dtype=record_dtype())
-        nv = np.fromiter(map(len, map(_verts, got)), dtype=np.int64, count=n)
-        if nv.any():
+        # each pass over thousands of shapes costs ~0.1 us a shape (their records lie
+        # scattered in memory): the two below only where some shape needs them
+        if len(records) == n:  # a shape has at least one part: one each
+            nparts = np.ones(n, dtype=np.int64)
+            offsets = np.arange(n + 1, dtype=np.int64)
+        else:
+            nparts = np.fromiter(map(_nparts, got), dtype=np.int64, count=n)
+            offsets = np.zeros(n + 1, dtype=np.int64)
+            np.cumsum(nparts, out=offsets[1:])
+        mesh = records["kind"] == 3
+        if mesh.any():
             # mesh parts index one shared vertex array (row 0 is padding)
+            nv = np.fromiter(map(len, map(_verts, got)), dtype=np.int64, count=n)
             vbase = 1 + np.concatenate([[0], np.cumsum(nv)[:-1]])
-            mesh = records["kind"] == 3
             records["vstart"][mesh] += np.repeat(vbase, nparts)[mesh]
             verts = np.concatenate([np.zeros((1, 3))] + [g[2] for g in got if len(g[2])])
         else:
