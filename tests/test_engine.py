@@ -231,14 +231,19 @@ def test_batch_shape_packing_gives_each_motion_its_shapes_rows():
 
     rng = np.random.default_rng(4)
 
-    for trial in range(25):
+    for trial in range(40):
         pool = [_random_shape(rng, int(k)) for k in rng.integers(0, 5, 8)]
         lists = [
             [pool[int(i)] for i in rng.integers(0, 8, int(rng.integers(0, 7)))] for _ in range(4)
         ]
         n = int(rng.integers(2, 12))
         obst = [lists[int(i)] for i in rng.integers(0, 4, n)]
-        bodies = [pool[int(i)] for i in rng.integers(0, 8, n)]
+        # bodies from the obstacles' shapes, or apart from them (the packing dedupes the
+        # two apart unless a shape is both); every third batch's obstacles all distinct
+        bpool = pool if trial % 2 else [_random_shape(rng, int(k)) for k in rng.integers(0, 5, 3)]
+        if trial % 3 == 0:
+            obst = [[_random_shape(rng, int(k)) for k in rng.integers(0, 5, 3)] for _ in range(n)]
+        bodies = [bpool[int(i)] for i in rng.integers(0, len(bpool), n)]
         table, m_parts, m_obst, o_idx, n_obst = _pack_shapes_many(bodies, obst)
         for j in range(n):
             # the motion's body parts, then its obstacles' parts, against each packed alone
