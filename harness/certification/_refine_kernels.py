@@ -412,11 +412,14 @@ def _refine(
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break
-                    obst = shapes[o_idx[oo]]
+                    oi = o_idx[oo]
                     if root.ok == 1:
-                        rm = root.margin + GAMMA_C * (root.scale + obst.rho)
-                        if _boxes_apart(root.lo, root.hi, obst.lo, obst.hi, rm) == 1:
+                        # the obstacle's box and radius only (not its whole record: with
+                        # thousands of obstacles a motion, most stop here)
+                        rm = root.margin + GAMMA_C * (root.scale + shapes[oi].rho)
+                        if _boxes_apart(root.lo, root.hi, shapes[oi].lo, shapes[oi].hi, rm) == 1:
                             continue
+                    obst = shapes[oi]
                     for i in range(k):
                         st_ctrl[lane, 0, i] = st_ctrl[lane, img_slot, i]
                     st_t[lane, 0] = p_t[pi]
@@ -737,14 +740,15 @@ def _clearance(
                 for oo in range(orng[0], orng[1]):
                     if stopped == 1:
                         break
-                    obst = shapes[o_idx[oo]]
+                    oi = o_idx[oo]
                     box_lb = -HUGE
                     if root.ok == 1:
-                        rm = root.margin + GAMMA_C * (root.scale + obst.rho)
-                        box_lb = _box_gap(root.lo, root.hi, obst.lo, obst.hi) - rm
+                        rm = root.margin + GAMMA_C * (root.scale + shapes[oi].rho)
+                        box_lb = _box_gap(root.lo, root.hi, shapes[oi].lo, shapes[oi].hi) - rm
                         if box_lb >= up - tol:
                             low = wp.min(low, box_lb)
                             continue
+                    obst = shapes[oi]
                     for i in range(k):
                         st_ctrl[lane, 0, i] = st_ctrl[lane, img_slot, i]
                     st_t[lane, 0] = p_t[pi]
