@@ -221,6 +221,28 @@ def test_one_motion_shape_packing_is_the_general_one():
             assert a.dtype == b.dtype and np.array_equal(a, b), (trial, a, b)
 
 
+@pytest.mark.parametrize("n", [3, 12])  # the small-batch packing cache, and the batch path
+def test_batch_after_its_lists_change_in_place_meets_a_planted_contact(scene, n):
+    # the obstacle lists are the caller's own objects: changed in place between two calls,
+    # the second must see the change (a cache keyed on a list, not on its shapes, would
+    # reuse the first call's inputs and certify free through the contact planted here)
+    ms, bodies, _ = scene
+    ms, bodies = list(ms[:n]) + [ms[0]], list(bodies[:n]) + [bodies[0]]
+    far = Sphere(0.1, center=(50.0, 0.0, 0.0))
+    obst = [[far] for _ in range(n)] + [[]]  # and an empty list among them
+    obst[1] = obst[0]  # one list object for two motions
+    first = certify_many(ms, bodies, obst)
+    assert first[0].verdict == "free" and first[0].certified
+    t = float(np.mean(ms[0].domain))
+    r, p = ms[0].pose(t)
+    point = r @ bodies[0].center + p  # a point of the body at t
+    obst[0].append(Box([0.01, 0.01, 0.01], center=point))
+    again = certify_many(ms, bodies, obst)  # motion 1 meets the box too, if it passes
+    assert again[0].verdict == "collision" and again[0].toi_lo <= t <= ms[0].domain[1]
+    for i in range(n + 1):
+        assert _same(again[i], certify(ms[i], bodies[i], list(obst[i]))), i
+
+
 def test_batch_shape_packing_gives_each_motion_its_shapes_rows():
     # the batch packing dedupes shapes by identity with numpy; for every motion of a
     # batch (shared and repeated lists, shapes repeated within and across lists, empty

@@ -123,7 +123,7 @@ class ShapeTable:
         records = np.frombuffer(bytearray(blob), dtype=record_dtype())
         # each pass over thousands of shapes costs ~0.1 us a shape (their records lie
         # scattered in memory): the two below only where some shape needs them
-        if len(records) == n:  # a shape has at least one part: one each
+        if len(records) == n:  # every shape has a part (Compound refuses none): one each
             nparts = np.ones(n, dtype=np.int64)
             offsets = np.arange(n + 1, dtype=np.int64)
         else:
