@@ -535,3 +535,17 @@ def test_collector_is_restored_after_a_batch(scene):
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+def test_kernel_modules_raise_inlining_only_over_warps_default_flags(monkeypatch):
+    import warp as wp
+
+    from harness.certification import device
+
+    # Warp's default flags as this code knows them (a Warp that changes them turns the
+    # engine's own off: look at it then)
+    assert wp.config.cpu_compiler_flags == device.WARP_CPU_FLAGS
+    assert device.kernel_module_options()["cpu_compiler_flags"] == device.CPU_FLAGS
+    for own in ("", "-march=native", None):  # the user's choice is kept
+        monkeypatch.setattr(wp.config, "cpu_compiler_flags", own)
+        assert device.kernel_module_options() == {"enable_backward": False}

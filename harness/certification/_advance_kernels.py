@@ -14,24 +14,13 @@ from __future__ import annotations
 import warp as wp
 
 from ._geometry import F0, F1, HUGE, Shape, _core_radius, _gjk
-from ._refine_kernels import (
-    CPU_FLAGS,
-    GAMMA_C,
-    R_BUDGET,
-    R_TOL,
-    UNIT,
-    WARP_CPU_FLAGS,
-    _images,
-    _prepare,
-)
+from ._refine_kernels import GAMMA_C, R_BUDGET, R_TOL, UNIT, _images, _prepare
+from .device import kernel_module_options
 
-# the refinement's compiler flags (see there), so that the competitors compare at one
-# implementation level: in-kernel lipschitz on the 1,000-pair workload 24.0-24.6 ->
+# the refinement's compiler flags (device.CPU_FLAGS), so that the competitors compare at
+# one implementation level: in-kernel lipschitz on the 1,000-pair workload 24.0-24.6 ->
 # 21.8-22.4 ms with them, certificates the same
-wp.set_module_options(
-    {"enable_backward": False}
-    | ({"cpu_compiler_flags": CPU_FLAGS} if wp.config.cpu_compiler_flags == WARP_CPU_FLAGS else {})
-)
+wp.set_module_options(kernel_module_options())
 
 
 @wp.func

@@ -55,27 +55,9 @@ from ._geometry import (
     _local_h,
     _placed_support,
 )
+from .device import kernel_module_options
 
-WARP_CPU_FLAGS = (
-    "-march=native -mllvm=-inline-threshold=9000 -mllvm=-inline-cold-callsite-threshold=3000"
-    " -mllvm=-slp-recursion-max-depth=4"
-)
-"""Warp 1.19's default ``wp.config.cpu_compiler_flags``."""
-CPU_FLAGS = (
-    "-march=native -mllvm=-inline-threshold=50000 -mllvm=-inline-cold-callsite-threshold=20000"
-    " -mllvm=-slp-recursion-max-depth=4"
-)
-"""This module's CPU flags: Warp's, with LLVM inlining more of the helpers below (they
-take ``Shape`` records and arrays by value). The refinement kernel is ~12 % faster with
-them (fastest of 21 replays of the 1,000-pair workload: 10.3-10.5 -> 9.1 ms in three
-interleaved runs), its outputs bitwise the same; the module's first compile takes ~20 s
-instead of ~8. Set only where the user kept Warp's default flags: LLVM options are
-process-wide (Warp's documentation), and those defaults name both thresholds."""
-
-wp.set_module_options(
-    {"enable_backward": False}
-    | ({"cpu_compiler_flags": CPU_FLAGS} if wp.config.cpu_compiler_flags == WARP_CPU_FLAGS else {})
-)
+wp.set_module_options(kernel_module_options())
 
 UNIT = wp.constant(wp.float64(2.0**-53))
 GAMMA_C = wp.constant(wp.float64(64.0 * 2.0**-53 / (1.0 - 64.0 * 2.0**-53)))
