@@ -19,7 +19,8 @@ from .device import kernel_module_options
 
 # the refinement's compiler flags (device.CPU_FLAGS), so that the competitors compare at
 # one implementation level: in-kernel lipschitz on the 1,000-pair workload 24.0-24.6 ->
-# 21.8-22.4 ms with them, certificates the same
+# 21.8-22.4 ms with the raised inlining thresholds, 20.0-20.1 -> 19.2-19.6 with the SLP
+# depth besides (interleaved runs), certificates the same
 wp.set_module_options(kernel_module_options())
 
 

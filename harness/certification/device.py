@@ -94,19 +94,22 @@ WARP_CPU_FLAGS = (
 """Warp 1.19's default ``wp.config.cpu_compiler_flags``."""
 CPU_FLAGS = (
     "-march=native -mllvm=-inline-threshold=50000 -mllvm=-inline-cold-callsite-threshold=20000"
-    " -mllvm=-slp-recursion-max-depth=4"
+    " -mllvm=-slp-recursion-max-depth=12"
 )
 """The engine's kernel modules' CPU flags: Warp's, with LLVM inlining more of their
-helpers (which take ``Shape`` records and arrays by value). The refinement kernel is ~12 %
-faster with them (fastest of 21 replays of the 1,000-pair workload: 10.3-10.5 -> 9.1 ms
-in three interleaved runs), its outputs bitwise the same; its module's first compile takes
-~20 s instead of ~8."""
+helpers (which take ``Shape`` records and arrays by value) and its SLP vectoriser's
+recursion depth back at LLVM's default (Warp lowers it to 4 to compile faster; with the
+inlining raised, 12 compiled faster here). On the 1,000-pair workload, fastest of 15-21
+replays of the refinement kernel, interleaved: Warp's flags 10.3-10.5 ms, the raised
+thresholds alone 8.3-9.3, these 8.2-8.9; outputs bitwise the same each time. The
+refinement module's first compile: 5.3, 11.4-11.7 and 9.9-10.0 s (fresh cache, quiet
+machine)."""
 
 
 def kernel_module_options() -> dict:
     """Warp module options of the engine's kernel modules: no adjoints, and
     :data:`CPU_FLAGS` where the user kept Warp's default flags (LLVM options are
-    process-wide, per Warp's documentation, and those defaults name both thresholds)."""
+    process-wide, per Warp's documentation, and those defaults name all three options)."""
     import warp as wp  # its configuration only: no initialisation
 
     opts: dict = {"enable_backward": False}
