@@ -233,8 +233,13 @@ def rotation_motions(
                 def g(t):
                     return _half_angle(m, k, t, guess + 0.5 * (phi - phi0) * t / duration) - target
 
-                if abs(g(0.0)) == 0.0:
+                # the spline meets its keyframes exactly: an end keyframe's angle is
+                # reached at that end (g rounds to +-1e-17 there, which brentq cannot
+                # bracket)
+                if phi == phi0 or abs(g(0.0)) == 0.0:
                     return 0.0
+                if phi == phi1:
+                    return duration
                 return float(brentq(g, 0.0, duration, xtol=ROOT_XTOL))
 
             out.append(Realisation("rational", canonical(m), spline_time))
