@@ -228,6 +228,29 @@ def _prepare(
 
 
 @wp.func
+def _magnitudes(
+    st_ctrl: wp.array3d(dtype=wp.mat44d), lane: wp.int32, sp: wp.int32, k: wp.int32
+) -> wp.vec3d:
+    """``Prep.mag`` of the node st_ctrl[lane, sp, :k] without the rest of `_prepare` (the
+    same arithmetic: the same values)."""
+    ma = F0
+    mb = F0
+    mw = F0
+    i = wp.int32(0)
+    while i < k:
+        m = st_ctrl[lane, sp, i]
+        a = wp.mat33d(
+            m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2]
+        )
+        b = wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
+        ma = wp.max(ma, wp.sqrt(wp.ddot(a, a)))
+        mb = wp.max(mb, wp.length(b))
+        mw = wp.max(mw, wp.abs(m[3, 3]))
+        i += 1
+    return wp.vec3d(ma, mb, mw)
+
+
+@wp.func
 def _extent(
     pre_m: wp.array2d(dtype=wp.mat33d),
     pre_c: wp.array2d(dtype=wp.vec3d),
@@ -281,6 +304,7 @@ def _pose_test(
     warm: wp.vec3d,
     max_iter: wp.int32,
     use_aabb: wp.int32,
+    enough: wp.float64,
 ) -> tuple[wp.float64, wp.float64, wp.int32, wp.int32]:
     """Signed distance of the part at the pose st_ctrl[lane, sp, col] (an end of a Bézier
     piece is its pose there) to the obstacle, widened by the pose's own margin.
@@ -291,17 +315,19 @@ def _pose_test(
     depth of the origin inside GJK's tetrahedron, a lower bound of the penetration);
     hopeless = 1 when the bound of the pose itself (the pose for "hull", its box for
     "aabb") does not clear, so that no piece containing this pose can ever clear.
+    GJK stops once lb exceeds `enough` (HUGE: never): ub and lb are bounds still, not
+    the tightest GJK would reach.
     """
     prep = _prepare(st_ctrl, lane, sp, col, col + 1, part, verts, err, pre_m, pre_c, slot, use_aabb)
     if prep.ok == 0:
         return HUGE, -HUGE, 0, 1
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
+    radii = _core_radius(part) + _core_radius(obst)
     ub, gap, _d, overlap, depth, _c = _gjk(
         0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter,
-        HUGE, F0, 0, z,
+        enough + radii + margin, F0, 0, z,
     )  # fmt: skip
-    radii = _core_radius(part) + _core_radius(obst)
     hi = ub - radii + margin
     lb = gap - radii - margin
     if overlap == 1:
@@ -371,6 +397,9 @@ def _refine(
     lane = first + wp.tid()
     pose_slot = st_ctrl.shape[2]
     img_slot = st_ctrl.shape[1] - 1
+    # a pose test's GJK stops once the pose's lower bound exceeds this: the rules below
+    # only ask whether the pose intersects, is within `tol`, or has a bound that clears
+    enough = wp.float64(2.0) * tol
     m = lane
     while m < n_motions:
         nodes = m_nodes0[m]
@@ -465,18 +494,42 @@ def _refine(
                         # the broad phase found to meet the obstacle's (so does any box
                         # around it: the pre-test below fails either way)
                         prep = root
-                        if fresh == 0 or depth > 0:
-                            prep = _prepare(
-                                st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0,
-                                use_aabb,
-                            )  # fmt: skip
+                        again = fresh == 0 or depth > 0
                         fresh = 0
                         clear = wp.int32(0)
                         flags = st_flags[lane, sp]
+                        if (flags & 64) != 0:
+                            # the left half of a node whose right end intersects: the pose at
+                            # its right end is needed whatever its bound test says (by this
+                            # half when the bound fails, by the right half, which cannot
+                            # clear, when it clears): test it first, so that the bound test
+                            # is skipped when it intersects
+                            ue, _le, xe, he = _pose_test(
+                                st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
+                                pre_c, pose_slot, warm, max_iter, use_aabb, enough,
+                            )  # fmt: skip
+                            tests += 1
+                            carry_t = t1
+                            carry_ub = ue
+                            carry_x = xe
+                            carry_h = he
+                            st_ub[lane, sp] = wp.vec2d(st_ub[lane, sp][0], ue)
+                            flags = (flags & 63) | 4 | (xe << 3) | (he << 5)
                         # an end pose already proven to intersect lies in the node's exact
                         # hull, so no bound of the node can clear (the computed gap is at
                         # most the exact distance plus the margin): skip the bound tests
                         known_x = ((flags & 3) == 3) or ((flags & 12) == 12)
+                        # such a node is decided by rule (b) or split: of its preparation
+                        # only the magnitudes (the split's error growth) are used
+                        mag = prep.mag
+                        if again and known_x:
+                            mag = _magnitudes(st_ctrl, lane, sp, k)
+                        elif again:
+                            prep = _prepare(
+                                st_ctrl, lane, sp, 0, k, part, verts, err, pre_m, pre_c, 0,
+                                use_aabb,
+                            )  # fmt: skip
+                            mag = prep.mag
                         if prep.ok == 1 and not known_x:
                             margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
                             if _boxes_apart(prep.lo, prep.hi, obst.lo, obst.hi, margin) == 1:
@@ -536,13 +589,13 @@ def _refine(
                             else:
                                 ub0, _l0, x0, h0 = _pose_test(
                                     st_ctrl, lane, sp, 0, part, obst, verts, err, pre_m,
-                                    pre_c, pose_slot, warm, max_iter, use_aabb,
+                                    pre_c, pose_slot, warm, max_iter, use_aabb, enough,
                                 )  # fmt: skip
                                 tests += 1
                         if (flags & 4) == 0:
                             ub1, _l1, x1, h1 = _pose_test(
                                 st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
-                                pre_c, pose_slot, warm, max_iter, use_aabb,
+                                pre_c, pose_slot, warm, max_iter, use_aabb, enough,
                             )  # fmt: skip
                             tests += 1
                             carry_t = t1
@@ -609,7 +662,7 @@ def _refine(
                         # split: right half stays in slot sp, left half on top
                         _halve(st_ctrl, lane, sp, k)
                         ek = wp.float64(k) * UNIT / (F1 - wp.float64(k) * UNIT)
-                        e2 = err + ek * (prep.mag + err)
+                        e2 = err + ek * (mag + err)
                         tm = wp.float64(0.5) * (t0 + t1)
                         st_t[lane, sp] = wp.vec2d(tm, t1)
                         st_t[lane, sp + 1] = wp.vec2d(t0, tm)
@@ -620,7 +673,7 @@ def _refine(
                         st_ub[lane, sp] = wp.vec2d(F0, ub1)
                         st_ub[lane, sp + 1] = wp.vec2d(ub0, F0)
                         st_flags[lane, sp] = 4 | (x1 << 3) | (h1 << 5)
-                        st_flags[lane, sp + 1] = 1 | (x0 << 1) | (h0 << 4)
+                        st_flags[lane, sp + 1] = 1 | (x0 << 1) | (h0 << 4) | (x1 << 6)
                         st_depth[lane, sp] = depth + 1
                         st_depth[lane, sp + 1] = depth + 1
                         sp += 1
@@ -816,13 +869,13 @@ def _clearance(
                             else:
                                 ub0, lb0, _x0, _h0 = _pose_test(
                                     st_ctrl, lane, sp, 0, part, obst, verts, err, pre_m,
-                                    pre_c, pose_slot, warm, max_iter, 0,
+                                    pre_c, pose_slot, warm, max_iter, 0, HUGE,
                                 )  # fmt: skip
                                 tests += 1
                         if (fl & 4) == 0:
                             ub1, lb1, _x1, _h1 = _pose_test(
                                 st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
-                                pre_c, pose_slot, warm, max_iter, 0,
+                                pre_c, pose_slot, warm, max_iter, 0, HUGE,
                             )  # fmt: skip
                             tests += 1
                             carry_t = t1
