@@ -90,6 +90,13 @@ def _absmax(v: wp.vec3d) -> wp.float64:
 
 
 @wp.func
+def _blocks(m: wp.mat44d) -> tuple[wp.mat33d, wp.vec3d]:
+    """The blocks A (3 x 3) and b (3) of a control matrix ``[[A, b], [0, 0, 0, w]]``."""
+    a = wp.mat33d(m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2])
+    return a, wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
+
+
+@wp.func
 def _images(
     st_ctrl: wp.array3d(dtype=wp.mat44d),
     lane: wp.int32,
@@ -106,10 +113,7 @@ def _images(
     i = wp.int32(0)
     while i < k:
         m = st_ctrl[lane, sp, i]
-        a = wp.mat33d(
-            m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2]
-        )
-        b = wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
+        a, b = _blocks(m)
         amax = wp.max(amax, wp.max(wp.max(_absmax(a[0]), _absmax(a[1])), _absmax(a[2])))
         bmax = wp.max(bmax, _absmax(b))
         g = a * part.rot
@@ -170,10 +174,7 @@ def _prepare(
     while i < i1:
         m = st_ctrl[lane, sp, i]
         w = m[3, 3]
-        a = wp.mat33d(
-            m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2]
-        )
-        b = wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
+        a, b = _blocks(m)
         # (a, b: the image's blocks G, g) norms bound the blocks' largest entries (the
         # magnitudes of error propagation)
         amag = wp.sqrt(wp.ddot(a, a))
@@ -239,10 +240,7 @@ def _magnitudes(
     i = wp.int32(0)
     while i < k:
         m = st_ctrl[lane, sp, i]
-        a = wp.mat33d(
-            m[0, 0], m[0, 1], m[0, 2], m[1, 0], m[1, 1], m[1, 2], m[2, 0], m[2, 1], m[2, 2]
-        )
-        b = wp.vec3d(m[0, 3], m[1, 3], m[2, 3])
+        a, b = _blocks(m)
         ma = wp.max(ma, wp.sqrt(wp.ddot(a, a)))
         mb = wp.max(mb, wp.length(b))
         mw = wp.max(mw, wp.abs(m[3, 3]))
