@@ -147,6 +147,36 @@ def test_rotation_truth_closed_form():
     assert rotation_truth(terms, 0.1, 2.0, 0.0, 3.0).distance == pytest.approx(0.9, abs=1e-15)
 
 
+def test_rotation_time_of_meets_the_keyframes_angles():
+    # the C² realisation's angle -> time map: an end keyframe's angle at that end exactly
+    # (brentq cannot bracket the root there once g rounds to 1e-17 of the wrong sign: it
+    # raised on generate(seed=5, size=0.5)), an inner angle where the motion has turned by
+    # it (read off the pose's rotation with scipy)
+    from scipy.spatial.transform import Rotation
+
+    from harness.corpus.cases import rotation_motions
+
+    rng = np.random.default_rng(11)
+    checked = 0
+    for _ in range(30):
+        k = rng.normal(size=3)
+        k /= np.linalg.norm(k)
+        phi0 = float(rng.uniform(-1.0, 1.0))
+        phi1 = phi0 + float(rng.uniform(0.5, 2.0)) * (1 if rng.random() < 0.5 else -1)
+        duration = float(rng.uniform(0.5, 2.0))
+        reals = rotation_motions(k, phi0, phi1, np.zeros(3), duration, rng, ("rational",))
+        for r in reals:
+            assert r.time_of(phi0) == 0.0 and r.time_of(phi1) == duration
+            phi = phi0 + 0.37 * (phi1 - phi0)
+            t = r.time_of(phi)
+            assert 0.0 < t < duration
+            rot, _ = r.motion.pose(t)
+            turned = Rotation.from_matrix(rot).as_rotvec() @ k
+            assert turned == pytest.approx(phi, abs=1e-9)
+            checked += 1
+    assert checked >= 10
+
+
 # ----------------------------------------------------------------------------- export
 def test_export_round_trip(tmp_path, corpus):
     cases = corpus[::7]
