@@ -47,6 +47,7 @@ from .exact import (
     exact_shape,
     first_exact_contact,
     fr,
+    frvec,
     guarded_speed_bounds,
     hamilton,
     intersects,
@@ -419,3 +420,86 @@ def test_speed_bound_bounds_exact_difference_quotients(cases):
         f"\nspeed_bound: {len(jobs)} intervals, {refused} refused, worst quotient/bound {worst:.3g}"
     )
     assert not bad, f"{len(bad)} of {len(jobs)} intervals:\n" + "\n".join(bad)
+
+
+def _reach_escapes(ctrl: np.ndarray, err: np.ndarray, reach, rho: float) -> list[str]:
+    """Exact control points ``(A* x + b*) / w*`` of control matrices pushed to a corner of
+    their error box (``|A* - A| <= E_A``, ``|b* - b| <= E_b``, ``|w* - w| <= E_w``, each
+    entry towards the coordinate's outside) for body points x with ``|x| <= rho`` that
+    leave the reach box ``[lo - rho scale - err, hi + rho scale + err]``: the claim of
+    ``refine.piece_reach``. The piece's curve is in the control points' hull (positive
+    weights), so these are the points to check."""
+    from harness.certification._refine_kernels import Reach
+
+    reach = reach.view(np.dtype(Reach.numpy_dtype())).reshape(-1)  # the rows as records
+    out = []
+    rho_f = fr(rho)
+    for p in range(len(ctrl)):
+        r = reach[p]
+        if not r["ok"]:
+            continue
+        pad = rho_f * fr(r["scale"]) + fr(r["err"])
+        ea, eb, ew = (fr(e) for e in err[p])
+        for i in range(ctrl.shape[1]):
+            a, b, w = ctrl[p, i, :3, :3], ctrl[p, i, :3, 3], ctrl[p, i, 3, 3]
+            for j in range(3):
+                for s in (1, -1):
+                    # x along s * row j of A (the largest (A x)_j), shrunk into the ball
+                    row = a[j] * s
+                    n = float(np.linalg.norm(row))
+                    x = frvec(row / n * rho) if n > 0 and rho > 0 else frvec(np.zeros(3))
+                    while sum(v * v for v in x) > rho_f * rho_f:
+                        x = tuple(v * Fraction(999_999, 1_000_000) for v in x)
+                    ax = sum(
+                        (fr(a[j, k]) + s * ea * (1 if x[k] >= 0 else -1)) * x[k] for k in range(3)
+                    )
+                    num = ax + fr(b[j]) + s * eb
+                    den = fr(w) - ew if s * num > 0 else fr(w) + ew
+                    q = num / den
+                    edge = fr(r["hi"][j]) + pad if s > 0 else fr(r["lo"][j]) - pad
+                    if s * q > s * edge:
+                        out.append(f"piece {p} control {i} axis {j}{'+-'[s < 0]}")
+    return out
+
+
+def test_piece_reach_holds_every_control_matrix_within_the_error(cases, rng):
+    # the kernels' cheapest broad-phase test (a piece keeps every point within rho of the
+    # body origin inside a box) on the ill-conditioned cases' pieces, on well-conditioned
+    # motions at large coordinates, and on control matrices with large declared errors;
+    # and the same bound with the errors left out escapes: the error terms are binding
+    from harness.certification.refine import piece_reach
+
+    pieces = [c.motion.positive_pieces() for c in cases if _positive(c.motion)]
+    for coords in (0.0, 1e3, 3e4):
+        m = interpolate(rng.normal(size=(4, 4)), coords + np.cumsum(rng.normal(size=(4, 3)), 0))
+        pieces.append(m.positive_pieces())
+    checked, escaped_without = 0, 0
+    for pc in pieces:
+        for rel in (None, 1e-5):
+            err = pc.error if rel is None else _declared(pc.ctrl, rel)
+            for rho in (0.0, 2.0):
+                bad = _reach_escapes(pc.ctrl, err, piece_reach(pc.ctrl, err), rho)
+                assert not bad, bad[:10]
+                checked += 1
+                if rel is not None:
+                    zero = piece_reach(pc.ctrl, np.zeros_like(err))
+                    escaped_without += bool(_reach_escapes(pc.ctrl, err, zero, rho))
+    print(f"\npiece_reach: {checked} checked, {escaped_without} escape without the error terms")
+    assert checked >= 30 and escaped_without >= checked // 4, (checked, escaped_without)
+
+
+def _positive(m: RationalMotion) -> bool:
+    try:
+        m.positive_pieces()
+    except DegenerateMotionError:
+        return False
+    return True
+
+
+def _declared(ctrl: np.ndarray, rel: float) -> np.ndarray:
+    """Entry error bounds (E_A, E_b, E_w) per piece, `rel` of each block's largest entry."""
+    a, b, w = ctrl[:, :, :3, :3], ctrl[:, :, :3, 3], ctrl[:, :, 3, 3]
+    return rel * np.stack(
+        [np.abs(a).max(axis=(1, 2, 3)), np.abs(b).max(axis=(1, 2)) + 1.0, np.abs(w).max(axis=1)],
+        axis=1,
+    )

@@ -248,6 +248,31 @@ def _magnitudes(
     return wp.vec3d(ma, mb, mw)
 
 
+@wp.struct
+class Reach:
+    """Where a piece can carry a body point (``refine.piece_reach``, which derives it)."""
+
+    ok: wp.int32  # every weight provably positive (else no bound)
+    lo: wp.vec3d  # box of the body origin's control positions c_i = b_i / w_i
+    hi: wp.vec3d
+    scale: wp.float64  # bound on |A*_i|_F / w*_i over the exact control matrices
+    err: wp.float64  # bound on |b*_i / w*_i - c_i| per coordinate
+    size: wp.float64  # largest |coordinate| of the c_i
+
+
+@wp.func
+def _reach_apart(r: Reach, rho: wp.float64, obst: Shape) -> wp.int32:
+    """1 if, on the piece of `r`, no point within `rho` of the body origin enters the
+    obstacle's box: a proof that no body part inside that ball touches the obstacle there
+    (the box of the c_i widened by ``rho scale + err``, see ``refine.piece_reach``; the
+    comparison's own roundings covered as the nodes' are, by GAMMA_C of the sizes)."""
+    if r.ok == 0:
+        return 0
+    rad = rho * r.scale
+    m = rad + r.err + GAMMA_C * (r.size + rad + obst.rho)
+    return _boxes_apart(r.lo, r.hi, obst.lo, obst.hi, m)
+
+
 @wp.func
 def _extent(
     pre_m: wp.array2d(dtype=wp.mat33d),
@@ -355,6 +380,7 @@ def _refine(
     p_k: wp.array(dtype=wp.int32),
     p_t: wp.array(dtype=wp.vec2d),
     p_err: wp.array(dtype=wp.vec3d),
+    p_reach: wp.array(dtype=Reach),
     # In: motions (ranges of pieces, body parts in `shapes`, obstacle parts in `o_idx`)
     m_pieces: wp.array(dtype=wp.vec2i),
     m_parts: wp.array(dtype=wp.vec2i),
@@ -422,10 +448,21 @@ def _refine(
                 break
             k = p_k[pi]
             start = p_start[pi]
+            reach = p_reach[pi]
             for b in range(br[0], br[1]):
                 if stopped == 1:
                     break
                 part = shapes[b]
+                # the cheapest test first: a part that the piece keeps away from the box
+                # of every obstacle needs neither its images nor its exact box
+                near = wp.int32(0)
+                oo = orng[0]
+                while oo < orng[1] and near == 0:
+                    if _reach_apart(reach, part.rho, shapes[o_idx[oo]]) == 0:
+                        near = 1
+                    oo += 1
+                if near == 0:
+                    continue
                 # the piece's images, kept in the last slot for every obstacle
                 for i in range(k):
                     st_ctrl[lane, img_slot, i] = ctrl[start + i]
@@ -712,6 +749,7 @@ def _clearance(
     p_k: wp.array(dtype=wp.int32),
     p_t: wp.array(dtype=wp.vec2d),
     p_err: wp.array(dtype=wp.vec3d),
+    p_reach: wp.array(dtype=Reach),  # (unused: a root's lower bound needs its exact box)
     # In: motions
     m_pieces: wp.array(dtype=wp.vec2i),
     m_parts: wp.array(dtype=wp.vec2i),

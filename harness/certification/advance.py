@@ -102,7 +102,7 @@ def pose_rows(
         buf.out("x", (n,), np.int32, wp.int32)[1],
         buf.out("dir", (n, 3), np.float64, wp.vec3d)[1],
     ]
-    buf.launch(_pose_rows, args, 7, lanes)
+    buf.launch(_pose_rows, args, lanes)
     ub, lb = buf.fetch("ub", n), buf.fetch("lb", n)
     lb = np.where(lb < -1e299, -np.inf, lb)
     return ub, lb, buf.fetch("x", n).astype(bool), buf.fetch("dir", n)
@@ -177,7 +177,6 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
         if kernel_name == "advance":
             head.append(int(min(o["max_nodes"], 2**31 - 1)))
         head.append(int(o["max_iter"]))
-        first_index = len(head)
         args = head + [
             0,
             lanes,
@@ -189,7 +188,7 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
             buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
         ]
         kernel = K._advance if kernel_name == "advance" else K._sample
-        buf.launch(kernel, args, first_index, lanes)
+        buf.launch(kernel, args, lanes)
         outs.append(Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
     return Outcome.concat(outs), time.perf_counter() - start
 

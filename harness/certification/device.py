@@ -188,6 +188,18 @@ class Buffers:
             arr.assign(host)
         return arr
 
+    def put_records(self, name: str, parts: list, wp_struct):
+        """Write the concatenation of `parts`, rows of records of the Warp struct
+        `wp_struct` held as raw float64 rows (the records' bytes), into buffer `name`
+        (numpy concatenates structured arrays some 50x slower than plain ones)."""
+        n = sum(len(p) for p in parts)
+        rec = np.dtype(wp_struct.numpy_dtype())
+        host, arr = self._get(name, (n,), rec, wp_struct)
+        np.concatenate(parts, out=host.view(np.float64).reshape(len(host), -1)[:n])
+        if not is_cpu(self.device):
+            arr.assign(host)
+        return arr
+
     def scratch(self, name: str, shape: tuple, np_dtype, wp_dtype):
         """A scratch array of exactly `shape` (kept between calls; one per lane count, so
         a caller alternating `threads` neither reallocates it nor re-records launches)."""
@@ -218,9 +230,10 @@ class Buffers:
             return arr.numpy()[:n].copy()
         return host[:n].copy()
 
-    def launch(self, kernel, args: list, first_index: int, lanes: int) -> None:
+    def launch(self, kernel, args: list, lanes: int) -> None:
         """Launch `kernel` over `lanes` lanes: on the CPU one host thread per lane (with
-        ``args[first_index]`` set to the lane), elsewhere one launch of `lanes` threads.
+        the kernel's argument ``first`` set to the lane), elsewhere one launch of `lanes`
+        threads.
 
         Launches are recorded once and replayed while the array arguments are the same
         objects; scalars that changed are set on the recorded launches (an update costs
@@ -228,6 +241,7 @@ class Buffers:
         """
         wp = warp()
         cpu = self._cpu
+        first_index = _first_index(kernel)
         key = (kernel.key, lanes)
         rec = self._launches.get(key)
         changed = None if rec is None else _changed_scalars(rec.args, args, first_index)
@@ -269,6 +283,20 @@ class _Recorded:
     cmds: list  # one recorded launch per lane (one on a CUDA device)
     args: list  # every argument, as last set
     runs: list  # per lane, its direct call once built (see _run), else None
+
+
+_first_indices: dict = {}
+
+
+def _first_index(kernel) -> int:
+    """Position of the kernel's argument ``first`` (the first motion a lane takes)."""
+    hit = _first_indices.get(kernel.key)
+    if hit is None:
+        names = [a.label for a in kernel.adj.args]
+        if "first" not in names:
+            raise TypeError(f"kernel {kernel.key} has no argument 'first' to spread lanes by")
+        hit = _first_indices[kernel.key] = names.index("first")
+    return hit
 
 
 def _changed_scalars(old: list, new: list, first_index: int) -> list[int] | None:

@@ -19,6 +19,7 @@ from itertools import chain
 import numpy as np
 
 from motions import RationalMotion
+from motions.pieces import UNIT_ROUNDOFF, gamma
 
 from ..shapes import Shape
 from .device import buffers, is_cpu, warp
@@ -28,7 +29,7 @@ __all__ = ["MOTIONS_PER_CHUNK", "Outcome", "pack_pieces", "refine_many"]
 
 MOTIONS_PER_CHUNK = 4096
 """Motions packed per launch: bounds the packed copies of their control matrices."""
-PACKED_FIELDS = 5
+PACKED_FIELDS = 6
 """Entries of :func:`pack_pieces`' tuple (a cached packing of another length, pickled by
 another version, is rebuilt)."""
 GPU_LANES = 65536
@@ -103,15 +104,68 @@ def _packed(m: RationalMotion) -> tuple:
 
 
 def pack_pieces(pc, extra: int) -> tuple:
-    """(ctrl (sum K, 4, 4), k (P,), t (P, 2), err (P, 3), `extra` pieces) of a piece
-    table: the kernels' piece inputs."""
+    """(ctrl (sum K, 4, 4), k (P,), t (P, 2), err (P, 3), `extra` pieces, reach (P, 10))
+    of a piece table: the kernels' piece inputs."""
     return (
         np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
         np.full(len(pc), pc.n_ctrl, dtype=np.int32),
         np.stack([pc.t0, pc.t1], axis=1),
         np.ascontiguousarray(pc.error),
         extra,
+        piece_reach(pc.ctrl, pc.error),
     )
+
+
+_GAMMA_C = gamma(64)  # the kernels' GAMMA_C
+
+
+def piece_reach(ctrl: np.ndarray, err: np.ndarray) -> np.ndarray:
+    """Where each piece can carry a body point: the kernels' ``Reach`` records (P,) as raw
+    float64 rows (P, 10) (their bytes: see ``device.Buffers.put_records``), from the
+    pieces' control matrices ``ctrl`` (P, K, 4, 4) and their entry error bounds ``err``
+    (P, 3) = (E_A, E_b, E_w).
+
+    On a piece whose weights are provably positive (``w_i > E_w``: ``ok``), a point x of
+    the body (body coordinates) moves on a rational Bézier curve with control points
+    ``(A*_i x + b*_i) / w*_i`` (A*, b*, w* the exact control matrices), inside their
+    hull (seed §6.3). Each lies within ``|A*_i|_F |x| / w*_i`` of ``b*_i / w*_i``, and
+
+        |A*_i|_F / w*_i <= (|A_i|_F + 3 E_A) / (w_i - E_w)
+                        <= max_j |A_j|_F / (w_j - E_w) + 3 E_A / min_j (w_j - E_w)  =: scale,
+        |b*_i / w*_i - c_i| <= (E_b + |c_i| E_w) / (w_i - E_w) + 4 u |c_i|        =: err
+
+    per coordinate, with ``c_i = b_i (1 / w_i)`` as computed (``b* / w* - b / w =
+    ((b* - b) w - b (w* - w)) / (w w*)``; the last term the two roundings of c_i). So
+    every point within rho of the body origin stays, over the piece, inside the box of
+    the c_i widened by ``rho scale + err``. Both bounds are widened by GAMMA_C for their
+    own roundings; the kernel's comparison adds GAMMA_C of the sizes involved (``size``
+    the largest |coordinate| of the c_i). This bound needs neither a body part's images
+    nor its exact box: the kernels try it first, per piece and part.
+    """
+    p = len(ctrl)
+    out = np.zeros(p, dtype=_kernels().Reach.numpy_dtype())
+    if p == 0:
+        return out.view(np.float64).reshape(0, -1)
+    a, b, w = ctrl[:, :, :3, :3], ctrl[:, :, :3, 3], ctrl[:, :, 3, 3]
+    el = w - err[:, 2:3]
+    ok = (el > 0).all(axis=1)
+    el = np.where(el > 0, el, 1.0)  # (unused where not ok)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        c = b * (1.0 / w)[..., None]
+        beta = np.abs(c).max(axis=2)
+        a2 = (a * a).sum(axis=(2, 3)) / (el * el)
+        scale = (np.sqrt(a2.max(axis=1)) + 3.0 * err[:, 0] / el.min(axis=1)) * (1 + _GAMMA_C)
+        e = ((err[:, 1:2] + beta * err[:, 2:3]) / el + 4.0 * UNIT_ROUNDOFF * beta).max(axis=1)
+        e = e * (1 + _GAMMA_C)
+    ok &= np.isfinite(c).all(axis=(1, 2)) & np.isfinite(scale) & np.isfinite(e)
+    out["ok"] = ok
+    good = ok[:, None]
+    out["lo"] = np.where(good, c.min(axis=1), 0.0)
+    out["hi"] = np.where(good, c.max(axis=1), 0.0)
+    out["scale"] = np.where(ok, scale, 0.0)
+    out["err"] = np.where(ok, e, 0.0)
+    out["size"] = np.where(ok, beta.max(axis=1), 0.0)
+    return out.view(np.float64).reshape(p, -1)
 
 
 def refine_many(
@@ -297,7 +351,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         return arrays, kmax
     shaped = pack_shapes(bodies, obst)
     n_obst = shaped[4]
-    ctrls, ks, ts, errs, extra = zip(*packs, strict=True)
+    ctrls, ks, ts, errs, extra, reach = zip(*packs, strict=True)
     p_k = np.concatenate(ks)
     counts = np.fromiter(map(len, ks), dtype=np.int64, count=n)
     p_start = np.zeros(len(p_k), dtype=np.int32)
@@ -310,6 +364,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         "p_k": buf.put("p_k", p_k, wp.int32),
         "p_t": buf.put_concat("p_t", ts, wp.vec2d),
         "p_err": buf.put_concat("p_err", errs, wp.vec3d),
+        "p_reach": buf.put_records("p_reach", reach, _kernels().Reach),
         "m_pieces": buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
         "m_nodes0": buf.put(
             "m_nodes0", (np.asarray(extra) * np.maximum(1, n_obst)).astype(np.int32), wp.int32
@@ -326,7 +381,7 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     """:func:`pack_inputs` for one motion, in as few numpy calls as it takes (a single
     query's packing cost more than its kernel)."""
     wp = warp()
-    ctrl, p_k, p_t, p_err, extra = pack
+    ctrl, p_k, p_t, p_err, extra, reach = pack
     shaped = pack_shapes(bodies, obst)
     nodes0 = extra * max(1, int(shaped[4][0]))
     k, n_pieces = int(p_k[0]), len(p_k)  # a motion's pieces share their number of controls
@@ -336,6 +391,7 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
         "p_k": buf.put("p_k", p_k, wp.int32),
         "p_t": buf.put("p_t", p_t, wp.vec2d),
         "p_err": buf.put("p_err", p_err, wp.vec3d),
+        "p_reach": buf.put_records("p_reach", [reach], _kernels().Reach),
         "m_pieces": buf.put("m_pieces", np.array([[0, n_pieces]], dtype=np.int32), wp.vec2i),
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
         **_put_shapes(buf, shaped),
@@ -365,8 +421,8 @@ def _put_shapes(buf, shaped: tuple) -> dict:
 
 
 REFINE_INPUTS = (
-    "ctrl", "p_start", "p_k", "p_t", "p_err", "m_pieces", "m_parts", "m_obst", "m_nodes0",
-    "o_idx", "shapes", "verts",
+    "ctrl", "p_start", "p_k", "p_t", "p_err", "p_reach", "m_pieces", "m_parts", "m_obst",
+    "m_nodes0", "o_idx", "shapes", "verts",
 )  # fmt: skip
 
 
@@ -405,7 +461,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
     ]
-    buf.launch(_refine, args, 17, lanes)
+    buf.launch(_refine, args, lanes)
     return Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n))
 
 
@@ -462,5 +518,5 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
         buf.out("out_t", (n, 3), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 4), np.int32, wp.int32)[1],
     ]
-    buf.launch(_clearance, args, 16, lanes)
+    buf.launch(_clearance, args, lanes)
     return buf.fetch("out_t", n), buf.fetch("out_n", n)
