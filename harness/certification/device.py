@@ -201,8 +201,13 @@ class Buffers:
         return arr
 
     def scratch(self, name: str, shape: tuple, np_dtype, wp_dtype):
-        """A scratch array of exactly `shape` (kept between calls; one per lane count, so
-        a caller alternating `threads` neither reallocates it nor re-records launches)."""
+        """A per-lane scratch array of `shape` (lanes, rows, ...), with rows added past
+        each lane's own (see :func:`lane_padding`; a kernel reads its rows from the front,
+        and the last row is as good as any past its stack). Kept between calls; one per
+        lane count, so a caller alternating `threads` neither reallocates it nor
+        re-records launches."""
+        if len(shape) > 1:
+            shape = (shape[0], shape[1] + lane_padding(shape[1:], np_dtype), *shape[2:])
         name = f"{name}/{shape[0]}"
         cur = self._arrays.get(name)
         if cur is not None and cur[0].shape == shape:
@@ -371,6 +376,19 @@ def buffers(device: str, owner: str) -> Buffers:
                 _buffers[key] = Buffers(device)
             hit = mine[(device, owner)] = _buffers[key]
     return hit
+
+
+CACHE_LINE = 64
+
+
+def lane_padding(rows: tuple, np_dtype) -> int:
+    """Rows to add to a lane's rows of shape `rows` (rows, ...) in a per-lane scratch
+    array: lanes (one host thread each) whose rows met in a cache line would take it from
+    each other on every write (false sharing: a lane's last row, a pose test's, lay next
+    to the next lane's first, every node's); two lines apart, the adjacent-line
+    prefetcher keeps out too."""
+    row = int(np.prod(rows[1:], dtype=np.int64)) * np.dtype(np_dtype).itemsize
+    return -(-2 * CACHE_LINE // row)
 
 
 def run_lanes(n_lanes: int, launch: Callable[[int], None]) -> None:
