@@ -354,7 +354,7 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
             counts = np.zeros(len(rm), dtype=np.int64)
             for j, (m, b) in enumerate(zip(rm, rb, strict=True)):
                 pack, v = _stepping_pieces(m, b.bounding_radius)
-                tt = pack[2]
+                tt = pack.t
                 total = int(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
                 if total > MAX_SAMPLES:
                     raise QueryError(

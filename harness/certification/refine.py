@@ -15,6 +15,7 @@ import time
 from collections import OrderedDict
 from dataclasses import dataclass
 from itertools import chain
+from typing import NamedTuple
 
 import numpy as np
 
@@ -25,13 +26,13 @@ from ..shapes import Shape
 from .device import buffers, is_cpu, warp
 from .tables import ShapeTable
 
-__all__ = ["MOTIONS_PER_CHUNK", "Outcome", "pack_pieces", "refine_many"]
+__all__ = ["MOTIONS_PER_CHUNK", "Outcome", "Packed", "pack_pieces", "refine_many"]
 
 MOTIONS_PER_CHUNK = 4096
 """Motions packed per launch: bounds the packed copies of their control matrices."""
-PACKED_FIELDS = 6
-"""Entries of :func:`pack_pieces`' tuple (a cached packing of another length, pickled by
-another version, is rebuilt)."""
+PACKED_FIELDS = 4
+"""Entries of a :class:`Packed` (a cached packing of another length, pickled by another
+version, is rebuilt)."""
 GPU_LANES = 65536
 """Lanes of one launch on a CUDA device (scratch memory grows with lanes x depth x K)."""
 REASONS = {2: "tolerance", 3: "depth", 4: "budget"}
@@ -93,7 +94,27 @@ class Outcome:
     supports = property(lambda self: self.c[:, 7].astype(np.int64))
 
 
-def _packed(m: RationalMotion) -> tuple:
+class Packed(NamedTuple):
+    """A motion's pieces packed for the kernels (cached on the motion)."""
+
+    ctrl: np.ndarray
+    """(P K, 4, 4) the pieces' control matrices, piece after piece."""
+    k: int
+    """Control matrices a piece (a motion's pieces share it)."""
+    rows: np.ndarray
+    """(P, 15) float64 per piece: t0, t1, the error bounds (E_A, E_b, E_w), and the bytes
+    of its ``Reach`` record (:func:`piece_reach`). One table, so that a batch gathers its
+    motions' in one pass (each pass over a thousand small arrays costs ~1 ms)."""
+    extra: int
+    """Pieces beyond the motion's segments (the positivity splitter's)."""
+
+    @property
+    def t(self) -> np.ndarray:
+        """(P, 2) the pieces' time intervals."""
+        return self.rows[:, 0:2]
+
+
+def _packed(m: RationalMotion) -> Packed:
     """:func:`pack_pieces` of a motion's positive pieces, cached on the motion (it is
     immutable)."""
     cached = getattr(m, "_certify_packed", None)
@@ -103,17 +124,13 @@ def _packed(m: RationalMotion) -> tuple:
     return cached
 
 
-def pack_pieces(pc, extra: int) -> tuple:
-    """(ctrl (sum K, 4, 4), k (P,), t (P, 2), err (P, 3), `extra` pieces, reach (P, 10))
-    of a piece table: the kernels' piece inputs."""
-    return (
-        np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)),
-        np.full(len(pc), pc.n_ctrl, dtype=np.int32),
-        np.stack([pc.t0, pc.t1], axis=1),
-        np.ascontiguousarray(pc.error),
-        extra,
-        piece_reach(pc.ctrl, pc.error),
+def pack_pieces(pc, extra: int) -> Packed:
+    """A piece table (:class:`motions.BezierPieces`) packed for the kernels, with `extra`
+    pieces beyond its motion's segments."""
+    rows = np.concatenate(
+        [pc.t0[:, None], pc.t1[:, None], pc.error, piece_reach(pc.ctrl, pc.error)], axis=1
     )
+    return Packed(np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)), pc.n_ctrl, rows, extra)
 
 
 _GAMMA_C = gamma(64)  # the kernels' GAMMA_C
@@ -351,9 +368,10 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         return arrays, kmax
     shaped = pack_shapes(bodies, obst)
     n_obst = shaped[4]
-    ctrls, ks, ts, errs, extra, reach = zip(*packs, strict=True)
-    p_k = np.concatenate(ks)
-    counts = np.fromiter(map(len, ks), dtype=np.int64, count=n)
+    ctrls, ks, rows, extra = zip(*packs, strict=True)
+    counts = np.fromiter(map(len, rows), dtype=np.int64, count=n)
+    p_k = np.repeat(np.array(ks, dtype=np.int32), counts)
+    table = np.concatenate(rows)
     p_start = np.zeros(len(p_k), dtype=np.int32)
     np.cumsum(p_k[:-1], out=p_start[1:])
     bounds = np.zeros(n + 1, dtype=np.int32)
@@ -362,9 +380,9 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         "ctrl": buf.put_concat("ctrl", ctrls, wp.mat44d),
         "p_start": buf.put("p_start", p_start, wp.int32),
         "p_k": buf.put("p_k", p_k, wp.int32),
-        "p_t": buf.put_concat("p_t", ts, wp.vec2d),
-        "p_err": buf.put_concat("p_err", errs, wp.vec3d),
-        "p_reach": buf.put_records("p_reach", reach, _kernels().Reach),
+        "p_t": buf.put("p_t", table[:, 0:2], wp.vec2d),
+        "p_err": buf.put("p_err", table[:, 2:5], wp.vec3d),
+        "p_reach": buf.put_records("p_reach", table[:, 5:], _kernels().Reach),
         "m_pieces": buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
         "m_nodes0": buf.put(
             "m_nodes0", (np.asarray(extra) * np.maximum(1, n_obst)).astype(np.int32), wp.int32
@@ -381,22 +399,22 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     """:func:`pack_inputs` for one motion, in as few numpy calls as it takes (a single
     query's packing cost more than its kernel)."""
     wp = warp()
-    ctrl, p_k, p_t, p_err, extra, reach = pack
+    ctrl, k, rows, extra = pack
     shaped = pack_shapes(bodies, obst)
     nodes0 = extra * max(1, int(shaped[4][0]))
-    k, n_pieces = int(p_k[0]), len(p_k)  # a motion's pieces share their number of controls
+    n_pieces = len(rows)
     arrays = {
         "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
         "p_start": buf.put("p_start", np.arange(0, n_pieces * k, k, dtype=np.int32), wp.int32),
-        "p_k": buf.put("p_k", p_k, wp.int32),
-        "p_t": buf.put("p_t", p_t, wp.vec2d),
-        "p_err": buf.put("p_err", p_err, wp.vec3d),
-        "p_reach": buf.put_records("p_reach", [reach], _kernels().Reach),
+        "p_k": buf.put("p_k", np.full(n_pieces, k, dtype=np.int32), wp.int32),
+        "p_t": buf.put("p_t", rows[:, 0:2], wp.vec2d),
+        "p_err": buf.put("p_err", rows[:, 2:5], wp.vec3d),
+        "p_reach": buf.put_records("p_reach", rows[:, 5:], _kernels().Reach),
         "m_pieces": buf.put("m_pieces", np.array([[0, n_pieces]], dtype=np.int32), wp.vec2i),
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
         **_put_shapes(buf, shaped),
     }
-    return arrays, int(p_k.max())
+    return arrays, k
 
 
 def _put_shapes(buf, shaped: tuple) -> dict:
