@@ -328,26 +328,27 @@ def _pose_test(
     max_iter: wp.int32,
     use_aabb: wp.int32,
     enough: wp.float64,
-) -> tuple[wp.float64, wp.float64, wp.int32, wp.int32]:
+) -> tuple[wp.float64, wp.float64, wp.int32, wp.int32, wp.vec3d]:
     """Signed distance of the part at the pose st_ctrl[lane, sp, col] (an end of a Bézier
     piece is its pose there) to the obstacle, widened by the pose's own margin.
 
-    Returns (ub, lb, intersects, hopeless): ub an upper bound of the exact signed
-    distance, lb a lower bound (-HUGE when the shapes overlap);
+    Returns (ub, lb, intersects, hopeless, direction): ub an upper bound of the exact
+    signed distance, lb a lower bound (-HUGE when the shapes overlap);
     intersects = 1 when ub < 0 (a proven intersection: overlapping shapes count by the
     depth of the origin inside GJK's tetrahedron, a lower bound of the penetration);
     hopeless = 1 when the bound of the pose itself (the pose for "hull", its box for
-    "aabb") does not clear, so that no piece containing this pose can ever clear.
+    "aabb") does not clear, so that no piece containing this pose can ever clear;
+    direction GJK's best separating direction at the pose (`warm` when none).
     GJK stops once lb exceeds `enough` (HUGE: never): ub and lb are bounds still, not
     the tightest GJK would reach.
     """
     prep = _prepare(st_ctrl, lane, sp, col, col + 1, part, verts, err, pre_m, pre_c, slot, use_aabb)
     if prep.ok == 0:
-        return HUGE, -HUGE, 0, 1
+        return HUGE, -HUGE, 0, 1, warm
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
     radii = _core_radius(part) + _core_radius(obst)
-    ub, gap, _d, overlap, depth, _c = _gjk(
+    ub, gap, pdir, overlap, depth, _c = _gjk(
         0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter,
         enough + radii + margin, F0, 0, z,
     )  # fmt: skip
@@ -369,7 +370,7 @@ def _pose_test(
         )  # fmt: skip
         if bov == 1 or bgap <= margin:
             hopeless = 1
-    return hi, lb, x, hopeless
+    return hi, lb, x, hopeless, pdir
 
 
 @wp.kernel
@@ -497,6 +498,7 @@ def _refine(
                     carry_ub = F0
                     carry_x = wp.int32(0)
                     carry_h = wp.int32(0)
+                    carry_d = wp.vec3d(F0, F0, F0)
                     sp = wp.int32(0)
                     while sp >= 0:
                         tt = st_t[lane, sp]
@@ -539,7 +541,7 @@ def _refine(
                             # half when the bound fails, by the right half, which cannot
                             # clear, when it clears): test it first, so that the bound test
                             # is skipped when it intersects
-                            ue, _le, xe, he = _pose_test(
+                            ue, _le, xe, he, de = _pose_test(
                                 st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
                                 pre_c, pose_slot, warm, max_iter, use_aabb, enough,
                             )  # fmt: skip
@@ -548,6 +550,7 @@ def _refine(
                             carry_ub = ue
                             carry_x = xe
                             carry_h = he
+                            carry_d = de
                             st_ub[lane, sp] = wp.vec2d(st_ub[lane, sp][0], ue)
                             flags = (flags & 63) | 4 | (xe << 3) | (he << 5)
                         # an end pose already proven to intersect lies in the node's exact
@@ -610,6 +613,13 @@ def _refine(
                             continue
                         # the bound does not clear: the node's end poses decide
                         ubs = st_ub[lane, sp]
+                        # the separating directions at the end poses, where tested (else
+                        # the node's own): each half starts its bound test from the one
+                        # at the end it keeps (supports: 26,130 -> 23,777 on the workload)
+                        d0 = warm
+                        d1 = warm
+                        if (flags & 4) != 0 and carry_t == t1:
+                            d1 = carry_d
                         ub0 = ubs[0]
                         ub1 = ubs[1]
                         x0 = (flags >> 1) & 1
@@ -621,14 +631,15 @@ def _refine(
                                 ub0 = carry_ub
                                 x0 = carry_x
                                 h0 = carry_h
+                                d0 = carry_d
                             else:
-                                ub0, _l0, x0, h0 = _pose_test(
+                                ub0, _l0, x0, h0, d0 = _pose_test(
                                     st_ctrl, lane, sp, 0, part, obst, verts, err, pre_m,
                                     pre_c, pose_slot, warm, max_iter, use_aabb, enough,
                                 )  # fmt: skip
                                 tests += 1
                         if (flags & 4) == 0:
-                            ub1, _l1, x1, h1 = _pose_test(
+                            ub1, _l1, x1, h1, d1 = _pose_test(
                                 st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
                                 pre_c, pose_slot, warm, max_iter, use_aabb, enough,
                             )  # fmt: skip
@@ -637,6 +648,7 @@ def _refine(
                             carry_ub = ub1
                             carry_x = x1
                             carry_h = h1
+                            carry_d = d1
                         if x1 == 1:
                             tcoll = wp.min(tcoll, t1)
                         if x0 == 1:  # (b) contact at the left end
@@ -703,8 +715,11 @@ def _refine(
                         st_t[lane, sp + 1] = wp.vec2d(t0, tm)
                         st_err[lane, sp] = e2
                         st_err[lane, sp + 1] = e2
-                        st_warm[lane, sp] = warm
-                        st_warm[lane, sp + 1] = warm
+                        if use_aabb == 1:  # (a box's GJK gains nothing from them)
+                            d0 = warm
+                            d1 = warm
+                        st_warm[lane, sp] = d1
+                        st_warm[lane, sp + 1] = d0
                         st_ub[lane, sp] = wp.vec2d(F0, ub1)
                         st_ub[lane, sp + 1] = wp.vec2d(ub0, F0)
                         st_flags[lane, sp] = 4 | (x1 << 3) | (h1 << 5)
@@ -903,13 +918,13 @@ def _clearance(
                                 ub0 = carry_ub
                                 lb0 = carry_lb
                             else:
-                                ub0, lb0, _x0, _h0 = _pose_test(
+                                ub0, lb0, _x0, _h0, _d0 = _pose_test(
                                     st_ctrl, lane, sp, 0, part, obst, verts, err, pre_m,
                                     pre_c, pose_slot, warm, max_iter, 0, HUGE,
                                 )  # fmt: skip
                                 tests += 1
                         if (fl & 4) == 0:
-                            ub1, lb1, _x1, _h1 = _pose_test(
+                            ub1, lb1, _x1, _h1, _d1 = _pose_test(
                                 st_ctrl, lane, sp, k - 1, part, obst, verts, err, pre_m,
                                 pre_c, pose_slot, warm, max_iter, 0, HUGE,
                             )  # fmt: skip
