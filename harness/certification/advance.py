@@ -26,8 +26,8 @@ from .device import buffers, is_cpu, warp
 from .refine import (
     GPU_LANES,
     MOTIONS_PER_CHUNK,
-    PACKED_FIELDS,
     Outcome,
+    Packed,
     pack_inputs,
     pack_pieces,
     pack_shapes,
@@ -121,7 +121,7 @@ def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
         cache = {}
         m._certify_speeds = cache
     hit = cache.get(radius)
-    if hit is None or len(hit[0]) != PACKED_FIELDS:  # (or pickled by another version)
+    if hit is None or type(hit[0]) is not Packed:  # (or pickled by another version)
         pc = m.positive_pieces()
         knots = m.knots
         rows, u0, u1 = [], [], []

@@ -20,7 +20,7 @@ from motions import Motion, RationalMotion
 
 from ..timing import collector_paused
 from .api import DEFAULT_MAX_NODES, QueryError, body_list, check_options, obstacle_lists
-from .refine import MOTIONS_PER_CHUNK, _packed, clearance_chunk
+from .refine import MOTIONS_PER_CHUNK, clearance_chunk, packed_all
 
 __all__ = ["Clearance", "clearance", "clearance_many"]
 
@@ -123,7 +123,7 @@ def clearance_many(
     for c in range(0, len(ms), MOTIONS_PER_CHUNK):
         sl = slice(c, c + MOTIONS_PER_CHUNK)
         t, n = clearance_chunk(
-            [_packed(m) for m in ms[sl]], bodies[sl], obst[sl], o["tol"], o["max_depth"],
+            packed_all(ms[sl]), bodies[sl], obst[sl], o["tol"], o["max_depth"],
             o["max_nodes"], o["max_iter"], o["threads"], o["device"],
         )  # fmt: skip
         ts.append(t)

@@ -30,9 +30,6 @@ __all__ = ["MOTIONS_PER_CHUNK", "Outcome", "Packed", "pack_pieces", "refine_many
 
 MOTIONS_PER_CHUNK = 4096
 """Motions packed per launch: bounds the packed copies of their control matrices."""
-PACKED_FIELDS = 4
-"""Entries of a :class:`Packed` (a cached packing of another length, pickled by another
-version, is rebuilt)."""
 GPU_LANES = 65536
 """Lanes of one launch on a CUDA device (scratch memory grows with lanes x depth x K)."""
 REASONS = {2: "tolerance", 3: "depth", 4: "budget"}
@@ -118,10 +115,25 @@ def _packed(m: RationalMotion) -> Packed:
     """:func:`pack_pieces` of a motion's positive pieces, cached on the motion (it is
     immutable)."""
     cached = getattr(m, "_certify_packed", None)
-    if cached is None or len(cached) != PACKED_FIELDS:  # (or pickled by another version)
+    if type(cached) is not Packed:  # (None, or pickled by another version)
         pc = m.positive_pieces()
         cached = m._certify_packed = pack_pieces(pc, len(pc) - m.segments)
     return cached
+
+
+_cached_packing = operator.attrgetter("_certify_packed")
+
+
+def packed_all(ms: list[RationalMotion]) -> list[Packed]:
+    """:func:`_packed` of every motion: where all are cached, in C loops (a Python call a
+    motion cost ~0.4 µs, a fifth of a batch's host time besides the certificates)."""
+    try:
+        packs = list(map(_cached_packing, ms))
+        if set(map(type, packs)) <= {Packed}:
+            return packs
+    except AttributeError:
+        pass
+    return [_packed(m) for m in ms]
 
 
 def pack_pieces(pc, extra: int) -> Packed:
@@ -200,7 +212,7 @@ def refine_many(
 ) -> tuple[Outcome, float]:
     """Refine every motion; returns the outcomes and the elapsed wall time."""
     start = time.perf_counter()
-    packs = [_packed(m) for m in ms]
+    packs = packed_all(ms)
     parts = []
     for i in range(0, len(ms), MOTIONS_PER_CHUNK):
         sl = slice(i, i + MOTIONS_PER_CHUNK)
