@@ -135,18 +135,53 @@ def _affine_support(
     core: wp.int32,
 ) -> tuple[wp.vec3d, wp.float64]:
     """Support point of the hull of the affine images i0 <= i < i1 (see module doc), and
-    the hull's support function at d (the largest ``d.c_i + h_local(M_i^T d)``)."""
+    the hull's support function at d (the largest ``d.c_i + h_local(M_i^T d)``).
+
+    One loop per kind of part (`_local_h`'s arithmetic, inlined: the same values), so
+    that the loop over the images does not branch on the kind at every image (-3 % of
+    the refinement kernel's time)."""
     best = -HUGE
     bi = i0
     i = i0
-    while i < i1:
-        val = wp.dot(d, pre_c[lane, i]) + _local_h(
-            part, verts, wp.transpose(pre_m[lane, i]) * d, core
-        )
-        if val > best:
-            best = val
-            bi = i
-        i += 1
+    if part.kind == 0:
+        s = part.size
+        while i < i1:
+            e = wp.transpose(pre_m[lane, i]) * d
+            val = wp.dot(d, pre_c[lane, i]) + (
+                wp.abs(e[0]) * s[0] + wp.abs(e[1]) * s[1] + wp.abs(e[2]) * s[2]
+            )
+            if val > best:
+                best = val
+                bi = i
+            i += 1
+    elif part.kind == 1 and core == 0:
+        r = part.size[0]
+        while i < i1:
+            e = wp.transpose(pre_m[lane, i]) * d
+            val = wp.dot(d, pre_c[lane, i]) + r * wp.length(e)
+            if val > best:
+                best = val
+                bi = i
+            i += 1
+    elif part.kind == 2 and core == 0:
+        r = part.size[0]
+        hl = part.size[1]
+        while i < i1:
+            e = wp.transpose(pre_m[lane, i]) * d
+            val = wp.dot(d, pre_c[lane, i]) + (r * wp.length(e) + wp.abs(e[2]) * hl)
+            if val > best:
+                best = val
+                bi = i
+            i += 1
+    else:
+        while i < i1:
+            val = wp.dot(d, pre_c[lane, i]) + _local_h(
+                part, verts, wp.transpose(pre_m[lane, i]) * d, core
+            )
+            if val > best:
+                best = val
+                bi = i
+            i += 1
     m = pre_m[lane, bi]
     return pre_c[lane, bi] + m * _local_support(part, verts, wp.transpose(m) * d, core), best
 
