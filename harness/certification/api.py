@@ -179,7 +179,7 @@ def check_motions(motions: Any, bound: str) -> list[Motion]:
         )
     out = list(motions)
     need = RationalMotion if bound in ("hull", "aabb") else Motion
-    if all(isinstance(m, need) for m in out):
+    if all(issubclass(k, need) for k in set(map(type, out))):  # (the types, in a C loop)
         return out
     for i, m in enumerate(out):
         if not isinstance(m, Motion):

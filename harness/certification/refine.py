@@ -359,7 +359,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     n = len(packs)
     refs = None
     lens = tuple(map(len, obst))
-    distinct = {id(lst): len(lst) for lst in obst}  # an obstacle list shared is packed once
+    distinct = dict(zip(map(id, obst), lens, strict=True))  # an obstacle list shared is packed once
     if n <= 8 or sum(lens) <= 4 * (n + sum(distinct.values())):
         # the same query again (packed pieces are cached per motion, shapes are
         # immutable): the buffers still hold its inputs. Checked by identity, in time
