@@ -137,9 +137,9 @@ def _affine_support(
     """Support point of the hull of the affine images i0 <= i < i1 (see module doc), and
     the hull's support function at d (the largest ``d.c_i + h_local(M_i^T d)``).
 
-    One loop per kind of part (`_local_h`'s arithmetic, inlined: the same values), so
+    A loop per kind of part (`_local_h`'s arithmetic, inlined: the same values), so
     that the loop over the images does not branch on the kind at every image (-3 % of
-    the refinement kernel's time)."""
+    the refinement kernel's time; the loops differ in their support function only)."""
     best = -HUGE
     bi = i0
     i = i0
@@ -154,18 +154,12 @@ def _affine_support(
                 best = val
                 bi = i
             i += 1
-    elif part.kind == 1 and core == 0:
+    elif (part.kind == 1 or part.kind == 2) and core == 0:
+        # a sphere is a capsule of length 0 (adding 0 * |e_z| changes no value)
         r = part.size[0]
-        while i < i1:
-            e = wp.transpose(pre_m[lane, i]) * d
-            val = wp.dot(d, pre_c[lane, i]) + r * wp.length(e)
-            if val > best:
-                best = val
-                bi = i
-            i += 1
-    elif part.kind == 2 and core == 0:
-        r = part.size[0]
-        hl = part.size[1]
+        hl = F0
+        if part.kind == 2:
+            hl = part.size[1]
         while i < i1:
             e = wp.transpose(pre_m[lane, i]) * d
             val = wp.dot(d, pre_c[lane, i]) + (r * wp.length(e) + wp.abs(e[2]) * hl)
