@@ -26,6 +26,7 @@ from .device import buffers, is_cpu, warp
 from .refine import (
     GPU_LANES,
     MOTIONS_PER_CHUNK,
+    REACH_ROW,
     Outcome,
     Packed,
     pack_inputs,
@@ -135,7 +136,8 @@ def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
         u0[np.r_[True, np.diff(rows) != 0]] = 0.0  # piece ends stay exact
         u1[np.r_[np.diff(rows) != 0, True]] = 1.0
         pc = pc.take(np.asarray(rows)).restrict(u0, u1, cover=True)
-        hit = (pack_pieces(pc, 0), speed_bounds(pc, radius))
+        # (stepping reads no reach: zero rows, records that say "no bound")
+        hit = (pack_pieces(pc, 0, np.zeros((len(pc), REACH_ROW))), speed_bounds(pc, radius))
         cache[radius] = hit
     return hit
 

@@ -193,8 +193,7 @@ class Buffers:
         records' bytes, one row each) into buffer `name` (numpy handles structured arrays
         far more slowly than plain ones: concatenating them ~40x)."""
         n = len(rows)
-        rec = np.dtype(wp_struct.numpy_dtype())
-        host, arr = self._get(name, (n,), rec, wp_struct)
+        host, arr = self._get(name, (n,), record_dtype(wp_struct), wp_struct)
         host.view(np.float64).reshape(len(host), -1)[:n] = rows
         if not is_cpu(self.device):
             arr.assign(host)
@@ -375,6 +374,18 @@ def buffers(device: str, owner: str) -> Buffers:
             if key not in _buffers:
                 _buffers[key] = Buffers(device)
             hit = mine[(device, owner)] = _buffers[key]
+    return hit
+
+
+_record_dtypes: dict = {}
+
+
+def record_dtype(wp_struct) -> np.dtype:
+    """The numpy dtype of a Warp struct's records, built once (Warp builds it anew on
+    each ``numpy_dtype()``: ~40 µs, a fifth of a single query)."""
+    hit = _record_dtypes.get(wp_struct)
+    if hit is None:
+        hit = _record_dtypes[wp_struct] = np.dtype(wp_struct.numpy_dtype())
     return hit
 
 
