@@ -135,8 +135,11 @@ def packed_all(ms: list[RationalMotion]) -> list[Packed]:
             return packs
     except AttributeError:
         pass
-    todo = {id(m): m for m in ms if type(getattr(m, "_certify_packed", None)) is not Packed}
-    _pack_motions(list(todo.values()))
+    todo = list(
+        {id(m): m for m in ms if type(getattr(m, "_certify_packed", None)) is not Packed}.values()
+    )
+    for i in range(0, len(todo), MOTIONS_PER_CHUNK):  # (bounds the temporaries)
+        _pack_motions(todo[i : i + MOTIONS_PER_CHUNK])
     return list(map(_cached_packing, ms))
 
 
