@@ -200,12 +200,12 @@ class Buffers:
         return arr
 
     def scratch(self, name: str, shape: tuple, np_dtype, wp_dtype):
-        """A per-lane scratch array of `shape` (lanes, rows, ...), with rows added past
-        each lane's own (see :func:`lane_padding`; a kernel reads its rows from the front,
-        and the last row is as good as any past its stack). Kept between calls; one per
-        lane count, so a caller alternating `threads` neither reallocates it nor
-        re-records launches."""
-        if len(shape) > 1:
+        """A per-lane scratch array of `shape` (lanes, rows, ...), on the CPU with rows
+        added past each lane's own (see :func:`lane_padding`; a kernel reads its rows from
+        the front, and the last row is as good as any past its stack; a GPU's thousands of
+        lanes share no host caches). Kept between calls; one per lane count, so a caller
+        alternating `threads` neither reallocates it nor re-records launches."""
+        if self._cpu and len(shape) > 1:
             shape = (shape[0], shape[1] + lane_padding(shape[1:], np_dtype), *shape[2:])
         name = f"{name}/{shape[0]}"
         cur = self._arrays.get(name)
