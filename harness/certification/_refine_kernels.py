@@ -764,7 +764,6 @@ def _clearance(
     p_k: wp.array(dtype=wp.int32),
     p_t: wp.array(dtype=wp.vec2d),
     p_err: wp.array(dtype=wp.vec3d),
-    p_reach: wp.array(dtype=Reach),  # (unused: a root's lower bound needs its exact box)
     # In: motions
     m_pieces: wp.array(dtype=wp.vec2i),
     m_parts: wp.array(dtype=wp.vec2i),

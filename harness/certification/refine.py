@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from motions import RationalMotion
-from motions.pieces import UNIT_ROUNDOFF, gamma
+from motions.pieces import UNIT_ROUNDOFF, BezierPieces, gamma
 
 from ..shapes import Shape
 from .device import buffers, is_cpu, record_dtype, warp
@@ -113,22 +113,13 @@ class Packed(NamedTuple):
         return self.rows[:, 0:2]
 
 
-def _packed(m: RationalMotion) -> Packed:
-    """:func:`pack_pieces` of a motion's positive pieces, cached on the motion (it is
-    immutable)."""
-    cached = getattr(m, "_certify_packed", None)
-    if type(cached) is not Packed:  # (None, or pickled by another version)
-        pc = m.positive_pieces()
-        cached = m._certify_packed = pack_pieces(pc, len(pc) - m.segments)
-    return cached
-
-
 _cached_packing = operator.attrgetter("_certify_packed")
 
 
 def packed_all(ms: list[RationalMotion]) -> list[Packed]:
-    """:func:`_packed` of every motion: where all are cached, in C loops (a Python loop
-    cost ~0.15 µs a motion); else the motions not packed yet are packed together."""
+    """Every motion's :class:`Packed` pieces, cached on the motion (it is immutable):
+    where all are cached, gathered in C loops (a Python loop cost ~0.15 µs a motion);
+    else the motions not packed yet are packed together."""
     try:
         packs = list(map(_cached_packing, ms))
         if set(map(type, packs)) <= {Packed}:
@@ -153,12 +144,8 @@ def _pack_motions(ms: list[RationalMotion]) -> None:
         by_k.setdefault(pc.n_ctrl, []).append(i)
     for idx in by_k.values():
         group = [pcs[i] for i in idx]
-        ctrl = np.concatenate([pc.ctrl for pc in group])
-        err = np.concatenate([pc.error for pc in group])
-        t0 = np.concatenate([pc.t0 for pc in group])
-        t1 = np.concatenate([pc.t1 for pc in group])
-        # each motion's rows: a view of the group's table
-        table = np.concatenate([t0[:, None], t1[:, None], err, piece_reach(ctrl, err)], axis=1)
+        # each motion's rows: a view of the group's
+        table = pack_pieces(BezierPieces.concat(group), 0).rows
         ends = np.cumsum([len(pc) for pc in group])
         for i, pc, rows in zip(idx, group, np.split(table, ends[:-1]), strict=True):
             flat = np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4))
@@ -167,8 +154,8 @@ def _pack_motions(ms: list[RationalMotion]) -> None:
 
 def pack_pieces(pc, extra: int, reach: np.ndarray | None = None) -> Packed:
     """A piece table (:class:`motions.BezierPieces`) packed for the kernels, with `extra`
-    pieces beyond its motion's segments; `reach`: its :func:`piece_reach` rows, if
-    computed already."""
+    pieces beyond its motion's segments; `reach`: its :func:`piece_reach` rows (default:
+    computed here)."""
     if reach is None:
         reach = piece_reach(pc.ctrl, pc.error)
     rows = np.concatenate([pc.t0[:, None], pc.t1[:, None], pc.error, reach], axis=1)
@@ -498,6 +485,9 @@ REFINE_INPUTS = (
     "ctrl", "p_start", "p_k", "p_t", "p_err", "p_reach", "m_pieces", "m_parts", "m_obst",
     "m_nodes0", "o_idx", "shapes", "verts",
 )  # fmt: skip
+CLEARANCE_INPUTS = tuple(k for k in REFINE_INPUTS if k != "p_reach")
+"""(the clearance kernel's broad phase needs a root's exact box for its lower bound: the
+reach would loosen the bounds it reports)"""
 
 
 def _kernels():
@@ -580,7 +570,7 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
     lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
     arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
-    args = [arrays[k] for k in REFINE_INPUTS] + [
+    args = [arrays[k] for k in CLEARANCE_INPUTS] + [
         float(tol),
         int(max_depth),
         int(min(max_nodes, 2**31 - 1)),
