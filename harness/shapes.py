@@ -39,13 +39,22 @@ KIND = {"box": 0, "sphere": 1, "capsule": 2, "mesh": 3}
 
 
 def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
-    """motions' array check, with its ValueErrors as ShapeErrors (one named error)."""
+    """motions' array check, with its ValueErrors as ShapeErrors (one named error), as a
+    read-only copy: a shape is immutable, and its kernel record is cached at its first
+    query, so an array shared with the caller would let a later change of the caller's go
+    unseen by the kernels (a certified false free, found by an adversarial hunt)."""
     try:
-        return _as_array(x, name, **kw)
+        a = _as_array(x, name, **kw)
     except TypeError:
         raise
     except ValueError as e:
         raise ShapeError(str(e)) from None
+    return _frozen(a.copy())
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
 
 
 def _rotation(rotation: Any, name: str = "rotation") -> np.ndarray:
@@ -117,7 +126,7 @@ class Box(Shape):
     def __init__(self, half_extents: Any, center: Any = (0, 0, 0), rotation: Any = None):
         object.__setattr__(self, "half_extents", _positive(half_extents, "half_extents", (3,)))
         object.__setattr__(self, "center", as_array(center, "center", shape=(3,)))
-        object.__setattr__(self, "rotation", _rotation(rotation))
+        object.__setattr__(self, "rotation", _frozen(_rotation(rotation)))
 
     def support(self, d):
         d = np.asarray(d, dtype=float)
@@ -190,7 +199,7 @@ class Capsule(Shape):
         object.__setattr__(self, "radius", float(_positive(radius, "radius")))
         object.__setattr__(self, "half_length", float(_positive(half_length, "half_length")))
         object.__setattr__(self, "center", as_array(center, "center", shape=(3,)))
-        object.__setattr__(self, "rotation", _rotation(rotation))
+        object.__setattr__(self, "rotation", _frozen(_rotation(rotation)))
 
     @property
     def axis(self) -> np.ndarray:

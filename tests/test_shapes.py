@@ -163,3 +163,41 @@ def test_degenerate_meshes_fail_alike_in_the_certifier_and_the_ground_truth():
         )
     with pytest.raises(ShapeError, match="one plane"):
         ConvexMesh(np.fromstring(flat, sep=" ").reshape(-1, 3))
+
+
+def test_a_shape_keeps_its_geometry_when_the_caller_reuses_its_arrays():
+    # an adversarial hunt found a certified false free: shapes held the caller's arrays,
+    # the kernels' record of a shape is cached at its first query, and a caller refilling
+    # its buffer moved `wall.center` into the path while the certifier kept the old wall
+    import motions
+    from harness import certify
+
+    m = motions.interpolate(
+        np.array([[1.0, 0, 0, 0]] * 4), np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]])
+    )
+    body = Box([0.1, 0.1, 0.1])
+    center, half = np.array([1.5, 5.0, 0.0]), np.array([0.2, 0.2, 0.2])
+    wall = Box(half, center=center)
+    assert certify(m, body, [wall]).verdict == "free"
+    center[1], half[1] = 0.05, 6.0  # the caller reuses its arrays: the path now crosses them
+    np.testing.assert_array_equal(wall.center, [1.5, 5.0, 0.0])
+    np.testing.assert_array_equal(wall.half_extents, [0.2, 0.2, 0.2])
+    assert certify(m, body, [wall]).verdict == "free"  # the wall it reports, 4.7 m away
+    assert certify(m, body, [Box(half, center=center)]).verdict == "collision"
+    # and every shape's arrays are its own and read-only
+    rot = np.eye(3)
+    for shape, arrays in [
+        (Box(half, center=center, rotation=rot), ("half_extents", "center", "rotation")),
+        (Sphere(0.3, center=center), ("center",)),
+        (Capsule(0.1, 0.5, center=center, rotation=rot), ("center", "rotation")),
+    ]:
+        for name in arrays:
+            a = getattr(shape, name)
+            assert not np.shares_memory(a, center) and not np.shares_memory(a, rot), name
+            with pytest.raises(ValueError, match="read-only"):
+                a[0] = 1.0
+    pts = np.random.default_rng(0).normal(size=(12, 3))
+    mesh = ConvexMesh(pts)
+    before = mesh.vertices().copy()
+    pts[:] = 0.0
+    np.testing.assert_array_equal(mesh.vertices(), before)
