@@ -49,11 +49,14 @@ def short(x: Any, limit: int = 6) -> str:
 def as_array(
     x: Any, name: str, *, ndim: int | None = None, shape: tuple | None = None
 ) -> np.ndarray:
-    """A finite float64 array; `shape` entries of -1 match any length."""
+    """A finite float64 array of its own (a copy: a motion keeps what it is given, and its
+    caches, the certifier's pieces among them, are built once; an array shared with the
+    caller would let a later change of the caller's move the motion under them); `shape`
+    entries of -1 match any length."""
     if isinstance(x, str | bytes) or x is None:
         raise TypeError(f"Expected `{name}` to be an array of numbers, got {type(x).__name__}.")
     try:
-        a = np.asarray(x, dtype=np.float64)
+        a = np.array(x, dtype=np.float64)
     except (TypeError, ValueError):
         raise TypeError(f"Expected `{name}` to be an array of numbers, got {short(x)}.") from None
     if ndim is not None and a.ndim != ndim:

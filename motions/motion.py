@@ -91,7 +91,7 @@ class Motion(abc.ABC):
 
     def __init__(self, domain: tuple[float, float], keyframe_times: np.ndarray):
         self._domain = (float(domain[0]), float(domain[1]))
-        self._keyframe_times = np.asarray(keyframe_times, dtype=float)
+        self._keyframe_times = np.array(keyframe_times, dtype=float)  # (its own: see as_array)
 
     # ----------------------------------------------------------------- descriptors
     @property

@@ -142,7 +142,7 @@ class RationalMotion(Motion):
         keyframe_times: np.ndarray | None = None,
         piece_error: np.ndarray | None = None,
     ):
-        breaks = np.asarray(breaks, dtype=float)
+        breaks = np.array(breaks, dtype=float)  # (its own: see motions._checks.as_array)
         kt = np.empty(0) if keyframe_times is None else np.asarray(keyframe_times, dtype=float)
         super().__init__((breaks[0], breaks[-1]), kt)
         self._breaks = breaks

@@ -317,3 +317,59 @@ def test_pose_paths_agree_with_the_control_matrices(count, rng):
     perm = rng.permutation(count)
     np.testing.assert_allclose(m.matrix(x[perm]), want[perm], atol=1e-11)
     np.testing.assert_allclose(m.velocity(x[perm]), m.velocity(x)[perm], atol=1e-11)
+
+
+# ----------------------------------------------------------------------------- caller's arrays
+def _keyframe_builders():
+    from motions import baselines
+
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=(5, 4))
+    q[:, 0] += 3.0
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    p, t = rng.normal(size=(5, 3)), np.linspace(0.0, 2.0, 5)
+    m = motions.interpolate(q, p, t)
+    br, ctrl = m.bezier_form()
+    knots = np.r_[0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0]
+    out = [
+        ("interpolate", motions.interpolate, (q, p, t), {}),
+        ("hermite", motions.hermite, (q, p, t), {"velocities": rng.normal(size=(5, 3))}),
+        ("from_bezier", RationalMotion.from_bezier, (br, ctrl), {"keyframe_times": t}),
+        ("from_preimage", RationalMotion.from_preimage, (2, knots, q[:4]), {}),
+        ("planar", motions.planar, (rng.normal(size=5), rng.normal(size=(5, 2)), t), {}),
+    ]
+    out += [
+        (b, getattr(baselines, b), (q, p, t), {})
+        for b in sorted(dir(baselines))
+        if b.startswith("build_")
+    ]
+    return out
+
+
+@pytest.mark.parametrize("builder", _keyframe_builders(), ids=lambda b: b[0])
+def test_a_motion_keeps_its_data_when_the_caller_reuses_its_arrays(builder):
+    # before, hermite and from_bezier kept the caller's `times` / `breaks` and most
+    # baselines its keyframes: refilling them after the certifier had cached the pieces
+    # moved pose() away from what had been certified
+    _name, build, args, kw = builder
+    args = [np.array(a, dtype=float) if isinstance(a, np.ndarray) else a for a in args]
+    kw = {k: np.array(v, dtype=float) for k, v in kw.items()}
+    m = build(*args, **kw)
+    ts = np.linspace(*m.domain, 17)
+    before = m.pose(ts), m.keyframe_times
+    if isinstance(m, RationalMotion):
+        pieces = m.positive_pieces()
+        before += (pieces.ctrl.copy(), pieces.t0.copy(), m.breaks)
+    for a in [*args, *kw.values()]:
+        if isinstance(a, np.ndarray):
+            a *= 1.37
+            a += 0.11
+    after = m.pose(ts), m.keyframe_times
+    if isinstance(m, RationalMotion):
+        pieces = m.positive_pieces()
+        after += (pieces.ctrl, pieces.t0, m.breaks)
+    for x, y in zip(before, after, strict=True):
+        for u, v in zip(
+            x if isinstance(x, tuple) else (x,), y if isinstance(y, tuple) else (y,), strict=True
+        ):
+            np.testing.assert_array_equal(u, v)
