@@ -549,3 +549,33 @@ def test_kernel_modules_raise_inlining_only_over_warps_default_flags(monkeypatch
     for own in ("", "-march=native", None):  # the user's choice is kept
         monkeypatch.setattr(wp.config, "cpu_compiler_flags", own)
         assert device.kernel_module_options() == {"enable_backward": False}
+
+
+@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz"])
+@pytest.mark.parametrize("tol", [1e-9, 1e-6, 1e-3])
+def test_times_without_doubles_between_them_keep_toi_lo_below_the_contact(bound, tol):
+    # an adversarial hunt: on [1e6, 1e6 + 1e-4] halving runs out of doubles at depth ~21;
+    # a half whose start rounded onto the contact's time was dropped with the contact in
+    # it, so `collision` came with a certified toi_lo = inf, and `lipschitz`, whose steps
+    # fell below the resolution, spent its whole node budget standing still
+    t0, dur = 1e6, 1e-4
+    # collinear keyframes at equal times: the cubic is x(t) = 1e5 (t - t0) exactly
+    pos = np.array([[0.0, 0, 0], [10 / 3, 0, 0], [20 / 3, 0, 0], [10.0, 0, 0]])
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (4, 1)), pos, t0 + np.arange(4) / 3 * dur)
+    xw = 4.0012345  # the ball's near surface; the cube's front face x + 0.1 meets it at
+    first = t0 + (xw - 0.1) / 10 * dur
+    ball = Sphere(1.0, center=[xw + 1.0, 0.0, 0.0])
+    c = certify(m, Box([0.1, 0.1, 0.1]), [ball], tolerance=tol, bound=bound)
+    assert c.verdict != "free"
+    assert c.toi_lo <= first
+    if c.verdict == "collision":
+        assert c.toi_hi >= first - 8 * np.spacing(first)  # (times to their round-off)
+    else:
+        assert c.reason in ("tolerance", "depth") and c.nodes < 1000
+    if bound != "lipschitz":  # the refinement finds the contact at every tolerance
+        assert c.verdict == "collision" and math.isfinite(c.toi_lo)
+        # and bounds it tightly: within twice the time the tolerance takes at 1e5 m/s, and
+        # the allowance for the halved times' round-off (TIME_ULPS ulps of the time)
+        from harness.certification.api import TIME_ULPS
+
+        assert first - c.toi_lo <= 2 * tol / 1e5 + (TIME_ULPS + 2) * 2.0**-53 * first

@@ -14,7 +14,7 @@ from __future__ import annotations
 import warp as wp
 
 from ._geometry import F0, F1, HUGE, Shape, _core_radius, _gjk
-from ._refine_kernels import GAMMA_C, R_BUDGET, R_TOL, UNIT, _images, _prepare
+from ._refine_kernels import GAMMA_C, R_BUDGET, R_DEPTH, R_TOL, UNIT, _images, _prepare
 from .device import kernel_module_options
 
 # the refinement's compiler flags (device.CPU_FLAGS), so that the competitors compare at
@@ -155,6 +155,7 @@ def _advance(
         unk_t = HUGE
         unk_r = wp.int32(0)
         n_tol = wp.int32(0)
+        n_depth = wp.int32(0)
         n_budget = wp.int32(0)
         stopped = wp.int32(0)
         pr = m_pieces[m]
@@ -227,6 +228,16 @@ def _advance(
                             reach = t + gap / v
                     if reach >= t_end:
                         break
+                    if reach <= t:
+                        # the step is below the time's resolution (times near 1e6, speeds
+                        # of 1e5): the track cannot advance, so from t on it stays
+                        # unsearched, a limit as the refinement's depth is
+                        toi_lo = wp.min(toi_lo, t)
+                        n_depth += 1
+                        if t < unk_t:
+                            unk_t = t
+                            unk_r = R_DEPTH
+                        break
                     t = reach
                 deepest = wp.max(deepest, steps)
         out_t[m, 0] = toi_lo
@@ -239,7 +250,7 @@ def _advance(
         out_n[m, 2] = deepest
         out_n[m, 3] = unk_r
         out_n[m, 4] = n_tol
-        out_n[m, 5] = 0
+        out_n[m, 5] = n_depth
         out_n[m, 6] = n_budget
         m += stride
 

@@ -683,6 +683,10 @@ def _refine(
                                 sp -= 1
                                 continue
                         if t0 >= tcoll:
+                            # only on a node whose times are equal (x1 set tcoll = t1 <= t0; the
+                            # split below makes none): its right end intersects, so it holds a
+                            # contact; before, it was dropped without a toi_lo
+                            toi_lo = wp.min(toi_lo, t0)
                             sp -= 1
                             continue
                         # (d'): no depth would clear a piece whose end poses' own bounds
@@ -697,7 +701,11 @@ def _refine(
                             and prep.ok == 1
                             and _extent(pre_m, pre_c, lane, k, part.rloc) <= tol
                         )
-                        if depth >= max_depth or hopeless:  # (d)
+                        # a node whose times have no double between them cannot be halved:
+                        # its halves would start or end where it does (times near 1e6 on a
+                        # domain of 1e-4 run out at depth ~21), so it is at its depth limit
+                        tm = wp.float64(0.5) * (t0 + t1)
+                        if depth >= max_depth or hopeless or tm <= t0 or tm >= t1:  # (d)
                             toi_lo = wp.min(toi_lo, t0)
                             if x1 == 0:
                                 n_depth += 1
@@ -710,7 +718,6 @@ def _refine(
                         _halve(st_ctrl, lane, sp, k)
                         ek = wp.float64(k) * UNIT / (F1 - wp.float64(k) * UNIT)
                         e2 = err + ek * (mag + err)
-                        tm = wp.float64(0.5) * (t0 + t1)
                         st_t[lane, sp] = wp.vec2d(tm, t1)
                         st_t[lane, sp + 1] = wp.vec2d(t0, tm)
                         st_err[lane, sp] = e2
@@ -960,7 +967,8 @@ def _clearance(
                             low = wp.min(low, leaf)
                             sp -= 1
                             continue
-                        if depth >= max_depth:
+                        tm = wp.float64(0.5) * (t0 + t1)
+                        if depth >= max_depth or tm <= t0 or tm >= t1:  # (times: see _refine)
                             low = wp.min(low, leaf)
                             flags_m = flags_m | 2
                             sp -= 1
@@ -968,7 +976,6 @@ def _clearance(
                         _halve(st_ctrl, lane, sp, k)
                         ek = wp.float64(k) * UNIT / (F1 - wp.float64(k) * UNIT)
                         e2 = err + ek * (prep.mag + err)
-                        tm = wp.float64(0.5) * (t0 + t1)
                         st_t[lane, sp] = wp.vec2d(tm, t1)
                         st_t[lane, sp + 1] = wp.vec2d(t0, tm)
                         st_err[lane, sp] = e2

@@ -66,7 +66,9 @@ class Certificate:
             "budget" (a limit was hit).
         toi_lo: earliest time not certified free (+inf when free); a certified lower
             bound on the first contact when `certified`.
-        toi_hi: time of the first intersecting pose found (+inf if none).
+        toi_hi: time of the first intersecting pose found (+inf if none), to within the
+            round-off of halved times (`TIME_ULPS` ulps: where doubles are sparse, as near
+            t = 1e6, the pose at the double itself may be clear).
         nodes: bound evaluations of (segment piece, obstacle part), positivity splits
             included (Lipschitz: distance evaluations; sampling: samples).
         pose_tests: exact distance evaluations of poses.
