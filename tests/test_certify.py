@@ -274,3 +274,23 @@ def test_bad_input():
         certify(m, box, [Box([0.1, -0.1, 0.1])])
     with pytest.raises(ValueError, match="one obstacle list per motion"):
         certify_many([m, m], box, [[box], [box], [box]])
+
+
+@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz"])
+@pytest.mark.parametrize(
+    "obstacle",
+    [Box([0.2, 0.2, 0.2], center=[1.5, 0, 0]), Box([0.2, 0.3, 0.1], center=[1.5, 0, 0])],
+    ids=["cube", "box"],
+)
+def test_a_box_through_the_centre_of_another_is_a_collision(bound, obstacle):
+    # an adversarial hunt: faces parallel and centres on one line, the pose tests proved
+    # no overlap however deep (0.3 at t = 1.5), and the verdict was `unknown`
+    m = motions.interpolate(
+        np.tile([1.0, 0, 0, 0], (4, 1)), np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]])
+    )
+    c = certify(m, Box([0.1, 0.1, 0.1]), [obstacle], bound=bound)
+    # x(t) = t exactly (collinear keyframes at equal times): the front face x + 0.1 meets
+    # the obstacle's x = 1.3 at t = 1.2
+    assert c.verdict == "collision" and c.toi_lo <= 1.2 <= c.toi_hi
+    cl = harness.clearance(m, Box([0.1, 0.1, 0.1]), [obstacle])
+    assert cl.upper < 0 and cl.lower == -np.inf  # a penetration is proven

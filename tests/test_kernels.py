@@ -215,6 +215,43 @@ def test_pose_kernel_brackets_mujoco(device, body, motion):
         assert np.all(ref[x, k] <= eps)
 
 
+SYMMETRIC = [
+    # (body, obstacle, signed distance) with the obstacle centred on the body: the
+    # Minkowski difference is symmetric about the origin, GJK's supports come in antipodal
+    # pairs and its simplex passes through the origin without proving any depth
+    (Box([0.1, 0.1, 0.1]), Box([0.2, 0.2, 0.2]), -0.3),
+    (Box([0.1, 0.2, 0.3]), Box([0.3, 0.2, 0.1]), -0.4),
+    (Box([0.1, 0.1, 0.1]), Box([0.2, 0.2, 0.2], rotation=[np.cos(0.4), 0, 0, np.sin(0.4)]), None),
+    (Box([0.1, 0.1, 0.1]), Sphere(0.25), -0.35),
+    (Capsule(0.05, 0.3), Box([0.2, 0.2, 0.2]), -0.25),
+    (
+        ConvexMesh(
+            [[s0, s1, s2] for s0 in (-0.1, 0.1) for s1 in (-0.1, 0.1) for s2 in (-0.1, 0.1)]
+        ),
+        Box([0.2, 0.2, 0.2]),
+        -0.3,
+    ),
+]
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("case", SYMMETRIC, ids=lambda c: f"{c[0].kind}-{c[1].kind}")
+def test_pose_kernel_proves_a_centred_overlap(device, case):
+    # an adversarial hunt: an axis-aligned box passing straight through the centre of
+    # another was `unknown` however deep the overlap, since no pose test proved it
+    body, obstacle, sd = case
+    table = ShapeTable.build([body, obstacle])
+    poses = pose_matrices(
+        np.tile(np.eye(3), (3, 1, 1)), np.array([[0.0, 0, 0], [0, 0, 0.01], [0.05, 0, 0]])
+    )
+    ub, lb, x, _ = pose_rows(
+        poses, np.full(3, table.offsets[0]), np.full(3, table.offsets[1]), table, device=device
+    )
+    assert np.all(x) and np.all(ub < 0), ub
+    if sd is not None:  # the exact signed distance at the centred pose lies in the bracket
+        assert lb[0] <= sd <= ub[0]
+
+
 def test_swept_aabbs_contain_every_sampled_point(motion):
     for body in BODIES:
         for depth in (0, 2, 4):

@@ -454,3 +454,58 @@ def _gjk(
     if overlap == 1:
         return F0, -HUGE, best_dir, overlap, depth, calls
     return wp.sqrt(wp.dot(v, v)), best_gap, best_dir, overlap, F0, calls
+
+
+@wp.func
+def _probe_depth(
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    lane: wp.int32,
+    i0: wp.int32,
+    i1: wp.int32,
+    part: Shape,
+    obst: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+) -> wp.float64:
+    """A lower bound of the penetration depth of the cores of A (the affine images
+    pre[lane, i0:i1] of the body part) and B (the obstacle), for when GJK ends with the
+    origin on its simplex and so proves no depth: A - B symmetric about the origin (an
+    axis-aligned box centred on another along a line of centres) gives GJK antipodal
+    supports, a segment through the origin and a depth of 0, however deep the boxes
+    overlap. The supports of A - B along the four directions of a regular tetrahedron, and
+    along their opposites, span two tetrahedra inside A - B; the origin's depth in either
+    (0 when outside both) is a depth of the overlap. The orientation is generic, so that
+    no direction lies in a face of an axis-aligned box."""
+    z = wp.vec3d(F0, F0, F0)
+    e0 = wp.vec3d(
+        wp.float64(0.6604554914477347),
+        wp.float64(0.4822515809099521),
+        wp.float64(0.5755275462793967),
+    )
+    e1 = wp.vec3d(
+        wp.float64(0.44090171432080716),
+        wp.float64(-0.2756256027670645),
+        wp.float64(-0.8541874533193904),
+    )
+    e2 = wp.vec3d(
+        wp.float64(-0.770045542177425),
+        wp.float64(0.6050125454537225),
+        wp.float64(-0.2024590892409697),
+    )
+    e3 = wp.vec3d(
+        wp.float64(-0.33131166359111686),
+        wp.float64(-0.8116385235966102),
+        wp.float64(0.4811189962809634),
+    )
+    best = F0
+    sign = F1
+    for _k in range(2):
+        a = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e0)
+        b = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e1)
+        c = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e2)
+        d = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e3)
+        _v, ns, _q0, _q1, _q2, depth = _closest_tetra(a, b, c, d)
+        if ns == 4:
+            best = wp.max(best, depth)
+        sign = -F1
+    return best

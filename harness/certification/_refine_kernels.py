@@ -54,6 +54,7 @@ from ._geometry import (
     _gjk,
     _local_h,
     _placed_support,
+    _probe_depth,
 )
 from .device import kernel_module_options
 
@@ -355,6 +356,10 @@ def _pose_test(
     hi = ub - radii + margin
     lb = gap - radii - margin
     if overlap == 1:
+        if radii + depth <= margin:  # GJK proved no depth: try the probes' tetrahedra
+            depth = wp.max(
+                depth, _probe_depth(pre_m, pre_c, lane, slot, slot + 1, part, obst, verts)
+            )
         hi = -(radii + depth) + margin
         lb = -HUGE
     x = wp.int32(0)
