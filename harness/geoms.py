@@ -26,7 +26,7 @@ from motions import quat_from_matrix, rotation_matrix
 from motions._checks import short
 
 from .errors import HarnessError, ShapeError, UnsupportedGeomError
-from .shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere, parts
+from .shapes import Box, Capsule, Compound, ConvexMesh, HalfSpace, Shape, Sphere, parts
 
 __all__ = [
     "COVER_TOLERANCE",
@@ -43,7 +43,7 @@ __all__ = [
 ]
 
 SUPPORTED_GEOMS = ("box", "sphere", "capsule", "mesh", "plane")
-PLANE_HALF = 1e3  # a plane becomes a 2e3-m box below its surface
+PLANE_HALF = 1e3  # a plane starts as a cube of this half size below it (see HalfSpace)
 
 COVER_TOLERANCE = 1e-9
 """Relative slack of the coverage check: a geom counts as covered by a part when the
@@ -103,8 +103,11 @@ def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, i: int) -> str:
     return mujoco.mj_id2name(model, kind, int(i)) or f"#{int(i)}"
 
 
-def _geom_shape(model: mujoco.MjModel, g: int, rot: np.ndarray, pos: np.ndarray) -> Shape:
-    """Shape of geom g placed by (rot, pos) (geom frame -> target frame)."""
+def _geom_shape(
+    model: mujoco.MjModel, g: int, rot: np.ndarray, pos: np.ndarray, moving: bool = False
+) -> Shape:
+    """Shape of geom g placed by (rot, pos) (geom frame -> target frame); `moving`: a
+    geom of the moving body (a plane is refused there)."""
     t = int(model.geom_type[g])
     size = np.array(model.geom_size[g], dtype=float)
     if t == mujoco.mjtGeom.mjGEOM_BOX:
@@ -122,9 +125,17 @@ def _geom_shape(model: mujoco.MjModel, g: int, rot: np.ndarray, pos: np.ndarray)
         except ShapeError as e:
             raise type(e)(f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r}: {e}") from None
     if t == mujoco.mjtGeom.mjGEOM_PLANE:
-        # half-space below the plane, represented by a large box (exact within its extent)
-        n = rot[:, 2]
-        return Box([PLANE_HALF] * 3, center=pos - PLANE_HALF * n, rotation=rot)
+        if moving:
+            # a moving half-space meets every obstacle somewhere along it: no box would do
+            raise UnsupportedGeomError(
+                f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r} (body "
+                f"{_name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])!r}) is a plane"
+                " on the moving body: an unbounded half-space; give it a box instead."
+            )
+        # the half-space below the plane, as a cube that the engine enlarges for a motion
+        # that could leave it (before, a fixed 2e3 cube: a robot 1.2 m from the floor's
+        # origin in a scene in millimetres was certified free through the floor)
+        return HalfSpace(pos, rot, half=PLANE_HALF)
     kind = mujoco.mjtGeom(t).name.replace("mjGEOM_", "").lower()
     raise UnsupportedGeomError(
         f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r} (body "
@@ -236,7 +247,7 @@ def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = Non
         )
     # the mocap body at the world origin: world coordinates are then body coordinates
     rot, pos = _poses_at(model, bid, qpos, np.eye(3), np.zeros(3))
-    shapes = [_geom_shape(model, g, rot[g], pos[g]) for g in geoms]
+    shapes = [_geom_shape(model, g, rot[g], pos[g], moving=True) for g in geoms]
     return shapes[0] if len(shapes) == 1 else Compound(shapes)
 
 
@@ -262,7 +273,9 @@ def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
 def obstacles_from_model(model: mujoco.MjModel, *, groups: Any = None) -> list[Shape]:
     """The static colliding geoms in world coordinates: geoms of the world body and of
     bodies fixed to it (no joint up the tree, not mocap), with contype or conaffinity
-    non-zero; nothing that moves. Planes become large boxes below their surface.
+    non-zero; nothing that moves. Planes become
+    :class:`HalfSpace` cubes below their surface, which the engine enlarges for a motion
+    that could leave them.
     `groups` (MuJoCo geom groups) selects some."""
     _check_model(model)
     data = mujoco.MjData(model)
@@ -321,7 +334,7 @@ def check_body_covers_subtree(
     scale = 1.0 + np.linalg.norm(_CHECK_POS) + body.bounding_radius
     missing = []
     for g in geoms:
-        h_geom = _geom_shape(model, int(g), rot[g], pos[g]).h(d)
+        h_geom = _geom_shape(model, int(g), rot[g], pos[g], moving=True).h(d)
         if not np.any(np.all(h_parts >= h_geom - COVER_TOLERANCE * scale, axis=1)):
             missing.append(
                 f"{_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r} (body "

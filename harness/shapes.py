@@ -7,7 +7,9 @@ the Warp kernels. Quaternions are scalar first ``(w, x, y, z)``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -27,6 +29,7 @@ __all__ = [
     "Capsule",
     "Compound",
     "ConvexMesh",
+    "HalfSpace",
     "Shape",
     "Sphere",
     "as_obstacles",
@@ -100,7 +103,7 @@ class Shape:
         """Support function ``max_x d.x`` (...)."""
         return np.einsum("...i,...i->...", self.support(d), np.asarray(d, dtype=float))
 
-    @property
+    @cached_property  # (a shape is immutable)
     def bounding_radius(self) -> float:
         """Radius of a ball about the frame origin that contains the shape."""
         raise NotImplementedError
@@ -133,7 +136,7 @@ class Box(Shape):
         local = d @ self.rotation
         return self.center + (np.where(local >= 0, 1.0, -1.0) * self.half_extents) @ self.rotation.T
 
-    @property
+    @cached_property  # (a shape is immutable)
     def bounding_radius(self) -> float:
         return float(np.linalg.norm(self.center) + np.linalg.norm(self.half_extents))
 
@@ -155,6 +158,55 @@ class Box(Shape):
 
 
 @dataclass(frozen=True, eq=False)
+class HalfSpace(Box):
+    """The solid side of a plane (MuJoCo's plane geom, whose outward normal is its frame's
+    z axis): a cube of half size `half` whose top face lies in the plane, centred on the
+    plane's `point`, below it. Exact wherever a query can reach inside the cube; the engine
+    enlarges it for a motion that could leave it (:meth:`covering`, used by
+    :func:`harness.certification.api.cover_half_spaces`), so a plane is never truncated."""
+
+    point: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __init__(self, point: Any, rotation: Any = None, half: float = 1e3):
+        rot = _frozen(_rotation(rotation))
+        p = as_array(point, "point", shape=(3,))
+        super().__init__([half] * 3, center=p - float(half) * rot[:, 2], rotation=rot)
+        object.__setattr__(self, "point", p)
+
+    def covering(self, center: np.ndarray, radius: float) -> HalfSpace:
+        """This half-space as a cube large enough that every point of the ball (`center`,
+        `radius`) on the solid side lies inside it: itself when it already is."""
+        local = (np.asarray(center, dtype=float) - self.point) @ self.rotation
+        need = max(abs(local[0]) + radius, abs(local[1]) + radius, 0.5 * (radius - local[2]))
+        half = float(self.half_extents[0])
+        # (a billionth, then 1 %, more than the rounded `local` asks: its few roundings
+        # are far below either)
+        if need * (1 + 1e-9) <= half:
+            return self
+        return self.sized(2.0 ** math.ceil(math.log2(1.01 * need)))
+
+    def sized(self, half: float) -> HalfSpace:
+        """The same half-space as a cube of half size `half` (one object per size, kept:
+        the motions of a batch that leave the cube share a few)."""
+        kept = self.__dict__.setdefault("_sizes", {})
+        hit = kept.get(half)
+        if hit is None:
+            hit = object.__new__(HalfSpace)
+            for name, value in (
+                ("half_extents", _frozen(np.full(3, half))),
+                ("center", _frozen(self.point - half * self.rotation[:, 2])),
+                ("rotation", self.rotation),
+                ("point", self.point),
+            ):
+                object.__setattr__(hit, name, value)
+            kept[half] = hit
+        return hit
+
+    def transformed(self, r, p):
+        return HalfSpace(r @ self.point + p, r @ self.rotation, float(self.half_extents[0]))
+
+
+@dataclass(frozen=True, eq=False)
 class Sphere(Shape):
     """Ball of `radius` about `center`."""
 
@@ -171,7 +223,7 @@ class Sphere(Shape):
         n = np.linalg.norm(d, axis=-1, keepdims=True)
         return self.center + self.radius * d / np.where(n > 0, n, 1.0)
 
-    @property
+    @cached_property  # (a shape is immutable)
     def bounding_radius(self) -> float:
         return float(np.linalg.norm(self.center) + self.radius)
 
@@ -215,7 +267,7 @@ class Capsule(Shape):
             + self.radius * d / np.where(n > 0, n, 1.0)
         )
 
-    @property
+    @cached_property  # (a shape is immutable)
     def bounding_radius(self) -> float:
         return float(np.linalg.norm(self.center) + self.half_length + self.radius)
 
@@ -289,7 +341,7 @@ class ConvexMesh(Shape):
         i = np.argmax(d @ self.vertices_.T, axis=-1)
         return self.vertices_[i]
 
-    @property
+    @cached_property  # (a shape is immutable)
     def bounding_radius(self) -> float:
         return float(np.linalg.norm(self.vertices_, axis=1).max())
 
@@ -370,7 +422,7 @@ class Compound(Shape):
         i = np.argmax(vals, axis=0)
         return np.take_along_axis(pts, i[None, ..., None], axis=0)[0]
 
-    @property
+    @cached_property  # (a shape is immutable)
     def bounding_radius(self) -> float:
         return max(s.bounding_radius for s in self.shapes)
 

@@ -17,7 +17,7 @@ from motions import Motion
 from motions._checks import as_float, short
 
 from .certification.advance import pose_matrices, pose_rows
-from .certification.api import Certificate, obstacle_lists
+from .certification.api import Certificate, cover_half_spaces, obstacle_lists
 from .certification.tables import ShapeTable
 from .errors import NoSpeedBoundError
 from .mjdistance import CCD_TOLERANCE, MujocoDistance
@@ -93,7 +93,7 @@ def ground_truth(
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     body = as_shape(body)
-    obst = obstacle_lists(obstacles, 1)[0]
+    obst = cover_half_spaces([motion], [body], obstacle_lists(obstacles, 1))[0]
     res = as_float(resolution, "resolution")
     if not math.isfinite(res) or res <= 0:
         raise ValueError(f"Expected `resolution` > 0 (a length), got {short(resolution)}.")

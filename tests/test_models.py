@@ -395,3 +395,58 @@ def test_bad_files_get_named_errors(tmp_path):
         body_from_model(scenes.load("slot").model, 3)
     with pytest.raises(TypeError, match="`name_or_path`"):
         scenes.load(3)
+
+
+def _mujoco_least_distance(model, m, mover_geom, obstacle_geom, times):
+    """MuJoCo's own least distance between two geoms along motion `m` (mocap body 0)."""
+    data = mujoco.MjData(model)
+    r, p = m.pose(times)
+    least = np.inf
+    for k in range(len(times)):
+        data.mocap_pos[0], data.mocap_quat[0] = p[k], motions.quat_from_matrix(r[k])
+        mujoco.mj_kinematics(model, data)
+        least = min(
+            least, mujoco.mj_geomDistance(model, data, mover_geom, obstacle_geom, 1e9, None)
+        )
+    return least
+
+
+def test_a_floor_plane_is_whole_wherever_the_motion_goes():
+    # an adversarial hunt: a plane was a fixed 2e3 cube under its origin, so in a scene in
+    # millimetres a hand 1.2 m from the floor's origin went through it, certified free
+    xml = """<mujoco><worldbody><geom name="floor" type="plane" size="0 0 1"/>
+    <body name="hand" mocap="true" pos="1200 0 100"><geom name="h" type="box" size="20 20 20"/>
+    </body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    body, obst = body_from_model(model, "hand"), obstacles_from_model(model)
+    q = np.tile([1.0, 0, 0, 0], (3, 1))
+    for x, dip in [(1200.0, 10.0), (-5e4, 10.0), (3e5, 1e-3), (1200.0, -5.0)]:
+        p = np.array([[x, 0, 100], [x, 0, 20 - dip], [x, 0, 100]])  # bottom `dip` below z = 0
+        m = motions.interpolate(q, p, [0.0, 1.0, 2.0])
+        truth = _mujoco_least_distance(model, m, 1, 0, np.linspace(0, 2, 401))
+        assert truth == pytest.approx(-dip, abs=1e-6 * abs(x))
+        verdict = "collision" if dip > 0 else "free"
+        assert harness.certify(m, body, obst).verdict == verdict, (x, dip)
+        assert harness.ground_truth(m, body, obst).verdict == verdict, (x, dip)
+    # the cube a plane becomes, enlarged for a ball, holds every point of it below the plane
+    plane = obst[0]
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        c, r = rng.normal(size=3) * 10.0 ** rng.uniform(0, 6), 10.0 ** rng.uniform(-2, 5)
+        box = plane.covering(c, r)
+        pts = c + r * rng.uniform(-1, 1, size=(2000, 3)) / np.sqrt(3)
+        below = pts[pts[:, 2] <= 0]
+        local = (below - box.center) @ box.rotation
+        assert np.all(np.abs(local) <= box.half_extents * (1 + 1e-12)), (c, r)
+        np.testing.assert_allclose(
+            box.center[2] + box.half_extents[2], 0.0, atol=1e-9 * box.half_extents[2]
+        )
+
+
+def test_a_plane_on_the_moving_body_is_refused():
+    xml = """<mujoco><worldbody><geom name="rock" type="box" size="1 1 1" pos="1500 0 0"/>
+    <body name="blade" mocap="true"><geom name="p" type="plane" size="0 0 1"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    with pytest.raises(harness.errors.UnsupportedGeomError, match="'p' .*plane on the moving body"):
+        body_from_model(model, "blade")

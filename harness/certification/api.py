@@ -22,7 +22,7 @@ from motions._checks import short
 from motions.pieces import UNIT_ROUNDOFF
 
 from ..errors import HarnessError
-from ..shapes import Shape, as_obstacles, as_shape
+from ..shapes import HalfSpace, Shape, as_obstacles, as_shape
 from ..timing import collector_paused
 from .device import resolve_device
 from .refine import BIG
@@ -217,6 +217,82 @@ def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
     return [as_obstacles(o, f"obstacles[{i}]") for i, o in enumerate(obstacles)]
 
 
+def cover_half_spaces(ms: list, bodies: list[Shape], obst: list[list[Shape]]) -> list:
+    """`obst` with every :class:`~harness.shapes.HalfSpace` (a plane from a model) enlarged,
+    for each motion that could leave it, to hold every point where the motion can carry
+    its body (:func:`reach_ball`): a plane is never truncated where a motion reaches.
+    Vectorised over the motions that share a half-space; a motion within it keeps it."""
+    if HalfSpace not in set(map(type, chain.from_iterable(obst))):  # (C loops: batches)
+        return obst
+    users: dict[int, tuple[HalfSpace, list[int]]] = {}  # half-space -> motions meeting it
+    for i, lst in enumerate(obst):
+        for o in lst:
+            if type(o) is HalfSpace:
+                users.setdefault(id(o), (o, []))[1].append(i)
+    near = sorted({i for _h, idx in users.values() for i in idx})
+    centres, radii = reach_balls([ms[i] for i in near], [bodies[i] for i in near], near)
+    row = {i: k for k, i in enumerate(near)}
+    out = None
+    for h, idx in users.values():
+        rows = [row[i] for i in idx]
+        c, r = centres[rows], radii[rows]
+        local = (c - h.point) @ h.rotation
+        need = np.maximum(np.abs(local[:, :2]).max(axis=1) + r, 0.5 * (r - local[:, 2]))
+        # (the comparison's roundings: a billionth of the size, far below the 1 % covering adds)
+        for k in np.flatnonzero(need * (1 + 1e-9) > h.half_extents[0]):
+            i = idx[k]
+            if out is None:
+                out = list(obst)
+            if out[i] is obst[i]:
+                out[i] = list(obst[i])
+            bigger = h.covering(c[k], r[k] * (1 + 1e-9))
+            out[i] = [bigger if o is h else o for o in out[i]]
+    return obst if out is None else out
+
+
+def reach_balls(ms: list, bodies: list[Shape], where: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Balls (centres (N, 3), radii (N,)) each holding every point of its body over the
+    whole of its motion (``motions[where[k]]`` in errors). For a rational motion, the box
+    of its pieces' reach (:func:`.refine.reach_extent`), widened by rho, the body's
+    bounding radius, and by the GAMMA_C of the sizes that covers its roundings; else the
+    ball about the body origin's start of radius ``rho + V (b - a)``, V the motion's proven
+    speed bound for points within rho over its domain [a, b] (a point x moves from
+    R(a) x + p(a), within rho of p(a), at speed at most V). A motion with no proven speed
+    gets no certified verdict; its ball is twice its sampled reach."""
+    from .refine import _GAMMA_C, reach_extent
+
+    n = len(ms)
+    radius = {id(b): b.bounding_radius for b in bodies}  # (a body is shared: once)
+    rho = np.array([radius[id(b)] for b in bodies], dtype=float).reshape(n)
+    lo, hi = [None] * n, [None] * n
+    grow = np.zeros(n)  # how far the box of each motion is widened
+    for k, m in enumerate(ms):
+        ext = reach_extent(m) if isinstance(m, RationalMotion) else None
+        if ext is not None:
+            lo[k], hi[k], scale, err = ext
+            grow[k] = rho[k] * scale + err
+            continue
+        a, b = m.domain
+        try:
+            v = m.speed_bound(a, b, rho[k])
+        except NotImplementedError:
+            # no proven speed: no certified verdict either (only `sampled` and the
+            # comparators take such a motion): twice the sampled reach, a plane as wide
+            # as what the query itself samples
+            p = np.asarray(m.pose(np.linspace(a, b, 1025))[1], dtype=float)
+            lo[k], hi[k] = p.min(axis=0), p.max(axis=0)
+            grow[k] = rho[k] + 0.5 * float(np.linalg.norm(hi[k] - lo[k]))
+            continue
+        lo[k] = hi[k] = np.asarray(m.pose(a)[1], dtype=float).reshape(3)
+        grow[k] = rho[k] + v * (b - a)
+    lo, hi = np.array(lo).reshape(n, 3), np.array(hi).reshape(n, 3)
+    size = np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1) + grow
+    grow = grow * (1 + _GAMMA_C) + _GAMMA_C * size
+    centres = 0.5 * (lo + hi)
+    radii = (0.5 * np.linalg.norm(hi - lo, axis=1) + np.sqrt(3.0) * grow) * (1 + 1e-12)
+    return centres, radii
+
+
 def body_list(body: Any, n: int) -> list[Shape]:
     """One body shared by all motions, or one per motion."""
     if isinstance(body, Shape):
@@ -299,12 +375,14 @@ def certify_many(
     if o["bound"] in ("fcl", "ipctk"):
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
+        obst = cover_half_spaces(ms, bodies, obst)
         if not ms:
             return []
         return _comparators(o["bound"], ms, bodies, obst, o["tol"], comparator_options)
     with collector_paused():
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
+        obst = cover_half_spaces(ms, bodies, obst)
         return _engine(ms, bodies, obst, o) if ms else []
 
 

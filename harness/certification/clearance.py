@@ -19,7 +19,14 @@ import numpy as np
 from motions import Motion, RationalMotion
 
 from ..timing import collector_paused
-from .api import DEFAULT_MAX_NODES, QueryError, body_list, check_options, obstacle_lists
+from .api import (
+    DEFAULT_MAX_NODES,
+    QueryError,
+    body_list,
+    check_options,
+    cover_half_spaces,
+    obstacle_lists,
+)
 from .refine import MOTIONS_PER_CHUNK, clearance_chunk, packed_all
 
 __all__ = ["Clearance", "clearance", "clearance_many"]
@@ -115,7 +122,7 @@ def clearance_many(
             )
     ms = list(motions)
     bodies = body_list(body, len(ms))
-    obst = obstacle_lists(obstacles, len(ms))
+    obst = cover_half_spaces(ms, bodies, obstacle_lists(obstacles, len(ms)))
     if not ms:
         return []
     start = time.perf_counter()

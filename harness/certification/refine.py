@@ -228,6 +228,29 @@ def piece_reach(ctrl: np.ndarray, err: np.ndarray) -> np.ndarray:
     return out.view(np.float64).reshape(p, REACH_ROW)
 
 
+def reach_extent(m: RationalMotion) -> tuple | None:
+    """Where the motion can carry points near the body origin: (lo, hi, scale, err) with
+    every point within rho of the body origin, over the whole motion, inside the box
+    ``[lo - rho scale - err, hi + rho scale + err]`` (the union of its pieces' reach,
+    :func:`piece_reach`, with the largest scale and err: looser than piece by piece, still
+    a bound), before its comparison's roundings (GAMMA_C of the sizes, as the kernels
+    add); None where a piece's weights are not provably positive. Cached on the motion."""
+    ext = getattr(m, "_certify_extent", None)
+    if ext is None:
+        rows = np.ascontiguousarray(packed_all([m])[0].rows[:, 5:])
+        rec = rows.view(record_dtype(_kernels().Reach)).reshape(-1)
+        ext = False
+        if rec["ok"].all():
+            ext = (
+                rec["lo"].min(axis=0),
+                rec["hi"].max(axis=0),
+                rec["scale"].max(),
+                rec["err"].max(),
+            )
+        m._certify_extent = ext
+    return ext or None
+
+
 def refine_many(
     ms: list[RationalMotion],
     bodies: list[Shape],
