@@ -262,9 +262,15 @@ def _static_bodies(model: mujoco.MjModel) -> np.ndarray:
 
 
 def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
-    """Ids of the static, colliding geoms (contype or conaffinity non-zero), in `groups`."""
+    """Ids of the static, colliding geoms (contype or conaffinity non-zero, or named in an
+    explicit ``<contact><pair>``), in `groups`."""
     static = _static_bodies(model)
     colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    # a pair collides whatever its geoms' contype and conaffinity (DESIGN §5 asks for
+    # explicit pairs between a mocap body and static geometry): before, a table reached
+    # only through a pair was dropped, and a hand in it certified free
+    colliding[model.pair_geom1] = True
+    colliding[model.pair_geom2] = True
     geoms = np.flatnonzero(static[model.geom_bodyid] & colliding)
     mask = _group_mask(groups)
     return geoms if mask is None else geoms[mask[model.geom_group[geoms]]]
@@ -273,7 +279,7 @@ def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
 def obstacles_from_model(model: mujoco.MjModel, *, groups: Any = None) -> list[Shape]:
     """The static colliding geoms in world coordinates: geoms of the world body and of
     bodies fixed to it (no joint up the tree, not mocap), with contype or conaffinity
-    non-zero; nothing that moves. Planes become
+    non-zero or in an explicit contact pair; nothing that moves. Planes become
     :class:`HalfSpace` cubes below their surface, which the engine enlarges for a motion
     that could leave them.
     `groups` (MuJoCo geom groups) selects some."""

@@ -450,3 +450,23 @@ def test_a_plane_on_the_moving_body_is_refused():
     model = mujoco.MjModel.from_xml_string(xml)
     with pytest.raises(harness.errors.UnsupportedGeomError, match="'p' .*plane on the moving body"):
         body_from_model(model, "blade")
+
+
+def test_a_static_geom_reached_only_through_a_contact_pair_is_an_obstacle():
+    # an adversarial hunt: DESIGN §5 asks for explicit pairs between a mocap body and
+    # static geometry, but a table with contype = conaffinity = 0 named only in a pair was
+    # dropped, and the hand 1 cm inside it certified free
+    xml = """<mujoco><worldbody>
+    <geom name="table" type="box" size="1 1 0.05" pos="0 0 -0.05" contype="0" conaffinity="0"/>
+    <body name="hand" mocap="true" pos="0 0 0.5"><geom name="h" type="sphere" size="0.1"
+      contype="0" conaffinity="0"/></body></worldbody>
+    <contact><pair geom1="h" geom2="table"/></contact></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    assert list(obstacle_geoms(model)) == [0]
+    body, obst = body_from_model(model, "hand"), obstacles_from_model(model)
+    q = np.tile([1.0, 0, 0, 0], (3, 1))
+    m = motions.interpolate(
+        q, np.array([[-0.5, 0, 0.5], [0, 0, 0.09], [0.5, 0, 0.5]]), [0.0, 1.0, 2.0]
+    )
+    assert _mujoco_least_distance(model, m, 1, 0, np.linspace(0, 2, 201)) == pytest.approx(-0.01)
+    assert harness.certify(m, body, obst).verdict == "collision"
