@@ -448,7 +448,9 @@ def test_a_plane_on_the_moving_body_is_refused():
     <body name="blade" mocap="true"><geom name="p" type="plane" size="0 0 1"/></body>
     </worldbody></mujoco>"""
     model = mujoco.MjModel.from_xml_string(xml)
-    with pytest.raises(harness.errors.UnsupportedGeomError, match="'p' .*plane on the moving body"):
+    with pytest.raises(
+        harness.errors.UnsupportedGeomError, match=r"'p' .*plane on the moving body"
+    ):
         body_from_model(model, "blade")
 
 
