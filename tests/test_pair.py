@@ -167,3 +167,39 @@ def test_two_body_scene_and_simulation():
     assert np.ptp(df["pair_distance"]) > 0.1
     with pytest.raises(scenes.InvalidMocapBody, match="nobody"):
         harness.simulate(sc, a, partners={"nobody": b})
+
+
+@pytest.mark.parametrize("where", ["end", "interior"])
+def test_times_a_rounding_apart_are_not_re_timed(where):
+    # an adversarial hunt: domains or keyframe times of the two motions within 1e-12 of
+    # the span were snapped together, re-timing b's piece there; at 1e6 m/s that moved b
+    # by ~1e-6, and a pair 3e-7 deep was certified free
+    v, eps, ts, k, delta = 1e6, 3e-7, 0.999 if where == "end" else 0.5001, 1e3, 9e-13
+    ta = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    tb = ta.copy()
+    if where == "end":
+        tb[-1] += delta
+    else:
+        tb[2] += delta
+    q, w = np.tile([1.0, 0, 0, 0], (5, 1)), np.zeros((5, 3))
+
+    def along(y):
+        return np.stack([0 * y, y, 0 * y], -1)
+
+    # two unit spheres on y: b - a = 2 + k (t - ts)^2 - eps, so they overlap by eps at ts
+    a = motions.hermite(q, along(v * ta), ta, velocities=along(v + 0 * ta), angular_velocities=w)
+    gap = lambda t: 2.0 + k * (t - ts) ** 2 - eps  # noqa: E731
+    b = motions.hermite(
+        q,
+        along(v * tb + gap(tb)),
+        tb,
+        velocities=along(v + 2 * k * (tb - ts)),
+        angular_velocities=w,
+    )
+    t = np.linspace(0.0, 1.0, 200_001)
+    d = np.linalg.norm(b.pose(t)[1] - a.pose(t)[1], axis=1) - 2.0  # independent of the pair
+    first = t[np.flatnonzero(d < 0)[0]]
+    assert d.min() == pytest.approx(-eps, rel=1e-3)
+    for tol in (1e-6, 1e-8):
+        c = certify_pair(a, harness.Sphere(1.0), b, harness.Sphere(1.0), tolerance=tol)
+        assert c.verdict == "collision" and c.toi_lo <= first, (tol, c)
