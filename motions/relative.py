@@ -94,7 +94,8 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     ``relative.transform(x, t)`` in body a's coordinates.
 
     Args:
-        a, b: rational motions on the same domain.
+        a, b: rational motions on the same domain (ends within 1e-12 of the span of
+            each other: the relative motion is on the time both share).
 
     Raises:
         TypeError: if a motion is not a :class:`RationalMotion`.
