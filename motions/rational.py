@@ -685,8 +685,8 @@ class RationalMotion(Motion):
         }
         # From preimage pieces the halves recompute their control matrices; the cut
         # segment's coefficients gain the rounding of one de Casteljau split (weights
-        # 1 - u and u, k levels: γ_{4(k+1)} of their magnitude). Control matrices given
-        # to from_bezier are the halves' own data.
+        # 1 - u and u, k levels: γ_{4(k+1)} of their magnitude). So do control matrices
+        # given to from_bezier: the halves are this motion, to their tracked error.
         ctrl = cut(self._ctrl) if self._q is None else (None, None)
         err = self._piece_error.copy()
         if self._q is not None and not at_break:
@@ -696,9 +696,13 @@ class RationalMotion(Motion):
             err[s] += gamma(4 * k) * (np.array(mags) + err[s])
         errs = (err[: s + 1], err[s:]) if not at_break else (err[:s], err[s:])
         cerr = (None, None)
-        if self._q is None and self._ctrl_error is not None and np.any(self._ctrl_error):
-            # control matrices with their own error bound: the cut segment's grows too
-            ce = np.array(self._ctrl_error)
+        if self._q is None and (not at_break or self._ctrl_error is not None):
+            # the cut segment's error bound grows by the split's rounding
+            ce = (
+                np.zeros((self.segments, 3))
+                if self._ctrl_error is None
+                else np.array(self._ctrl_error)
+            )
             if not at_break:
                 ce[s] += gamma(4 * self._ctrl.shape[1]) * (block_magnitude(self._ctrl[s]) + ce[s])
             cerr = (ce[: s + 1], ce[s:]) if not at_break else (ce[:s], ce[s:])

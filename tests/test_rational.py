@@ -498,3 +498,45 @@ def test_control_matrices_are_within_their_error_bound_of_the_exact_ones(mode, d
                     if err[s, blk] > 0:
                         worst = max(worst, float(diff) / err[s, blk])
     print(f"\n{mode} d={d} k={k}: largest |computed - exact| / bound {worst:.2g}")
+
+
+def test_split_of_given_control_matrices_bounds_its_rounding():
+    # relative_motion cuts motions given as control matrices (from_bezier) to the time two
+    # motions share: the halves must carry the split's rounding in their ctrl_error
+    from fractions import Fraction
+    from itertools import pairwise
+
+    from motions.demo import demo_keyframes
+
+    q, p = demo_keyframes(5, seed=3)
+    br, ctrl = motions.interpolate(q, p).bezier_form()
+    m = RationalMotion.from_bezier(br * 0.1 + 7.3, ctrl)
+    for t in (7.31, 7.3 + 0.1 * (br[1] + br[2]) / 2, 7.3 + 0.1 * br[-1] * 0.77):
+        left, right = m.split(t)
+        s = int(np.searchsorted(m.breaks, t) - 1)
+        u = (Fraction(t) - Fraction(m.breaks[s])) / (
+            Fraction(m.breaks[s + 1]) - Fraction(m.breaks[s])
+        )
+        pts = [[[Fraction(x) for x in row] for row in c] for c in ctrl[s]]
+        # exact de Casteljau at u: the left half's control matrices are the first of each level
+        lefts, level = [pts[0]], pts
+        while len(level) > 1:
+            level = [
+                [
+                    [(1 - u) * a + u * b for a, b in zip(ra, rb, strict=True)]
+                    for ra, rb in zip(ca, cb, strict=True)
+                ]
+                for ca, cb in pairwise(level)
+            ]
+            lefts.append(level[0])
+        got = left.bezier_form()[1][s]
+        err = left.ctrl_error[s]
+        for i, exact in enumerate(lefts):
+            d = np.array(
+                [
+                    [float(abs(Fraction(got[i][r][c]) - exact[r][c])) for c in range(4)]
+                    for r in range(4)
+                ]
+            )
+            assert d[:3, :3].max() <= err[0] and d[:3, 3].max() <= err[1] and d[3, 3] <= err[2]
+        assert np.all(left.ctrl_error[s] > 0) and np.all(right.ctrl_error[0] > 0)
