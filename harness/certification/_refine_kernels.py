@@ -356,12 +356,14 @@ def _pose_test(
     hi = ub - radii + margin
     lb = gap - radii - margin
     if overlap == 1:
-        if radii + depth <= margin:  # GJK proved no depth: try the probes' tetrahedra
-            depth = wp.max(
-                depth, _probe_depth(pre_m, pre_c, lane, slot, slot + 1, part, obst, verts)
-            )
         hi = -(radii + depth) + margin
         lb = -HUGE
+    if hi >= F0 and lb <= F0:
+        # neither bound decides: GJK can stall on a configuration symmetric about the
+        # origin (see _probe_depth); the probes' tetrahedra may still prove a depth
+        probe = _probe_depth(pre_m, pre_c, lane, slot, slot + 1, part, obst, verts)
+        if probe > F0:
+            hi = wp.min(hi, -(radii + probe) + margin)
     x = wp.int32(0)
     if hi < F0:
         x = 1
@@ -688,9 +690,9 @@ def _refine(
                                 sp -= 1
                                 continue
                         if t0 >= tcoll:
-                            # only on a node whose times are equal (x1 set tcoll = t1 <= t0; the
-                            # split below makes none): its right end intersects, so it holds a
-                            # contact; before, it was dropped without a toi_lo
+                            # (nodes starting after a contact were dropped on entry: here
+                            # this node's right end set tcoll = t1 <= t0, equal times, which
+                            # the split below never makes) a contact in the node: toi_lo
                             toi_lo = wp.min(toi_lo, t0)
                             sp -= 1
                             continue
@@ -708,7 +710,7 @@ def _refine(
                         )
                         # a node whose times have no double between them cannot be halved:
                         # its halves would start or end where it does (times near 1e6 on a
-                        # domain of 1e-4 run out at depth ~21), so it is at its depth limit
+                        # domain of 1e-4 run out at depth ~21): it is at its depth limit
                         tm = wp.float64(0.5) * (t0 + t1)
                         if depth >= max_depth or hopeless or tm <= t0 or tm >= t1:  # (d)
                             toi_lo = wp.min(toi_lo, t0)
