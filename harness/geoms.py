@@ -133,8 +133,7 @@ def _geom_shape(
                 " on the moving body: an unbounded half-space; give it a box instead."
             )
         # the half-space below the plane, as a cube that the engine enlarges for a motion
-        # that could leave it (before, a fixed 2e3 cube: a robot 1.2 m from the floor's
-        # origin in a scene in millimetres was certified free through the floor)
+        # that could leave it
         return HalfSpace(pos, rot, half=PLANE_HALF)
     kind = mujoco.mjtGeom(t).name.replace("mjGEOM_", "").lower()
     raise UnsupportedGeomError(
@@ -267,8 +266,8 @@ def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
     static = _static_bodies(model)
     colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
     # a pair collides whatever its geoms' contype and conaffinity (DESIGN §5 asks for
-    # explicit pairs between a mocap body and static geometry): before, a table reached
-    # only through a pair was dropped, and a hand in it certified free
+    # explicit pairs between a mocap body and static geometry); a pair meant for another
+    # mover makes its static geom an obstacle here too (a superset is sound)
     colliding[model.pair_geom1] = True
     colliding[model.pair_geom2] = True
     geoms = np.flatnonzero(static[model.geom_bodyid] & colliding)

@@ -22,6 +22,7 @@ from motions.quaternion import quat_from_matrix, rotation_matrix
 from .errors import DegenerateMeshError, ShapeError
 
 __all__ = [
+    "COVER_SLACK",
     "FLAT_RATIO",
     "HULL_SLACK",
     "KIND",
@@ -39,13 +40,16 @@ __all__ = [
 ]
 
 KIND = {"box": 0, "sphere": 1, "capsule": 2, "mesh": 3}
+COVER_SLACK = 1e-9
+"""Relative slack of a half-space's cover over the need it computes: the few roundings
+of that computation are ~1e-16 relative, far below it."""
 
 
 def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
     """motions' array check, with its ValueErrors as ShapeErrors (one named error), as a
     read-only copy: a shape is immutable, and its kernel record is cached at its first
     query, so an array shared with the caller would let a later change of the caller's go
-    unseen by the kernels (a certified false free, found by an adversarial hunt)."""
+    unseen by the kernels."""
     try:
         a = _as_array(x, name, **kw)
     except TypeError:
@@ -94,6 +98,13 @@ class Shape:
     """Base class: a convex set given by its support function."""
 
     kind: str = ""
+
+    def __setstate__(self, state: dict) -> None:
+        # unpickled (the runner's worker processes), its arrays read-only again
+        for value in state.values():
+            if isinstance(value, np.ndarray):
+                value.setflags(write=False)
+        self.__dict__.update(state)
 
     def support(self, d: np.ndarray) -> np.ndarray:
         """Support points (..., 3) in directions d (..., 3) (any length, non-zero)."""
@@ -163,7 +174,11 @@ class HalfSpace(Box):
     z axis): a cube of half size `half` whose top face lies in the plane, centred on the
     plane's `point`, below it. Exact wherever a query can reach inside the cube; the engine
     enlarges it for a motion that could leave it (:meth:`covering`, used by
-    :func:`harness.certification.api.cover_half_spaces`), so a plane is never truncated."""
+    :func:`harness.certification.api.cover_half_spaces`), so a plane is never truncated.
+
+    The cube's centre ``point - half n`` is rounded: its top face lies within
+    ``u (|point| + half)`` of the plane (u the unit round-off), which the kernels' margin
+    ``GAMMA_C (scale + rho)`` covers (rho >= |point| + half for this cube)."""
 
     point: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
@@ -173,21 +188,29 @@ class HalfSpace(Box):
         super().__init__([half] * 3, center=p - float(half) * rot[:, 2], rotation=rot)
         object.__setattr__(self, "point", p)
 
+    def need(self, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
+        """(N,) the least half size of a cube of this half-space that holds every point of
+        each ball (centre, radius) on the solid side: in the plane's frame (x, y along the
+        plane, z out of it) the ball's points below the plane have |x|, |y| <= |x_c| + r
+        and z >= z_c - r, and the cube holds |x|, |y| <= half, -2 half <= z <= 0."""
+        local = (np.asarray(centers, dtype=float).reshape(-1, 3) - self.point) @ self.rotation
+        r = np.asarray(radii, dtype=float).reshape(-1)
+        return np.maximum(np.abs(local[:, :2]).max(axis=1) + r, 0.5 * (r - local[:, 2]))
+
     def covering(self, center: np.ndarray, radius: float) -> HalfSpace:
-        """This half-space as a cube large enough that every point of the ball (`center`,
-        `radius`) on the solid side lies inside it: itself when it already is."""
-        local = (np.asarray(center, dtype=float) - self.point) @ self.rotation
-        need = max(abs(local[0]) + radius, abs(local[1]) + radius, 0.5 * (radius - local[2]))
-        half = float(self.half_extents[0])
-        # (a billionth, then 1 %, more than the rounded `local` asks: its few roundings
-        # are far below either)
-        if need * (1 + 1e-9) <= half:
+        """This half-space as a cube that holds every point of the ball (`center`,
+        `radius`) on its solid side: itself when it already does, else the next power of
+        two above the :meth:`need` (with :data:`COVER_SLACK`), one object per size."""
+        need = float(self.need(center, radius)[0]) * (1 + COVER_SLACK)
+        if not math.isfinite(need):
+            raise ShapeError(f"Expected a finite ball to cover, got radius {short(radius)}.")
+        if need <= self.half_extents[0]:
             return self
-        return self.sized(2.0 ** math.ceil(math.log2(1.01 * need)))
+        return self.sized(2.0 ** math.ceil(math.log2(need)))
 
     def sized(self, half: float) -> HalfSpace:
-        """The same half-space as a cube of half size `half` (one object per size, kept:
-        the motions of a batch that leave the cube share a few)."""
+        """The same half-space as a cube of half size `half` (kept per size: the motions of
+        a batch that leave the cube share a few)."""
         kept = self.__dict__.setdefault("_sizes", {})
         hit = kept.get(half)
         if hit is None:
@@ -405,6 +428,8 @@ class Compound(Shape):
             )
         flat: list[Shape] = []
         for i, s in enumerate(items):
+            if isinstance(s, HalfSpace):  # (enlarged per motion: never inside a union)
+                raise ShapeError(f"Expected `shapes[{i}]` to be bounded, got a HalfSpace.")
             if isinstance(s, Compound):
                 flat.extend(s.shapes)
             elif isinstance(s, Shape):
@@ -443,6 +468,8 @@ def as_shape(x: Any, name: str = "body") -> Shape:
         raise TypeError(
             f"Expected `{name}` to be a harness shape (Box, Sphere, Capsule, ConvexMesh, Compound), got {type(x).__name__}."
         )
+    if isinstance(x, HalfSpace):  # (a moving half-space meets everything somewhere)
+        raise ShapeError(f"Expected `{name}` to be bounded, got a HalfSpace.")
     return x
 
 

@@ -79,9 +79,8 @@ def restrict_control(breaks: np.ndarray, ctrl: np.ndarray, new_breaks: np.ndarra
 def _union_breaks(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Sorted union of two breakpoint vectors on one domain (the same ends). Every
     breakpoint is kept, however close to another: taking one of b's as a nearby one of
-    a's re-timed b's pieces next to it (a body moving at 1e6 was misplaced by ~1e-6, and
-    a pair 3e-7 deep certified free, found by an adversarial hunt); a sliver interval is
-    as exact a restriction as any other."""
+    a's would re-time b's pieces next to it; a sliver interval is as exact a restriction
+    as any other."""
     return np.union1d(a, b[1:-1])
 
 
@@ -114,9 +113,8 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
             f"Expected `a` and `b` on the same domain, got [{a0!r}, {a1!r}] and [{b0!r}, {b1!r}]."
         )
     # domains a rounding apart: both cut (de Casteljau, exact up to its tracked round-off)
-    # to the time they share, where both bodies exist. Before, b's end breakpoint was
-    # overwritten with a's, re-timing its last piece: a body moving at 1e6 was misplaced
-    # by ~1e-6 and a pair 3e-7 deep certified free (found by an adversarial hunt).
+    # to the time they share, where both bodies exist (moving an end onto the other's
+    # would re-time a piece: a body at speed V misplaced by V times the difference)
     lo, hi = max(a0, b0), min(a1, b1)
     a, b = _window(a, lo, hi), _window(b, lo, hi)
     br_a, ca = a.bezier_form()

@@ -472,3 +472,33 @@ def test_a_static_geom_reached_only_through_a_contact_pair_is_an_obstacle():
     )
     assert _mujoco_least_distance(model, m, 1, 0, np.linspace(0, 2, 201)) == pytest.approx(-0.01)
     assert harness.certify(m, body, obst).verdict == "collision"
+
+
+def test_reach_balls_hold_every_body_point_of_every_kind_of_motion(rng):
+    # the balls a plane's cover is sized by: rational motions (their pieces' reach),
+    # baselines with a proven speed (the speed bound) and without one (sampled)
+    from harness.certification.api import reach_balls
+    from motions import baselines
+
+    body = harness.Compound(
+        [
+            harness.Box([0.2, 0.1, 0.3], center=[1.0, 0.5, 0.0]),
+            harness.Sphere(0.2, center=[-0.5, 0, 0.4]),
+        ]
+    )
+    pts = np.concatenate([p.sample_points(64) for p in harness.shapes.parts(body)])
+    ms = []
+    for seed in range(4):
+        q, p = motions.demo.demo_keyframes(6, seed=seed)
+        p = p * 10.0**seed
+        ms += [
+            motions.interpolate(q, p),
+            motions.hermite(q, p),
+            baselines.build_slerp(q, p, None),
+            baselines.build_squad(q, p, None),
+        ]
+    centres, radii = reach_balls(ms, [body] * len(ms))
+    for m, c, r in zip(ms, centres, radii, strict=True):
+        rot, pos = m.pose(np.linspace(*m.domain, 4001))
+        world = np.einsum("tij,kj->tki", rot, pts) + pos[:, None, :]
+        assert np.linalg.norm(world - c, axis=-1).max() <= r, type(m).__name__

@@ -201,3 +201,48 @@ def test_a_shape_keeps_its_geometry_when_the_caller_reuses_its_arrays():
     before = mesh.vertices().copy()
     pts[:] = 0.0
     np.testing.assert_array_equal(mesh.vertices(), before)
+
+
+def test_a_half_space_cover_holds_every_point_of_the_ball_below_its_plane():
+    from harness.shapes import HalfSpace
+
+    rng = np.random.default_rng(11)
+    for _ in range(300):
+        q = rng.normal(size=4)
+        plane = HalfSpace(
+            rng.normal(size=3) * 10.0 ** rng.uniform(0, 4), q, half=10.0 ** rng.uniform(0, 3)
+        )
+        c = plane.point + rng.normal(size=3) * 10.0 ** rng.uniform(0, 6)
+        r = 10.0 ** rng.uniform(-3, 5)
+        box = plane.covering(c, r)
+        # the ball's extremes along the plane's own axes, and points all over its sphere
+        d = rng.normal(size=(400, 3))
+        d = np.concatenate(
+            [d / np.linalg.norm(d, axis=1, keepdims=True), plane.rotation.T, -plane.rotation.T]
+        )
+        pts = c + r * d
+        below = pts[(pts - plane.point) @ plane.rotation[:, 2] <= 0]
+        local = (below - box.center) @ box.rotation
+        assert np.all(np.abs(local) <= box.half_extents * (1 + 1e-12)), (c, r)
+        top = (box.center - plane.point) @ plane.rotation[:, 2] + box.half_extents[2]
+        assert abs(top) <= 1e-12 * (np.abs(plane.point).max() + box.half_extents[2])
+
+
+def test_a_half_space_is_never_a_body_nor_part_of_one():
+    import pickle
+
+    from harness import certify
+    from harness.shapes import HalfSpace
+
+    floor = HalfSpace([0.0, 0, 0])
+    with pytest.raises(ShapeError, match="bounded, got a HalfSpace"):
+        Compound([Box([0.1, 0.1, 0.1]), floor])
+    import motions
+
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), np.array([[0.0, 0, 1], [1, 0, 1]]))
+    with pytest.raises(ShapeError, match="bounded, got a HalfSpace"):
+        certify(m, floor, [Sphere(0.1, center=[5, 5, 5])])
+    # and a shape that went through pickle (the runner's workers) stays read-only
+    back = pickle.loads(pickle.dumps(Box([0.1, 0.2, 0.3], center=[1, 2, 3])))
+    with pytest.raises(ValueError, match="read-only"):
+        back.center[0] = 0.0

@@ -19,10 +19,10 @@ import numpy as np
 
 from motions import Motion, RationalMotion
 from motions._checks import short
-from motions.pieces import UNIT_ROUNDOFF
+from motions.pieces import UNIT_ROUNDOFF, gamma
 
 from ..errors import HarnessError
-from ..shapes import HalfSpace, Shape, as_obstacles, as_shape
+from ..shapes import COVER_SLACK, HalfSpace, Shape, as_obstacles, as_shape
 from ..timing import collector_paused
 from .device import resolve_device
 from .refine import BIG
@@ -220,7 +220,7 @@ def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
 def cover_half_spaces(ms: list, bodies: list[Shape], obst: list[list[Shape]]) -> list:
     """`obst` with every :class:`~harness.shapes.HalfSpace` (a plane from a model) enlarged,
     for each motion that could leave it, to hold every point where the motion can carry
-    its body (:func:`reach_ball`): a plane is never truncated where a motion reaches.
+    its body (:func:`reach_balls`): a plane is never truncated where a motion reaches.
     Vectorised over the motions that share a half-space; a motion within it keeps it."""
     if HalfSpace not in set(map(type, chain.from_iterable(obst))):  # (C loops: batches)
         return obst
@@ -230,36 +230,32 @@ def cover_half_spaces(ms: list, bodies: list[Shape], obst: list[list[Shape]]) ->
             if type(o) is HalfSpace:
                 users.setdefault(id(o), (o, []))[1].append(i)
     near = sorted({i for _h, idx in users.values() for i in idx})
-    centres, radii = reach_balls([ms[i] for i in near], [bodies[i] for i in near], near)
+    centres, radii = reach_balls([ms[i] for i in near], [bodies[i] for i in near])
     row = {i: k for k, i in enumerate(near)}
     out = None
     for h, idx in users.values():
         rows = [row[i] for i in idx]
         c, r = centres[rows], radii[rows]
-        local = (c - h.point) @ h.rotation
-        need = np.maximum(np.abs(local[:, :2]).max(axis=1) + r, 0.5 * (r - local[:, 2]))
-        # (the comparison's roundings: a billionth of the size, far below the 1 % covering adds)
-        for k in np.flatnonzero(need * (1 + 1e-9) > h.half_extents[0]):
+        for k in np.flatnonzero(h.need(c, r) * (1 + COVER_SLACK) > h.half_extents[0]):
             i = idx[k]
             if out is None:
                 out = list(obst)
-            if out[i] is obst[i]:
-                out[i] = list(obst[i])
-            bigger = h.covering(c[k], r[k] * (1 + 1e-9))
+            bigger = h.covering(c[k], r[k])
             out[i] = [bigger if o is h else o for o in out[i]]
     return obst if out is None else out
 
 
-def reach_balls(ms: list, bodies: list[Shape], where: list[int]) -> tuple[np.ndarray, np.ndarray]:
+def reach_balls(ms: list, bodies: list[Shape]) -> tuple[np.ndarray, np.ndarray]:
     """Balls (centres (N, 3), radii (N,)) each holding every point of its body over the
-    whole of its motion (``motions[where[k]]`` in errors). For a rational motion, the box
-    of its pieces' reach (:func:`.refine.reach_extent`), widened by rho, the body's
-    bounding radius, and by the GAMMA_C of the sizes that covers its roundings; else the
-    ball about the body origin's start of radius ``rho + V (b - a)``, V the motion's proven
-    speed bound for points within rho over its domain [a, b] (a point x moves from
-    R(a) x + p(a), within rho of p(a), at speed at most V). A motion with no proven speed
-    gets no certified verdict; its ball is twice its sampled reach."""
-    from .refine import _GAMMA_C, reach_extent
+    whole of its motion. For a rational motion, the box of its pieces' reach
+    (:func:`.refine.reach_extent`), widened by rho, the body's bounding radius, and by
+    GAMMA_C of the sizes for its roundings; else the ball about the body origin's start of
+    radius ``rho + V (b - a)``, V the motion's proven speed bound for points within rho
+    over its domain [a, b] (a point x moves from R(a) x + p(a), within rho of p(a), at
+    speed at most V). A motion with no proven speed gets no certified verdict (only
+    ``sampled`` and the comparators take one): its ball is its body about its sampled
+    positions (:data:`REACH_SAMPLES`), widened by as much again."""
+    from .refine import reach_extent
 
     n = len(ms)
     radius = {id(b): b.bounding_radius for b in bodies}  # (a body is shared: once)
@@ -276,10 +272,7 @@ def reach_balls(ms: list, bodies: list[Shape], where: list[int]) -> tuple[np.nda
         try:
             v = m.speed_bound(a, b, rho[k])
         except NotImplementedError:
-            # no proven speed: no certified verdict either (only `sampled` and the
-            # comparators take such a motion): twice the sampled reach, a plane as wide
-            # as what the query itself samples
-            p = np.asarray(m.pose(np.linspace(a, b, 1025))[1], dtype=float)
+            p = np.asarray(m.pose(np.linspace(a, b, REACH_SAMPLES))[1], dtype=float)
             lo[k], hi[k] = p.min(axis=0), p.max(axis=0)
             grow[k] = rho[k] + 0.5 * float(np.linalg.norm(hi[k] - lo[k]))
             continue
@@ -287,20 +280,27 @@ def reach_balls(ms: list, bodies: list[Shape], where: list[int]) -> tuple[np.nda
         grow[k] = rho[k] + v * (b - a)
     lo, hi = np.array(lo).reshape(n, 3), np.array(hi).reshape(n, 3)
     size = np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1) + grow
-    grow = grow * (1 + _GAMMA_C) + _GAMMA_C * size
-    centres = 0.5 * (lo + hi)
-    radii = (0.5 * np.linalg.norm(hi - lo, axis=1) + np.sqrt(3.0) * grow) * (1 + 1e-12)
-    return centres, radii
+    grow = grow * (1 + GAMMA_C) + GAMMA_C * size
+    # the widened box's half diagonal; its own roundings, relative ~1e-16, by GAMMA_C too
+    radii = (0.5 * np.linalg.norm(hi - lo, axis=1) + np.sqrt(3.0) * grow) * (1 + GAMMA_C)
+    return 0.5 * (lo + hi), radii
+
+
+REACH_SAMPLES = 1025
+"""Poses sampled for the reach of a motion with no proven speed (:func:`reach_balls`)."""
+GAMMA_C = gamma(64)
+"""γ_64: the relative rounding allowance of the reach's arithmetic, as the kernels'."""
 
 
 def body_list(body: Any, n: int) -> list[Shape]:
     """One body shared by all motions, or one per motion."""
     if isinstance(body, Shape):
-        return [body] * n
+        return [as_shape(body)] * n
     if isinstance(body, Sequence) and not isinstance(body, str):
         if len(body) != n:
             raise QueryError(f"Expected one body per motion ({n}), got {len(body)}.")
-        if all(issubclass(k, Shape) for k in set(map(type, body))):
+        kinds = set(map(type, body))
+        if HalfSpace not in kinds and all(issubclass(k, Shape) for k in kinds):
             return list(body)
         return [as_shape(b, f"body[{i}]") for i, b in enumerate(body)]
     return [as_shape(body)]
