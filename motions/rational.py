@@ -145,16 +145,17 @@ class RationalMotion(Motion):
         breaks = np.array(breaks, dtype=float)  # (its own: see motions._checks.as_array)
         kt = np.empty(0) if keyframe_times is None else np.asarray(keyframe_times, dtype=float)
         super().__init__((breaks[0], breaks[-1]), kt)
+        own = lambda x: None if x is None else np.array(x, dtype=float)  # noqa: E731 (see as_array)
         self._breaks = breaks
-        self._q = preimage
-        self._p = origin
-        self._v = numerator
-        self._ctrl = ctrl
+        self._q = own(preimage)
+        self._p = own(origin)
+        self._v = own(numerator)
+        self._ctrl = own(ctrl)
         self._pp = None
         # (S, 2) bounds on |computed - exact| of the preimage and translation Bézier
         # coefficients per segment (B-spline conversion, splits); zero for given pieces.
         self._piece_error = (
-            np.zeros((breaks.size - 1, 2)) if piece_error is None else np.asarray(piece_error)
+            np.zeros((breaks.size - 1, 2)) if piece_error is None else own(piece_error)
         )
         self._ctrl_error = None
         self._positive = None
