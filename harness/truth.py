@@ -41,7 +41,10 @@ def sample_distances(
     if method == "mujoco":
         md = MujocoDistance(body, obstacles)
         d = md.distances(r, p).reshape(len(t), -1).min(axis=1)
+        # MuJoCo rounds to the size of the geoms too: a plane's cube can be far larger
+        # than the motion (at 1e9, distances came in steps of 3.7e-9)
         scale = 1.0 + np.abs(p).max() + body.bounding_radius
+        scale += max((o.bounding_radius for o in obstacles), default=0.0)
         # MuJoCo stores mesh vertices in float32: their distances are good to ~1e-7 relative
         has_mesh = any(q.kind == "mesh" for q in md.body_parts + md.obst_parts)
         return d, d, (MESH_EPS if has_mesh else CCD_TOLERANCE) * scale
@@ -93,10 +96,11 @@ def ground_truth(
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     body = as_shape(body)
-    obst = cover_half_spaces([motion], [body], obstacle_lists(obstacles, 1))[0]
+    obst = obstacle_lists(obstacles, 1)[0]
     res = as_float(resolution, "resolution")
     if not math.isfinite(res) or res <= 0:
         raise ValueError(f"Expected `resolution` > 0 (a length), got {short(resolution)}.")
+    obst = cover_half_spaces([motion], [body], [obst])[0]
     start = time.perf_counter()
     common = dict(depth=0, certified=True, bound="truth", tolerance=res)
     if not obst:
