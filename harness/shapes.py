@@ -56,7 +56,7 @@ def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
         raise
     except ValueError as e:
         raise ShapeError(str(e)) from None
-    return _frozen(a.copy())
+    return _frozen(a)  # (motions' as_array returns an array of its own)
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -189,21 +189,26 @@ class HalfSpace(Box):
         object.__setattr__(self, "point", p)
 
     def need(self, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:
-        """(N,) the least half size of a cube of this half-space that holds every point of
-        each ball (centre, radius) on the solid side: in the plane's frame (x, y along the
+        """(N,) a half size of a cube of this half-space that holds every point of each
+        ball (centre, radius) on the solid side: in the plane's frame (x, y along the
         plane, z out of it) the ball's points below the plane have |x|, |y| <= |x_c| + r
-        and z >= z_c - r, and the cube holds |x|, |y| <= half, -2 half <= z <= 0."""
+        and z >= z_c - r, and the cube holds |x|, |y| <= half, -2 half <= z <= 0; with
+        :data:`COVER_SLACK` for this arithmetic's roundings."""
         local = (np.asarray(centers, dtype=float).reshape(-1, 3) - self.point) @ self.rotation
         r = np.asarray(radii, dtype=float).reshape(-1)
-        return np.maximum(np.abs(local[:, :2]).max(axis=1) + r, 0.5 * (r - local[:, 2]))
+        need = np.maximum(np.abs(local[:, :2]).max(axis=1) + r, 0.5 * (r - local[:, 2]))
+        return need * (1 + COVER_SLACK)
 
     def covering(self, center: np.ndarray, radius: float) -> HalfSpace:
         """This half-space as a cube that holds every point of the ball (`center`,
-        `radius`) on its solid side: itself when it already does, else the next power of
-        two above the :meth:`need` (with :data:`COVER_SLACK`), one object per size."""
-        need = float(self.need(center, radius)[0]) * (1 + COVER_SLACK)
+        `radius`) on its solid side (:meth:`holding` its :meth:`need`)."""
+        return self.holding(float(self.need(center, radius)[0]))
+
+    def holding(self, need: float) -> HalfSpace:
+        """This half-space as a cube of half size at least `need`: itself when it is, else
+        the next power of two above (one object per size)."""
         if not math.isfinite(need):
-            raise ShapeError(f"Expected a finite ball to cover, got radius {short(radius)}.")
+            raise ShapeError(f"Expected a finite size to cover, got {short(need)}.")
         if need <= self.half_extents[0]:
             return self
         return self.sized(2.0 ** math.ceil(math.log2(need)))

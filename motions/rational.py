@@ -111,6 +111,11 @@ def bezier_minimum(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return vals[np.arange(s_count), i], u[np.arange(s_count), i]
 
 
+def _own(x: np.ndarray | None) -> np.ndarray | None:
+    """A float64 array of the motion's own (see motions._checks.as_array), or None."""
+    return None if x is None else np.array(x, dtype=float)
+
+
 class RationalMotion(Motion):
     """A rational spline motion in piecewise Bézier form (seed §6.1, eq. (25)).
 
@@ -145,17 +150,16 @@ class RationalMotion(Motion):
         breaks = np.array(breaks, dtype=float)  # (its own: see motions._checks.as_array)
         kt = np.empty(0) if keyframe_times is None else np.asarray(keyframe_times, dtype=float)
         super().__init__((breaks[0], breaks[-1]), kt)
-        own = lambda x: None if x is None else np.array(x, dtype=float)  # noqa: E731 (see as_array)
         self._breaks = breaks
-        self._q = own(preimage)
-        self._p = own(origin)
-        self._v = own(numerator)
-        self._ctrl = own(ctrl)
+        self._q = _own(preimage)
+        self._p = _own(origin)
+        self._v = _own(numerator)
+        self._ctrl = _own(ctrl)
         self._pp = None
         # (S, 2) bounds on |computed - exact| of the preimage and translation Bézier
         # coefficients per segment (B-spline conversion, splits); zero for given pieces.
         self._piece_error = (
-            np.zeros((breaks.size - 1, 2)) if piece_error is None else own(piece_error)
+            np.zeros((breaks.size - 1, 2)) if piece_error is None else _own(piece_error)
         )
         self._ctrl_error = None
         self._positive = None
@@ -325,7 +329,7 @@ class RationalMotion(Motion):
                 )
         _refuse_weight_roots(c[:, :, 3, 3], br)
         kt = None if keyframe_times is None else as_array(keyframe_times, "keyframe_times", ndim=1)
-        motion = cls(br, ctrl=c.copy(), keyframe_times=kt)
+        motion = cls(br, ctrl=c, keyframe_times=kt)  # (the constructor copies it)
         if ctrl_error is not None:
             e = as_array(ctrl_error, "ctrl_error")
             if e.shape != (c.shape[0], 3) or np.any(e < 0):

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ._geometry import F0, F1, HUGE, Shape, _core_radius, _gjk, _probe_depth
+from ._geometry import F0, F1, HUGE, Shape, _core_radius, _gjk, _probed_hi
 from ._refine_kernels import GAMMA_C, R_BUDGET, R_DEPTH, R_TOL, UNIT, _images, _prepare
 from .device import kernel_module_options
 
@@ -99,10 +99,7 @@ def _pose_bracket(
     if overlap == 1:
         hi = -(radii + depth) + margin
         lb = -HUGE
-    if hi >= F0 and lb <= F0:  # neither decides (see _refine_kernels._pose_test)
-        probe = _probe_depth(pre_m, pre_c, lane, 0, 1, part, obst, verts)
-        if probe > F0:
-            hi = wp.min(hi, -(radii + probe) + margin)
+    hi = _probed_hi(hi, lb, radii, margin, pre_m, pre_c, lane, 0, part, obst, verts)
     x = wp.int32(0)
     if hi < F0:
         x = 1

@@ -509,3 +509,27 @@ def _probe_depth(
             best = wp.max(best, depth)
         sign = -F1
     return best
+
+
+@wp.func
+def _probed_hi(
+    hi: wp.float64,
+    lb: wp.float64,
+    radii: wp.float64,
+    margin: wp.float64,
+    pre_m: wp.array2d(dtype=wp.mat33d),
+    pre_c: wp.array2d(dtype=wp.vec3d),
+    lane: wp.int32,
+    slot: wp.int32,
+    part: Shape,
+    obst: Shape,
+    verts: wp.array(dtype=wp.vec3d),
+) -> wp.float64:
+    """A pose test's upper bound `hi`, lowered by :func:`_probe_depth` of the pose
+    pre[lane, slot] when neither `hi` (< 0: intersecting) nor `lb` (> 0: apart) decides:
+    GJK can stall on a configuration symmetric about the origin."""
+    if hi >= F0 and lb <= F0:
+        probe = _probe_depth(pre_m, pre_c, lane, slot, slot + 1, part, obst, verts)
+        if probe > F0:
+            return wp.min(hi, -(radii + probe) + margin)
+    return hi

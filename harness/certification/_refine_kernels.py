@@ -54,7 +54,7 @@ from ._geometry import (
     _gjk,
     _local_h,
     _placed_support,
-    _probe_depth,
+    _probed_hi,
 )
 from .device import kernel_module_options
 
@@ -358,12 +358,7 @@ def _pose_test(
     if overlap == 1:
         hi = -(radii + depth) + margin
         lb = -HUGE
-    if hi >= F0 and lb <= F0:
-        # neither bound decides: GJK can stall on a configuration symmetric about the
-        # origin (see _probe_depth); the probes' tetrahedra may still prove a depth
-        probe = _probe_depth(pre_m, pre_c, lane, slot, slot + 1, part, obst, verts)
-        if probe > F0:
-            hi = wp.min(hi, -(radii + probe) + margin)
+    hi = _probed_hi(hi, lb, radii, margin, pre_m, pre_c, lane, slot, part, obst, verts)
     x = wp.int32(0)
     if hi < F0:
         x = 1

@@ -22,7 +22,7 @@ from motions._checks import short
 from motions.pieces import UNIT_ROUNDOFF, gamma
 
 from ..errors import HarnessError
-from ..shapes import COVER_SLACK, HalfSpace, Shape, as_obstacles, as_shape
+from ..shapes import HalfSpace, Shape, as_obstacles, as_shape
 from ..timing import collector_paused
 from .device import resolve_device
 from .refine import BIG
@@ -236,11 +236,12 @@ def cover_half_spaces(ms: list, bodies: list[Shape], obst: list[list[Shape]]) ->
     for h, idx in users.values():
         rows = [row[i] for i in idx]
         c, r = centres[rows], radii[rows]
-        for k in np.flatnonzero(h.need(c, r) * (1 + COVER_SLACK) > h.half_extents[0]):
+        need = h.need(c, r)
+        for k in np.flatnonzero(need > h.half_extents[0]):
             i = idx[k]
             if out is None:
                 out = list(obst)
-            bigger = h.covering(c[k], r[k])
+            bigger = h.holding(float(need[k]))
             out[i] = [bigger if o is h else o for o in out[i]]
     return obst if out is None else out
 
