@@ -9,7 +9,7 @@ import numpy as np
 from motions.quaternion import quat_from_matrix
 
 from .errors import ShapeError
-from .shapes import Shape, parts
+from .shapes import HalfSpace, Shape, parts
 
 __all__ = ["CCD_TOLERANCE", "MujocoDistance", "geom_xml"]
 
@@ -22,7 +22,12 @@ def _f(a) -> str:
 
 
 def geom_xml(shape: Shape, name: str, mesh_name: str | None = None, extra: str = "") -> str:
-    """A ``<geom>`` element for a convex part (meshes refer to ``<mesh name=...>``)."""
+    """A ``<geom>`` element for a convex part (meshes refer to ``<mesh name=...>``). A
+    :class:`HalfSpace` is MuJoCo's plane, whose solid side is unbounded: its distances are
+    exact wherever the body goes, not only inside the cube the certifier sizes per motion."""
+    if isinstance(shape, HalfSpace):
+        q = quat_from_matrix(shape.rotation)
+        return f'<geom name="{name}" type="plane" size="0 0 1" pos="{_f(shape.point)}" quat="{_f(q)}" {extra}/>'
     if shape.kind == "box":
         q = quat_from_matrix(shape.rotation)
         return f'<geom name="{name}" type="box" size="{_f(shape.half_extents)}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'

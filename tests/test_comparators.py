@@ -244,3 +244,25 @@ def test_certify_many_dispatches_to_the_comparators(monkeypatch):
         harness.certify(screw, CUBE, [WALL], bound="fcl")
     with pytest.raises(ValueError, match=r"extra"):
         harness.certify(screw, CUBE, [WALL], bound="ipctk")
+
+
+@pytest.mark.parametrize("name", ["fcl", "ipctk"])
+def test_a_plane_far_from_its_origin_is_whole_to_the_comparators(name):
+    # a plane from a model starts as a 1e3 cube under its origin: called directly, the
+    # comparators said free through a floor 5e3 away from it
+    pytest.importorskip(name)
+    from harness.comparators import certify_ipctk_many
+
+    run = certify_fcl_many if name == "fcl" else certify_ipctk_many
+    floor = harness.shapes.HalfSpace([0.0, 0.0, 0.0])
+    kn = [0.0, 0.0, 1.0, 1.0]
+    for x in (0.0, 5e3, -2e5):
+        down = motions.RationalMotion.from_preimage(
+            1, kn, [Q0, Q0], (1, kn, [[x, 0, 1.0], [x, 0, -1.0]])
+        )  # the cube's bottom meets z = 0 at t = 0.475
+        above = motions.RationalMotion.from_preimage(
+            1, kn, [Q0, Q0], (1, kn, [[x, 0, 1.0], [x + 1, 0, 0.06]])
+        )
+        got = run([down, above], CUBE, [floor])
+        assert got[0].verdict == "collision" and got[0].toi_lo <= 0.475 + 1e-9, (x, got[0])
+        assert got[1].verdict == "free", (x, got[1])

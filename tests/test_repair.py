@@ -213,3 +213,27 @@ def test_repair_study_rows(tmp_path):
             assert not r["still_collides"]
     with pytest.raises(SuiteError, match="clearances"):
         kind.parse({"clearances": [-1.0]}, Path("s.toml"), "study[0]")
+
+
+def test_a_floor_far_from_its_planes_origin_is_whole_to_both_repairs():
+    # a plane from a model starts as a 1e3 cube under its origin; the repairs' distance
+    # model kept that cube, so 5e3 away the sampled repair called a path through the floor
+    # clear and the certified repair could not find its way out
+    body, floor = Box([0.05, 0.05, 0.05]), harness.shapes.HalfSpace([0.0, 0.0, 0.0])
+    x = 5e3
+    q = np.tile([1.0, 0, 0, 0], (4, 1))
+    p = np.array([[x, 0, 0.3], [x + 1, 0, 0.07], [x + 2, 0, 0.07], [x + 3, 0, 0.3]])
+    m = motions.interpolate(q, p, [0.0, 1.0, 2.0, 3.0])  # the spline dips between keyframes
+    r, pos = m.pose(np.linspace(0.0, 3.0, 601))
+    assert (pos[:, 2] - 0.05).min() < -5e-3  # the cube's bottom goes through z = 0
+    d, _ = harness.avoid.distance.DistanceModel([body], [floor]).to_obstacles(r, pos)
+    np.testing.assert_allclose(d.reshape(-1), pos[:, 2] - 0.05, atol=1e-9)
+    s = sampled_repair(m, body, [floor])
+    assert s.iterations >= 1
+    if s.sampled_free:
+        _, moved = s.motion.pose(np.linspace(0.0, 3.0, 601))
+        assert (moved[:, 2] - 0.05).min() >= 0.0
+    fixed = repair(m, body, [floor], clearance=5e-3)
+    assert fixed.certificate.verdict == "free" and fixed.clearance.lower >= 5e-3
+    _, moved = fixed.motion.pose(np.linspace(0.0, 3.0, 3001))
+    assert (moved[:, 2] - 0.05).min() >= 5e-3 - 1e-9

@@ -18,6 +18,7 @@ import numpy as np
 from motions import Motion
 from motions._checks import as_float, short
 
+from ..certification.api import cover_half_spaces
 from ..errors import HarnessError
 from ..shapes import Box, Capsule, ConvexMesh, Shape, Sphere, as_obstacles, as_shape
 
@@ -74,7 +75,9 @@ def check_batch(
     motions: Any, bodies: Any, obstacle_lists: Any
 ) -> tuple[list[Motion], list[Shape], list[list[Shape]]]:
     """Motions, one body per motion (or one shared) and one obstacle list per motion (or
-    one shared list), validated like :func:`harness.certify_many`."""
+    one shared list), validated like :func:`harness.certify_many`; each plane's cube
+    enlarged to hold where its motion reaches, as the certifier's
+    (:func:`~harness.certification.api.cover_half_spaces`)."""
     if isinstance(motions, Motion) or not isinstance(motions, Sequence):
         raise TypeError(
             f"Expected `motions` to be a sequence of motions, got {type(motions).__name__}."
@@ -110,7 +113,7 @@ def check_batch(
     else:
         shared = as_obstacles(obstacle_lists, "obstacle_lists")
         obs = [shared] * n
-    return ms, bs, obs
+    return ms, bs, cover_half_spaces(ms, bs, obs)
 
 
 # ----------------------------------------------------------------------------- convex cores
