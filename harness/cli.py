@@ -72,6 +72,7 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
         HeldJointsWarning,
         body_from_model,
         held_joints,
+        moving_geoms,
         obstacle_geoms,
         reference_qpos,
         subtree_geoms,
@@ -118,6 +119,10 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     for g in obst:
         counts[kind(g)] = counts.get(kind(g), 0) + 1
     print(f"obstacles: {len(obst)} static colliding geoms {counts}")
+    moving = moving_geoms(model)
+    if moving.size:
+        names = sorted({model.body(b).name or f"#{b}" for b in model.geom_bodyid[moving]})
+        print(f"not obstacles: {moving.size} colliding geoms on bodies that joints move {names}")
     if model.nkey:
         keys = [model.key(k).name or f"#{k}" for k in range(model.nkey)]
         print(f"keyframes: {model.nkey} at t = {np.round(model.key_time, 6).tolist()} {keys}")

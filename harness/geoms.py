@@ -32,10 +32,12 @@ __all__ = [
     "COVER_TOLERANCE",
     "SUPPORTED_GEOMS",
     "HeldJointsWarning",
+    "MovingGeomsWarning",
     "UncoveredGeomError",
     "body_from_model",
     "check_body_covers_subtree",
     "held_joints",
+    "moving_geoms",
     "obstacle_geoms",
     "obstacles_from_model",
     "reference_qpos",
@@ -53,6 +55,11 @@ part's support exceeds the geom's in every test direction by at least ``-tol * s
 
 class HeldJointsWarning(UserWarning):
     """Jointed bodies below the mocap body are certified at one fixed configuration."""
+
+
+class MovingGeomsWarning(UserWarning):
+    """Colliding geoms on bodies that joints move are not obstacles: a query sees the scene
+    without them."""
 
 
 class UncoveredGeomError(HarnessError):
@@ -120,26 +127,20 @@ def _geom_shape(
         mid = int(model.geom_dataid[g])
         a, n = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
         v = np.array(model.mesh_vert[a : a + n], dtype=float)  # float32 in MuJoCo, exact in float64
-        try:
-            return ConvexMesh(v @ rot.T + pos)
-        except ShapeError as e:
-            raise type(e)(f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r}: {e}") from None
+        return ConvexMesh(v @ rot.T + pos)
     if t == mujoco.mjtGeom.mjGEOM_PLANE:
         if moving:
             # a moving half-space meets every obstacle somewhere along it: no box would do
             raise UnsupportedGeomError(
-                f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r} (body "
-                f"{_name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])!r}) is a plane"
-                " on the moving body: an unbounded half-space; give it a box instead."
+                f"{_geom(model, g)} is a plane on the moving body: an unbounded half-space;"
+                " give it a box instead."
             )
         # the half-space below the plane, as a cube that the engine enlarges for a motion
         # that could leave it
         return HalfSpace(pos, rot, half=PLANE_HALF)
     kind = mujoco.mjtGeom(t).name.replace("mjGEOM_", "").lower()
     raise UnsupportedGeomError(
-        f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r} (body "
-        f"{_name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])!r}) has type {kind!r}; "
-        f"supported geom types: {list(SUPPORTED_GEOMS)}."
+        f"{_geom(model, g)} has type {kind!r}; supported geom types: {list(SUPPORTED_GEOMS)}."
     )
 
 
@@ -237,17 +238,47 @@ def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = Non
         )
     qpos = reference_qpos(model)
     held = held_joints(model, bid, qpos)
+    source = "the first keyframe" if model.nkey else "qpos0"
     if held:
         warnings.warn(
-            f"Mocap body {mocap_body!r}: jointed children are certified held at "
-            f"{'the first keyframe' if model.nkey else 'qpos0'}: {held}.",
+            f"Mocap body {mocap_body!r}: jointed children are certified held at {source}: {held}.",
             HeldJointsWarning,
             stacklevel=2,
         )
+    for name, value in held.items():
+        if not np.all(np.isfinite(value)):
+            raise HarnessError(
+                f"Mocap body {mocap_body!r}: joint {name!r} is held at {short(value)}"
+                f" ({source}); expected finite values."
+            )
     # the mocap body at the world origin: world coordinates are then body coordinates
     rot, pos = _poses_at(model, bid, qpos, np.eye(3), np.zeros(3))
-    shapes = [_geom_shape(model, g, rot[g], pos[g], moving=True) for g in geoms]
+    shapes = []
+    for g in geoms:
+        try:
+            shape = _geom_shape(model, g, rot[g], pos[g], moving=True)
+            with np.errstate(over="ignore"):  # (overflow is what the check below refuses)
+                size = shape.bounding_radius
+        except ShapeError as e:
+            raise type(e)(f"{_geom(model, g)}{_held(held, source)}: {e}") from None
+        if not np.isfinite(size):
+            raise ShapeError(
+                f"{_geom(model, g)}{_held(held, source)} is at {short(pos[g])} from mocap body"
+                f" {mocap_body!r}: expected a finite distance (its size overflows)."
+            )
+        shapes.append(shape)
     return shapes[0] if len(shapes) == 1 else Compound(shapes)
+
+
+def _geom(model: mujoco.MjModel, g: int) -> str:
+    return (
+        f"Geom {_name(model, mujoco.mjtObj.mjOBJ_GEOM, g)!r} (body "
+        f"{_name(model, mujoco.mjtObj.mjOBJ_BODY, model.geom_bodyid[g])!r})"
+    )
+
+
+def _held(held: dict, source: str) -> str:
+    return f" with joints held at {source}: {held}" if held else ""
 
 
 def _static_bodies(model: mujoco.MjModel) -> np.ndarray:
@@ -275,25 +306,67 @@ def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
     return geoms if mask is None else geoms[mask[model.geom_group[geoms]]]
 
 
-def obstacles_from_model(model: mujoco.MjModel, *, groups: Any = None) -> list[Shape]:
+def obstacles_from_model(
+    model: mujoco.MjModel, *, groups: Any = None, carried: Iterable[str] = ()
+) -> list[Shape]:
     """The static colliding geoms in world coordinates: geoms of the world body and of
     bodies fixed to it (no joint up the tree, not mocap), with contype or conaffinity
     non-zero or in an explicit contact pair; nothing that moves. Planes become
     :class:`HalfSpace` cubes below their surface, which the engine enlarges for a motion
     that could leave them.
-    `groups` (MuJoCo geom groups) selects some."""
+    `groups` (MuJoCo geom groups) selects some.
+
+    Colliding geoms on bodies that joints move (a free block, a door) are not obstacles:
+    a :class:`MovingGeomsWarning` names their bodies, except those in `carried` (bodies
+    the mover carries, as a scene's ``carried``). Mocap bodies' subtrees are movers, not
+    warned about."""
     _check_model(model)
+    if isinstance(carried, str) or not isinstance(carried, Iterable):
+        raise TypeError(f"Expected `carried` to be a list of body names, got {short(carried)}.")
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
-    return [
-        _geom_shape(
-            model,
-            g,
-            np.array(data.geom_xmat[g]).reshape(3, 3),
-            np.array(data.geom_xpos[g], dtype=float),
-        )
-        for g in obstacle_geoms(model, groups)
+    geoms = obstacle_geoms(model, groups)
+    _warn_moving(model, groups, set(carried))
+    out = []
+    for g in geoms:
+        try:
+            rot = np.array(data.geom_xmat[g]).reshape(3, 3)
+            out.append(_geom_shape(model, g, rot, np.array(data.geom_xpos[g], dtype=float)))
+        except ShapeError as e:
+            raise type(e)(f"{_geom(model, g)}: {e}") from None
+    return out
+
+
+def moving_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
+    """Ids of the colliding geoms (in `groups`) on bodies that joints move, outside every
+    mocap body's subtree: a free block, a door. Neither mover nor obstacle to a query."""
+    movers = np.zeros(model.nbody, dtype=bool)
+    for b in np.flatnonzero(model.body_mocapid >= 0):
+        movers |= _subtree_mask(model, int(b))
+    body = model.geom_bodyid
+    moving = ~_static_bodies(model)[body] & ~movers[body]
+    moving &= (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    mask = _group_mask(groups)
+    if mask is not None:
+        moving &= mask[model.geom_group]
+    return np.flatnonzero(moving)
+
+
+def _warn_moving(model: mujoco.MjModel, groups: Any, carried: set[str]) -> None:
+    """A :class:`MovingGeomsWarning` naming the bodies of :func:`moving_geoms` not in
+    `carried`."""
+    bodies = [
+        _name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+        for b in model.geom_bodyid[moving_geoms(model, groups)]
     ]
+    names = sorted(set(bodies) - carried)
+    if names:
+        warnings.warn(
+            f"{sum(b in names for b in bodies)} colliding geom(s) on bodies that joints move"
+            f" are not obstacles (a query sees the scene without them): bodies {names}.",
+            MovingGeomsWarning,
+            stacklevel=3,
+        )
 
 
 def _directions() -> np.ndarray:

@@ -130,7 +130,7 @@ def render(
     path = _check_out(out, f"{sc.name}_{motion.scheme}.png")
     times = np.linspace(*motion.domain, int(frames))
     body = body_from_model(sc.model, sc.mocap_body)
-    obstacles = obstacles_from_model(sc.model)
+    obstacles = obstacles_from_model(sc.model, carried=sc.carried)
     lo, hi = frame_box(motion, body, obstacles)
     if backend in ("auto", "mujoco") and control_segment is None:
         try:

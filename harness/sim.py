@@ -32,6 +32,7 @@ from motions._checks import short
 from .errors import HarnessError
 from .geoms import (
     HeldJointsWarning,
+    MovingGeomsWarning,
     body_from_model,
     check_body_covers_subtree,
     obstacle_geoms,
@@ -42,6 +43,7 @@ from .geoms import (
 __all__ = [
     "DomainError",
     "HeldJointsWarning",
+    "MovingGeomsWarning",
     "body_from_model",
     "check_body_covers_subtree",
     "obstacle_geoms",

@@ -4,6 +4,7 @@ certified, child bodies composed in, jointed children held at the reference conf
 from __future__ import annotations
 
 import shutil
+import warnings
 from pathlib import Path
 
 import mujoco
@@ -502,3 +503,66 @@ def test_reach_balls_hold_every_body_point_of_every_kind_of_motion(rng):
         rot, pos = m.pose(np.linspace(*m.domain, 4001))
         world = np.einsum("tij,kj->tki", rot, pts) + pos[:, None, :]
         assert np.linalg.norm(world - c, axis=-1).max() <= r, type(m).__name__
+
+
+def test_colliding_geoms_that_joints_move_are_named_not_dropped_silently(tmp_path, capsys):
+    xml = """<mujoco><worldbody>
+    <geom name="table" type="box" size="1 1 0.05" pos="0 0 -0.05"/>
+    <body name="block" pos="0.3 0 0.1"><freejoint/><geom name="b" type="box" size=".1 .1 .1"/>
+      <body name="lid" pos="0 0 0.1"><geom name="l" type="box" size=".1 .1 .01"/></body>
+    </body>
+    <body name="door" pos="-0.5 0 0.5"><joint name="hinge" type="hinge"/>
+      <geom name="d" type="box" size=".01 .3 .5" group="2"/>
+      <geom name="knob" type="sphere" size=".02" contype="0" conaffinity="0"/></body>
+    <body name="hand" mocap="true" pos="0 0 0.5"><geom name="h" type="sphere" size="0.1"/>
+      <body name="finger" pos="0 0 -0.1"><joint name="f" type="slide"/>
+        <geom name="fg" type="capsule" size=".01 .05"/></body></body>
+    <body name="other" mocap="true" pos="0 1 0.5"><geom name="o" type="sphere" size="0.1"/>
+    </body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    with pytest.warns(harness.sim.MovingGeomsWarning) as got:
+        obst = obstacles_from_model(model)
+    assert len(got) == 1
+    text = str(got[0].message)
+    assert "3 colliding geom(s)" in text and "['block', 'door', 'lid']" in text, text
+    assert got[0].filename == __file__  # points at the caller
+    assert len(obst) == 1 and obst[0].half_extents[2] == pytest.approx(0.05)
+    with pytest.warns(harness.sim.MovingGeomsWarning, match=r"1 colliding .*\['door'\]"):
+        obstacles_from_model(model, carried=["block", "lid"])
+    with pytest.warns(harness.sim.MovingGeomsWarning, match=r"1 colliding .*\['door'\]"):
+        obstacles_from_model(model, groups=[2], carried=["block", "lid"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # nothing moving in groups 0 and 1 once carried
+        assert len(obstacles_from_model(model, groups=[0, 1], carried=["block", "lid"])) == 1
+    with pytest.raises(TypeError, match="`carried`"):
+        obstacles_from_model(model, carried="block")
+    (tmp_path / "scene.xml").write_text(xml)
+    from harness.cli import main
+
+    assert main(["scenes", str(tmp_path / "scene.xml")]) == 0
+    out = capsys.readouterr().out
+    assert "obstacles: 1 static colliding geoms {'box': 1}" in out
+    assert (
+        "not obstacles: 3 colliding geoms on bodies that joints move ['block', 'door', 'lid']"
+        in out
+    )
+
+
+@pytest.mark.parametrize(
+    ("qpos", "error", "match"),
+    [
+        ("nan", harness.errors.HarnessError, r"joint 'f' is held at nan \(the first keyframe\)"),
+        ("1e300", harness.errors.ShapeError, r"Geom 'fg' \(body 'finger'\) with joints held at"),
+        ("-1e200", harness.errors.ShapeError, r"Geom 'fg' .* expected a finite distance"),
+    ],
+)
+def test_a_held_joint_at_a_bad_value_names_the_joint_or_the_geom(qpos, error, match):
+    xml = f"""<mujoco><worldbody><body name="hand" mocap="true"><geom name="h" type="sphere"
+    size=".1"/><body name="finger"><joint name="f" type="slide"/><geom name="fg" type="box"
+    size=".01 .01 .05"/></body></body></worldbody><keyframe><key qpos="{qpos}"/></keyframe>
+    </mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", harness.sim.HeldJointsWarning)
+        with pytest.raises(error, match=match):
+            body_from_model(model, "hand")

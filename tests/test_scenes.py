@@ -67,7 +67,7 @@ def test_shapes_reproduce_mujoco_distances(name):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", HeldJointsWarning)
         body = body_from_model(sc.model, sc.mocap_body)
-    obst = obstacles_from_model(sc.model)
+    obst = obstacles_from_model(sc.model, carried=sc.carried)
     t = np.linspace(*m.domain, 25)
     r, p = m.pose(t)
     model = sc.model
@@ -112,7 +112,7 @@ def test_scenes_give_free_and_collision_certificates_and_simulation_agrees():
     for name in scenes.SCENES:
         sc, m = scene_motion(name)
         body = body_from_model(sc.model, sc.mocap_body)
-        cert = harness.certify(m, body, obstacles_from_model(sc.model))
+        cert = harness.certify(m, body, obstacles_from_model(sc.model, carried=sc.carried))
         verdicts[name] = cert.verdict
         for dt in (None, 5 * sc.model.opt.timestep):
             df = simulate(sc, m, dt=dt)
@@ -185,7 +185,7 @@ def test_bad_input():
         scenes.from_xml("<mujoco><worldbody><geom type='box'/></worldbody", "mover")
     inline = scenes.from_xml(XML, "mover")
     with pytest.raises(harness.UnsupportedGeomError, match="supported geom types"):
-        obstacles_from_model(inline.model)
+        obstacles_from_model(inline.model, carried=["free"])
     _, m = scene_motion("payload")
     with pytest.raises(DomainError, match="duration"):
         simulate(sc, m, duration=100.0)

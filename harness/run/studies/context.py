@@ -153,7 +153,7 @@ class Context:
             sc = self.scene(scene)
             body = body_from_model(sc.model, sc.mocap_body)
             check_body_covers_subtree(sc.model, sc.mocap_body, body)
-            return body, obstacles_from_model(sc.model)
+            return body, obstacles_from_model(sc.model, carried=sc.carried)
 
         return self.memo(("geom", scene), make)
 
