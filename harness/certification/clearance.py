@@ -43,7 +43,9 @@ class Clearance:
             or pieces not yet searched).
         upper: a proven upper bound: the exact signed distance of some pose is at most
             this (negative: a proven penetration of at least ``-upper``).
-        time: a time whose pose is within ``upper`` of an obstacle.
+        time: the time of that pose, to within the round-off of halved times
+            (``TIME_ULPS`` ulps, as :attr:`Certificate.toi_hi`: where doubles are sparse, as
+            at t = 1e5 over a domain of 1e-5, the pose at the double itself can be farther).
         width_ok: ``upper - lower <= tolerance`` (False when a depth or node limit, or a
             penetration, cut the search).
         nodes, pose_tests, depth, seconds: cost, as in :class:`Certificate`.

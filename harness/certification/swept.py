@@ -8,7 +8,7 @@ from motions import RationalMotion
 from motions.pieces import BezierPieces
 
 from ..shapes import Shape, as_shape, parts
-from .api import MAX_DEPTH_LIMIT, _integer
+from .api import MAX_DEPTH_LIMIT, TIME_ULPS, UNIT_ROUNDOFF, _integer
 
 __all__ = ["MAX_SWEPT_BOXES", "control_aabbs", "swept_aabbs"]
 
@@ -73,7 +73,8 @@ def swept_aabbs(
     """Uniform subdivision boxes: each Bézier segment in ``2**depth`` pieces.
 
     Returns (intervals (L, 2), lo (L, 3), hi (L, 3)), L = S * 2**depth; every position of
-    every point of `body` on each interval lies in its box (round-off margin included).
+    every point of `body` at every time of each interval lies in its box (round-off
+    margins included, the halved times' own rounding too).
     Pieces whose weights are not provably positive are split further by the one
     positivity splitter (:meth:`motions.pieces.BezierPieces.positive`) and their union
     box returned.
@@ -108,4 +109,15 @@ def swept_aabbs(
     hi = np.full((n, 3), -np.inf)
     np.minimum.at(lo, pos.owner, plo)
     np.maximum.at(hi, pos.owner, phi)
+    if depth:
+        # halved times are averages, rounded at every level: a reported time is within
+        # TIME_ULPS u |t| of its piece's exact end, over which the body moves at most V
+        # (the motion's proven speed) times that. Each box grows by it (and a double
+        # outward), so it holds the body at every double of its reported interval, not
+        # only on the exact piece (near t = 1e5 a piece's own start was 5e-4 outside).
+        t0, t1 = motion.domain
+        speed = motion.speed_bound(t0, t1, body.bounding_radius)
+        grow = speed * TIME_ULPS * UNIT_ROUNDOFF * max(abs(t0), abs(t1)) * (1 + 1e-12)
+        lo = np.nextafter(lo - grow, -np.inf)
+        hi = np.nextafter(hi + grow, np.inf)
     return intervals, lo, hi
