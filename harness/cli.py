@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from datetime import datetime
 from pathlib import Path
@@ -149,6 +150,8 @@ def _run(args) -> int:
         )
     if scheduler == "local":
         scheduler = None
+    if scheduler is not None and scheduler.endswith(".json") and not Path(scheduler).is_file():
+        raise UsageError(f"The Dask scheduler file {scheduler!r} does not exist.")
     if scheduler is not None and args.jobs > 1:
         raise UsageError(
             f"`--jobs` starts local processes and `--scheduler` ({scheduler}) runs on a Dask"
@@ -267,8 +270,10 @@ def _corpus(args) -> int:
     from harness.corpus.io import export, load
 
     if args.action == "export":
-        if args.size <= 0:
-            raise UsageError(f"Expected `--size` > 0, got {args.size}.")
+        if not math.isfinite(args.size) or args.size <= 0:
+            raise UsageError(f"Expected `--size` > 0 (finite), got {args.size}.")
+        if args.seed < 0:
+            raise UsageError(f"Expected `--seed` to be an integer >= 0, got {args.seed}.")
         fams = args.families.split(",") if args.families else None
         from harness.corpus import FAMILIES
 

@@ -247,6 +247,17 @@ def test_cli_corpus_export_and_check(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "version 99" in err[0]
     assert main(["corpus", "export", str(tmp_path / "f"), "--families", "nope"]) == 2
+    capsys.readouterr()
+    # NaN and inf passed `size <= 0`, a negative seed reached numpy: tracebacks, exit 1
+    for args, says in (
+        (["--size", "nan"], "`--size` > 0"),
+        (["--size", "inf"], "`--size` > 0"),
+        (["--seed", "-1"], "`--seed` to be an integer >= 0"),
+    ):
+        assert main(["corpus", "export", str(tmp_path / "g"), *args]) == 2
+        err = capsys.readouterr().err
+        assert says in err and err.count("\n") == 1, err
+    assert not (tmp_path / "g").exists()
 
 
 def test_generate_rejects_bad_arguments():

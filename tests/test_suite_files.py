@@ -114,6 +114,8 @@ def test_bad_run_arguments_exit_2_with_one_line(tmp_path, capsys):
     for args, says in (
         (["--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], "give one"),
         (["--scheduler", ""], "`--scheduler`"),
+        # a missing scheduler file: distributed waits for it to appear, forever
+        (["--scheduler", str(tmp_path / "nope.json")], "scheduler file"),
     ):
         assert main(["run", str(f), "--out", str(out), *args]) == 2
         err = capsys.readouterr().err

@@ -434,6 +434,9 @@ def _on_dask(
             " 'dask[distributed]'."
         ) from None
     where = {"scheduler_file": scheduler} if scheduler.endswith(".json") else {"address": scheduler}
+    if "scheduler_file" in where and not Path(scheduler).is_file():
+        # (distributed waits for a scheduler file to appear, whatever its timeout)
+        raise RunError(f"The Dask scheduler file {scheduler!r} does not exist.")
     try:
         client = Client(**where, timeout="20s", set_as_default=False)
     except (OSError, TimeoutError, ValueError) as e:
