@@ -312,7 +312,7 @@ def parser() -> argparse.ArgumentParser:
         "suite",
         nargs="?",
         default="default",
-        help="built-in suite name (default, smoke, corpus) or a .toml path",
+        help="built-in suite name (default, smoke, corpus, avoid, million) or a .toml path",
     )
     r.add_argument(
         "--out",

@@ -381,6 +381,12 @@ def test_headline_has_units_spread_basis_and_ratios_from_rounds():
     samp = text["sampled false free (certify study)"]
     assert samp["value"] == "4/8"
     assert "4 sampled rows with unproven truth are not counted" in samp["basis"]
+    # the certified line names the methods it counts (it said "hull, aabb, lipschitz"
+    # whatever rows were there, certified sampled rows included)
+    assert (
+        "certified verdicts (hull, lipschitz) whose"
+        in text["certified false free (certify study)"]["basis"]
+    )
     hull = text["hull cost per pair, batch (one certify_many call)"]
     want = np.median(HULL_ROUNDS) / PAIRS * 1e6
     assert f"{want:.3g} µs CPU" in hull["value"]

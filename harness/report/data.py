@@ -150,12 +150,14 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
     if len(cert):
         certified = flag(cert, "certified")
         r = rates(cert[certified])
+        # (the methods counted: sampled rows are certified too, on a proven fair grid)
+        methods = ", ".join(sorted(set(column(cert[certified], "bound", "").astype(str))))
         out.append(
             dict(
                 figure="certified false free (certify study)",
                 value=ratio_text(r["false free"], r["of truth collision"]),
                 spread="exact count",
-                basis=f"certified verdicts (hull, aabb, lipschitz) whose ground truth is a proven collision; must be 0. {r['truth not proven']} certified rows had no proven truth and are not counted",
+                basis=f"certified verdicts ({methods}) whose ground truth is a proven collision; must be 0. {r['truth not proven']} certified rows had no proven truth and are not counted",
             )
         )
         samp = cert[column(cert, "bound", "").astype(str) == "sampled"]
