@@ -146,6 +146,16 @@ def bezier_point(coeffs: Sequence[Sequence[Fraction]], u: Fraction) -> tuple[Fra
     return pts[0]
 
 
+def exact_matrix(breaks: np.ndarray, ctrl: np.ndarray, t: float) -> list[list[Fraction]]:
+    """Rows 0-2 of the motion ``(breaks, ctrl)``'s 4x4 matrix at the double `t`, exactly
+    (its segment's control matrices by de Casteljau, divided by the weight)."""
+    t = Fraction(t)
+    s = next(i for i in range(len(breaks) - 1) if t <= Fraction(breaks[i + 1]))
+    u = (t - Fraction(breaks[s])) / (Fraction(breaks[s + 1]) - Fraction(breaks[s]))
+    h = bezier_point([[Fraction(x) for x in c.ravel()] for c in ctrl[s]], u)
+    return [[x / h[15] for x in h[4 * i : 4 * i + 4]] for i in range(3)]
+
+
 def hamilton(p: Sequence[Fraction], q: Sequence[Fraction]) -> tuple[Fraction, ...]:
     """Hamilton product of scalar-first quaternions (seed eq. (11)), exactly."""
     p0, p1, p2, p3 = p

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
 from scipy.interpolate import BSpline, make_interp_spline
@@ -548,7 +546,7 @@ def test_a_motion_from_control_matrices_poses_as_accurately_as_its_preimage():
     # a helper's hunt: pose() of a degree-9 motion rebuilt by from_bezier near 1e6 was
     # 5e-7 from its own control matrices' value (the power basis), 2000x its preimage's
     # error, and left the swept boxes certified from those matrices
-    from fractions import Fraction as F
+    from .exact import exact_matrix
 
     rng = np.random.default_rng(3)
     q = rng.normal(size=(6, 4))
@@ -556,22 +554,10 @@ def test_a_motion_from_control_matrices_poses_as_accurately_as_its_preimage():
     breaks, ctrl = motions.interpolate(q, pos).bezier_form()
     m = RationalMotion.from_bezier(breaks, ctrl)
 
-    def exact(t):  # de Casteljau in rationals on the segment holding t
-        t = F(t)
-        s = next(i for i in range(len(breaks) - 1) if t <= F(breaks[i + 1]))
-        u = (t - F(breaks[s])) / (F(breaks[s + 1]) - F(breaks[s]))
-        pts = [[F(x) for x in c.ravel()] for c in ctrl[s]]
-        while len(pts) > 1:
-            pts = [
-                [(1 - u) * a + u * b for a, b in zip(p, r, strict=True)]
-                for p, r in itertools.pairwise(pts)
-            ]
-        mat = np.array([float(x / pts[0][15]) for x in pts[0]]).reshape(4, 4)
-        return mat[:3, :3], mat[:3, 3]
-
     times = np.linspace(breaks[0], breaks[-1], 41)
     rot, p = m.pose(times)
     for k, t in enumerate(times):
-        r_true, p_true = exact(t)
+        mat = np.array(exact_matrix(breaks, ctrl, t), dtype=float)
+        r_true, p_true = mat[:, :3], mat[:, 3]
         assert np.abs(p[k] - p_true).max() <= 16 * np.spacing(1e6), t  # 1.9e-9
         assert np.abs(rot[k] - r_true).max() <= 1e-14, t

@@ -45,6 +45,7 @@ from .exact import (
     case_from_seed,
     classify_pose,
     dyadic,
+    exact_matrix,
     exact_shape,
     first_exact_contact,
     fr,
@@ -506,20 +507,6 @@ def _declared(ctrl: np.ndarray, rel: float) -> np.ndarray:
     )
 
 
-def _exact_matrix(breaks, ctrl, t):
-    """The motion's 4x4 matrix at the double t, exactly (de Casteljau in rationals)."""
-    t = Fraction(t)
-    s = next(i for i in range(len(breaks) - 1) if t <= Fraction(breaks[i + 1]))
-    u = (t - Fraction(breaks[s])) / (Fraction(breaks[s + 1]) - Fraction(breaks[s]))
-    pts = [[Fraction(x) for x in c.ravel()] for c in ctrl[s]]
-    while len(pts) > 1:
-        pts = [
-            [(1 - u) * a + u * b for a, b in zip(p, r, strict=True)]
-            for p, r in itertools.pairwise(pts)
-        ]
-    return [[x / pts[0][15] for x in pts[0][4 * i : 4 * i + 4]] for i in range(3)]
-
-
 @pytest.mark.parametrize("turns", [0.0, 0.3])
 def test_swept_aabbs_hold_the_body_at_every_double_of_their_reported_intervals(turns):
     # a helper's hunt: halved times are rounded averages, so where a short domain sits at
@@ -544,7 +531,7 @@ def test_swept_aabbs_hold_the_body_at_every_double_of_their_reported_intervals(t
     for k in range(len(iv)):
         inside = np.linspace(iv[k, 0], iv[k, 1], 5)[1:-1]
         for t in [iv[k, 0], np.nextafter(iv[k, 0], np.inf), *inside, iv[k, 1]]:
-            mat = _exact_matrix(breaks, ctrl, t)
+            mat = exact_matrix(breaks, ctrl, t)
             for x in corners:
                 for i in range(3):
                     y = sum(mat[i][j] * x[j] for j in range(3)) + mat[i][3]
