@@ -344,8 +344,10 @@ def moving_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
     for b in np.flatnonzero(model.body_mocapid >= 0):
         movers |= _subtree_mask(model, int(b))
     body = model.geom_bodyid
-    moving = ~_static_bodies(model)[body] & ~movers[body]
-    moving &= (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    colliding[model.pair_geom1] = True  # (as obstacle_geoms: a pair collides regardless)
+    colliding[model.pair_geom2] = True
+    moving = ~_static_bodies(model)[body] & ~movers[body] & colliding
     mask = _group_mask(groups)
     if mask is not None:
         moving &= mask[model.geom_group]

@@ -518,22 +518,24 @@ def test_colliding_geoms_that_joints_move_are_named_not_dropped_silently(tmp_pat
       <body name="finger" pos="0 0 -0.1"><joint name="f" type="slide"/>
         <geom name="fg" type="capsule" size=".01 .05"/></body></body>
     <body name="other" mocap="true" pos="0 1 0.5"><geom name="o" type="sphere" size="0.1"/>
-    </body></worldbody></mujoco>"""
+    </body></worldbody><contact><pair geom1="h" geom2="knob"/></contact></mujoco>"""
     model = mujoco.MjModel.from_xml_string(xml)
     with pytest.warns(harness.sim.MovingGeomsWarning) as got:
         obst = obstacles_from_model(model)
     assert len(got) == 1
     text = str(got[0].message)
-    assert "3 colliding geom(s)" in text and "['block', 'door', 'lid']" in text, text
+    assert "4 colliding geom(s)" in text and "['block', 'door', 'lid']" in text, text
     assert got[0].filename == __file__  # points at the caller
     assert len(obst) == 1 and obst[0].half_extents[2] == pytest.approx(0.05)
-    with pytest.warns(harness.sim.MovingGeomsWarning, match=r"1 colliding .*\['door'\]"):
-        obstacles_from_model(model, carried=["block", "lid"])
+    with pytest.warns(harness.sim.MovingGeomsWarning, match=r"2 colliding .*\['door'\]"):
+        obstacles_from_model(model, carried=["block", "lid"])  # its knob is in a pair
     with pytest.warns(harness.sim.MovingGeomsWarning, match=r"1 colliding .*\['door'\]"):
         obstacles_from_model(model, groups=[2], carried=["block", "lid"])
     with warnings.catch_warnings():
-        warnings.simplefilter("error")  # nothing moving in groups 0 and 1 once carried
-        assert len(obstacles_from_model(model, groups=[0, 1], carried=["block", "lid"])) == 1
+        warnings.simplefilter("error")  # nothing moving outside the bodies carried
+        assert (
+            len(obstacles_from_model(model, groups=[0, 1], carried=["block", "lid", "door"])) == 1
+        )
     with pytest.raises(TypeError, match="`carried`"):
         obstacles_from_model(model, carried="block")
     (tmp_path / "scene.xml").write_text(xml)
@@ -543,7 +545,7 @@ def test_colliding_geoms_that_joints_move_are_named_not_dropped_silently(tmp_pat
     out = capsys.readouterr().out
     assert "obstacles: 1 static colliding geoms {'box': 1}" in out
     assert (
-        "not obstacles: 3 colliding geoms on bodies that joints move ['block', 'door', 'lid']"
+        "not obstacles: 4 colliding geoms on bodies that joints move ['block', 'door', 'lid']"
         in out
     )
 
