@@ -11,6 +11,7 @@ from . import (
 )
 from ._checks import ROTATION_TOL
 from .errors import DegenerateMotionError, MotionError
+from .exp_pieces import ExpPieces
 from .frames import (
     PHCurve,
     SweepSurface,
@@ -43,6 +44,7 @@ __all__ = [
     "ROTATION_TOL",
     "SCHEMES",
     "DegenerateMotionError",
+    "ExpPieces",
     "FitResult",
     "Kinematics",
     "Motion",

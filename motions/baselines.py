@@ -32,6 +32,7 @@ from scipy.spatial.transform import Rotation, RotationSpline
 from ._jet import Jet, qexp_jet, qmul_jet, slerp_jet
 from .bernstein import bspline_bezier_pieces
 from .errors import MotionError
+from .exp_pieces import ExpPieces, assemble, elevate_to_cubic, linear_cubic, spline_cubic
 from .interpolation import keyframes
 from .motion import Motion, Recipe
 from .quaternion import preimage_kinematics, qconj, qexp, qlog, qmul, rotation_matrix
@@ -145,6 +146,22 @@ class SlerpMotion(KeyframeMotion):
         if order == 0:
             return r, None, None
         return r, self._omega[i], np.zeros((t.size, 3))
+
+    def exp_pieces(self) -> ExpPieces:
+        """The motion as exponential-product pieces (:mod:`motions.exp_pieces`), one per
+        interval between breakpoints: ``q_i exp(s L_i)``, the origin spline, c = 0."""
+        br = self.breakpoints
+        i, h, _ = self._segment(0.5 * (br[:-1] + br[1:]))
+        s = linear_cubic(
+            ((br[:-1] - self._t[i]) / h)[:, None], ((br[1:] - self._t[i]) / h)[:, None]
+        )
+        return assemble(
+            br,
+            self._q[i],
+            self._log[i][:, None],
+            s.transpose(0, 2, 1),
+            spline_cubic(self._origin, br),
+        )
 
     def _angular_speed_bound(self, t0, t1):
         i0 = int(np.clip(np.searchsorted(self._t, t0, side="right") - 1, 0, self._t.size - 2))
@@ -393,6 +410,19 @@ class CumulativeBSplineMotion(_JetRotationMotion):
             out = qmul_jet(out, qexp_jet(bj * self._omega[j]))
         return out
 
+    def exp_pieces(self) -> ExpPieces:
+        """The motion as exponential-product pieces (:mod:`motions.exp_pieces`), one per
+        knot span: ``c_{μ-k} prod_m exp(B~_j Ω_j)`` for ``j = μ-k+m``, the origin spline."""
+        br = self.breakpoints
+        k, knots = self._k, self._knots
+        n = self._c.shape[0]
+        mu = np.clip(np.searchsorted(knots, 0.5 * (br[:-1] + br[1:]), side="right") - 1, k, n - 1)
+        cum = np.tril(np.ones((n, n)))[:, 1:]  # column j-1: B~_j = sum_{l>=j} B_l
+        fb = elevate_to_cubic(bspline_bezier_pieces(knots, cum, k, br))  # (P, 4, n-1)
+        j = mu[:, None] - k + np.arange(1, k + 1)[None, :]  # (P, k), in 1..n-1
+        f = np.take_along_axis(fb, (j - 1)[:, None, :], axis=2).transpose(0, 2, 1)
+        return assemble(br, self._c[mu - k], self._omega[j], f, spline_cubic(self._origin, br))
+
     def _angular_speed_bound(self, t0, t1):
         # |ω| <= sum_j |B~_j'| 2|Ω_j|, each |B~_j'| bounded by Bernstein coefficients.
         n = self._c.shape[0]
@@ -499,6 +529,18 @@ class ScLerpMotion(Motion):
         ddpu = -np.cross(w_body, np.cross(w_body, rc))
         a = np.einsum("tij,tj->ti", ri, ddpu) / h**2
         return r, p, w, v, np.zeros_like(w), a
+
+    def exp_pieces(self) -> ExpPieces:
+        """The motion as exponential-product pieces (:mod:`motions.exp_pieces`), one per
+        keyframe segment: ``q_i exp(s θ/2 k)``, ``P(s) = p_i + R_i c + s R_i (d k + slide)``
+        and the screw axis point c, since ``p = P(s) - R(t) c``."""
+        rk = self._rk[:-1]
+        start = self._p[:-1] + np.einsum("nij,nj->ni", rk, self._c)
+        step = np.einsum("nij,nj->ni", rk, self._d[:, None] * self._axis + self._slide)
+        n = len(self._h)
+        s = linear_cubic(np.zeros((n, 1)), np.ones((n, 1))).transpose(0, 2, 1)
+        omega = (0.5 * self._theta)[:, None, None] * self._axis[:, None, :]
+        return assemble(self._t, self._q[:-1], omega, s, linear_cubic(start, start + step), self._c)
 
     def speed_bound(self, t0, t1, radius):
         """``|ω| (|c| + radius) + |slide|`` per segment: exact for a screw (the origin keeps

@@ -206,3 +206,33 @@ def test_invariance_is_measured_and_documented():
         assert r["invariance_body"] < 1e-9, (s, r["invariance_body"])
         assert r["continuity"] == EXPECTED_CLASS[s]
     assert {s for s, r in rows.items() if r["speed_bound"] == "proven"} == set(BOUNDED)
+
+
+@pytest.mark.parametrize("scheme", ["slerp", "slerp-linear", "sclerp", "cumulative-bspline"])
+def test_exp_pieces_pose_as_the_motion(scheme):
+    # The exponential-product pieces the kernels evaluate (motions.exp_pieces) pose as the
+    # motion does, at keyframe counts 2..9, chordal and explicit uneven times, and
+    # coordinates from 0.1 to 1e3; the pieces tile the domain at its breakpoints.
+    rng = np.random.default_rng(21)
+    checked = 0
+    for n in (2, 3, 4, 6, 9):
+        for scale in (0.1, 1e3):
+            q = motions.sign_continuity(rng.normal(size=(n, 4)) * 0.4 + [1, 0, 0, 0])
+            p = rng.normal(size=(n, 3)) * scale
+            times = [None, np.cumsum(rng.uniform(0.1, 3.0, n))]
+            for tt in times:
+                try:
+                    m = motions.build(scheme, q, p, tt)
+                except motions.MotionError:
+                    continue
+                ep = m.exp_pieces()
+                assert ep.t0[0] == m.domain[0] and ep.t1[-1] == m.domain[1]
+                assert np.array_equal(ep.t0[1:], ep.t1[:-1])
+                assert set(m.knots) <= set(ep.t0) | {ep.t1[-1]}
+                t = np.concatenate([np.linspace(*m.domain, 301), m.knots])
+                r1, x1 = m.pose(t)
+                r2, x2 = ep.pose(t)
+                np.testing.assert_allclose(r2, r1, rtol=0, atol=1e-13)
+                np.testing.assert_allclose(x2, x1, rtol=0, atol=1e-13 * (1 + np.abs(x1).max()))
+                checked += 1
+    assert checked >= 15

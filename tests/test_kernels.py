@@ -112,6 +112,31 @@ def test_eval_kernel_equals_numpy_within_its_error_bound(device, pieces, rng):
 
 
 @pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("scheme", ["slerp", "slerp-linear", "sclerp", "cumulative-bspline"])
+def test_exp_pose_kernel_equals_numpy(device, scheme, rng):
+    # The kernels' pose of a slerp-family motion's exponential-product piece against
+    # ExpPieces.evaluate (numpy), and both against the motion's own pose.
+    from harness.certification.advance import _exp_stepping_pieces
+
+    q, p = demo_keyframes(7, seed=2)
+    m = motions.build(scheme, q, p * 30.0)
+    packed, _ = _exp_stepping_pieces(m, 0.1)
+    ep = m.exp_pieces()
+    n = len(ep)
+    i = np.concatenate([np.arange(n), np.arange(n), rng.integers(0, n, 40)])
+    u = np.concatenate([np.zeros(n), np.ones(n), rng.uniform(0, 1, 40)])
+    got, err = probes.eval_rows(packed.ctrl.reshape(n, 3, 4, 4)[i], u, device, exp=True)
+    r, x = ep.evaluate(i, u)
+    assert np.all(err == 0.0)
+    np.testing.assert_allclose(got[:, :3, :3], r, rtol=0, atol=ROUND)
+    np.testing.assert_allclose(got[:, :3, 3], x, rtol=0, atol=ROUND * np.abs(x).max())
+    np.testing.assert_array_equal(got[:, 3], np.tile([0.0, 0.0, 0.0, 1.0], (len(i), 1)))
+    rm, xm = m.pose(ep.t0[i] + u * (ep.t1[i] - ep.t0[i]))
+    np.testing.assert_allclose(got[:, :3, :3], rm, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got[:, :3, 3], xm, rtol=0, atol=1e-12 * np.abs(xm).max())
+
+
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
 def test_prepare_kernel_equals_numpy(device, body, pieces):
     ctrl, err = pieces

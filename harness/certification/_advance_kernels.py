@@ -6,7 +6,9 @@ The rational-motion kernels evaluate poses inside the kernel from the motion's p
 Bézier pieces (``sum_i B_i(u) C_i``, then the pose's own margin as in
 :mod:`._refine_kernels`), one lane per motion, tracks in (body part, obstacle part)
 order, so that they run at the same implementation level as the hull. Each piece carries
-a proven speed bound ``p_speed`` for points within the body's radius.
+a proven speed bound ``p_speed`` for points within the body's radius. Slerp-family
+motions with a proven speed bound step in the same kernels from their exponential-product
+pieces (:mod:`motions.exp_pieces`), marked by a negative ``p_k``.
 """
 
 from __future__ import annotations
@@ -25,6 +27,68 @@ wp.set_module_options(kernel_module_options())
 
 
 @wp.func
+def _qmul_exp(q: wp.vec4d, v: wp.vec3d) -> wp.vec4d:
+    """``q exp([0, v])``, scalar first (``exp(v) = [cos|v|, sin|v| v/|v|]``)."""
+    a = wp.length(v)
+    c = wp.cos(a)
+    s = F1
+    if a > F0:
+        s = wp.sin(a) / a
+    e1 = s * v[0]
+    e2 = s * v[1]
+    e3 = s * v[2]
+    return wp.vec4d(
+        q[0] * c - q[1] * e1 - q[2] * e2 - q[3] * e3,
+        q[0] * e1 + q[1] * c + q[2] * e3 - q[3] * e2,
+        q[0] * e2 - q[1] * e3 + q[2] * c + q[3] * e1,
+        q[0] * e3 + q[1] * e2 - q[2] * e1 + q[3] * c,
+    )
+
+
+@wp.func
+def _exp_pose(ctrl: wp.array(dtype=wp.mat44d), start: wp.int32, u: wp.float64) -> wp.mat44d:
+    """The pose ``[[R, p], [0, 0, 0, 1]]`` at u of an exponential-product piece
+    (:class:`motions.exp_pieces.ExpPieces`), packed as three matrices: ctrl[start] rows
+    ``q0``, ``(Ω_1, c_x)``, ``(Ω_2, c_y)``, ``(Ω_3, c_z)``; ctrl[start + 1] rows the
+    Bézier coefficients of f_1..f_3; ctrl[start + 2] rows those of P's x, y, z."""
+    m0 = ctrl[start]
+    mf = ctrl[start + 1]
+    mp = ctrl[start + 2]
+    s = F1 - u
+    b = wp.vec4d(s * s * s, wp.float64(3.0) * s * s * u, wp.float64(3.0) * s * u * u, u * u * u)
+    q = wp.vec4d(m0[0, 0], m0[0, 1], m0[0, 2], m0[0, 3])
+    for j in range(3):
+        fj = wp.dot(wp.vec4d(mf[j, 0], mf[j, 1], mf[j, 2], mf[j, 3]), b)
+        q = _qmul_exp(q, fj * wp.vec3d(m0[j + 1, 0], m0[j + 1, 1], m0[j + 1, 2]))
+    g = F1 / wp.sqrt(wp.dot(q, q))
+    q0 = q[0] * g
+    q1 = q[1] * g
+    q2 = q[2] * g
+    q3 = q[3] * g
+    two = wp.float64(2.0)
+    r = wp.mat33d(
+        q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3,
+        two * (q1 * q2 - q0 * q3),
+        two * (q1 * q3 + q0 * q2),
+        two * (q1 * q2 + q0 * q3),
+        q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3,
+        two * (q2 * q3 - q0 * q1),
+        two * (q1 * q3 - q0 * q2),
+        two * (q2 * q3 + q0 * q1),
+        q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3,
+    )
+    p = r * wp.vec3d(m0[1, 3], m0[2, 3], m0[3, 3])
+    out = wp.mat44d()
+    for i in range(3):
+        out[i, 0] = r[i, 0]
+        out[i, 1] = r[i, 1]
+        out[i, 2] = r[i, 2]
+        out[i, 3] = wp.dot(wp.vec4d(mp[i, 0], mp[i, 1], mp[i, 2], mp[i, 3]), b) - p[i]
+    out[3, 3] = F1
+    return out
+
+
+@wp.func
 def _eval_pose(
     ctrl: wp.array(dtype=wp.mat44d),
     start: wp.int32,
@@ -38,7 +102,13 @@ def _eval_pose(
     bound: the piece's, plus the evaluation's rounding: each Bernstein value comes from
     at most 5k roundings (s^n, then a ratio of 4 roundings per index), all are
     non-negative and sum to 1, and the sum of k terms adds γ_k; γ_{8k} of the largest
-    magnitude covers it all."""
+    magnitude covers it all.
+
+    ``k < 0``: an exponential-product piece of -k matrices (:func:`_exp_pose`), whose
+    pose is taken as exact, as the host-evaluated poses of ``pose_rows`` are."""
+    if k < 0:
+        st_ctrl[lane, 0, 0] = _exp_pose(ctrl, start, u)
+        return err
     n = k - 1
     s = F1 - u
     acc = wp.mat44d()

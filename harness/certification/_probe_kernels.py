@@ -109,8 +109,9 @@ def _eval_rows(
     m_out: wp.array(dtype=wp.mat44d),
     err_out: wp.array(dtype=wp.vec3d),
 ):
-    """``sum_i B_i(u) C_i`` of row tid (control matrices ctrl[tid k : (tid + 1) k])."""
+    """``sum_i B_i(u) C_i`` of row tid (control matrices ctrl[tid |k| : (tid + 1) |k|];
+    k < 0: exponential-product pieces)."""
     tid = wp.tid()
-    e = _eval_pose(ctrl, tid * k, k, u[tid], wp.vec3d(F0, F0, F0), st_ctrl, tid)
+    e = _eval_pose(ctrl, tid * wp.abs(k), k, u[tid], wp.vec3d(F0, F0, F0), st_ctrl, tid)
     m_out[tid] = st_ctrl[tid, 0, 0]
     err_out[tid] = e

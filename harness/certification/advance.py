@@ -4,9 +4,11 @@ batched pose distances.
 Rational motions step inside one kernel launch per chunk, with poses evaluated in the
 kernel from their positive Bézier pieces and proven speed bounds per piece
 (:func:`motions.pieces.speed_bounds`): the same implementation level as the hull, so the
-harness compares algorithms, not implementations. Other motions (the slerp family) have
-no Bézier form: their poses are evaluated on the host, vectorised over all live tracks,
-and tested in one launch per step.
+harness compares algorithms, not implementations. Slerp-family motions with a proven speed
+bound (slerp, slerp-linear, sclerp, cumulative-bspline) step in the same kernels, posed
+from their exponential-product pieces (:mod:`motions.exp_pieces`). Other motions (squad,
+Bézier-slerp, RotationSpline, a user's own ``Motion``) are posed on the host, vectorised
+over all live tracks, and tested in one launch per step.
 """
 
 from __future__ import annotations
@@ -123,6 +125,10 @@ def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
         m._certify_speeds = cache
     hit = cache.get(radius)
     if hit is None or type(hit[0]) is not Packed:  # (or pickled by another version)
+        if not isinstance(m, RationalMotion):
+            hit = _exp_stepping_pieces(m, radius)
+            cache[radius] = hit
+            return hit
         pc = m.positive_pieces()
         knots = m.knots
         rows, u0, u1 = [], [], []
@@ -140,6 +146,33 @@ def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
         hit = (pack_pieces(pc, 0, np.zeros((len(pc), REACH_ROW))), speed_bounds(pc, radius))
         cache[radius] = hit
     return hit
+
+
+def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
+    """:func:`_stepping_pieces` for a slerp-family motion: its exponential-product pieces
+    (one per knot interval) packed as three matrices each (``_advance_kernels._exp_pose``)
+    with ``k = -3``, no error bounds (its poses are taken as exact, as the host-evaluated
+    ones are), and the motion's own speed bound per piece."""
+    ep = m.exp_pieces()
+    n = len(ep)
+    ctrl = np.zeros((n, 3, 4, 4))
+    ctrl[:, 0, 0] = ep.q0
+    ctrl[:, 0, 1:, :3] = ep.omega
+    ctrl[:, 0, 1:, 3] = ep.c
+    ctrl[:, 1, :3] = ep.f
+    ctrl[:, 2, :3] = ep.origin.transpose(0, 2, 1)
+    rows = np.zeros((n, 5 + REACH_ROW))
+    rows[:, 0], rows[:, 1] = ep.t0, ep.t1
+    speeds = np.array(
+        [m.speed_bound(a, b, radius) for a, b in zip(ep.t0.tolist(), ep.t1.tolist(), strict=True)]
+    )
+    return Packed(ctrl.reshape(-1, 4, 4), -3, rows, 0), speeds
+
+
+def _in_kernel(m: Motion) -> bool:
+    """Whether `m` steps inside the kernels: a rational motion, or a slerp-family one with
+    exponential-product pieces (:mod:`motions.exp_pieces`)."""
+    return isinstance(m, RationalMotion) or callable(getattr(m, "exp_pieces", None))
 
 
 def _interval_speeds(m: Motion, radius: float, index: int, bound: str) -> tuple:
@@ -198,8 +231,8 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
 # ----------------------------------------------------------------------------- lipschitz
 def advance_many(ms, bodies, obst, o) -> list[Certificate]:
     """Conservative advancement for every motion (DESIGN §4, ``bound="lipschitz"``)."""
-    rational = [i for i, m in enumerate(ms) if isinstance(m, RationalMotion)]
-    other = [i for i, m in enumerate(ms) if not isinstance(m, RationalMotion)]
+    rational = [i for i, m in enumerate(ms) if _in_kernel(m)]
+    other = [i for i, m in enumerate(ms) if not _in_kernel(m)]
     specs = {i: _interval_speeds(ms[i], bodies[i].bounding_radius, i, "lipschitz") for i in other}
     res: list[Certificate | None] = [None] * len(ms)
     if rational:
@@ -226,8 +259,9 @@ def advance_many(ms, bodies, obst, o) -> list[Certificate]:
 
 
 def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
-    """Conservative advancement of motions without a Bézier form: poses on the host,
-    vectorised over all live tracks per step, distances in one launch per step."""
+    """Conservative advancement of motions that the kernels cannot pose (a user's own
+    ``Motion`` with a ``speed_bound``): poses on the host, vectorised over all live tracks
+    per step, distances in one launch per step."""
     start = time.perf_counter()
     tol, max_nodes = o["tol"], o["max_nodes"]
     table, m_parts, m_obst, o_idx, _ = pack_shapes(bodies, obst)
@@ -342,12 +376,13 @@ def default_samples(m: Motion, body: Shape, tol: float, cap: int = 2_000_000) ->
 
 
 def sample_many(ms, bodies, obst, o) -> list[Certificate]:
-    """Grid sampling (``bound="sampled"``). Rational motions: in the kernel, on the fair
-    grid (``samples=None``) or `samples` evenly spaced poses; a verdict is certified when
-    every cell is proven. Other motions: host poses, not a proof."""
+    """Grid sampling (``bound="sampled"``). Rational motions and slerp-family motions
+    with exponential-product pieces: in the kernel, on the fair grid (``samples=None``) or
+    `samples` evenly spaced poses; a verdict is certified when every cell is proven. Other
+    motions: host poses, not a proof."""
     tol = o["tol"]
-    rational = [i for i, m in enumerate(ms) if isinstance(m, RationalMotion)]
-    other = [i for i, m in enumerate(ms) if not isinstance(m, RationalMotion)]
+    rational = [i for i, m in enumerate(ms) if _in_kernel(m)]
+    other = [i for i, m in enumerate(ms) if not _in_kernel(m)]
     res: list[Certificate | None] = [None] * len(ms)
     if rational:
         rm = [ms[i] for i in rational]

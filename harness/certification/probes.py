@@ -200,13 +200,17 @@ def halve_numpy(ctrl: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def eval_rows(
-    ctrl: np.ndarray, u: np.ndarray, device: str = "cpu"
+    ctrl: np.ndarray, u: np.ndarray, device: str = "cpu", *, exp: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Kernel `_eval_pose` of rows (R, K, 4, 4) at u (R,): (M_h (R, 4, 4), error (R, 3))."""
+    """Kernel `_eval_pose` of rows (R, K, 4, 4) at u (R,): (M_h (R, 4, 4), error (R, 3)).
+    `exp`: the rows are exponential-product pieces packed as ``advance`` packs them (K = 3,
+    passed to the kernel as k = -3), whose pose is ``[[R, p], [0, 0, 0, 1]]``."""
     from ._probe_kernels import _eval_rows
 
     wp, _ = _ws(device)
     r, k = ctrl.shape[:2]
+    if exp:
+        k = -k
     m = wp.zeros(r, dtype=wp.mat44d, device=device)
     e = wp.zeros(r, dtype=wp.vec3d, device=device)
     wp.launch(

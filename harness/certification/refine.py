@@ -99,7 +99,8 @@ class Packed(NamedTuple):
     ctrl: np.ndarray
     """(P K, 4, 4) the pieces' control matrices, piece after piece."""
     k: int
-    """Control matrices a piece (a motion's pieces share it)."""
+    """Control matrices a piece (a motion's pieces share it); negative for the
+    exponential-product pieces of slerp-family motions (``advance``), -k matrices each."""
     rows: np.ndarray
     """(P, 15) float64 per piece: t0, t1, the error bounds (E_A, E_b, E_w), and the bytes
     of its ``Reach`` record (:func:`piece_reach`). One table, so that a batch gathers its
@@ -439,7 +440,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     p_k = np.repeat(np.array(ks, dtype=np.int32), counts)
     table = np.concatenate(rows)
     p_start = np.zeros(len(p_k), dtype=np.int32)
-    np.cumsum(p_k[:-1], out=p_start[1:])
+    np.cumsum(np.abs(p_k[:-1]), out=p_start[1:])  # (k < 0: exponential-product pieces)
     bounds = np.zeros(n + 1, dtype=np.int32)
     np.cumsum(counts, out=bounds[1:])
     arrays = {
@@ -455,7 +456,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         ),
         **_put_shapes(buf, shaped),
     }
-    kmax = int(p_k.max())
+    kmax = int(np.abs(p_k).max())
     if refs is not None:
         buf.packed = (refs, arrays, kmax)
     return arrays, kmax
@@ -471,7 +472,9 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
     n_pieces = len(rows)
     arrays = {
         "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
-        "p_start": buf.put("p_start", np.arange(0, n_pieces * k, k, dtype=np.int32), wp.int32),
+        "p_start": buf.put(
+            "p_start", np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32), wp.int32
+        ),
         "p_k": buf.put("p_k", np.full(n_pieces, k, dtype=np.int32), wp.int32),
         "p_t": buf.put("p_t", rows[:, 0:2], wp.vec2d),
         "p_err": buf.put("p_err", rows[:, 2:5], wp.vec3d),
@@ -480,7 +483,7 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
         **_put_shapes(buf, shaped),
     }
-    return arrays, k
+    return arrays, abs(k)
 
 
 def _put_shapes(buf, shaped: tuple) -> dict:

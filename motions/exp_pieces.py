@@ -1,0 +1,140 @@
+"""Exponential-product pieces: the slerp-family motions in the form the certification
+kernels evaluate (``harness.certification``), so that their ``lipschitz`` and
+``sampled`` queries run at the implementation level of the rational motions' (DESIGN §6,
+"the same implementation level where the point is the algorithm").
+
+On a piece ``[t0, t1]``, with ``u = (t - t0) / (t1 - t0)``, a motion poses as
+
+    q(t) = q0 exp(f1(u) Ω1) exp(f2(u) Ω2) exp(f3(u) Ω3),   R(t) = U(q) / |q|²,
+    p(t) = P(u) - R(t) c,
+
+with ``exp(v) = [cos|v|, sin|v| v/|v|]`` (:func:`motions.qexp`, half-angle vectors Ω_j),
+``f_j`` cubic Bézier polynomials, ``P`` a cubic Bézier curve and ``c`` a body-frame
+point. The schemes with a proven speed bound all take this form:
+
+- ``slerp``, ``slerp-linear``: ``q_i exp(s L_i)`` on keyframe segment i (``s`` its
+  parameter, linear in u; ``L_i = log(q_i⁻¹ q_{i+1})``); ``P`` the origin spline; c = 0.
+- ``sclerp``: the same rotation; the screw's ``p = p_i + R_i (c - R_s c + s (d k + slide))``
+  with ``R = R_i R_s`` is ``P(s) - R c`` for ``P(s) = p_i + R_i c + s R_i (d k + slide)``.
+- ``cumulative-bspline``: on knot span μ, ``q0 = c_{μ-k}`` (the factors before the span
+  telescope: ``exp(Ω_j) = c_{j-1}⁻¹ c_j``), ``Ω_m = log(c_{j-1}⁻¹ c_j)`` and ``f_m`` the
+  cumulative basis ``B~_j`` for ``j = μ - k + m``; ``P`` the origin spline; c = 0.
+
+Pieces are the intervals between a motion's breakpoints (keyframe times and spline knots),
+so that each piece lies in one keyframe segment and one knot span.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from .bernstein import bspline_bezier_pieces
+from .quaternion import qexp, qmul, rotation_matrix
+
+__all__ = ["ExpPieces"]
+
+
+@dataclass(frozen=True)
+class ExpPieces:
+    """A motion's exponential-product pieces (module docstring).
+
+    Attributes:
+        t0, t1: (P,) time interval of each piece; consecutive pieces share their ends.
+        q0: (P, 4) the leading quaternion (scalar first).
+        omega: (P, 3, 3) the half-angle vectors Ω_1..Ω_3 as rows (zero rows: no factor).
+        f: (P, 3, 4) the cubic Bézier coefficients of f_1..f_3 in u.
+        origin: (P, 4, 3) the cubic Bézier control points of P(u).
+        c: (P, 3) the body-frame point subtracted after rotation.
+    """
+
+    t0: np.ndarray
+    t1: np.ndarray
+    q0: np.ndarray
+    omega: np.ndarray
+    f: np.ndarray
+    origin: np.ndarray
+    c: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.t0)
+
+    def pose(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rotations (T, 3, 3) and origins (T, 3) at times `t` (T,), evaluated from the
+        pieces as the kernels do (the kernels' numpy oracle); a time between pieces (or
+        outside) takes the piece that starts at or before it, u clamped to [0, 1]."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        i = np.clip(np.searchsorted(self.t0, t, side="right") - 1, 0, len(self) - 1)
+        u = np.clip((t - self.t0[i]) / (self.t1[i] - self.t0[i]), 0.0, 1.0)
+        return self.evaluate(i, u)
+
+    def evaluate(self, i: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Rotations (T, 3, 3) and origins (T, 3) of pieces `i` (T,) at parameters `u` (T,)
+        in [0, 1]."""
+        i = np.asarray(i, dtype=np.int64)
+        b = bernstein3(np.asarray(u, dtype=float))  # (T, 4)
+        q = self.q0[i]
+        f = np.einsum("tjk,tk->tj", self.f[i], b)
+        for j in range(3):
+            q = qmul(q, qexp(f[:, j, None] * self.omega[i, j]))
+        r = rotation_matrix(q)
+        p = np.einsum("tkd,tk->td", self.origin[i], b) - np.einsum("tij,tj->ti", r, self.c[i])
+        return r, p
+
+
+def bernstein3(u: np.ndarray) -> np.ndarray:
+    """The four cubic Bernstein polynomials at u (T,) -> (T, 4)."""
+    s = 1.0 - u
+    return np.stack([s * s * s, 3.0 * s * s * u, 3.0 * s * u * u, u * u * u], axis=-1)
+
+
+def elevate_to_cubic(b: np.ndarray) -> np.ndarray:
+    """Bézier coefficients (..., n+1, D) of degree n <= 3 raised to degree 3 (same curve)."""
+    b = np.asarray(b, dtype=float)
+    while b.shape[-2] < 4:
+        n = b.shape[-2] - 1
+        i = np.arange(1, n + 1)[:, None] / (n + 1)
+        mid = i * b[..., :-1, :] + (1.0 - i) * b[..., 1:, :]
+        b = np.concatenate([b[..., :1, :], mid, b[..., -1:, :]], axis=-2)
+    return b
+
+
+def linear_cubic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cubic Bézier coefficients (P, 4, D) of the lines from a (P, D) to b (P, D)."""
+    return elevate_to_cubic(np.stack([a, b], axis=-2))
+
+
+def spline_cubic(spline: BSpline, breaks: np.ndarray) -> np.ndarray:
+    """Cubic Bézier control points (P, 4, D) of a vector spline on each interval of
+    `breaks` (which holds every knot inside the domain)."""
+    c = np.asarray(spline.c, dtype=float)
+    if c.ndim == 1:
+        c = c[:, None]
+    return elevate_to_cubic(bspline_bezier_pieces(spline.t, c, spline.k, breaks))
+
+
+def assemble(
+    breaks: np.ndarray,
+    q0: np.ndarray,
+    omega: np.ndarray,
+    f: np.ndarray,
+    origin: np.ndarray,
+    c: np.ndarray | None = None,
+) -> ExpPieces:
+    """An :class:`ExpPieces` from per-piece arrays, padding Ω and f to three factors."""
+    n = len(breaks) - 1
+    om = np.zeros((n, 3, 3))
+    om[:, : omega.shape[1]] = omega
+    ff = np.zeros((n, 3, 4))
+    ff[:, : f.shape[1]] = f
+    return ExpPieces(
+        t0=np.ascontiguousarray(breaks[:-1], dtype=float),
+        t1=np.ascontiguousarray(breaks[1:], dtype=float),
+        q0=np.ascontiguousarray(q0, dtype=float),
+        omega=om,
+        f=ff,
+        origin=np.ascontiguousarray(origin, dtype=float),
+        c=np.zeros((n, 3)) if c is None else np.ascontiguousarray(c, dtype=float),
+    )
