@@ -237,3 +237,21 @@ def test_a_floor_far_from_its_planes_origin_is_whole_to_both_repairs():
     assert fixed.certificate.verdict == "free" and fixed.clearance.lower >= 5e-3
     _, moved = fixed.motion.pose(np.linspace(0.0, 3.0, 3001))
     assert (moved[:, 2] - 0.05).min() >= 5e-3 - 1e-9
+
+
+@pytest.mark.parametrize("t", [0.6, 2.9, 4.5])
+def test_a_cube_on_the_path_is_passed_sideways(t):
+    # A 10 cm cube centred on the path between keyframes: the exact directions of the
+    # poses that run into it point back along the path before it and forward after it,
+    # and cuts along them alone asked for detours of 1.25 m, 68.9 m and 1.66 m. Going
+    # round it takes about the cube's half-size plus the body's half-width and the
+    # clearance (0.26 m; the offset is a C² spline that vanishes at the keyframes).
+    q = np.array([[1, 0, 0, 0], [0.9, 0.4, 0, 0], [0.7, 0.5, 0.5, 0], [0.6, 0, 0.8, 0], [0.5] * 4])
+    p = np.array([[0, 0, 0], [1, 0.5, 0], [2, 1, 0.5], [3, 0.5, 1], [4, 0, 1]])
+    m = motions.interpolate(q, p)
+    body = Box([0.2, 0.1, 0.05])
+    case = type("Case", (), {"motion": m, "body": body})()
+    case.obstacles = [Box([0.05, 0.05, 0.05], center=m.pose(t)[1])]
+    r = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01)
+    check_repaired(case, r, 0.01)
+    assert r.moved.max_deviation < 0.6

@@ -14,7 +14,12 @@ Each iteration:
    with ``d + n·(Δ(t) - Δ_now(t)) >= target`` at every close pose met so far. The signed
    distance of two convex sets is a convex function of a translation, so each such
    linear constraint is a lower bound of the true distance wherever the offset goes:
-   the constraints only ever cut away unsafe offsets, and they accumulate.
+   the constraints only ever cut away unsafe offsets, and they accumulate. Any unit
+   direction gives such a cut (with the separation along it in place of d); where the
+   path runs into an obstacle, the exact directions point back along the path before it
+   and forward after it, so a second choice gives that obstacle's poses one common
+   sideways direction (:func:`_cut_choices`), and the choice with the smaller offset is
+   kept.
 
 When the programme is infeasible the offset gets more knots between the keyframes that
 bound the trouble; a keyframe pose closer to an obstacle than the clearance cannot be
@@ -227,8 +232,27 @@ class _Constraints:
         self.rhs.extend(rhs)
         self.owner.extend(owner)
 
+    def copy(self) -> _Constraints:
+        return _Constraints(list(self.t), list(self.n), list(self.rhs), list(self.owner))
+
     def arrays(self):
         return np.array(self.t), np.array(self.n).reshape(-1, 3), np.array(self.rhs)
+
+
+def _smallest_offset(
+    spline: OffsetSpline, cons: _Constraints, anchors: np.ndarray, new_t: np.ndarray
+) -> tuple[OffsetSpline, np.ndarray | None]:
+    """The smallest offset meeting every cut: keyframe intervals with new trouble
+    (`new_t`) get their first knots, more while the programme is infeasible."""
+    spline = (_refine(spline, anchors, new_t, 1) if new_t.size else None) or spline
+    while True:
+        delta = _solve(spline, cons)
+        if delta is not None:
+            return spline, delta
+        grown = _refine(spline, anchors, np.array(cons.t), 2)
+        if grown is None:
+            return spline, None
+        spline = grown
 
 
 def _solve(spline: OffsetSpline, cons: _Constraints) -> np.ndarray | None:
@@ -273,7 +297,7 @@ def _close_poses(
     def evaluate(tt):
         d, n = dm.to_obstacles(*motion.pose(tt), cutoff=cutoff)
         ti, bi, oi = np.nonzero((d < reach) & np.isfinite(n[..., 0]))
-        found.append((tt[ti], d[ti, bi, oi], n[ti, bi, oi], oi))
+        found.append((tt[ti], d[ti, bi, oi], n[ti, bi, oi], bi, oi))
         return d.min(axis=(1, 2))
 
     evaluate(np.clip(witness + (step / v) * np.arange(-8, 9), t0, t1))
@@ -293,8 +317,60 @@ def _close_poses(
         vals = np.concatenate([ml[:, None], mm, mr[:, None]], axis=1)
         left, right = pts[:, :-1].ravel(), pts[:, 1:].ravel()
         ml, mr = vals[:, :-1].ravel(), vals[:, 1:].ravel()
-    t, d, n, o = (np.concatenate(x) for x in zip(*found, strict=True))
-    return t, d, n, o
+    t, d, n, b, o = (np.concatenate(x) for x in zip(*found, strict=True))
+    return t, d, n, b, o
+
+
+LATERAL_DIRECTIONS = 32
+"""Directions tried around the path when an obstacle part is met head on."""
+
+
+def _cut_choices(motion, dm: DistanceModel, t, d, n, b, o) -> list[tuple]:
+    """(d, n) of the cuts along the exact directions, and, where the path runs into an
+    obstacle part, a second choice with sideways directions for that part's poses.
+
+    Any unit n gives a valid cut: the signed distance is at least the separation along
+    n, ``sep_n = n·p - h_body(-Rᵀn) - h_obst(n)``, plus ``n·(Δ - Δ_now)``; the exact
+    direction n* (MuJoCo's) is only the one that makes it tight *now*. Where the path
+    runs into an obstacle part (some close pose with |n*·v̂| > 1/2, v the origin's
+    velocity), n* points back along the path before the part and forward after it, and
+    cuts that push the body back and forth along its path ask for offsets of metres (a
+    10 cm cube on the path: 68 m). For such a part every close pose gets one common
+    direction perpendicular to the mean path direction there: of LATERAL_DIRECTIONS
+    around it, the one whose worst separation over those poses is largest (the way
+    around with the smallest detour), with each pose's own exact separation along it.
+    """
+    if not t.size:
+        return [(d, n)]
+    r, p = motion.pose(t)
+    v = motion.kinematics(t, 1).velocity
+    speed = np.linalg.norm(v, axis=1)
+    vh = v / np.where(speed > 0, speed, 1.0)[:, None]
+    head_on = np.abs(np.einsum("mi,mi->m", n, vh)) > 0.5
+    if not head_on.any():
+        return [(d, n)]
+    exact = (d, n)
+    d, n = d.copy(), n.copy()
+    ang = np.linspace(0.0, 2.0 * np.pi, LATERAL_DIRECTIONS, endpoint=False)
+    for part in np.unique(o[head_on]):
+        sel = np.flatnonzero(o == part)
+        axis = vh[sel].sum(axis=0)
+        if np.linalg.norm(axis) < 1e-9:
+            continue
+        axis /= np.linalg.norm(axis)
+        e1 = np.cross(axis, np.eye(3)[np.argmin(np.abs(axis))])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(axis, e1)
+        dirs = np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2  # (D, 3)
+        obst_h = dm.obstacle_parts[part].h(dirs)  # (D,)
+        sep = np.empty((len(sel), len(dirs)))
+        for j, i in enumerate(sel):
+            local = -(dirs @ r[i])  # rows: -Rᵀ n
+            sep[j] = dirs @ p[i] - dm.moving[0][b[i]].h(local) - obst_h
+        best = int(np.argmax(sep.min(axis=0)))
+        n[sel] = dirs[best]
+        d[sel] = sep[:, best]
+    return [exact, (d, n)]
 
 
 def _refine(
@@ -427,40 +503,39 @@ def repair(
     current = motion
     boost = 0.0
     for it in range(1, max_iterations + 1):
-        now_t = np.empty(0)
-        t, d, n, o = _close_poses(current, dm, radius, target + boost + step, step, cl.time)
-        if t.size:
-            if t.size > MAX_CONSTRAINTS:
-                keep = np.argsort(d)[:MAX_CONSTRAINTS]
-                t, d, n, o = t[keep], d[keep], n[keep], o[keep]
-            now = spline.basis(t) @ delta  # Δ_now at the close poses
-            rhs = target + boost - d + np.einsum("mi,mi->m", n, now)
-            cons.add(t, n, rhs, dm.obstacle_owner[o])
-            now_t = t
-        else:
+        t, d, n, b, o = _close_poses(current, dm, radius, target + boost + step, step, cl.time)
+        if t.size > MAX_CONSTRAINTS:
+            keep = np.argsort(d)[:MAX_CONSTRAINTS]
+            t, d, n, b, o = t[keep], d[keep], n[keep], b[keep], o[keep]
+        if not t.size:
             # the grid saw no close pose but the certifier is not satisfied: ask for more
             # room where the certifier's bracket is tightest
             boost += tol
-        if not cons.t:
-            break
-        # keyframe intervals with new trouble get their first knots; more when infeasible
-        spline_try = _refine(spline, anchors, now_t, 1) if now_t.size else None
-        spline_try = spline_try or spline
-        while True:
-            new_delta = _solve(spline_try, cons)
-            if new_delta is not None:
+            if not cons.t:
                 break
-            spline_try = _refine(spline_try, anchors, np.array(cons.t), 2)
-            if spline_try is None:
-                break
-        if new_delta is None:
-            owners = sorted({int(x) for x in cons.owner})
+        # the cuts along the exact directions, and (where the path runs into an obstacle)
+        # along the common sideways ones: the choice whose smallest offset is smaller
+        now = spline.basis(t) @ delta  # Δ_now at the close poses
+        best = None
+        for dd, nn in _cut_choices(current, dm, t, d, n, b, o):
+            trial = cons.copy()
+            trial.add(
+                t, nn, target + boost - dd + np.einsum("mi,mi->m", nn, now), dm.obstacle_owner[o]
+            )
+            spline_try, new_delta = _smallest_offset(spline, trial, anchors, t)
+            if new_delta is not None and (
+                best is None or np.abs(new_delta).max() < np.abs(best[2]).max()
+            ):
+                best = (trial, spline_try, new_delta)
+        if best is None:
+            owners = sorted({int(x) for x in cons.owner} | {int(x) for x in dm.obstacle_owner[o]})
             raise RepairError(
                 f"Cannot repair: no offset between the keyframes keeps the body"
                 f" {c + tol:.3g} from obstacles{owners} (with up to {MAX_KNOTS} knots between two"
                 " keyframes); the way past them is too narrow or the keyframes too close.",
                 tuple(owners),
             )
+        cons, spline_try, new_delta = best
         spline, delta = spline_try, new_delta
         current = offset_motion(motion, spline, delta)
         ok, cl, cert = proven(current)
