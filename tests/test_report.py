@@ -403,6 +403,23 @@ def test_headline_has_units_spread_basis_and_ratios_from_rounds():
     assert "hull cost per pair, single queries (one call per pair)" in text
 
 
+def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
+    # a cost ratio headlined alone hid that aabb answered unknown on 593 of 1,000 pairs
+    rows = synthetic_rows()
+    flipped = 0
+    for r in rows:
+        if r.get("mode") == "pair" and r["bound"] == "sampled" and flipped < 3:
+            r["verdict"] = "unknown"
+            flipped += 1
+    text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
+    for mode in ("batch", "single"):
+        value = text[f"cost of sampled / cost of hull, {mode}"]["value"]
+        assert value.endswith(
+            f"sampled answered unknown on 3/{PAIRS} pairs, the hull on 0/{PAIRS})"
+        ), value
+    assert "unknown" not in text["hull cost per pair, batch (one certify_many call)"]["value"]
+
+
 def test_workload_accuracy_counts_only_proven_labels(written):
     _, run, _ = written
     acc = pd.read_csv(run / "tables" / "workload_accuracy.csv").set_index("method")

@@ -269,6 +269,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[dict[str, str]]:
         "batch": "batch (one certify_many call)",
         "single": "single queries (one call per pair)",
     }
+    undecided = _workload_unknowns(wl)
     for (name, tol, mode), g in costs.groupby(["workload", "tolerance", "mode"], sort=False):
         hull = g[g["method"] == "hull"]
         if not len(hull):
@@ -288,15 +289,33 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[dict[str, str]]:
                 continue
             ratio, lo, hi = ratio_interval(h["_cpu"], o["_cpu"])
             ext = " (external)" if str(o["implementation"]).startswith(EXTERNAL_PREFIX) else ""
+            unknown = ""
+            u = undecided.get((name, tol, o["method"]))
+            if u is not None and u[0] > 0:
+                # a cost is only comparable with what it bought: say how often the
+                # method left the question open
+                hu = undecided.get((name, tol, "hull"), (0, u[1]))
+                unknown = f"; {o['method']} answered unknown on {u[0]}/{u[1]} pairs, the hull on {hu[0]}/{hu[1]}"
             out.append(
                 dict(
                     figure=f"cost of {o['method']}{ext} / cost of hull, {mode}",
-                    value=f"{ratio:.3g}× ({cheaper_text(lo, hi)})",
+                    value=f"{ratio:.3g}× ({cheaper_text(lo, hi)}{unknown})",
                     spread=f"95% CI {lo:.3g}–{hi:.3g}×; {o['method']} {fmt_time(o['cpu µs/pair'] * 1e-6)} CPU per pair ({o['implementation']})",
                     basis=f"median CPU time per pair of {o['method']} / that of the hull, same pairs and tolerance; 'hull cheaper' only when the 95% CI lies above 1. {work}",
                 )
             )
     return out
+
+
+def _workload_unknowns(wl: pd.DataFrame) -> dict[tuple, tuple[int, int]]:
+    """(unknown verdicts, pairs) per (workload, tolerance, method) from the per-pair rows."""
+    pair = wl[column(wl, "mode", "") == "pair"]
+    if not len(pair) or any(k not in pair for k in ("keyframes", "tolerance", "bound", "verdict")):
+        return {}
+    return {
+        key: (int((g["verdict"] == "unknown").sum()), len(g))
+        for key, g in pair.groupby(["keyframes", "tolerance", "bound"], sort=False)
+    }
 
 
 def format_headline(rows: list[dict[str, str]]) -> list[str]:
