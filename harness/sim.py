@@ -27,7 +27,7 @@ from mujoco import rollout
 
 import scenes as scenes_pkg
 from motions import Motion, RationalMotion, quat_from_matrix
-from motions._checks import short
+from motions._checks import as_count, short
 
 from .errors import HarnessError
 from .geoms import (
@@ -326,6 +326,41 @@ def _record(model, data, mid, pos, quat, carried, mocap_body, others=()) -> dict
 
 
 # ----------------------------------------------------------------------------- metrics
+def _check_smoothness_args(frame: Any, motion: Any, carried: Any, window: Any) -> np.ndarray:
+    """The simulation times of a recorded frame, once every argument has been checked."""
+    if not isinstance(frame, pd.DataFrame):
+        raise TypeError(
+            f"Expected `frame` to be a pandas DataFrame from harness.simulate, got "
+            f"{type(frame).__name__}."
+        )
+    if not isinstance(motion, Motion):
+        raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    if not isinstance(carried, tuple | list) or not all(isinstance(c, str) for c in carried):
+        raise TypeError(
+            f"Expected `carried` to be a tuple or list of body names (str), got {short(carried)}."
+        )
+    as_count(window, "window", 1, 2**31 - 1)
+    needed = ["time"] + [f"{c}_{s}" for c in carried for s in ("force", "acc_x", "acc_y", "acc_z")]
+    missing = [c for c in needed if c not in frame.columns]
+    if missing:
+        raise ValueError(
+            f"Expected `frame` to have the columns of a recorded simulation "
+            f"(harness.simulate(..., record=True)) for `carried` {list(carried)}; "
+            f"missing {missing[:6]}{' ...' if len(missing) > 6 else ''}."
+        )
+    try:
+        tau = np.asarray(frame["time"], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"Expected `frame['time']` to hold numbers, got dtype {frame['time'].dtype}."
+        ) from None
+    if not np.isfinite(tau).all() or (np.diff(tau) <= 0).any():
+        raise ValueError(
+            f"Expected `frame['time']` to be finite and strictly increasing, got {short(tau)}."
+        )
+    return tau
+
+
 def physics_smoothness(
     frame: pd.DataFrame, motion: Motion, carried: tuple | list, *, window: int = 8
 ) -> dict[str, Any]:
@@ -341,7 +376,7 @@ def physics_smoothness(
         dict with ``force_jump``, ``force_rate_jump``, ``acceleration_jump``,
         ``jerk_jump`` (max over knots and carried bodies) and ``peak_jerk``.
     """
-    tau = frame["time"].to_numpy()
+    tau = _check_smoothness_args(frame, motion, carried, window)
     t = tau + motion.domain[0]
     knots = motion.knots[1:-1]
     out = dict(

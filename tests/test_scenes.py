@@ -204,6 +204,34 @@ def test_bad_input():
         simulate(3, m)
 
 
+def test_physics_smoothness_checks_its_arguments():
+    # None for the frame failed inside pandas indexing ('NoneType' object is not
+    # subscriptable), a string for `carried` was iterated letter by letter (KeyError
+    # 'p_force'), a frame without force columns gave a KeyError from pandas
+    sc, m = scene_motion("payload")
+    df = simulate(sc, m, duration=0.2)
+    with pytest.raises(TypeError, match=r"`frame` to be a pandas DataFrame .*got NoneType"):
+        physics_smoothness(None, m, sc.carried)
+    with pytest.raises(TypeError, match=r"`motion` to be a motions\.Motion, got NoneType"):
+        physics_smoothness(df, None, sc.carried)
+    with pytest.raises(TypeError, match="`carried` to be a tuple or list of body names"):
+        physics_smoothness(df, m, "payload")
+    with pytest.raises(TypeError, match="`carried`"):
+        physics_smoothness(df, m, None)
+    with pytest.raises(ValueError, match=r"`frame` .*missing \['nope_force'"):
+        physics_smoothness(df, m, ["nope"])
+    unrecorded = simulate(sc, m, duration=0.2, record=False)
+    with pytest.raises(ValueError, match=r"record=True.*missing \['payload_force'"):
+        physics_smoothness(unrecorded, m, sc.carried)
+    with pytest.raises(ValueError, match=r"`window` to be an integer in .*got 0"):
+        physics_smoothness(df, m, sc.carried, window=0)
+    with pytest.raises(TypeError, match="`window` to be an integer"):
+        physics_smoothness(df, m, sc.carried, window=2.5)
+    with pytest.raises(ValueError, match=r"`frame\['time'\]` to be finite and strictly"):
+        physics_smoothness(df.iloc[::-1], m, sc.carried)
+    assert set(physics_smoothness(df, m, list(sc.carried))) >= {"force_jump", "peak_jerk"}
+
+
 def test_procedural_scene_parameters_are_checked():
     sc = scenes.load("clutter", n_obstacles=7, seed=3)
     assert len(obstacles_from_model(sc.model)) == 7
