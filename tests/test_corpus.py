@@ -232,6 +232,45 @@ def test_bad_corpus_files_are_named_errors(tmp_path, corpus):
         load(tmp_path / "junk.json")
 
 
+def test_non_finite_numbers_are_refused(tmp_path, capsys, corpus):
+    # Python's json reads NaN and Infinity: a NaN distance, a NaN or infinite toi (null is
+    # the file's +inf), a NaN tolerance and a boolean distance all loaded without a word
+    from harness.cli import main
+
+    export(corpus[:3], tmp_path / "ok")
+    doc = json.loads((tmp_path / "ok" / "corpus.json").read_text())
+    nan, inf = float("nan"), float("inf")
+    for field, value, says in (
+        ("distance", nan, r"cases\[1\] \(.*\)\.truth\.distance: expected a finite number, got nan"),
+        (
+            "distance",
+            True,
+            r"cases\[1\] \(.*\)\.truth\.distance: expected a finite number, got True",
+        ),
+        ("toi", nan, r"cases\[1\] \(.*\)\.truth\.toi: expected a finite number or null, got nan"),
+        ("toi_lo", inf, r"cases\[1\] \(.*\)\.truth\.toi_lo: .* got inf"),
+        ("window", -inf, r"cases\[1\] \(.*\)\.truth\.window: .* got -inf"),
+    ):
+        broken = json.loads(json.dumps(doc))
+        broken["cases"][1]["truth"][field] = value
+        with pytest.raises(CorpusFormatError, match=says):
+            load(_write(tmp_path, broken))
+        assert main(["corpus", "check", _write(tmp_path, broken)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"truth.{field}" in err, err
+    with pytest.raises(CorpusFormatError, match=r"tolerance: expected a finite number, got nan"):
+        load(_write(tmp_path, {**doc, "tolerance": nan}))
+    with pytest.raises(CorpusFormatError, match=r"tolerance: expected a length > 0, got -1"):
+        load(_write(tmp_path, {**doc, "tolerance": -1}))
+    broken = json.loads(json.dumps(doc))
+    broken["cases"][0]["obstacles"] = [{"kind": "sphere", "radius": nan, "center": [0, 0, 0]}]
+    with pytest.raises(CorpusFormatError, match=r"obstacles\[0\]\.radius: .* got nan"):
+        load(_write(tmp_path, broken))
+    broken["cases"][0]["obstacles"] = [{"kind": "sphere", "radius": 1, "center": [0, nan, 0]}]
+    with pytest.raises(CorpusFormatError, match=r"obstacles\[0\]\.center: .* got nan"):
+        load(_write(tmp_path, broken))
+
+
 def test_cli_corpus_export_and_check(tmp_path, capsys):
     from harness.cli import main
 

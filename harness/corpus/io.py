@@ -163,6 +163,15 @@ def _get(d: Any, key: str, where: str, kind: type | tuple = object) -> Any:
     return v
 
 
+def _finite(d: Any, key: str, where: str) -> float:
+    """A finite number (JSON's NaN and Infinity, which Python's json reads, are refused;
+    so is true/false, which Python counts as an int)."""
+    v = _get(d, key, where)
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise CorpusFormatError(f"{where}.{key}: expected a finite number, got {v!r}.")
+    return float(v)
+
+
 def _array(d: Any, key: str, where: str, shape: tuple) -> np.ndarray:
     try:
         a = np.array(_get(d, key, where), dtype=float)
@@ -173,7 +182,8 @@ def _array(d: Any, key: str, where: str, shape: tuple) -> np.ndarray:
     ):
         raise CorpusFormatError(f"{where}.{key}: expected shape {shape}, got {a.shape}.")
     if not np.all(np.isfinite(a)):
-        raise CorpusFormatError(f"{where}.{key}: expected finite numbers.")
+        bad = float(a[~np.isfinite(a)][0])
+        raise CorpusFormatError(f"{where}.{key}: expected finite numbers, got {bad!r}.")
     return a
 
 
@@ -187,11 +197,11 @@ def shape_from_dict(d: Any, where: str) -> Shape:
                 _array(d, "rotation", where, (3, 3)),
             )
         if kind == "sphere":
-            return Sphere(_get(d, "radius", where, (int, float)), _array(d, "center", where, (3,)))
+            return Sphere(_finite(d, "radius", where), _array(d, "center", where, (3,)))
         if kind == "capsule":
             return Capsule(
-                _get(d, "radius", where, (int, float)),
-                _get(d, "half_length", where, (int, float)),
+                _finite(d, "radius", where),
+                _finite(d, "half_length", where),
                 _array(d, "center", where, (3,)),
                 _array(d, "rotation", where, (3, 3)),
             )
@@ -236,10 +246,12 @@ def _motion_from_dict(d: Any, where: str):
 
 
 def _inf(x: Any, where: str) -> float:
+    """A time: null stands for +inf (no contact, unknown window), so the file itself
+    holds finite numbers only."""
     if x is None:
         return math.inf
-    if not isinstance(x, int | float) or isinstance(x, bool):
-        raise CorpusFormatError(f"{where}: expected a number or null, got {x!r}.")
+    if not isinstance(x, int | float) or isinstance(x, bool) or not math.isfinite(x):
+        raise CorpusFormatError(f"{where}: expected a finite number or null, got {x!r}.")
     return float(x)
 
 
@@ -252,7 +264,7 @@ def _truth(d: Any, where: str) -> Truth:
     window = d.get("window") if isinstance(d, dict) else None
     return Truth(
         verdict,
-        float(_get(d, "distance", where, (int, float))),
+        _finite(d, "distance", where),
         _inf(d.get("toi"), f"{where}.toi"),
         _inf(d.get("toi_lo"), f"{where}.toi_lo"),
         _inf(d.get("toi_hi"), f"{where}.toi_hi"),
@@ -293,6 +305,8 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
         raise CorpusFormatError(
             f"{p}: corpus version {doc.get('version')!r} is not supported; this rsmbench reads version {VERSION}."
         )
+    if "tolerance" in doc and not _finite(doc, "tolerance", str(p)) > 0:
+        raise CorpusFormatError(f"{p}.tolerance: expected a length > 0, got {doc['tolerance']!r}.")
     raw = _get(doc, "cases", str(p), list)
     cases = []
     seen = set()
