@@ -282,13 +282,7 @@ def _corpus(args) -> int:
                 f"Unknown family in `--families` {args.families!r}; expected some of {list(FAMILIES)}."
             )
         cases = generate(args.seed, args.size, fams)
-        from importlib.metadata import PackageNotFoundError, version
-
-        try:
-            ver = version("rsmbench")
-        except PackageNotFoundError:  # pragma: no cover - running from a source tree
-            ver = "unknown"
-        gen = {"seed": args.seed, "size": args.size, "families": fams or "all", "rsmbench": ver}
+        gen = {"seed": args.seed, "size": args.size, "families": fams or "all"}
         path = export(cases, args.path, gen)
         print(
             f"wrote {len(cases)} cases to {path} (schema: {path.with_name('corpus.schema.json')})"

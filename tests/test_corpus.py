@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import json
 import math
+import tomllib
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -183,7 +185,8 @@ def test_export_round_trip(tmp_path, corpus):
     path = export(cases, tmp_path / "c", {"seed": 0})
     assert (tmp_path / "c" / "corpus.schema.json").exists()
     header, back = load(tmp_path / "c")
-    assert header["version"] == VERSION and header["generator"] == {"seed": 0}
+    assert header["version"] == VERSION
+    assert header["generator"] == {"seed": 0, "rsmbench": PROJECT_VERSION}
     assert [c.id for c in back] == [c.id for c in cases]
     for a, b in zip(cases, back, strict=True):
         t = np.linspace(*a.motion.domain, 17)
@@ -204,6 +207,36 @@ def test_export_round_trip(tmp_path, corpus):
     for d in doc["cases"]:
         assert set(schema["$defs"]["case"]["required"]) <= set(d)
         assert set(schema["$defs"]["truth"]["required"]) <= set(d["truth"])
+
+
+PROJECT_VERSION = tomllib.loads(
+    (Path(__file__).resolve().parents[1] / "pyproject.toml").read_text()
+)["project"]["version"]
+
+
+def test_export_names_the_rsmbench_that_wrote_it(tmp_path, corpus, capsys):
+    # the README's export(generate(...), "corpus-v1") wrote "generator": {}
+    from harness.cli import main
+
+    export(corpus[:2], tmp_path / "a")
+    header, _ = load(tmp_path / "a")
+    assert header["generator"] == {"rsmbench": PROJECT_VERSION}
+    # the version is the writer's fact: a caller's own "rsmbench" key does not replace it
+    export(corpus[:2], tmp_path / "b", {"seed": 4, "rsmbench": "9.9"})
+    assert load(tmp_path / "b")[0]["generator"] == {"seed": 4, "rsmbench": PROJECT_VERSION}
+    assert main(["corpus", "export", str(tmp_path / "c"), "--size", "0.05"]) == 0
+    capsys.readouterr()
+    assert load(tmp_path / "c")[0]["generator"] == {
+        "seed": 0,
+        "size": 0.05,
+        "families": "all",
+        "rsmbench": PROJECT_VERSION,
+    }
+    with pytest.raises(TypeError, match=r"`generator` to be a dict .*got str"):
+        export(corpus[:2], tmp_path / "d", "seed 0")
+    with pytest.raises(TypeError, match="`generator` to hold JSON values"):
+        export(corpus[:2], tmp_path / "d", {"seed": object()})
+    assert not (tmp_path / "d").exists()
 
 
 def _write(tmp_path, doc) -> str:

@@ -26,10 +26,12 @@ same control matrices (or the same keyframes) bit for bit and evaluates identica
 
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import math
 import os
 import shutil
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +44,15 @@ from ..errors import HarnessError
 from ..shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
 from .cases import CLASSES, SCHEMES, Case, Truth
 
-__all__ = ["FORMAT", "SCHEMA_PATH", "VERSION", "CorpusFormatError", "export", "load"]
+__all__ = [
+    "FORMAT",
+    "SCHEMA_PATH",
+    "VERSION",
+    "CorpusFormatError",
+    "export",
+    "load",
+    "rsmbench_version",
+]
 
 FORMAT = "rsmbench-corpus"
 VERSION = 1
@@ -125,13 +135,46 @@ def case_to_dict(c: Case) -> dict:
     }
 
 
+def rsmbench_version() -> str:
+    """The version of the running rsmbench: the ``pyproject.toml`` of the source tree it was
+    imported from (an editable install's metadata keeps the version it was installed
+    with), else the installed package's metadata, else "unknown"."""
+    pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
+    try:
+        project = tomllib.loads(pyproject.read_text()).get("project", {})
+        if project.get("name") == "rsmbench" and isinstance(project.get("version"), str):
+            return project["version"]
+    except (OSError, tomllib.TOMLDecodeError):
+        pass
+    try:
+        return importlib.metadata.version("rsmbench")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
 def export(cases: list[Case], folder: str | os.PathLike, generator: dict | None = None) -> Path:
     """Write ``corpus.json`` and ``corpus.schema.json`` into `folder` (atomically).
+
+    The header's ``generator`` is `generator` (seed, size, families, ...) plus
+    ``"rsmbench": "<version>"``, the version that wrote the file.
 
     Returns:
         The path of ``corpus.json``.
     """
     from .cases import TOLERANCE
+
+    if generator is not None and not isinstance(generator, dict):
+        raise TypeError(
+            f"Expected `generator` to be a dict (seed, size, ...) or None, got "
+            f"{type(generator).__name__}."
+        )
+    generator = {**(generator or {}), "rsmbench": rsmbench_version()}
+    try:
+        json.dumps(generator, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise TypeError(
+            f"Expected `generator` to hold JSON values, got {generator!r}: {e}"
+        ) from None
 
     out = Path(folder)
     try:
@@ -142,7 +185,7 @@ def export(cases: list[Case], folder: str | os.PathLike, generator: dict | None 
         "format": FORMAT,
         "version": VERSION,
         "tolerance": TOLERANCE,
-        "generator": generator or {},
+        "generator": generator,
         "cases": [case_to_dict(c) for c in cases],
     }
     path = out / FILE_NAME
