@@ -10,9 +10,10 @@ every frame carries its time.
 
 from __future__ import annotations
 
+import errno
 import importlib
 import os
-import tempfile
+import secrets
 from pathlib import Path
 from typing import Any
 
@@ -149,12 +150,25 @@ def render(
     return path, "matplotlib"
 
 
+def _temporary(folder: Path) -> tuple[int, Path]:
+    """A new file in `folder`, opened for writing, with the mode the umask gives (0644 under
+    umask 022, as for every other file the tool writes; ``tempfile.mkstemp`` makes 0600,
+    and the picture kept that mode once renamed into place)."""
+    for _ in range(100):
+        tmp = folder / f".render-{secrets.token_hex(8)}.png"
+        try:
+            return os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666), tmp
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "no free temporary name", str(folder))
+
+
 def _write(path: Path, save) -> None:
     """Write through a temporary file in the same folder, so a failure leaves nothing
     half-written; errors (a read-only folder) become a RenderError naming the path."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(suffix=".png", prefix=".render-", dir=path.parent)
+        fd, tmp = _temporary(path.parent)
     except OSError as e:
         raise RenderError(f"Cannot write `out` {str(path)!r}: {e.strerror or e}.") from None
     try:

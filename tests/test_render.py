@@ -165,6 +165,23 @@ def test_render_out_paths(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file", "pic.png", "slot_rational.png"]
 
 
+@pytest.mark.parametrize("umask", [0o022, 0o002])
+def test_render_writes_files_with_the_umask_mode(tmp_path, capsys, umask):
+    # the picture went through tempfile.mkstemp and kept its 0600 once renamed into place
+    old = os.umask(umask)
+    try:
+        out = tmp_path / "pic.png"
+        assert (
+            main(["render", "slot", "--backend", "matplotlib", "--frames", "1", "--out", str(out)])
+            == 0
+        )
+    finally:
+        os.umask(old)
+    capsys.readouterr()
+    assert out.stat().st_mode & 0o777 == 0o666 & ~umask
+    assert [p.name for p in tmp_path.iterdir()] == ["pic.png"]  # no temporary file left
+
+
 def _user_files(tmp_path):
     robot = tmp_path / "robot"
     shutil.copytree(
