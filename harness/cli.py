@@ -70,6 +70,7 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
 
     import scenes
     from harness.geoms import (
+        SUPPORTED_GEOMS,
         HeldJointsWarning,
         body_from_model,
         held_joints,
@@ -77,6 +78,7 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
         obstacle_geoms,
         reference_qpos,
         subtree_geoms,
+        unusable_obstacles,
     )
     from harness.shapes import parts
 
@@ -120,6 +122,18 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     for g in obst:
         counts[kind(g)] = counts.get(kind(g), 0) + 1
     print(f"obstacles: {len(obst)} static colliding geoms {counts}")
+    unusable = unusable_obstacles(model)
+    if unusable:
+        why = ", ".join(f"{model.geom(g).name or f'#{g}'!r} ({r})" for g, r in unusable.items())
+        supported = (
+            f"; supported geom types: {list(SUPPORTED_GEOMS)}"
+            if any(r.startswith("unsupported type") for r in unusable.values())
+            else ""
+        )
+        print(
+            f"cannot be obstacles: {len(unusable)} static colliding geoms, which "
+            f"harness.obstacles_from_model refuses: {why}{supported}"
+        )
     moving = moving_geoms(model)
     if moving.size:
         names = sorted({model.body(b).name or f"#{b}" for b in model.geom_bodyid[moving]})

@@ -42,6 +42,7 @@ __all__ = [
     "obstacles_from_model",
     "reference_qpos",
     "subtree_geoms",
+    "unusable_obstacles",
 ]
 
 SUPPORTED_GEOMS = ("box", "sphere", "capsule", "mesh", "plane")
@@ -323,17 +324,47 @@ def obstacles_from_model(
     _check_model(model)
     if isinstance(carried, str) or not isinstance(carried, Iterable):
         raise TypeError(f"Expected `carried` to be a list of body names, got {short(carried)}.")
-    data = mujoco.MjData(model)
-    mujoco.mj_kinematics(model, data)
     geoms = obstacle_geoms(model, groups)
     _warn_moving(model, groups, set(carried))
     out = []
+    for g, shape in _static_shapes(model, geoms):
+        if isinstance(shape, UnsupportedGeomError):  # (its message names the geom)
+            raise UnsupportedGeomError(str(shape))
+        if isinstance(shape, ShapeError):
+            raise type(shape)(f"{_geom(model, g)}: {shape}")
+        out.append(shape)
+    return out
+
+
+def _static_shapes(model: mujoco.MjModel, geoms: np.ndarray):
+    """(geom id, its shape in world coordinates or the ShapeError or UnsupportedGeomError
+    that refuses it)."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
     for g in geoms:
+        rot = np.array(data.geom_xmat[g]).reshape(3, 3)
         try:
-            rot = np.array(data.geom_xmat[g]).reshape(3, 3)
-            out.append(_geom_shape(model, g, rot, np.array(data.geom_xpos[g], dtype=float)))
-        except ShapeError as e:
-            raise type(e)(f"{_geom(model, g)}: {e}") from None
+            yield int(g), _geom_shape(model, g, rot, np.array(data.geom_xpos[g], dtype=float))
+        except (ShapeError, UnsupportedGeomError) as e:
+            yield int(g), e
+
+
+def unusable_obstacles(model: mujoco.MjModel, groups: Any = None) -> dict[int, str]:
+    """The static colliding geoms (:func:`obstacle_geoms`) that cannot be obstacles, each
+    with why: an unsupported type (cylinder, ellipsoid, ...; see ``SUPPORTED_GEOMS``) or
+    invalid parameters. :func:`obstacles_from_model` raises for any of them.
+
+    Returns:
+        {geom id: reason}, empty when every obstacle geom has a shape.
+    """
+    _check_model(model)
+    out = {}
+    for g, shape in _static_shapes(model, obstacle_geoms(model, groups)):
+        if isinstance(shape, UnsupportedGeomError):
+            kind = mujoco.mjtGeom(int(model.geom_type[g])).name.replace("mjGEOM_", "").lower()
+            out[g] = f"unsupported type {kind!r}"
+        elif isinstance(shape, ShapeError):
+            out[g] = str(shape).rstrip(".")
     return out
 
 

@@ -209,12 +209,42 @@ def test_scenes_command_describes_a_file(tmp_path, capsys, monkeypatch):
         in out
     )
     assert "keyframes: 5 at t = [0.0, 1.0, 2.0, 3.0, 4.0]" in out
+    assert "cannot be obstacles" not in out  # every static geom of the gripper has a shape
     assert main(["scenes", "missing.xml"]) == 2
     # the registry listing counts what each scene holds
     assert main(["scenes"]) == 0
     listing = capsys.readouterr().out
     assert "Procedural (seed 0): 50 box, sphere and capsule obstacles" in listing
     assert "mover  6 geoms,    3 obstacles, 5 keyframes" in listing
+
+
+def test_scenes_command_names_static_geoms_that_cannot_be_obstacles(tmp_path, capsys):
+    # a static cylinder was counted among the obstacles without a word, while
+    # harness.obstacles_from_model raises for it
+    xml = tmp_path / "cans.xml"
+    xml.write_text(
+        '<mujoco><worldbody><body name="mover" mocap="true"><geom type="box" size=".1 .1 .1"/>'
+        '</body><geom name="can" type="cylinder" size=".1 .2" pos="1 0 0"/>'
+        '<geom name="egg" type="ellipsoid" size=".1 .2 .3" pos="2 0 0"/>'
+        '<geom name="wall" type="box" size=".1 .2 .3" pos="-2 0 0"/>'
+        '<geom name="ghost" type="cylinder" size=".1 .2" contype="0" conaffinity="0"/>'
+        "</worldbody></mujoco>"
+    )
+    assert main(["scenes", str(xml)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    said = [line for line in lines if line.startswith("cannot be obstacles")]
+    assert said == [
+        "cannot be obstacles: 2 static colliding geoms, which harness.obstacles_from_model "
+        "refuses: 'can' (unsupported type 'cylinder'), 'egg' (unsupported type 'ellipsoid'); "
+        "supported geom types: ['box', 'sphere', 'capsule', 'mesh', 'plane']"
+    ]
+    model = scenes.compile_file(xml)
+    assert harness.geoms.unusable_obstacles(model) == {
+        model.geom("can").id: "unsupported type 'cylinder'",
+        model.geom("egg").id: "unsupported type 'ellipsoid'",
+    }
+    with pytest.raises(harness.UnsupportedGeomError, match=r"Geom 'can' .* 'cylinder'"):
+        harness.obstacles_from_model(model)
 
 
 @pytest.mark.slow
