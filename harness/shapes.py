@@ -26,6 +26,7 @@ __all__ = [
     "FLAT_RATIO",
     "HULL_SLACK",
     "KIND",
+    "MAX_LENGTH",
     "Box",
     "Capsule",
     "Compound",
@@ -45,6 +46,18 @@ COVER_SLACK = 1e-9
 of that computation are ~1e-16 relative, far below it."""
 
 
+MAX_LENGTH = 1e150
+"""Largest magnitude of a shape's coordinates and sizes (scene units). The certifier, the
+ground truth and the broad phase square lengths (norms, dot products of differences of
+body and obstacle points): three squared differences of coordinates up to L sum to at
+most 12 L², finite for L < sqrt(DBL_MAX / 12) ≈ 3.9e153. Beyond that an obstacle centred
+at 1e300 made numpy warn of an overflow (its bounding radius) and the verdict `unknown`
+(measured: right up to 1e154, `unknown` from 1e155); a bounding radius computed without
+overflow did not help: certify then said `free`, but clearance's proven lower bound was
+inf, the kernels' own sums overflowing. 1e150 leaves the motion's reach and the bounding
+radii a factor ~4e3."""
+
+
 def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
     """motions' array check, with its ValueErrors as ShapeErrors (one named error), as a
     read-only copy: a shape is immutable, and its kernel record is cached at its first
@@ -57,6 +70,23 @@ def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
     except ValueError as e:
         raise ShapeError(str(e)) from None
     return _frozen(a)  # (motions' as_array returns an array of its own)
+
+
+def _length(x: Any, name: str, **kw: Any) -> np.ndarray:
+    """:func:`as_array` of coordinates or sizes, at most :data:`MAX_LENGTH` in magnitude."""
+    a = as_array(x, name, **kw)
+    if a.size and np.abs(a).max() > MAX_LENGTH:
+        i = int(np.abs(a).argmax())
+        got = (
+            short(a)
+            if a.ndim <= 1
+            else f"{a.flat[i]:g} at index {tuple(map(int, np.unravel_index(i, a.shape)))}"
+        )
+        raise ShapeError(
+            f"Expected `{name}` to hold lengths of magnitude at most {MAX_LENGTH:g} (larger "
+            f"ones overflow when squared), got {got}."
+        )
+    return a
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -86,7 +116,7 @@ def _rotation(rotation: Any, name: str = "rotation") -> np.ndarray:
 
 
 def _positive(x: Any, name: str, shape: tuple = ()) -> np.ndarray:
-    a = as_array(x, name)
+    a = _length(x, name)
     if a.shape != shape:
         raise ShapeError(f"Expected `{name}` to have shape {shape}, got {a.shape}.")
     if np.any(a <= 0):
@@ -139,7 +169,7 @@ class Box(Shape):
 
     def __init__(self, half_extents: Any, center: Any = (0, 0, 0), rotation: Any = None):
         object.__setattr__(self, "half_extents", _positive(half_extents, "half_extents", (3,)))
-        object.__setattr__(self, "center", as_array(center, "center", shape=(3,)))
+        object.__setattr__(self, "center", _length(center, "center", shape=(3,)))
         object.__setattr__(self, "rotation", _frozen(_rotation(rotation)))
 
     def support(self, d):
@@ -184,7 +214,7 @@ class HalfSpace(Box):
 
     def __init__(self, point: Any, rotation: Any = None, half: float = 1e3):
         rot = _frozen(_rotation(rotation))
-        p = as_array(point, "point", shape=(3,))
+        p = _length(point, "point", shape=(3,))
         super().__init__([half] * 3, center=p - float(half) * rot[:, 2], rotation=rot)
         object.__setattr__(self, "point", p)
 
@@ -244,7 +274,7 @@ class Sphere(Shape):
 
     def __init__(self, radius: Any, center: Any = (0, 0, 0)):
         object.__setattr__(self, "radius", float(_positive(radius, "radius")))
-        object.__setattr__(self, "center", as_array(center, "center", shape=(3,)))
+        object.__setattr__(self, "center", _length(center, "center", shape=(3,)))
 
     def support(self, d):
         d = np.asarray(d, dtype=float)
@@ -278,7 +308,7 @@ class Capsule(Shape):
     ):
         object.__setattr__(self, "radius", float(_positive(radius, "radius")))
         object.__setattr__(self, "half_length", float(_positive(half_length, "half_length")))
-        object.__setattr__(self, "center", as_array(center, "center", shape=(3,)))
+        object.__setattr__(self, "center", _length(center, "center", shape=(3,)))
         object.__setattr__(self, "rotation", _frozen(_rotation(rotation)))
 
     @property
@@ -345,7 +375,7 @@ class ConvexMesh(Shape):
     kind = "mesh"
 
     def __init__(self, vertices: Any):
-        v = as_array(vertices, "vertices")
+        v = _length(vertices, "vertices")
         if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
             raise ShapeError(
                 f"Expected `vertices` to have shape (V, 3) with V >= 1, got {v.shape}."

@@ -555,7 +555,7 @@ def test_colliding_geoms_that_joints_move_are_named_not_dropped_silently(tmp_pat
     [
         ("nan", harness.errors.HarnessError, r"joint 'f' is held at nan \(the first keyframe\)"),
         ("1e300", harness.errors.ShapeError, r"Geom 'fg' \(body 'finger'\) with joints held at"),
-        ("-1e200", harness.errors.ShapeError, r"Geom 'fg' .* expected a finite distance"),
+        ("-1e200", harness.errors.ShapeError, r"Geom 'fg' .* `center` to hold lengths of"),
     ],
 )
 def test_a_held_joint_at_a_bad_value_names_the_joint_or_the_geom(qpos, error, match):

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
+import harness
+import motions
 from harness import Box, Capsule, Compound, ConvexMesh, ShapeError, Sphere
+from harness.shapes import MAX_LENGTH, HalfSpace
 
 TOL = 1e-12
 
@@ -61,6 +66,45 @@ def test_box_own_rotation_and_centre_matter():
 def test_bad_shapes(make, match):
     with pytest.raises(ShapeError, match=match):
         make()
+
+
+@pytest.mark.parametrize(
+    ("make", "name"),
+    [
+        (lambda x: Box([1, 1, 1], center=[x, 0, 0]), "center"),
+        (lambda x: Box([1, x, 1]), "half_extents"),
+        (lambda x: Sphere(1, center=[0, -x, 0]), "center"),
+        (lambda x: Sphere(x), "radius"),
+        (lambda x: Capsule(1, x), "half_length"),
+        (lambda x: Capsule(x, 1), "radius"),
+        (lambda x: Capsule(1, 1, center=[0, 0, x]), "center"),
+        (lambda x: ConvexMesh(np.vstack([np.eye(3), [[0, 0, 0], [x, x, x]]])), "vertices"),
+        (lambda x: HalfSpace([0, 0, -x]), "point"),
+    ],
+)
+def test_lengths_that_overflow_when_squared_are_refused(make, name):
+    # harness.certify with Box([1,1,1], center=[1e300,0,0]) leaked numpy's "overflow
+    # encountered in dot" (the bounding radius) and answered `unknown`
+    for x in (1e300, 2 * MAX_LENGTH):
+        with pytest.raises(ShapeError, match=rf"`{name}` to hold lengths of magnitude at most"):
+            make(x)
+    if name != "vertices":  # (qhull cannot build hulls of coordinates beyond ~1e76)
+        make(MAX_LENGTH)
+
+
+def test_an_obstacle_at_the_largest_length_is_free_without_warnings():
+    m = motions.build(
+        "rational", np.array([[1, 0, 0, 0], [1, 0, 0, 0.0]]), np.eye(2, 3), np.array([0, 1.0])
+    )
+    body = Sphere(0.1)
+    with np.errstate(all="raise"), warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for c in ([MAX_LENGTH, 0, 0], [-MAX_LENGTH, MAX_LENGTH, MAX_LENGTH]):
+            for far in (Box([1, 1, 1], center=c), Sphere(1, center=c), Capsule(1, 1, center=c)):
+                assert harness.certify(m, body, [far]).verdict == "free"
+                lower = harness.clearance(m, body, [far]).lower
+                # a proven lower bound: positive and at most the true distance
+                assert 0 < lower <= np.linalg.norm(c) - 1
 
 
 @pytest.mark.parametrize("scale", [1e-200, 1e200])
