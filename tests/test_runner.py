@@ -223,7 +223,8 @@ def test_two_runs_with_the_same_seed_are_identical(tiny, tmp_path):
 def test_case_warnings_are_recorded_not_printed(tmp_path):
     """The gripper's certified body holds its slide joint (a HeldJointsWarning): the runner
     records it in the case's rows instead of letting it reach the console (it would cut
-    through the progress bar)."""
+    through the progress bar), in every row of the scene: the geometry is built once per
+    process, and its warning was recorded for the first case only."""
     import warnings
 
     from harness.geoms import HeldJointsWarning
@@ -231,16 +232,18 @@ def test_case_warnings_are_recorded_not_printed(tmp_path):
     suite = tmp_path / "w.toml"
     suite.write_text(
         '[suite]\nname = "w"\n\n[[study]]\nkind = "simulate"\nscenes = ["gripper"]\n'
-        'schemes = ["slerp"]\nrounds = 1\n'
+        'schemes = ["slerp", "rational"]\nrounds = 1\n\n[[study]]\nkind = "certify"\n'
+        'scenes = ["gripper"]\nschemes = ["slerp", "rational"]\nbounds = ["hull"]\nrounds = 1\n'
     )
     with warnings.catch_warnings(record=True) as outer:
         warnings.simplefilter("always")
         df = run_suite(load_suite(suite), tmp_path / "out", progress=False)
     assert not [w for w in outer if issubclass(w.category, HeldJointsWarning)]
-    sim = df[df["study"] == "simulate"]
-    assert len(sim) == 1
-    text = sim["warnings"].iloc[0]
-    assert text.startswith("HeldJointsWarning: ") and "left_slide" in text
+    rows = df[df["scene"] == "gripper"]
+    assert sorted(rows["study"]) == ["certify"] * 2 + ["simulate"] * 2
+    for text in rows["warnings"]:
+        assert text.startswith("HeldJointsWarning: ") and "left_slide" in text, rows
+    assert df.loc[df["study"] == "startup", "warnings"].isna().all()  # no scene, no warning
 
 
 def test_bad_suites(tmp_path):

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import warnings
 from typing import Any
 
 import numpy as np
@@ -147,15 +148,24 @@ class Context:
         return self.memo(("motion", scene, kf, scheme), make)
 
     def geometry(self, scene: str):
+        """The scene's certified body and obstacles, built once per process. The warnings
+        of building them (a HeldJointsWarning, a MovingGeomsWarning) are kept with them
+        and raised again at every call, so that every case of the scene records them
+        (:func:`~harness.run.studies.run_case`), not only the first one in this process."""
         from ...sim import body_from_model, check_body_covers_subtree, obstacles_from_model
 
         def make():
             sc = self.scene(scene)
-            body = body_from_model(sc.model, sc.mocap_body)
-            check_body_covers_subtree(sc.model, sc.mocap_body, body)
-            return body, obstacles_from_model(sc.model, carried=sc.carried)
+            with warnings.catch_warnings(record=True) as caught:
+                body = body_from_model(sc.model, sc.mocap_body)
+                check_body_covers_subtree(sc.model, sc.mocap_body, body)
+                obst = obstacles_from_model(sc.model, carried=sc.carried)
+            return body, obst, [w.message for w in caught]
 
-        return self.memo(("geom", scene), make)
+        body, obst, raised = self.memo(("geom", scene), make)
+        for message in raised:  # (through the filters again, as the first time)
+            warnings.warn(message, stacklevel=2)
+        return body, obst
 
 
 def smoothness_cols(row: dict) -> dict:
