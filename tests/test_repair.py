@@ -16,7 +16,7 @@ import harness
 import motions
 from harness import Box, RepairError, Sphere, certify_many, ground_truth, repair
 from harness.avoid import colliding_cases, sampled_repair
-from harness.avoid.repair import least_distance
+from harness.avoid.repair import keyframe_margin, least_distance
 
 CASES = 40
 TOL = 1e-3
@@ -255,3 +255,21 @@ def test_a_cube_on_the_path_is_passed_sideways(t):
     r = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01)
     check_repaired(case, r, 0.01)
     assert r.moved.max_deviation < 0.6
+
+
+def test_a_keyframe_pose_inside_the_repairs_margin_is_refused():
+    # The offset vanishes at keyframes, so a keyframe pose closer than the cuts' target
+    # (clearance + 2 tolerances) makes the poses next to it ask for a fixed push ever
+    # closer to a zero of the offset: this avoid-suite case (keyframe pose 11.2 mm from a
+    # capsule, clearance 10 mm) was "repaired" by moving the path 22 km.
+    case = colliding_cases(180, seed=0)[179]
+    assert 0.01 + TOL <= case.keyframe_clearance < keyframe_margin(0.01, TOL)
+    assert not case.repairable(0.01, TOL)
+    with pytest.raises(RepairError, match=r"from the keyframe pose .* repair's margin") as e:
+        repair(case.motion, case.body, case.obstacles, tolerance=TOL, clearance=0.01)
+    assert e.value.obstacles == (2,)
+    # with a smaller clearance the same keyframe pose is far enough, and the repair's
+    # offset stays of the size of the push it needs
+    r = repair(case.motion, case.body, case.obstacles, tolerance=TOL, clearance=0.005)
+    check_repaired(case, r, 0.005)
+    assert r.moved.max_deviation < 0.5

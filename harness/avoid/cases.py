@@ -19,6 +19,7 @@ import motions
 from ..shapes import Shape
 from ..workloads import random_keyframes, random_primitive
 from .distance import DistanceModel
+from .repair import keyframe_margin
 
 __all__ = ["AvoidCase", "colliding_cases", "placed_obstacle"]
 
@@ -47,8 +48,9 @@ class AvoidCase:
     keyframe_clearance: float
 
     def repairable(self, clearance: float = 0.0, tolerance: float = 1e-3) -> bool:
-        """Whether every keyframe pose keeps `clearance` + `tolerance` from the obstacles."""
-        return self.keyframe_clearance >= clearance + tolerance
+        """Whether every keyframe pose keeps the repair's margin from the obstacles
+        (:func:`.repair.keyframe_margin`: `clearance` + 2 `tolerance`)."""
+        return self.keyframe_clearance >= keyframe_margin(clearance, tolerance)
 
 
 def placed_obstacle(body: Shape, motion, t: float, gap: float, rng, scale: float) -> Shape:

@@ -23,7 +23,8 @@ Each iteration:
 
 When the programme is infeasible the offset gets more knots between the keyframes that
 bound the trouble; a keyframe pose closer to an obstacle than the clearance cannot be
-kept, and the repair refuses it up front (:class:`RepairError` names the obstacle).
+kept, and the repair refuses it up front (:class:`RepairError` names the obstacle), as it
+does a keyframe pose closer than the cuts' target (:func:`keyframe_margin`).
 """
 
 from __future__ import annotations
@@ -164,14 +165,30 @@ def _anchors(motion: RationalMotion) -> np.ndarray:
     return np.unique(np.concatenate([[t0, t1], kt[(kt >= t0) & (kt <= t1)]]))
 
 
+def keyframe_margin(clearance: float, tolerance: float) -> float:
+    """The distance every keyframe pose must keep for :func:`repair`: ``clearance + 2
+    tolerance``, the target of its cuts (the clearance, 1.5 tolerances so that a bracket
+    of width `tolerance` proves it, and half the search grid's step of one tolerance).
+
+    The offset vanishes at the keyframes, so a cut that asks for a push δ at a pose ε
+    from a keyframe needs a slope δ/ε. With the keyframe pose at the target or farther, a
+    pose ε away asks for at most V ε (V the speed bound); with it closer, poses next to
+    it ask for a fixed push as ε → 0, and the smallest offset grows without bound (with
+    the old threshold ``clearance + tolerance``, a case of the avoid suite got a certified
+    repair that moved the path by 22 km, its keyframe pose 1.2 tolerances clear)."""
+    return clearance + 2.0 * tolerance
+
+
 def _check_keyframes(motion, dm: DistanceModel, anchors, c, tol, obst) -> None:
-    """Refuse keyframe poses the repair would have to move (closer than the clearance)."""
+    """Refuse keyframe poses the repair would have to move (closer than
+    :func:`keyframe_margin`)."""
     r, p = motion.pose(anchors)
     d, _ = dm.to_obstacles(r, p)
     per_obst = np.full((len(anchors), len(obst)), np.inf)
     for o in range(len(obst)):
         per_obst[:, o] = d[:, :, dm.obstacle_owner == o].min(axis=(1, 2))
-    bad = np.argwhere(per_obst < c + tol)
+    margin = keyframe_margin(c, tol)
+    bad = np.argwhere(per_obst < margin)
     if bad.size:
         k, o = (int(x) for x in bad[np.argmin(per_obst[bad[:, 0], bad[:, 1]])])
         dist = per_obst[k, o]
@@ -179,7 +196,7 @@ def _check_keyframes(motion, dm: DistanceModel, anchors, c, tol, obst) -> None:
             f"contains the keyframe pose at t = {anchors[k]:.6g} (penetration {-dist:.3g})"
             if dist < 0
             else f"is {dist:.3g} from the keyframe pose at t = {anchors[k]:.6g}, less than"
-            f" `clearance` + `tolerance` = {c + tol:.3g}"
+            f" `clearance` + 2 `tolerance` = {margin:.3g} (the repair's margin)"
         )
         raise RepairError(
             f"Cannot repair: obstacles[{o}] ({type(obst[o]).__name__}) {what}; the repair keeps"
@@ -496,7 +513,7 @@ def repair(
     # distance dips by at most step / 2 below theirs: cuts ask for that much more, plus
     # 1.5 tolerances so that a bracket of width `tol` proves the clearance
     step = tol
-    target = c + 1.5 * tol + 0.5 * step
+    target = keyframe_margin(c, tol)  # = c + 1.5 tol + step / 2
     cons = _Constraints()
     spline = OffsetSpline.on(anchors[1:-1], motion.domain, anchors)
     delta = np.zeros((spline.size, 3))
@@ -531,7 +548,7 @@ def repair(
             owners = sorted({int(x) for x in cons.owner} | {int(x) for x in dm.obstacle_owner[o]})
             raise RepairError(
                 f"Cannot repair: no offset between the keyframes keeps the body"
-                f" {c + tol:.3g} from obstacles{owners} (with up to {MAX_KNOTS} knots between two"
+                f" {target:.3g} from obstacles{owners} (with up to {MAX_KNOTS} knots between two"
                 " keyframes); the way past them is too narrow or the keyframes too close.",
                 tuple(owners),
             )

@@ -97,7 +97,7 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
     doc.table(
         _summary(rep),
         "Per requested clearance and method, over the seeded colliding motions: repairable means every"
-        " keyframe pose keeps clearance + tolerance (keyframes are kept); claimed: repairable cases the"
+        " keyframe pose keeps clearance + 2 tolerances, the repair's margin (keyframes are kept); claimed: repairable cases the"
         " method called repaired; truly_free: of those, proven free by the ground truth (dense"
         " mj_geomDistance sampling with the Lipschitz margin at 1 mm); success_rate = truly_free /"
         " repairable; over all claims (claimed_all), still_collides, truth_undecided (clearance under"
