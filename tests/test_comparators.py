@@ -237,6 +237,9 @@ def test_certify_many_dispatches_to_the_comparators(monkeypatch):
         assert isinstance(out[0], harness.Certificate) and out[0].verdict == "collision"
         assert not out[0].certified  # the tool's claim, not a proof
         assert isinstance(out[1], NotApplicable)
+        # one query raises where the batch answers n/a, as the engine's bounds do
+        with pytest.raises(ValueError, match=r"Bound .fcl. cannot run this motion"):
+            harness.certify(rational, CUBE, [WALL], bound="fcl")
         with pytest.raises(TypeError, match="comparator_options"):
             harness.certify(screw, CUBE, [WALL], bound="fcl", comparator_options={"nope": 1})
     monkeypatch.setattr(comp, "available", lambda: ())

@@ -326,15 +326,22 @@ def certify(
             "lipschitz"; any for "sampled").
         body: a shape in body coordinates.
         obstacles: shapes in world coordinates.
-        bound: "hull", "aabb", "lipschitz" or "sampled".
+        bound: "hull", "aabb", "lipschitz" or "sampled"; or an external comparator,
+            "fcl" or "ipctk" (see :func:`certify_many`).
         tolerance: length (scene units): a pose closer than this ends refinement there.
         max_depth: subdivision depth limit ("hull"/"aabb"), at most 60.
         samples: poses for "sampled" (default: the fair grid, see :mod:`.advance`).
-        options: ``max_nodes`` (per motion), ``threads``, ``device``, ``max_iter``.
+        options: ``max_nodes`` (per motion), ``threads``, ``device``, ``max_iter``,
+            ``comparator_options``.
+
+    Raises:
+        QueryError: a bound that does not apply to the motion (the engine's or a
+            comparator's: where :func:`certify_many` answers a comparator's
+            ``NotApplicable`` in a batch, one query raises, as the engine's bounds do).
     """
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
-    return certify_many(
+    out = certify_many(
         [motion],
         body,
         obstacles,
@@ -344,6 +351,9 @@ def certify(
         samples=samples,
         **options,
     )[0]
+    if not isinstance(out, Certificate):  # a comparator's NotApplicable
+        raise QueryError(f"Bound {short(bound)} cannot run this motion: {out.reason}.")
+    return out
 
 
 def certify_many(
