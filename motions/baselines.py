@@ -514,7 +514,17 @@ class ScLerpMotion(Motion):
         k, th, c, d = self._axis[i], self._theta[i][:, None], self._c[i], self._d[i][:, None]
         ru = rotation_matrix(np.concatenate([np.cos(u * th / 2), np.sin(u * th / 2) * k], axis=1))
         rc = np.einsum("tij,tj->ti", ru, c)
-        pu = c - rc + u * d * k + u * self._slide[i]
+        # c - R_u c by Rodrigues (c ⊥ k): 2 sin²(φ/2) c - sin φ (k × c), φ = u θ. Written
+        # as c - rc it cancels catastrophically on a nearly pure slide, where the axis
+        # point c ~ |perp|/θ is huge (θ = 1e-11 at coordinates 1e4: |c| = 2e15, the
+        # origin 0.48 off and a certified false free).
+        phi = u * th
+        pu = (
+            2.0 * np.sin(0.5 * phi) ** 2 * c
+            - np.sin(phi) * np.cross(k, c)
+            + u * d * k
+            + u * self._slide[i]
+        )
         ri = self._rk[i]
         r = ri @ ru
         p = self._p[i] + np.einsum("tij,tj->ti", ri, pu)
@@ -532,15 +542,20 @@ class ScLerpMotion(Motion):
 
     def exp_pieces(self) -> ExpPieces:
         """The motion as exponential-product pieces (:mod:`motions.exp_pieces`), one per
-        keyframe segment: ``q_i exp(s θ/2 k)``, ``P(s) = p_i + R_i c + s R_i (d k + slide)``
-        and the screw axis point c, since ``p = P(s) - R(t) c``."""
+        keyframe segment: ``q_i exp(s θ/2 k)``, ``P(s) = p_i + s R_i (d k + slide)`` and
+        the screw term ``R_i (c - R_s c)`` as ``2 sin²(sθ/2) R_i c - sin(sθ) R_i (k × c)``."""
         rk = self._rk[:-1]
-        start = self._p[:-1] + np.einsum("nij,nj->ni", rk, self._c)
+        start = self._p[:-1]
         step = np.einsum("nij,nj->ni", rk, self._d[:, None] * self._axis + self._slide)
         n = len(self._h)
         s = linear_cubic(np.zeros((n, 1)), np.ones((n, 1))).transpose(0, 2, 1)
         omega = (0.5 * self._theta)[:, None, None] * self._axis[:, None, :]
-        return assemble(self._t, self._q[:-1], omega, s, linear_cubic(start, start + step), self._c)
+        screw = (
+            self._theta,
+            np.einsum("nij,nj->ni", rk, self._c),
+            np.einsum("nij,nj->ni", rk, np.cross(self._axis, self._c)),
+        )
+        return assemble(self._t, self._q[:-1], omega, s, linear_cubic(start, start + step), screw)
 
     def speed_bound(self, t0, t1, radius):
         """``|ω| (|c| + radius) + |slide|`` per segment: exact for a screw (the origin keeps

@@ -6,19 +6,24 @@ kernels evaluate (``harness.certification``), so that their ``lipschitz`` and
 On a piece ``[t0, t1]``, with ``u = (t - t0) / (t1 - t0)``, a motion poses as
 
     q(t) = q0 exp(f1(u) Ω1) exp(f2(u) Ω2) exp(f3(u) Ω3),   R(t) = U(q) / |q|²,
-    p(t) = P(u) - R(t) c,
+    p(t) = P(u) + 2 sin²(θu/2) c1 - sin(θu) c2,
 
 with ``exp(v) = [cos|v|, sin|v| v/|v|]`` (:func:`motions.qexp`, half-angle vectors Ω_j),
-``f_j`` cubic Bézier polynomials, ``P`` a cubic Bézier curve and ``c`` a body-frame
-point. The schemes with a proven speed bound all take this form:
+``f_j`` cubic Bézier polynomials, ``P`` a cubic Bézier curve, and a screw term of angle θ
+and vectors c1, c2 (zero but for sclerp). The schemes with a proven speed bound all take
+this form:
 
 - ``slerp``, ``slerp-linear``: ``q_i exp(s L_i)`` on keyframe segment i (``s`` its
-  parameter, linear in u; ``L_i = log(q_i⁻¹ q_{i+1})``); ``P`` the origin spline; c = 0.
+  parameter, linear in u; ``L_i = log(q_i⁻¹ q_{i+1})``); ``P`` the origin spline.
 - ``sclerp``: the same rotation; the screw's ``p = p_i + R_i (c - R_s c + s (d k + slide))``
-  with ``R = R_i R_s`` is ``P(s) - R c`` for ``P(s) = p_i + R_i c + s R_i (d k + slide)``.
+  (R_s the turn by sθ about k, c ⊥ k the axis point) with ``c - R_s c = 2 sin²(sθ/2) c -
+  sin(sθ) k × c`` (Rodrigues), so ``P(s) = p_i + s R_i (d k + slide)``, ``c1 = R_i c`` and
+  ``c2 = R_i (k × c)``. Not ``P - R(t) c``: on a nearly pure slide the axis point is far
+  away (|c| ~ |perp|/θ, 2e15 for θ = 1e-11 at coordinates 1e4) and that difference
+  cancels catastrophically (a certified false free, found by an adversarial hunt).
 - ``cumulative-bspline``: on knot span μ, ``q0 = c_{μ-k}`` (the factors before the span
   telescope: ``exp(Ω_j) = c_{j-1}⁻¹ c_j``), ``Ω_m = log(c_{j-1}⁻¹ c_j)`` and ``f_m`` the
-  cumulative basis ``B~_j`` for ``j = μ - k + m``; ``P`` the origin spline; c = 0.
+  cumulative basis ``B~_j`` for ``j = μ - k + m``; ``P`` the origin spline.
 
 Pieces are the intervals between a motion's breakpoints (keyframe times and spline knots),
 so that each piece lies in one keyframe segment and one knot span.
@@ -47,7 +52,8 @@ class ExpPieces:
         omega: (P, 3, 3) the half-angle vectors Ω_1..Ω_3 as rows (zero rows: no factor).
         f: (P, 3, 4) the cubic Bézier coefficients of f_1..f_3 in u.
         origin: (P, 4, 3) the cubic Bézier control points of P(u).
-        c: (P, 3) the body-frame point subtracted after rotation.
+        theta: (P,) the screw term's angle (0: none).
+        c1, c2: (P, 3) the screw term's vectors (world frame).
     """
 
     t0: np.ndarray
@@ -56,7 +62,9 @@ class ExpPieces:
     omega: np.ndarray
     f: np.ndarray
     origin: np.ndarray
-    c: np.ndarray
+    theta: np.ndarray
+    c1: np.ndarray
+    c2: np.ndarray
 
     def __len__(self) -> int:
         return len(self.t0)
@@ -80,7 +88,12 @@ class ExpPieces:
         for j in range(3):
             q = qmul(q, qexp(f[:, j, None] * self.omega[i, j]))
         r = rotation_matrix(q)
-        p = np.einsum("tkd,tk->td", self.origin[i], b) - np.einsum("tij,tj->ti", r, self.c[i])
+        phi = self.theta[i] * np.asarray(u, dtype=float)
+        p = (
+            np.einsum("tkd,tk->td", self.origin[i], b)
+            + (2.0 * np.sin(0.5 * phi) ** 2)[:, None] * self.c1[i]
+            - np.sin(phi)[:, None] * self.c2[i]
+        )
         return r, p
 
 
@@ -121,9 +134,10 @@ def assemble(
     omega: np.ndarray,
     f: np.ndarray,
     origin: np.ndarray,
-    c: np.ndarray | None = None,
+    screw: tuple | None = None,
 ) -> ExpPieces:
-    """An :class:`ExpPieces` from per-piece arrays, padding Ω and f to three factors."""
+    """An :class:`ExpPieces` from per-piece arrays, padding Ω and f to three factors;
+    `screw`: (θ (P,), c1 (P, 3), c2 (P, 3)), default none."""
     n = len(breaks) - 1
     om = np.zeros((n, 3, 3))
     om[:, : omega.shape[1]] = omega
@@ -136,5 +150,7 @@ def assemble(
         omega=om,
         f=ff,
         origin=np.ascontiguousarray(origin, dtype=float),
-        c=np.zeros((n, 3)) if c is None else np.ascontiguousarray(c, dtype=float),
+        theta=np.zeros(n) if screw is None else np.asarray(screw[0], dtype=float).reshape(n),
+        c1=np.zeros((n, 3)) if screw is None else np.asarray(screw[1], dtype=float).reshape(n, 3),
+        c2=np.zeros((n, 3)) if screw is None else np.asarray(screw[2], dtype=float).reshape(n, 3),
     )

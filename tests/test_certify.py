@@ -313,6 +313,29 @@ def test_slerp_family_steps_in_the_kernel_soundly_and_like_the_host(scheme):
     assert decided["collision"] >= 3 and decided["free"] >= 1, decided
 
 
+def test_a_nearly_pure_sclerp_slide_through_an_obstacle_is_a_collision():
+    # A screw turning by 1e-11 rad at coordinates ~1e4 (its axis point 2e15 away) whose
+    # path runs 0.036 deep through a sphere: posed as P - R c the kernels saw it 0.22
+    # clear and both lipschitz and the fair grid certified it free.
+    q = [
+        [0.03836168962552536, 0.8045966407330805, 0.5520122598081058, 0.21548803101718994],
+        [0.03836168962813818, 0.8045966407311224, 0.5520122598093871, 0.21548803102075334],
+    ]
+    p = [
+        [10938.456759004786, -12710.508217241275, -1376.2097627558853],
+        [-73.58286291270949, -13246.455506441365, 17219.71643856479],
+    ]
+    centre = np.array([2014.0157143745796, -13145.108378516668, 13690.611282286056])
+    m = motions.build("sclerp", q, p, [0.0, 1.0])
+    for bound in ("lipschitz", "sampled"):
+        k = certify(m, Sphere(1.0), [Sphere(1.0, center=centre)], bound=bound, tolerance=1e-3)
+        assert k.verdict == "collision" and k.certified, (bound, k)
+        # the contact pose truly intersects (the pose is checked by
+        # test_sclerp_nearly_pure_slides_pose_accurately), and toi_lo is before it
+        assert np.linalg.norm(np.reshape(m.pose(k.toi_hi)[1], 3) - centre) < 2.0
+        assert k.toi_lo <= 0.810275
+
+
 def test_bad_input():
     q, p = demo_keyframes(5)
     m = motions.interpolate(q, p)

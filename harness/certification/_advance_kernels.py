@@ -49,8 +49,9 @@ def _qmul_exp(q: wp.vec4d, v: wp.vec3d) -> wp.vec4d:
 def _exp_pose(ctrl: wp.array(dtype=wp.mat44d), start: wp.int32, u: wp.float64) -> wp.mat44d:
     """The pose ``[[R, p], [0, 0, 0, 1]]`` at u of an exponential-product piece
     (:class:`motions.exp_pieces.ExpPieces`), packed as three matrices: ctrl[start] rows
-    ``q0``, ``(Ω_1, c_x)``, ``(Ω_2, c_y)``, ``(Ω_3, c_z)``; ctrl[start + 1] rows the
-    Bézier coefficients of f_1..f_3; ctrl[start + 2] rows those of P's x, y, z."""
+    ``q0``, ``Ω_1``, ``Ω_2``, ``Ω_3``; ctrl[start + 1] rows the Bézier coefficients of
+    f_1..f_3, then ``(c1, θ)``; ctrl[start + 2] rows those of P's x, y, z, then ``c2``.
+    The screw term ``2 sin²(θu/2) c1 - sin(θu) c2`` has no cancellation where θ is tiny."""
     m0 = ctrl[start]
     mf = ctrl[start + 1]
     mp = ctrl[start + 2]
@@ -77,13 +78,17 @@ def _exp_pose(ctrl: wp.array(dtype=wp.mat44d), start: wp.int32, u: wp.float64) -
         two * (q2 * q3 + q0 * q1),
         q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3,
     )
-    p = r * wp.vec3d(m0[1, 3], m0[2, 3], m0[3, 3])
+    phi = mf[3, 3] * u
+    sh = wp.sin(wp.float64(0.5) * phi)
+    c1 = wp.vec3d(mf[3, 0], mf[3, 1], mf[3, 2])
+    c2 = wp.vec3d(mp[3, 0], mp[3, 1], mp[3, 2])
+    screw = (two * sh * sh) * c1 - wp.sin(phi) * c2
     out = wp.mat44d()
     for i in range(3):
         out[i, 0] = r[i, 0]
         out[i, 1] = r[i, 1]
         out[i, 2] = r[i, 2]
-        out[i, 3] = wp.dot(wp.vec4d(mp[i, 0], mp[i, 1], mp[i, 2], mp[i, 3]), b) - p[i]
+        out[i, 3] = wp.dot(wp.vec4d(mp[i, 0], mp[i, 1], mp[i, 2], mp[i, 3]), b) + screw[i]
     out[3, 3] = F1
     return out
 

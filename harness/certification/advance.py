@@ -158,9 +158,11 @@ def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
     ctrl = np.zeros((n, 3, 4, 4))
     ctrl[:, 0, 0] = ep.q0
     ctrl[:, 0, 1:, :3] = ep.omega
-    ctrl[:, 0, 1:, 3] = ep.c
     ctrl[:, 1, :3] = ep.f
+    ctrl[:, 1, 3, :3] = ep.c1
+    ctrl[:, 1, 3, 3] = ep.theta
     ctrl[:, 2, :3] = ep.origin.transpose(0, 2, 1)
+    ctrl[:, 2, 3, :3] = ep.c2
     rows = np.zeros((n, 5 + REACH_ROW))
     rows[:, 0], rows[:, 1] = ep.t0, ep.t1
     speeds = np.array(
