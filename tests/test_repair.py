@@ -273,3 +273,38 @@ def test_a_keyframe_pose_inside_the_repairs_margin_is_refused():
     r = repair(case.motion, case.body, case.obstacles, tolerance=TOL, clearance=0.005)
     check_repaired(case, r, 0.005)
     assert r.moved.max_deviation < 0.5
+
+
+def test_cuts_at_penetrating_poses_are_lower_bounds():
+    # A cut d + n·δ >= target only cuts away unsafe offsets if d + n·δ is at most the
+    # distance after translating the body by δ. At a penetrating pose MuJoCo's depth and
+    # normal are not the separation along that normal, and cuts built from them exceeded
+    # the true distance by up to 0.36 (a review's check); the cut's d is now at most
+    # the separation along n. Checked where the translated pose is separated, where
+    # MuJoCo's distance is exact.
+    from harness import Capsule
+    from harness.avoid.distance import DistanceModel
+    from harness.avoid.repair import _separation
+
+    rng = np.random.default_rng(0)
+    body = Box([0.1, 0.05, 0.2], center=[0.05, 0.1, -0.1], rotation=[0.9, 0.2, 0.1, 0.3])
+    obst = [
+        Capsule(0.1, 0.3, center=[0.5, 0.2, 0.1], rotation=[0.7, 0.1, 0.7, 0.0]),
+        Box([0.2, 0.1, 0.3], center=[-0.4, 0, 0.2], rotation=[1, 0.3, 0, 0.2]),
+    ]
+    dm = DistanceModel([body], obst)
+    q = rng.normal(size=(300, 4))
+    r = motions.rotation_matrix(q)
+    p = rng.normal(size=(300, 3)) * 0.4
+    d, n = dm.to_obstacles(r, p)
+    t, _, o = np.nonzero((d < 0) & np.isfinite(n[..., 0]))
+    dn, nn = d[t, 0, o], n[t, 0, o]
+    cut_d = np.minimum(dn, _separation(dm, r[t], p[t], nn, np.zeros_like(o), o))
+    checked = 0
+    for j in range(len(t)):
+        deltas = rng.normal(size=(30, 3)) * 0.3
+        d2, _ = dm.to_obstacles(np.repeat(r[t[j] : t[j] + 1], 30, 0), p[t[j]] + deltas)
+        sep = d2[:, 0, o[j]] > 0
+        checked += int(sep.sum())
+        assert np.all(cut_d[j] + deltas[sep] @ nn[j] <= d2[sep, 0, o[j]] + 1e-9)
+    assert checked > 500
