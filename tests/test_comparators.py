@@ -238,7 +238,7 @@ def test_certify_many_dispatches_to_the_comparators(monkeypatch):
         assert not out[0].certified  # the tool's claim, not a proof
         assert isinstance(out[1], NotApplicable)
         # one query raises where the batch answers n/a, as the engine's bounds do
-        with pytest.raises(ValueError, match=r"Bound .fcl. cannot run this motion"):
+        with pytest.raises(ValueError, match=r"Bound .fcl. cannot answer this query"):
             harness.certify(rational, CUBE, [WALL], bound="fcl")
         with pytest.raises(TypeError, match="comparator_options"):
             harness.certify(screw, CUBE, [WALL], bound="fcl", comparator_options={"nope": 1})

@@ -20,6 +20,12 @@ import time
 import numpy as np
 
 from motions import Motion, RationalMotion
+from motions.baselines import (
+    CumulativeBSplineMotion,
+    ScLerpMotion,
+    SlerpLinearMotion,
+    SlerpMotion,
+)
 from motions.pieces import speed_bounds
 
 from ..shapes import Shape
@@ -171,10 +177,15 @@ def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
     return Packed(ctrl.reshape(-1, 4, 4), -3, rows, 0), speeds
 
 
+EXP_SCHEMES = (SlerpMotion, SlerpLinearMotion, ScLerpMotion, CumulativeBSplineMotion)
+"""The slerp-family classes whose poses the kernels evaluate from their exponential-product
+pieces: these classes exactly, since a subclass may pose otherwise than its pieces say."""
+
+
 def _in_kernel(m: Motion) -> bool:
     """Whether `m` steps inside the kernels: a rational motion, or a slerp-family one with
     exponential-product pieces (:mod:`motions.exp_pieces`)."""
-    return isinstance(m, RationalMotion) or callable(getattr(m, "exp_pieces", None))
+    return isinstance(m, RationalMotion) or type(m) in EXP_SCHEMES
 
 
 def _interval_speeds(m: Motion, radius: float, index: int, bound: str) -> tuple:

@@ -352,7 +352,9 @@ def certify(
         **options,
     )[0]
     if not isinstance(out, Certificate):  # a comparator's NotApplicable
-        raise QueryError(f"Bound {short(bound)} cannot run this motion: {out.reason}.")
+        raise QueryError(
+            f"Bound {short(bound)} cannot answer this query: {out.reason.rstrip('.')}."
+        )
     return out
 
 

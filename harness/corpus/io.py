@@ -289,8 +289,8 @@ def _motion_from_dict(d: Any, where: str):
 
 
 def _inf(x: Any, where: str) -> float:
-    """A time: null stands for +inf (no contact, unknown window), so the file itself
-    holds finite numbers only."""
+    """A time: null stands for +inf (no contact), so the file itself holds finite
+    numbers only (a null `window` is read as NaN, unknown, by its caller)."""
     if x is None:
         return math.inf
     if not isinstance(x, int | float) or isinstance(x, bool) or not math.isfinite(x):
