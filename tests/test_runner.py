@@ -141,9 +141,7 @@ def test_compare_exit_codes(smoke_run, tmp_path):
     df = pd.read_parquet(slow / "results.parquet")
     sel = (df["study"] == "certify") & (df["bound"] == "sampled") & df["cpu_rounds"].notna()
     for col in ("cpu_rounds", "wall_rounds"):
-        df.loc[sel, col] = [
-            json.dumps([4 * x for x in json.loads(v)]) for v in df.loc[sel, col]
-        ]
+        df.loc[sel, col] = [json.dumps([4 * x for x in json.loads(v)]) for v in df.loc[sel, col]]
     df.to_parquet(slow / "results.parquet")
     r = rsmbench("compare", str(smoke_run), str(slow), check=False)
     assert r.returncode == 1 and "timing" in r.stdout
