@@ -215,7 +215,8 @@ class HalfSpace(Box):
     def __init__(self, point: Any, rotation: Any = None, half: float = 1e3):
         rot = _frozen(_rotation(rotation))
         p = _length(point, "point", shape=(3,))
-        super().__init__([half] * 3, center=p - float(half) * rot[:, 2], rotation=rot)
+        h = float(_positive(half, "half"))  # (named here, not as the cube's half_extents)
+        super().__init__([h] * 3, center=p - h * rot[:, 2], rotation=rot)
         object.__setattr__(self, "point", p)
 
     def need(self, centers: np.ndarray, radii: np.ndarray) -> np.ndarray:

@@ -80,6 +80,7 @@ def test_bad_shapes(make, match):
         (lambda x: Capsule(1, 1, center=[0, 0, x]), "center"),
         (lambda x: ConvexMesh(np.vstack([np.eye(3), [[0, 0, 0], [x, x, x]]])), "vertices"),
         (lambda x: HalfSpace([0, 0, -x]), "point"),
+        (lambda x: HalfSpace([0, 0, 0], half=x), "half"),
     ],
 )
 def test_lengths_that_overflow_when_squared_are_refused(make, name):
@@ -290,3 +291,12 @@ def test_a_half_space_is_never_a_body_nor_part_of_one():
     back = pickle.loads(pickle.dumps(Box([0.1, 0.2, 0.3], center=[1, 2, 3])))
     with pytest.raises(ValueError, match="read-only"):
         back.center[0] = 0.0
+
+
+def test_a_half_space_names_its_bad_half_size():
+    # a bad `half` was reported as the cube's `half_extents`, or as a bare float() error
+    for bad in (-1.0, 0.0, float("nan")):
+        with pytest.raises(ShapeError, match="`half`"):
+            HalfSpace([0, 0, 0], half=bad)
+    with pytest.raises(TypeError, match="`half`"):
+        HalfSpace([0, 0, 0], half="big")
