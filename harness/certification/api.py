@@ -191,7 +191,7 @@ def check_motions(motions: Any, bound: str) -> list[Motion]:
         if not isinstance(m, need):
             raise QueryError(
                 f"Bound {short(bound)} needs a rational motion's control structure; motions[{i}] is"
-                f" {m.scheme!r}. Use bound='lipschitz' (proven speed bound) or 'sampled'."
+                f" {m.scheme!r}. Use bound='lipschitz' (schemes with a proven speed bound) or 'sampled'."
             )
     return out
 
@@ -269,22 +269,39 @@ def reach_balls(ms: list, bodies: list[Shape]) -> tuple[np.ndarray, np.ndarray]:
             lo[k], hi[k], scale, err = ext
             grow[k] = rho[k] * scale + err
             continue
-        a, b = m.domain
-        try:
-            v = m.speed_bound(a, b, rho[k])
-        except NotImplementedError:
-            p = np.asarray(m.pose(np.linspace(a, b, REACH_SAMPLES))[1], dtype=float)
-            lo[k], hi[k] = p.min(axis=0), p.max(axis=0)
-            grow[k] = rho[k] + 0.5 * float(np.linalg.norm(hi[k] - lo[k]))
-            continue
-        lo[k] = hi[k] = np.asarray(m.pose(a)[1], dtype=float).reshape(3)
-        grow[k] = rho[k] + v * (b - a)
+        lo[k], hi[k], grow[k] = _speed_reach(m, float(rho[k]))
     lo, hi = np.array(lo).reshape(n, 3), np.array(hi).reshape(n, 3)
     size = np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1) + grow
     grow = grow * (1 + GAMMA_C) + GAMMA_C * size
     # the widened box's half diagonal; its own roundings, relative ~1e-16, by GAMMA_C too
     radii = (0.5 * np.linalg.norm(hi - lo, axis=1) + np.sqrt(3.0) * grow) * (1 + GAMMA_C)
     return 0.5 * (lo + hi), radii
+
+
+def _speed_reach(m, rho: float) -> tuple:
+    """(lo, hi, grow) of :func:`reach_balls` for a motion without a Bézier form, cached on
+    the motion per radius (it is immutable): the speed bound over the whole domain and the
+    poses cost 0.5-1.3 ms a motion, paid on every query with a plane among the obstacles
+    (a slerp motion's lipschitz query in the cube_keyframes scene: 471 µs a pair against
+    20 µs without the floor, a new user measured)."""
+    cache = getattr(m, "_certify_reach", None)
+    if cache is None:
+        cache = {}
+        m._certify_reach = cache
+    hit = cache.get(rho)
+    if hit is None:
+        a, b = m.domain
+        try:
+            v = m.speed_bound(a, b, rho)
+        except NotImplementedError:
+            p = np.asarray(m.pose(np.linspace(a, b, REACH_SAMPLES))[1], dtype=float)
+            lo, hi = p.min(axis=0), p.max(axis=0)
+            hit = (lo, hi, rho + 0.5 * float(np.linalg.norm(hi - lo)))
+        else:
+            start = np.asarray(m.pose(a)[1], dtype=float).reshape(3)
+            hit = (start, start, rho + v * (b - a))
+        cache[rho] = hit
+    return hit
 
 
 REACH_SAMPLES = 1025
