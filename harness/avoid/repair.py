@@ -568,9 +568,12 @@ def repair(
         if best is None:
             owners = sorted({int(x) for x in cons.owner} | {int(x) for x in dm.obstacle_owner[o]})
             raise RepairError(
-                f"Cannot repair: no offset between the keyframes keeps the body"
-                f" {target:.3g} from obstacles{owners} (with up to {MAX_KNOTS} knots between two"
-                " keyframes); the way past them is too narrow or the keyframes too close.",
+                f"Cannot repair: the search found no offset between the keyframes that keeps"
+                f" the body {target:.3g} from obstacle(s) {', '.join(map(str, owners))} (with up"
+                f" to {MAX_KNOTS} knots between two keyframes). Its cuts are sufficient"
+                " conditions linearised at the close poses, so an offset may still exist (a"
+                " narrow way between obstacles, keyframes close to them); this is not a proof"
+                " that none does.",
                 tuple(owners),
             )
         cons, spline_try, new_delta = best
