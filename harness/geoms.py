@@ -139,10 +139,15 @@ def _geom_shape(
         # the half-space below the plane, as a cube that the engine enlarges for a motion
         # that could leave it
         return HalfSpace(pos, rot, half=PLANE_HALF)
-    kind = mujoco.mjtGeom(t).name.replace("mjGEOM_", "").lower()
     raise UnsupportedGeomError(
-        f"{_geom(model, g)} has type {kind!r}; supported geom types: {list(SUPPORTED_GEOMS)}."
+        f"{_geom(model, g)} has type {_kind(model, g)!r}; supported geom types:"
+        f" {list(SUPPORTED_GEOMS)}."
     )
+
+
+def _kind(model: mujoco.MjModel, g: int) -> str:
+    """A geom's type as MJCF spells it ("box", "cylinder", ...)."""
+    return mujoco.mjtGeom(int(model.geom_type[g])).name.replace("mjGEOM_", "").lower()
 
 
 def _subtree_mask(model: mujoco.MjModel, body_id: int) -> np.ndarray:
@@ -282,6 +287,18 @@ def _held(held: dict, source: str) -> str:
     return f" with joints held at {source}: {held}" if held else ""
 
 
+def _colliding(model: mujoco.MjModel) -> np.ndarray:
+    """(ngeom,) True for geoms that collide: contype or conaffinity non-zero, or named in
+    an explicit contact pair (a pair collides whatever its geoms' contype and conaffinity:
+    DESIGN §5 asks for explicit pairs between a mocap body and static geometry; a pair
+    meant for another mover makes its static geom an obstacle here too, a sound
+    superset)."""
+    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
+    colliding[model.pair_geom1] = True
+    colliding[model.pair_geom2] = True
+    return colliding
+
+
 def _static_bodies(model: mujoco.MjModel) -> np.ndarray:
     """(nbody,) True for the world and bodies welded to it (no joints up the tree, not mocap)."""
     static = np.zeros(model.nbody, dtype=bool)
@@ -296,13 +313,7 @@ def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
     """Ids of the static, colliding geoms (contype or conaffinity non-zero, or named in an
     explicit ``<contact><pair>``), in `groups`."""
     static = _static_bodies(model)
-    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
-    # a pair collides whatever its geoms' contype and conaffinity (DESIGN §5 asks for
-    # explicit pairs between a mocap body and static geometry); a pair meant for another
-    # mover makes its static geom an obstacle here too (a superset is sound)
-    colliding[model.pair_geom1] = True
-    colliding[model.pair_geom2] = True
-    geoms = np.flatnonzero(static[model.geom_bodyid] & colliding)
+    geoms = np.flatnonzero(static[model.geom_bodyid] & _colliding(model))
     mask = _group_mask(groups)
     return geoms if mask is None else geoms[mask[model.geom_group[geoms]]]
 
@@ -361,8 +372,7 @@ def unusable_obstacles(model: mujoco.MjModel, groups: Any = None) -> dict[int, s
     out = {}
     for g, shape in _static_shapes(model, obstacle_geoms(model, groups)):
         if isinstance(shape, UnsupportedGeomError):
-            kind = mujoco.mjtGeom(int(model.geom_type[g])).name.replace("mjGEOM_", "").lower()
-            out[g] = f"unsupported type {kind!r}"
+            out[g] = f"unsupported type {_kind(model, g)!r}"
         elif isinstance(shape, ShapeError):
             out[g] = str(shape).rstrip(".")
     return out
@@ -375,10 +385,7 @@ def moving_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
     for b in np.flatnonzero(model.body_mocapid >= 0):
         movers |= _subtree_mask(model, int(b))
     body = model.geom_bodyid
-    colliding = (model.geom_contype != 0) | (model.geom_conaffinity != 0)
-    colliding[model.pair_geom1] = True  # (as obstacle_geoms: a pair collides regardless)
-    colliding[model.pair_geom2] = True
-    moving = ~_static_bodies(model)[body] & ~movers[body] & colliding
+    moving = ~_static_bodies(model)[body] & ~movers[body] & _colliding(model)
     mask = _group_mask(groups)
     if mask is not None:
         moving &= mask[model.geom_group]

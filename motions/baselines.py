@@ -149,7 +149,7 @@ class SlerpMotion(KeyframeMotion):
 
     def exp_pieces(self) -> ExpPieces:
         """The motion as exponential-product pieces (:mod:`motions.exp_pieces`), one per
-        interval between breakpoints: ``q_i exp(s L_i)``, the origin spline, c = 0."""
+        interval between breakpoints: ``q_i exp(s L_i)`` and the origin spline."""
         br = self.breakpoints
         i, h, _ = self._segment(0.5 * (br[:-1] + br[1:]))
         s = linear_cubic(

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import BSpline
 
-from .bernstein import bspline_bezier_pieces
+from .bernstein import bernstein_basis, bspline_bezier_pieces, elevate
 from .quaternion import qexp, qmul, rotation_matrix
 
 __all__ = ["ExpPieces"]
@@ -82,7 +82,7 @@ class ExpPieces:
         """Rotations (T, 3, 3) and origins (T, 3) of pieces `i` (T,) at parameters `u` (T,)
         in [0, 1]."""
         i = np.asarray(i, dtype=np.int64)
-        b = bernstein3(np.asarray(u, dtype=float))  # (T, 4)
+        b = bernstein_basis(3, u)  # (T, 4)
         q = self.q0[i]
         f = np.einsum("tjk,tk->tj", self.f[i], b)
         for j in range(3):
@@ -97,21 +97,9 @@ class ExpPieces:
         return r, p
 
 
-def bernstein3(u: np.ndarray) -> np.ndarray:
-    """The four cubic Bernstein polynomials at u (T,) -> (T, 4)."""
-    s = 1.0 - u
-    return np.stack([s * s * s, 3.0 * s * s * u, 3.0 * s * u * u, u * u * u], axis=-1)
-
-
 def elevate_to_cubic(b: np.ndarray) -> np.ndarray:
     """Bézier coefficients (..., n+1, D) of degree n <= 3 raised to degree 3 (same curve)."""
-    b = np.asarray(b, dtype=float)
-    while b.shape[-2] < 4:
-        n = b.shape[-2] - 1
-        i = np.arange(1, n + 1)[:, None] / (n + 1)
-        mid = i * b[..., :-1, :] + (1.0 - i) * b[..., 1:, :]
-        b = np.concatenate([b[..., :1, :], mid, b[..., -1:, :]], axis=-2)
-    return b
+    return elevate(b, 4 - np.shape(b)[-2], axis=-2)
 
 
 def linear_cubic(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -368,11 +368,10 @@ def _cut_choices(motion, dm: DistanceModel, t, d, n, b, o) -> list[tuple]:
     At a penetrating pose MuJoCo's depth and normal are not the separation along n*
     (off by up to 0.21 in a review's check, and cuts built from them then exceeded the
     true distance of translated poses by up to 0.36), so the exact choice uses
-    ``min(d, sep_{n*})``. Where the path
-    runs into an obstacle part (some close pose with |n*·v̂| > 1/2, v the origin's
-    velocity), n* points back along the path before the part and forward after it, and
-    cuts that push the body back and forth along its path ask for offsets of metres (a
-    10 cm cube on the path: 68 m). For such a part every close pose gets one common
+    ``min(d, sep_{n*})``. Where the path runs into an obstacle part (some close pose with
+    |n*·v̂| > 1/2, v the origin's velocity), n* points back along the path before the part
+    and forward after it, and cuts that push the body back and forth along its path ask
+    for offsets of metres (a 10 cm cube on the path: 68 m). For such a part every close pose gets one common
     direction perpendicular to the mean path direction there: of LATERAL_DIRECTIONS
     around it, the one whose worst separation over those poses is largest (the way
     around with the smallest detour), with each pose's own exact separation along it.
@@ -400,11 +399,13 @@ def _cut_choices(motion, dm: DistanceModel, t, d, n, b, o) -> list[tuple]:
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(axis, e1)
         dirs = np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2  # (D, 3)
-        obst_h = dm.obstacle_parts[part].h(dirs)  # (D,)
-        sep = np.empty((len(sel), len(dirs)))
-        for j, i in enumerate(sel):
-            local = -(dirs @ r[i])  # rows: -Rᵀ n
-            sep[j] = dirs @ p[i] - dm.moving[0][b[i]].h(local) - obst_h
+        sep = np.stack(
+            [
+                _separation(dm, r[sel], p[sel], np.broadcast_to(x, (len(sel), 3)), b[sel], o[sel])
+                for x in dirs
+            ],
+            axis=1,
+        )  # (poses, D)
         best = int(np.argmax(sep.min(axis=0)))
         n[sel] = dirs[best]
         d[sel] = sep[:, best]
@@ -576,8 +577,7 @@ def repair(
                 " that none does.",
                 tuple(owners),
             )
-        cons, spline_try, new_delta = best
-        spline, delta = spline_try, new_delta
+        cons, spline, delta = best
         current = offset_motion(motion, spline, delta)
         ok, cl, cert = proven(current)
         if ok:

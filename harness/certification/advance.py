@@ -29,7 +29,7 @@ from motions.baselines import (
 from motions.pieces import speed_bounds
 
 from ..shapes import Shape
-from .api import MAX_SAMPLES, Certificate, QueryError, assemble
+from .api import MAX_SAMPLES, Certificate, QueryError, assemble, motion_cache
 from .device import buffers, is_cpu, warp
 from .refine import (
     GPU_LANES,
@@ -118,40 +118,38 @@ def pose_rows(
 
 
 # ----------------------------------------------------------------------------- speeds
-def _stepping_pieces(m: RationalMotion, radius: float) -> tuple:
+def _stepping_pieces(m: Motion, radius: float) -> tuple:
     """(packed pieces as :func:`.refine.pack_pieces` gives them, speed bounds (P,)) for
-    stepping: the positive pieces cut at the motion's knots (keyframe times and
-    breakpoints), so that the speed bound is per knot interval as DESIGN §6 states the fair
-    grid and CA competitor, for points within `radius` (cached on the motion per radius).
-    The cut pieces are restricted with their interval widened by a few units in the last
-    place, so that together they certainly cover the domain."""
-    cache = getattr(m, "_certify_speeds", None)
-    if cache is None:
-        cache = {}
-        m._certify_speeds = cache
+    stepping, one piece per knot interval or less, so that the speed bound is per knot
+    interval as DESIGN §6 states the fair grid and CA competitor, for points within
+    `radius`; cached on the motion per radius."""
+    cache = motion_cache(m, "_certify_speeds")
     hit = cache.get(radius)
     if hit is None or type(hit[0]) is not Packed:  # (or pickled by another version)
-        if not isinstance(m, RationalMotion):
-            hit = _exp_stepping_pieces(m, radius)
-            cache[radius] = hit
-            return hit
-        pc = m.positive_pieces()
-        knots = m.knots
-        rows, u0, u1 = [], [], []
-        for i, (a, b) in enumerate(zip(pc.t0.tolist(), pc.t1.tolist(), strict=True)):
-            cuts = knots[(knots > a) & (knots < b)]
-            edges = np.concatenate([[a], cuts, [b]])
-            rows.extend([i] * (len(edges) - 1))
-            u0.extend(((edges[:-1] - a) / (b - a)).tolist())
-            u1.extend(((edges[1:] - a) / (b - a)).tolist())
-        u0, u1 = np.clip(u0, 0.0, 1.0), np.clip(u1, 0.0, 1.0)
-        u0[np.r_[True, np.diff(rows) != 0]] = 0.0  # piece ends stay exact
-        u1[np.r_[np.diff(rows) != 0, True]] = 1.0
-        pc = pc.take(np.asarray(rows)).restrict(u0, u1, cover=True)
-        # (stepping reads no reach: zero rows, records that say "no bound")
-        hit = (pack_pieces(pc, 0, np.zeros((len(pc), REACH_ROW))), speed_bounds(pc, radius))
-        cache[radius] = hit
+        make = _rational_stepping_pieces if isinstance(m, RationalMotion) else _exp_stepping_pieces
+        hit = cache[radius] = make(m, radius)
     return hit
+
+
+def _rational_stepping_pieces(m: RationalMotion, radius: float) -> tuple:
+    """:func:`_stepping_pieces` for a rational motion: its positive pieces cut at its knots
+    (keyframe times and breakpoints), restricted with their interval widened by a few
+    units in the last place, so that together they certainly cover the domain."""
+    pc = m.positive_pieces()
+    knots = m.knots
+    rows, u0, u1 = [], [], []
+    for i, (a, b) in enumerate(zip(pc.t0.tolist(), pc.t1.tolist(), strict=True)):
+        cuts = knots[(knots > a) & (knots < b)]
+        edges = np.concatenate([[a], cuts, [b]])
+        rows.extend([i] * (len(edges) - 1))
+        u0.extend(((edges[:-1] - a) / (b - a)).tolist())
+        u1.extend(((edges[1:] - a) / (b - a)).tolist())
+    u0, u1 = np.clip(u0, 0.0, 1.0), np.clip(u1, 0.0, 1.0)
+    u0[np.r_[True, np.diff(rows) != 0]] = 0.0  # piece ends stay exact
+    u1[np.r_[np.diff(rows) != 0, True]] = 1.0
+    pc = pc.take(np.asarray(rows)).restrict(u0, u1, cover=True)
+    # (stepping reads no reach: zero rows, records that say "no bound")
+    return pack_pieces(pc, 0, np.zeros((len(pc), REACH_ROW))), speed_bounds(pc, radius)
 
 
 def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
@@ -244,29 +242,29 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
 # ----------------------------------------------------------------------------- lipschitz
 def advance_many(ms, bodies, obst, o) -> list[Certificate]:
     """Conservative advancement for every motion (DESIGN §4, ``bound="lipschitz"``)."""
-    rational = [i for i, m in enumerate(ms) if _in_kernel(m)]
-    other = [i for i, m in enumerate(ms) if not _in_kernel(m)]
-    specs = {i: _interval_speeds(ms[i], bodies[i].bounding_radius, i, "lipschitz") for i in other}
+    kernel = [i for i, m in enumerate(ms) if _in_kernel(m)]
+    host = [i for i, m in enumerate(ms) if not _in_kernel(m)]
+    specs = {i: _interval_speeds(ms[i], bodies[i].bounding_radius, i, "lipschitz") for i in host}
     res: list[Certificate | None] = [None] * len(ms)
-    if rational:
+    if kernel:
         out, elapsed = _kernel_run(
-            "advance", [ms[i] for i in rational], [bodies[i] for i in rational],
-            [obst[i] for i in rational], o,
+            "advance", [ms[i] for i in kernel], [bodies[i] for i in kernel],
+            [obst[i] for i in kernel], o,
         )  # fmt: skip
-        mr = [ms[i] for i in rational]
+        mr = [ms[i] for i in kernel]
         for i, c in zip(
-            rational,
+            kernel,
             assemble(out, elapsed, "lipschitz", o["tol"], certified=True, motions=mr),
             strict=True,
         ):
             res[i] = c
-    if other:
-        sub = [ms[i] for i in other]
+    if host:
+        sub = [ms[i] for i in host]
         certs = _advance_host(
-            sub, [bodies[i] for i in other], [obst[i] for i in other],
-            [specs[i] for i in other], o,
+            sub, [bodies[i] for i in host], [obst[i] for i in host],
+            [specs[i] for i in host], o,
         )  # fmt: skip
-        for i, c in zip(other, certs, strict=True):
+        for i, c in zip(host, certs, strict=True):
             res[i] = c
     return res
 
@@ -394,12 +392,12 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
     `samples` evenly spaced poses; a verdict is certified when every cell is proven. Other
     motions: host poses, not a proof."""
     tol = o["tol"]
-    rational = [i for i, m in enumerate(ms) if _in_kernel(m)]
-    other = [i for i, m in enumerate(ms) if not _in_kernel(m)]
+    kernel = [i for i, m in enumerate(ms) if _in_kernel(m)]
+    host = [i for i, m in enumerate(ms) if not _in_kernel(m)]
     res: list[Certificate | None] = [None] * len(ms)
-    if rational:
-        rm = [ms[i] for i in rational]
-        rb = [bodies[i] for i in rational]
+    if kernel:
+        rm = [ms[i] for i in kernel]
+        rb = [bodies[i] for i in kernel]
         if o["samples"] is None:
             counts = np.zeros(len(rm), dtype=np.int64)
             for j, (m, b) in enumerate(zip(rm, rb, strict=True)):
@@ -408,19 +406,19 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
                 total = int(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
                 if total > MAX_SAMPLES:
                     raise QueryError(
-                        f"The fair grid of motions[{rational[j]}] needs {total} samples at"
+                        f"The fair grid of motions[{kernel[j]}] needs {total} samples at"
                         f" `tolerance` {tol!r} (more than {MAX_SAMPLES}); raise `tolerance`."
                     )
         else:
             counts = np.full(len(rm), o["samples"], dtype=np.int64)
-        out, elapsed = _kernel_run("sample", rm, rb, [obst[i] for i in rational], o, samples=counts)
-        for i, c in zip(rational, _sampled_certs(out, elapsed, tol, rm), strict=True):
+        out, elapsed = _kernel_run("sample", rm, rb, [obst[i] for i in kernel], o, samples=counts)
+        for i, c in zip(kernel, _sampled_certs(out, elapsed, tol, rm), strict=True):
             res[i] = c
-    if other:
+    if host:
         certs = _sample_host(
-            [ms[i] for i in other], [bodies[i] for i in other], [obst[i] for i in other], o
+            [ms[i] for i in host], [bodies[i] for i in host], [obst[i] for i in host], o
         )
-        for i, c in zip(other, certs, strict=True):
+        for i, c in zip(host, certs, strict=True):
             res[i] = c
     return res
 

@@ -278,16 +278,23 @@ def reach_balls(ms: list, bodies: list[Shape]) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (lo + hi), radii
 
 
+def motion_cache(m: Motion, name: str) -> dict:
+    """A dict kept on motion `m` under attribute `name` (a motion is immutable: what the
+    engine derives from it, per body radius, stays valid)."""
+    cache = getattr(m, name, None)
+    if cache is None:
+        cache = {}
+        setattr(m, name, cache)
+    return cache
+
+
 def _speed_reach(m, rho: float) -> tuple:
     """(lo, hi, grow) of :func:`reach_balls` for a motion without a Bézier form, cached on
     the motion per radius (it is immutable): the speed bound over the whole domain and the
     poses cost 0.5-1.3 ms a motion, paid on every query with a plane among the obstacles
     (a slerp motion's lipschitz query in the cube_keyframes scene: 471 µs a pair against
     20 µs without the floor, a new user measured)."""
-    cache = getattr(m, "_certify_reach", None)
-    if cache is None:
-        cache = {}
-        m._certify_reach = cache
+    cache = motion_cache(m, "_certify_reach")
     hit = cache.get(rho)
     if hit is None:
         a, b = m.domain
