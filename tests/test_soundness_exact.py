@@ -428,7 +428,8 @@ def _reach_escapes(ctrl: np.ndarray, err: np.ndarray, reach, rho: float) -> list
     """Exact control points ``(A* x + b*) / w*`` of control matrices pushed to a corner of
     their error box (``|A* - A| <= E_A``, ``|b* - b| <= E_b``, ``|w* - w| <= E_w``, each
     entry towards the coordinate's outside) for body points x with ``|x| <= rho`` that
-    leave the reach box ``[lo - rho scale - err, hi + rho scale + err]``: the claim of
+    leave the reach box ``[lo - rho scale - err, hi + rho scale + err]`` (scale per
+    coordinate): the claim of
     ``refine.piece_reach``. The piece's curve is in the control points' hull (positive
     weights), so these are the points to check."""
     from harness.certification._refine_kernels import Reach
@@ -440,7 +441,7 @@ def _reach_escapes(ctrl: np.ndarray, err: np.ndarray, reach, rho: float) -> list
         r = reach[p]
         if not r["ok"]:
             continue
-        pad = rho_f * fr(r["scale"]) + fr(r["err"])
+        pad = [rho_f * fr(r["scale"][j]) + fr(r["err"]) for j in range(3)]
         ea, eb, ew = (fr(e) for e in err[p])
         for i in range(ctrl.shape[1]):
             a, b, w = ctrl[p, i, :3, :3], ctrl[p, i, :3, 3], ctrl[p, i, 3, 3]
@@ -458,7 +459,7 @@ def _reach_escapes(ctrl: np.ndarray, err: np.ndarray, reach, rho: float) -> list
                     num = ax + fr(b[j]) + s * eb
                     den = fr(w) - ew if s * num > 0 else fr(w) + ew
                     q = num / den
-                    edge = fr(r["hi"][j]) + pad if s > 0 else fr(r["lo"][j]) - pad
+                    edge = fr(r["hi"][j]) + pad[j] if s > 0 else fr(r["lo"][j]) - pad[j]
                     if s * q > s * edge:
                         out.append(f"piece {p} control {i} axis {j}{'+-'[s < 0]}")
     return out
@@ -488,6 +489,21 @@ def test_piece_reach_holds_every_control_matrix_within_the_error(cases, rng):
                     escaped_without += bool(_reach_escapes(pc.ctrl, err, zero, rho))
     print(f"\npiece_reach: {checked} checked, {escaped_without} escape without the error terms")
     assert checked >= 30 and escaped_without >= checked // 4, (checked, escaped_without)
+
+
+def test_piece_reach_is_the_box_of_a_rotated_ball():
+    # A body at rest, turned: every control matrix is w [[R, p], [0, 0, 0, 1]], the image
+    # of a ball of radius rho is that ball, and its box reaches rho along each axis. The
+    # rows of R have length 1 (a bound from |R|_F = sqrt 3 reached 1.73 rho: the kernels'
+    # first test let through 23 % more pieces on the DESIGN §9 workload).
+    from harness.certification.refine import reach_extent
+
+    q = np.tile([[0.9, 0.1, -0.3, 0.2]], (4, 1))
+    p = np.tile([[1.0, -2.0, 0.5]], (4, 1))
+    lo, hi, scale, err = reach_extent(interpolate(q, p, times=[0.0, 1.0, 2.0, 3.0]))
+    assert np.allclose(lo, p[0], atol=1e-12) and np.allclose(hi, p[0], atol=1e-12)
+    assert np.all(scale >= 1.0) and np.all(scale <= 1.0 + 1e-12), scale
+    assert 0.0 <= err <= 1e-12
 
 
 def _positive(m: RationalMotion) -> bool:

@@ -256,7 +256,7 @@ class Reach:
     ok: wp.int32  # every weight provably positive (else no bound)
     lo: wp.vec3d  # box of the body origin's control positions c_i = b_i / w_i
     hi: wp.vec3d
-    scale: wp.float64  # bound on |A*_i|_F / w*_i over the exact control matrices
+    scale: wp.vec3d  # per coordinate j: bound on |row j of A*_i| / w*_i (exact matrices)
     err: wp.float64  # bound on |b*_i / w*_i - c_i| per coordinate
     size: wp.float64  # largest |coordinate| of the c_i
 
@@ -265,13 +265,15 @@ class Reach:
 def _reach_apart(r: Reach, rho: wp.float64, obst: Shape) -> wp.int32:
     """1 if, on the piece of `r`, no point within `rho` of the body origin enters the
     obstacle's box: a proof that no body part inside that ball touches the obstacle there
-    (the box of the c_i widened by ``rho scale + err``, see ``refine.piece_reach``; the
-    comparison's own roundings covered as the nodes' are, by GAMMA_C of the sizes)."""
+    (the box of the c_i widened by ``rho scale_j + err`` in coordinate j, see
+    ``refine.piece_reach``; the comparison's own roundings, those of ``lo - rad`` and
+    ``hi + rad`` among them, covered as the nodes' are, by GAMMA_C of the sizes)."""
     if r.ok == 0:
         return 0
     rad = rho * r.scale
-    m = rad + r.err + GAMMA_C * (r.size + rad + obst.rho)
-    return _boxes_apart(r.lo, r.hi, obst.lo, obst.hi, m)
+    big = wp.max(wp.max(rad[0], rad[1]), rad[2])
+    m = r.err + GAMMA_C * (r.size + big + obst.rho)
+    return _boxes_apart(r.lo - rad, r.hi + rad, obst.lo, obst.hi, m)
 
 
 @wp.func

@@ -262,7 +262,7 @@ def reach_balls(ms: list, bodies: list[Shape]) -> tuple[np.ndarray, np.ndarray]:
     radius = {id(b): b.bounding_radius for b in bodies}  # (a body is shared: once)
     rho = np.array([radius[id(b)] for b in bodies], dtype=float).reshape(n)
     lo, hi = [None] * n, [None] * n
-    grow = np.zeros(n)  # how far the box of each motion is widened
+    grow = np.zeros((n, 3))  # how far the box of each motion is widened, per coordinate
     for k, m in enumerate(ms):
         ext = reach_extent(m) if isinstance(m, RationalMotion) else None
         if ext is not None:
@@ -271,10 +271,10 @@ def reach_balls(ms: list, bodies: list[Shape]) -> tuple[np.ndarray, np.ndarray]:
             continue
         lo[k], hi[k], grow[k] = _speed_reach(m, float(rho[k]))
     lo, hi = np.array(lo).reshape(n, 3), np.array(hi).reshape(n, 3)
-    size = np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1) + grow
-    grow = grow * (1 + GAMMA_C) + GAMMA_C * size
+    size = np.abs(lo).max(axis=1) + np.abs(hi).max(axis=1) + grow.max(axis=1)
+    grow = grow * (1 + GAMMA_C) + GAMMA_C * size[:, None]
     # the widened box's half diagonal; its own roundings, relative ~1e-16, by GAMMA_C too
-    radii = (0.5 * np.linalg.norm(hi - lo, axis=1) + np.sqrt(3.0) * grow) * (1 + GAMMA_C)
+    radii = 0.5 * np.linalg.norm(hi - lo + 2.0 * grow, axis=1) * (1 + GAMMA_C)
     return 0.5 * (lo + hi), radii
 
 

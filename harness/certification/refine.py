@@ -30,7 +30,7 @@ __all__ = ["MOTIONS_PER_CHUNK", "REACH_ROW", "Outcome", "Packed", "pack_pieces",
 
 MOTIONS_PER_CHUNK = 4096
 """Motions packed per launch: bounds the packed copies of their control matrices."""
-REACH_ROW = 10
+REACH_ROW = 12
 """float64 words of a ``Reach`` record (the kernels' struct: its bytes as a row)."""
 GPU_LANES = 65536
 """Lanes of one launch on a CUDA device (scratch memory grows with lanes x depth x K)."""
@@ -102,7 +102,7 @@ class Packed(NamedTuple):
     """Control matrices a piece (a motion's pieces share it); negative for the
     exponential-product pieces of slerp-family motions (``advance``), -k matrices each."""
     rows: np.ndarray
-    """(P, 15) float64 per piece: t0, t1, the error bounds (E_A, E_b, E_w), and the bytes
+    """(P, 17) float64 per piece: t0, t1, the error bounds (E_A, E_b, E_w), and the bytes
     of its ``Reach`` record (:func:`piece_reach`). One table, so that a batch gathers its
     motions' in one pass (each pass over a thousand small arrays costs ~1 ms)."""
     extra: int
@@ -166,8 +166,8 @@ def pack_pieces(pc, extra: int, reach: np.ndarray | None = None) -> Packed:
 _GAMMA_C = gamma(64)  # the kernels' GAMMA_C
 _SELECT_BW = np.zeros((16, 4))  # a row-major control matrix -> (b_x, b_y, b_z, w)
 _SELECT_BW[[3, 7, 11, 15], [0, 1, 2, 3]] = 1.0
-_SELECT_A = np.zeros(16)  # its A block's entries
-_SELECT_A[[0, 1, 2, 4, 5, 6, 8, 9, 10]] = 1.0
+_SELECT_ROWS = np.zeros((16, 3))  # its A block's rows (sums of their squared entries)
+_SELECT_ROWS[[0, 1, 2, 4, 5, 6, 8, 9, 10], [0, 0, 0, 1, 1, 1, 2, 2, 2]] = 1.0
 
 
 def piece_reach(ctrl: np.ndarray, err: np.ndarray) -> np.ndarray:
@@ -179,32 +179,34 @@ def piece_reach(ctrl: np.ndarray, err: np.ndarray) -> np.ndarray:
     On a piece whose weights are provably positive (``w_i > E_w``: ``ok``), a point x of
     the body (body coordinates) moves on a rational Bézier curve with control points
     ``(A*_i x + b*_i) / w*_i`` (A*, b*, w* the exact control matrices), inside their
-    hull (seed §6.3). Each lies within ``|A*_i|_F |x| / w*_i`` of ``b*_i / w*_i``, and
+    hull (seed §6.3). Coordinate j of each lies within ``|a*_ij| |x| / w*_i`` of that of
+    ``b*_i / w*_i`` (``a*_ij`` row j of A*_i, Cauchy-Schwarz: the box of the image of a
+    ball, exact for a rotation, where ``|A*_i|_F`` would be sqrt 3 times too wide), and
 
-        |A*_i|_F / w*_i <= (|A_i|_F + 3 E_A) / (w_i - E_w)
-                        <= max_j |A_j|_F / (w_j - E_w) + 3 E_A / min_j (w_j - E_w)  =: scale,
+        |a*_ij| / w*_i <= (|a_ij| + sqrt(3) E_A) / (w_i - E_w)
+                       <= max_l |a_lj| / (w_l - E_w) + sqrt(3) E_A / min_l (w_l - E_w)  =: scale_j,
         |b*_i / w*_i - c_i| <= (E_b + |c_i| E_w) / (w_i - E_w) + 4 u |c_i|        =: err
 
     per coordinate, with ``c_i = b_i (1 / w_i)`` as computed (``b* / w* - b / w =
     ((b* - b) w - b (w* - w)) / (w w*)``; the last term the two roundings of c_i). So
     every point within rho of the body origin stays, over the piece, inside the box of
-    the c_i widened by ``rho scale + err``. Both bounds are widened by GAMMA_C for their
-    own roundings; the kernel's comparison adds GAMMA_C of the sizes involved (``size``
-    the largest |coordinate| of the c_i). This bound needs neither a body part's images
-    nor its exact box: the kernels try it first, per piece and part.
+    the c_i widened by ``rho scale_j + err`` in coordinate j. Both bounds are widened by
+    GAMMA_C for their own roundings; the kernel's comparison adds GAMMA_C of the sizes
+    involved (``size`` the largest |coordinate| of the c_i). This bound needs neither a
+    body part's images nor its exact box: the kernels try it first, per piece and part.
     """
     p = len(ctrl)
     out = np.zeros(p, dtype=record_dtype(_kernels().Reach))
     if p == 0:
         return out.view(np.float64).reshape(0, REACH_ROW)
-    # b, w and |A|_F^2 of every control matrix in two passes over them (products with
-    # 0/1 selectors: exact; the sum of squares in another order than the kernels', within
-    # the GAMMA_C widening), then as (K, P) arrays: numpy reduces the short axis of a
-    # (P, K) array slowly (5,000 pieces: 8 ms on a busy machine; with (P, K, 3) arrays, 17)
+    # b, w and the squared row norms of A of every control matrix in two passes over them
+    # (products with 0/1 selectors: exact, but for the sums of squares, within the GAMMA_C
+    # widening), then as (3 or 4, K, P) arrays: numpy reduces the short axis of a (P, K)
+    # array slowly (5,000 pieces: 8 ms on a busy machine; with (P, K, 3) arrays, 17)
     k = ctrl.shape[1]
     flat = ctrl.reshape(p * k, 16)
     bw = np.ascontiguousarray((flat @ _SELECT_BW).reshape(p, k, 4).transpose(2, 1, 0))
-    a2 = np.ascontiguousarray((np.square(flat) @ _SELECT_A).reshape(p, k).T)
+    a2 = np.ascontiguousarray((np.square(flat) @ _SELECT_ROWS).reshape(p, k, 3).transpose(2, 1, 0))
     w = bw[3]
     el = w - err[:, 2]
     ok = (el > 0).all(axis=0)
@@ -214,16 +216,17 @@ def piece_reach(ctrl: np.ndarray, err: np.ndarray) -> np.ndarray:
         c = bw[:3] * inv
         beta = np.abs(c).max(axis=0)
         a2 = a2 / (el * el)
-        scale = (np.sqrt(a2.max(axis=0)) + 3.0 * err[:, 0] / el.min(axis=0)) * (1 + _GAMMA_C)
+        scale = np.sqrt(a2.max(axis=1)) + np.sqrt(3.0) * err[:, 0] / el.min(axis=0)  # (3, P)
+        scale = scale * (1 + _GAMMA_C)
         e = ((err[:, 1] + beta * err[:, 2]) / el + 4.0 * UNIT_ROUNDOFF * beta).max(axis=0)
         e = e * (1 + _GAMMA_C)
         size = beta.max(axis=0)
-    ok &= np.isfinite(size) & np.isfinite(scale) & np.isfinite(e)
+    ok &= np.isfinite(size) & np.isfinite(scale).all(axis=0) & np.isfinite(e)
     out["ok"] = ok
     good = ok[:, None]
     out["lo"] = np.where(good, c.min(axis=1).T, 0.0)
     out["hi"] = np.where(good, c.max(axis=1).T, 0.0)
-    out["scale"] = np.where(ok, scale, 0.0)
+    out["scale"] = np.where(good, scale.T, 0.0)
     out["err"] = np.where(ok, e, 0.0)
     out["size"] = np.where(ok, size, 0.0)
     return out.view(np.float64).reshape(p, REACH_ROW)
@@ -232,7 +235,8 @@ def piece_reach(ctrl: np.ndarray, err: np.ndarray) -> np.ndarray:
 def reach_extent(m: RationalMotion) -> tuple | None:
     """Where the motion can carry points near the body origin: (lo, hi, scale, err) with
     every point within rho of the body origin, over the whole motion, inside the box
-    ``[lo - rho scale - err, hi + rho scale + err]`` (the union of its pieces' reach,
+    ``[lo - rho scale - err, hi + rho scale + err]`` (scale (3,): per coordinate; the
+    union of its pieces' reach,
     :func:`piece_reach`, with the largest scale and err: looser than piece by piece, still
     a bound), before its comparison's roundings (GAMMA_C of the sizes, as the kernels
     add); None where a piece's weights are not provably positive. Cached on the motion."""
@@ -245,7 +249,7 @@ def reach_extent(m: RationalMotion) -> tuple | None:
             ext = (
                 rec["lo"].min(axis=0),
                 rec["hi"].max(axis=0),
-                rec["scale"].max(),
+                rec["scale"].max(axis=0),
                 rec["err"].max(),
             )
         m._certify_extent = ext
