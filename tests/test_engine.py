@@ -463,6 +463,25 @@ def test_sampled_fair_grid_is_certified_and_counts_cells():
         assert k.verdict != "free" or not k.certified
 
 
+def test_a_single_query_names_its_motion_argument():
+    # certify and clearance take `motion`; their errors named `motions[0]`, an argument
+    # of the batch they run on (a batch's errors keep their index)
+    q, p = demo_keyframes(5)
+    slerp = motions.build("slerp", q, p)
+    squad = motions.build("squad", q, p)
+    box = Box([0.1, 0.1, 0.1])
+    for call in (
+        lambda: certify(slerp, box, [box]),
+        lambda: certify(squad, box, [box], bound="lipschitz"),
+        lambda: harness.clearance(slerp, box, [box]),
+    ):
+        with pytest.raises(QueryError, match="`motion`") as e:
+            call()
+        assert "motions[" not in str(e.value)
+    with pytest.raises(QueryError, match=r"motions\[1\]"):
+        certify_many([motions.interpolate(q, p), slerp], box, [box])
+
+
 def test_device_and_limit_errors():
     q, p = demo_keyframes(5)
     m = motions.interpolate(q, p)

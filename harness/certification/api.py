@@ -365,21 +365,31 @@ def certify(
     """
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
-    out = certify_many(
-        [motion],
-        body,
-        obstacles,
-        bound=bound,
-        tolerance=tolerance,
-        max_depth=max_depth,
-        samples=samples,
-        **options,
-    )[0]
+    try:
+        out = certify_many(
+            [motion],
+            body,
+            obstacles,
+            bound=bound,
+            tolerance=tolerance,
+            max_depth=max_depth,
+            samples=samples,
+            **options,
+        )[0]
+    except QueryError as e:
+        raise single_query(e) from None
     if not isinstance(out, Certificate):  # a comparator's NotApplicable
         raise QueryError(
             f"Bound {short(bound)} cannot answer this query: {out.reason.rstrip('.')}."
         )
     return out
+
+
+def single_query(e: QueryError) -> QueryError:
+    """The error `e` of a batch of one motion, as the single query that made that batch
+    raises it: the motion is its argument `motion`, not ``motions[0]``."""
+    msg = str(e)
+    return type(e)(msg.replace("motions[0]", "`motion`")) if "motions[0]" in msg else e
 
 
 def certify_many(

@@ -26,6 +26,7 @@ from .api import (
     check_options,
     cover_half_spaces,
     obstacle_lists,
+    single_query,
 )
 from .refine import MOTIONS_PER_CHUNK, clearance_chunk, packed_all
 
@@ -91,9 +92,12 @@ def clearance(
     """
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
-    return clearance_many(
-        [motion], body, obstacles, tolerance=tolerance, max_depth=max_depth, **options
-    )[0]
+    try:
+        return clearance_many(
+            [motion], body, obstacles, tolerance=tolerance, max_depth=max_depth, **options
+        )[0]
+    except QueryError as e:
+        raise single_query(e) from None
 
 
 @collector_paused()
