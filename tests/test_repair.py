@@ -257,6 +257,43 @@ def test_a_cube_on_the_path_is_passed_sideways(t):
     assert r.moved.max_deviation < 0.6
 
 
+@pytest.mark.parametrize("clearance", [0.0, 0.01])
+@pytest.mark.parametrize("beyond", [1e-4, 1e-3, 8e-3])
+def test_a_cube_just_beyond_a_keyframe_margin_costs_a_detour_not_kilometres(beyond, clearance):
+    # A straight path through a 10 cm cube whose face lies just beyond the keyframe
+    # margin ahead of the keyframe pose at t = 1. The offset vanishes there, so a sideways
+    # cut at the next poses asks for the whole detour at once: 210 km (0.1 mm beyond the
+    # margin), 325 m (1 mm), 2.9 m (8 mm). Holding back along the path costs little next
+    # to the keyframe; going round, the cube's size.
+    body = Box([0.2, 0.1, 0.05])
+    x = np.linspace(0.0, 4.0, 5)
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (5, 1)), np.stack([x, 0 * x, 0 * x], 1))
+    gap = keyframe_margin(clearance, TOL) + beyond
+    case = type("Case", (), {"motion": m, "body": body})()
+    case.obstacles = [Box([0.05] * 3, center=[1.0 + 0.2 + gap + 0.05, 0, 0])]
+    r = repair(m, body, case.obstacles, tolerance=TOL, clearance=clearance)
+    check_repaired(case, r, clearance)
+    assert r.moved.max_deviation < 0.6
+
+
+@pytest.mark.parametrize("dx", [0.2, 0.4])
+def test_two_cubes_on_either_side_of_the_path_are_passed_over(dx):
+    # Each cube alone is passed on its far side, which pushes the path into the other:
+    # the search found no offset (dx = 0.2) or moved the path 3.0 m (dx = 0.4). Lifting
+    # the body over both costs the cube's size plus the body's half-height.
+    body = Box([0.2, 0.1, 0.05])
+    x = np.linspace(0.0, 4.0, 5)
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (5, 1)), np.stack([x, 0 * x, 0 * x], 1))
+    case = type("Case", (), {"motion": m, "body": body})()
+    case.obstacles = [
+        Box([0.05] * 3, center=[1.5 - dx / 2, 0.1, 0]),
+        Box([0.05] * 3, center=[1.5 + dx / 2, -0.1, 0]),
+    ]
+    r = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01)
+    check_repaired(case, r, 0.01)
+    assert r.moved.max_deviation < 0.6
+
+
 def test_a_keyframe_pose_inside_the_repairs_margin_is_refused():
     # The offset vanishes at keyframes, so a keyframe pose closer than the cuts' target
     # (clearance + 2 tolerances) makes the poses next to it ask for a fixed push ever

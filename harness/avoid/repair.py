@@ -17,9 +17,10 @@ Each iteration:
    the constraints only ever cut away unsafe offsets, and they accumulate. Any unit
    direction gives such a cut (with the separation along it in place of d); where the
    path runs into an obstacle, the exact directions point back along the path before it
-   and forward after it, so a second choice gives that obstacle's poses one common
-   sideways direction (:func:`_cut_choices`), and the choice with the smaller offset is
-   kept.
+   and forward after it, so other choices give that obstacle's poses one common
+   sideways direction, or per pose the cheaper of the two, or (several obstacles) all
+   close poses one sideways direction (:func:`_cut_choices`); the choice with the
+   smallest offset is kept.
 
 When the programme is infeasible the offset gets more knots between the keyframes that
 bound the trouble; a keyframe pose closer to an obstacle than the clearance cannot be
@@ -339,7 +340,7 @@ def _close_poses(
 
 
 LATERAL_DIRECTIONS = 32
-"""Directions tried around the path when an obstacle part is met head on."""
+"""Directions tried around the path for a sideways cut (:func:`_cut_choices`)."""
 
 
 def _separation(dm: DistanceModel, r, p, n, b, o) -> np.ndarray:
@@ -359,8 +360,10 @@ def _separation(dm: DistanceModel, r, p, n, b, o) -> np.ndarray:
 
 
 def _cut_choices(motion, dm: DistanceModel, t, d, n, b, o) -> list[tuple]:
-    """(d, n) of the cuts along the exact directions, and, where the path runs into an
-    obstacle part, a second choice with sideways directions for that part's poses.
+    """Choices of (d, n) for the cuts at the close poses: along the exact directions;
+    where the path runs into an obstacle part, sideways for that part's poses; per pose
+    the cheaper of those two; and, with more than one obstacle part close, one sideways
+    direction common to every close pose, alone and per pose against the exact one.
 
     Any unit n gives a valid cut: the signed distance is at least the separation along
     n, ``sep_n = n·p - h_body(-Rᵀn) - h_obst(n)``, plus ``n·(Δ - Δ_now)``; the exact
@@ -371,10 +374,17 @@ def _cut_choices(motion, dm: DistanceModel, t, d, n, b, o) -> list[tuple]:
     ``min(d, sep_{n*})``. Where the path runs into an obstacle part (some close pose with
     |n*·v̂| > 1/2, v the origin's velocity), n* points back along the path before the part
     and forward after it, and cuts that push the body back and forth along its path ask
-    for offsets of metres (a 10 cm cube on the path: 68 m). For such a part every close pose gets one common
-    direction perpendicular to the mean path direction there: of LATERAL_DIRECTIONS
-    around it, the one whose worst separation over those poses is largest (the way
-    around with the smallest detour), with each pose's own exact separation along it.
+    for offsets of metres (a 10 cm cube on the path: 68 m). For such a part every close
+    pose gets one common direction perpendicular to the mean path direction there (of
+    LATERAL_DIRECTIONS around it, the one whose worst separation over those poses is
+    largest: the way around with the smallest detour), with each pose's own separation
+    along it. Next to a keyframe the offset is still small, so a sideways cut there asks
+    for the whole detour at once (a cube 0.1 mm beyond the keyframe margin ahead of a
+    keyframe pose: 210 km), where holding back along the path costs little: the per-pose
+    choice keeps whichever direction separates the pose more (asks the smaller push).
+    Two obstacle parts on either side of the path push it one way and then the other
+    (3 m for two cubes 20 cm apart, or no offset found at all) where going over both
+    costs decimetres: the common direction for all close poses.
     """
     if not t.size:
         return [(d, n)]
@@ -384,20 +394,17 @@ def _cut_choices(motion, dm: DistanceModel, t, d, n, b, o) -> list[tuple]:
     v = motion.kinematics(t, 1).velocity
     speed = np.linalg.norm(v, axis=1)
     vh = v / np.where(speed > 0, speed, 1.0)[:, None]
-    head_on = np.abs(np.einsum("mi,mi->m", n, vh)) > 0.5
-    if not head_on.any():
-        return [exact]
-    d, n = d.copy(), n.copy()
-    ang = np.linspace(0.0, 2.0 * np.pi, LATERAL_DIRECTIONS, endpoint=False)
-    for part in np.unique(o[head_on]):
-        sel = np.flatnonzero(o == part)
+
+    def sideways(sel: np.ndarray, d: np.ndarray, n: np.ndarray) -> tuple | None:
+        """(d, n) with the poses `sel` cut along their best common sideways direction."""
         axis = vh[sel].sum(axis=0)
         if np.linalg.norm(axis) < 1e-9:
-            continue
+            return None
         axis /= np.linalg.norm(axis)
         e1 = np.cross(axis, np.eye(3)[np.argmin(np.abs(axis))])
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(axis, e1)
+        ang = np.linspace(0.0, 2.0 * np.pi, LATERAL_DIRECTIONS, endpoint=False)
         dirs = np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2  # (D, 3)
         sep = np.stack(
             [
@@ -407,9 +414,28 @@ def _cut_choices(motion, dm: DistanceModel, t, d, n, b, o) -> list[tuple]:
             axis=1,
         )  # (poses, D)
         best = int(np.argmax(sep.min(axis=0)))
+        d, n = d.copy(), n.copy()
         n[sel] = dirs[best]
         d[sel] = sep[:, best]
-    return [exact, (d, n)]
+        return d, n
+
+    def cheaper(side: tuple) -> tuple:
+        keep = exact[0] >= side[0]  # the larger separation: the smaller push
+        return np.where(keep, exact[0], side[0]), np.where(keep[:, None], exact[1], side[1])
+
+    out = [exact]
+    head_on = np.abs(np.einsum("mi,mi->m", n, vh)) > 0.5
+    if head_on.any():
+        side = (d, n)
+        for part in np.unique(o[head_on]):
+            side = sideways(np.flatnonzero(o == part), *side) or side
+        if side[0] is not d:
+            out += [side, cheaper(side)]
+    if len(np.unique(o)) > 1:
+        common = sideways(np.arange(len(t)), d, n)
+        if common is not None:
+            out += [common, cheaper(common)]
+    return out
 
 
 def _refine(
