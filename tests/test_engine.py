@@ -482,6 +482,18 @@ def test_a_single_query_names_its_motion_argument():
         certify_many([motions.interpolate(q, p), slerp], box, [box])
 
 
+def test_a_fair_grid_beyond_any_budget_is_refused_in_one_short_line():
+    # keyframes 1e100 apart: the grid's count, an int of 100 digits, went into the
+    # message; past 1e308 it was inf and int(inf) raised OverflowError
+    q, p = demo_keyframes(5)
+    box = Box([0.1, 0.1, 0.1])
+    for scale in (1e100, 1e150):
+        m = motions.interpolate(q, p * scale)
+        with pytest.raises(QueryError, match=r"needs [0-9.]+e\+[0-9]+ samples") as e:
+            certify(m, box, [box], bound="sampled")
+        assert len(str(e.value)) < 200, str(e.value)
+
+
 def test_device_and_limit_errors():
     q, p = demo_keyframes(5)
     m = motions.interpolate(q, p)

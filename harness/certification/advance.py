@@ -403,10 +403,11 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
             for j, (m, b) in enumerate(zip(rm, rb, strict=True)):
                 pack, v = _stepping_pieces(m, b.bounding_radius)
                 tt = pack.t
-                total = int(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
-                if total > MAX_SAMPLES:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    need = float(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
+                if not need <= MAX_SAMPLES:  # (a float: the count can pass 1e100, or inf)
                     raise QueryError(
-                        f"The fair grid of motions[{kernel[j]}] needs {total} samples at"
+                        f"The fair grid of motions[{kernel[j]}] needs {need:.4g} samples at"
                         f" `tolerance` {tol!r} (more than {MAX_SAMPLES}); raise `tolerance`."
                     )
         else:
