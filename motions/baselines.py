@@ -446,16 +446,24 @@ class RotationSplineMotion(KeyframeMotion):
 
     def __init__(self, q, p, t):
         super().__init__(q, p, t)
-        self._spline = RotationSpline(t, Rotation.from_quat(q, scalar_first=True))
+        # on times scaled to [0, 1]: scipy's spline cubes its time steps, which overflow
+        # past ~1e102 (chordal times of keyframes 1e110 apart: zero quaternions inside
+        # scipy at the first pose); the spline is affine invariant in time, its rates
+        # scale by 1 / span per derivative
+        self._t0, self._span = float(t[0]), float(t[-1] - t[0])
+        tn = (t - self._t0) / self._span
+        tn[-1] = 1.0
+        self._spline = RotationSpline(tn, Rotation.from_quat(q, scalar_first=True))
 
     def _rotation(self, t, order):
-        r = self._spline(t).as_matrix()
+        tn = np.clip((t - self._t0) / self._span, 0.0, 1.0)
+        r = self._spline(tn).as_matrix()
         if order == 0:
             return r, None, None
-        w = np.einsum("tij,tj->ti", r, self._spline(t, 1))
+        w = np.einsum("tij,tj->ti", r, self._spline(tn, 1)) / self._span
         if order == 1:
             return r, w, None
-        return r, w, np.einsum("tij,tj->ti", r, self._spline(t, 2))
+        return r, w, np.einsum("tij,tj->ti", r, self._spline(tn, 2)) / self._span / self._span
 
 
 class SlerpLinearMotion(SlerpMotion):

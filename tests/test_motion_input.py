@@ -175,6 +175,25 @@ def test_huge_positions(times):
     np.testing.assert_allclose(m.pose(m.keyframe_times)[1], p * 1e300, rtol=1e-12)
 
 
+def test_rotation_spline_at_huge_time_scales():
+    # scipy's RotationSpline cubes its time steps: chordal times of keyframes 1e110 apart
+    # overflowed, and the first pose raised "Found zero norm quaternions" from inside
+    # scipy. The spline is built on times scaled to [0, 1] (its rates scaled back).
+    q, p = demo_keyframes(6)
+    ref = motions.build("rotation-spline", q, p, np.arange(6.0))
+    for scale in (1e-100, 1e110, 1e300):
+        m = motions.build("rotation-spline", q, p, np.arange(6.0) * scale)
+        t = np.linspace(0.0, 5.0, 41)
+        k, kr = m.kinematics(t * scale, 2), ref.kinematics(t, 2)
+        np.testing.assert_allclose(k.rotation, kr.rotation, atol=1e-9)
+        np.testing.assert_allclose(k.angular_velocity * scale, kr.angular_velocity, atol=1e-8)
+        if scale < 1e150:  # (beyond, the acceleration underflows to 0)
+            np.testing.assert_allclose(
+                k.angular_acceleration * scale * scale, kr.angular_acceleration, atol=1e-7
+            )
+        assert np.all(np.isfinite(k.angular_acceleration))
+
+
 def test_overflowing_chordal_times_are_refused():
     q, _ = demo_keyframes(4)
     p = np.zeros((4, 3))
