@@ -35,6 +35,7 @@ from .errors import MotionError
 from .exp_pieces import ExpPieces, assemble, elevate_to_cubic, linear_cubic, spline_cubic
 from .interpolation import keyframes
 from .motion import Motion, Recipe
+from .pieces import gamma
 from .quaternion import preimage_kinematics, qconj, qexp, qlog, qmul, rotation_matrix
 from .rational import SPEED_MARGIN
 
@@ -160,7 +161,7 @@ class SlerpMotion(KeyframeMotion):
             self._q[i],
             self._log[i][:, None],
             s.transpose(0, 2, 1),
-            spline_cubic(self._origin, br),
+            *spline_cubic(self._origin, br),
         )
 
     def _angular_speed_bound(self, t0, t1):
@@ -421,7 +422,7 @@ class CumulativeBSplineMotion(_JetRotationMotion):
         fb = elevate_to_cubic(bspline_bezier_pieces(knots, cum, k, br))  # (P, 4, n-1)
         j = mu[:, None] - k + np.arange(1, k + 1)[None, :]  # (P, k), in 1..n-1
         f = np.take_along_axis(fb, (j - 1)[:, None, :], axis=2).transpose(0, 2, 1)
-        return assemble(br, self._c[mu - k], self._omega[j], f, spline_cubic(self._origin, br))
+        return assemble(br, self._c[mu - k], self._omega[j], f, *spline_cubic(self._origin, br))
 
     def _angular_speed_bound(self, t0, t1):
         # |ω| <= sum_j |B~_j'| 2|Ω_j|, each |B~_j'| bounded by Bernstein coefficients.
@@ -563,7 +564,11 @@ class ScLerpMotion(Motion):
             np.einsum("nij,nj->ni", rk, self._c),
             np.einsum("nij,nj->ni", rk, np.cross(self._axis, self._c)),
         )
-        return assemble(self._t, self._q[:-1], omega, s, linear_cubic(start, start + step), screw)
+        # the line's rounding (module doc of motions.exp_pieces)
+        err = gamma(32) * (np.abs(start).max(axis=1) + np.abs(step).max(axis=1))
+        return assemble(
+            self._t, self._q[:-1], omega, s, linear_cubic(start, start + step), err, screw
+        )
 
     def speed_bound(self, t0, t1, radius):
         """``|ω| (|c| + radius) + |slide|`` per segment: exact for a screw (the origin keeps

@@ -27,6 +27,21 @@ this form:
 
 Pieces are the intervals between a motion's breakpoints (keyframe times and spline knots),
 so that each piece lies in one keyframe segment and one knot span.
+
+**Rounding.** The motion a certificate speaks of is the one its parameters define, exactly
+(the keyframe quaternions, the logarithms, Ω, the origin spline's coefficients, the screw's
+θ, axis and axis point, as the motion object stores them; ``motion.pose`` is a
+floating-point evaluation of it, as the kernels' is). The pieces copy the quaternions and
+half-angle vectors; what they compute has a bound: the factors f_j (a line's or the
+cumulative basis's Bézier coefficients, a few roundings relative to 1, which the kernels'
+bound covers through |Ω_j|, see ``harness.certification._advance_kernels._exp_pose``),
+the screw vectors (products with R_i, covered there through |c1|, |c2|), and the origin's
+Bézier points, whose bound ``origin_error`` is here: blossoming is convex combinations
+(de Boor with one argument per level), each level adding at most γ_5 of the largest
+coefficient of the span, then the elevation to cubic γ_3; γ_32 of the largest
+coefficient of the spline covers the k <= 3 levels. For sclerp ``P`` is the line from
+p_i to p_i + R_i (d k + slide): γ_32 (|p_i| + |step|) covers the product (3 γ_3 |step|
+per coordinate), the sum and the elevation.
 """
 
 from __future__ import annotations
@@ -37,6 +52,7 @@ import numpy as np
 from scipy.interpolate import BSpline
 
 from .bernstein import bernstein_basis, bspline_bezier_pieces, elevate
+from .pieces import gamma
 from .quaternion import qexp, qmul, rotation_matrix
 
 __all__ = ["ExpPieces"]
@@ -54,6 +70,8 @@ class ExpPieces:
         origin: (P, 4, 3) the cubic Bézier control points of P(u).
         theta: (P,) the screw term's angle (0: none).
         c1, c2: (P, 3) the screw term's vectors (world frame).
+        origin_error: (P,) bound per coordinate on how far the origin's control points
+            are from those of the motion's exact origin curve (module doc, "Rounding").
     """
 
     t0: np.ndarray
@@ -65,6 +83,7 @@ class ExpPieces:
     theta: np.ndarray
     c1: np.ndarray
     c2: np.ndarray
+    origin_error: np.ndarray
 
     def __len__(self) -> int:
         return len(self.t0)
@@ -107,13 +126,17 @@ def linear_cubic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return elevate_to_cubic(np.stack([a, b], axis=-2))
 
 
-def spline_cubic(spline: BSpline, breaks: np.ndarray) -> np.ndarray:
-    """Cubic Bézier control points (P, 4, D) of a vector spline on each interval of
-    `breaks` (which holds every knot inside the domain)."""
+def spline_cubic(spline: BSpline, breaks: np.ndarray) -> tuple[np.ndarray, float]:
+    """Cubic Bézier control points (P, 4, D) of a vector spline of degree <= 3 on each
+    interval of `breaks` (which holds every knot inside the domain), and a bound per
+    coordinate on their rounding: γ_32 of the largest coefficient (module doc)."""
     c = np.asarray(spline.c, dtype=float)
     if c.ndim == 1:
         c = c[:, None]
-    return elevate_to_cubic(bspline_bezier_pieces(spline.t, c, spline.k, breaks))
+    if spline.k > 3:
+        raise ValueError(f"Expected a spline of degree at most 3, got {spline.k}.")
+    err = float(gamma(32) * np.abs(c).max()) if c.size else 0.0
+    return elevate_to_cubic(bspline_bezier_pieces(spline.t, c, spline.k, breaks)), err
 
 
 def assemble(
@@ -122,10 +145,12 @@ def assemble(
     omega: np.ndarray,
     f: np.ndarray,
     origin: np.ndarray,
+    origin_error: float | np.ndarray,
     screw: tuple | None = None,
 ) -> ExpPieces:
     """An :class:`ExpPieces` from per-piece arrays, padding Ω and f to three factors;
-    `screw`: (θ (P,), c1 (P, 3), c2 (P, 3)), default none."""
+    `origin_error` a scalar or (P,); `screw`: (θ (P,), c1 (P, 3), c2 (P, 3)), default
+    none."""
     n = len(breaks) - 1
     om = np.zeros((n, 3, 3))
     om[:, : omega.shape[1]] = omega
@@ -141,4 +166,5 @@ def assemble(
         theta=np.zeros(n) if screw is None else np.asarray(screw[0], dtype=float).reshape(n),
         c1=np.zeros((n, 3)) if screw is None else np.asarray(screw[1], dtype=float).reshape(n, 3),
         c2=np.zeros((n, 3)) if screw is None else np.asarray(screw[2], dtype=float).reshape(n, 3),
+        origin_error=np.broadcast_to(np.asarray(origin_error, dtype=float), (n,)).copy(),
     )

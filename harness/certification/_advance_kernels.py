@@ -26,6 +26,9 @@ from .device import kernel_module_options
 wp.set_module_options(kernel_module_options())
 
 
+GAMMA_128 = wp.constant(wp.float64(128.0 * 2.0**-53 / (1.0 - 128.0 * 2.0**-53)))
+
+
 @wp.func
 def _qmul_exp(q: wp.vec4d, v: wp.vec3d) -> wp.vec4d:
     """``q exp([0, v])``, scalar first (``exp(v) = [cos|v|, sin|v| v/|v|]``)."""
@@ -46,21 +49,55 @@ def _qmul_exp(q: wp.vec4d, v: wp.vec3d) -> wp.vec4d:
 
 
 @wp.func
-def _exp_pose(ctrl: wp.array(dtype=wp.mat44d), start: wp.int32, u: wp.float64) -> wp.mat44d:
+def _exp_pose(
+    ctrl: wp.array(dtype=wp.mat44d), start: wp.int32, u: wp.float64
+) -> tuple[wp.mat44d, wp.vec3d]:
     """The pose ``[[R, p], [0, 0, 0, 1]]`` at u of an exponential-product piece
     (:class:`motions.exp_pieces.ExpPieces`), packed as three matrices: ctrl[start] rows
     ``q0``, ``Ω_1``, ``Ω_2``, ``Ω_3``; ctrl[start + 1] rows the Bézier coefficients of
     f_1..f_3, then ``(c1, θ)``; ctrl[start + 2] rows those of P's x, y, z, then ``c2``.
-    The screw term ``2 sin²(θu/2) c1 - sin(θu) c2`` has no cancellation where θ is tiny."""
+    The screw term ``2 sin²(θu/2) c1 - sin(θu) c2`` has no cancellation where θ is tiny.
+
+    Also returns ``(E_R, E_p, 0)``, bounds per entry on how far R and p are from the
+    exact pose of the piece's stored quaternion, Ω_j, θ and vectors (u exact), and from
+    the roundings of f_j, c1 and c2 (``motions.exp_pieces``, "Rounding"; P's is the
+    host's ``origin_error``). With ``X_j = max_k |F_jk| |Ω_j|`` (a bound of the factor's
+    angle a_j = |f_j Ω_j|; the Bernstein values are non-negative and sum to 1) and
+    Higham's γ_n:
+
+    - f_j: Bernstein values within γ_5 each, the dot γ_4: ``|Δf_j| <= γ_9 max|F_j|``;
+      the stored coefficients' own rounding γ_16 (f ≤ 1): angle error
+      ``|Δ(f_j Ω_j)| <= γ_10 X_j + γ_16 |Ω_j|``.
+    - ``exp`` is 1-Lipschitz from the half-angle vector to the unit quaternions; its
+      evaluation (|v| within γ_4, cos and sin within 2u each, sinc 0.44-Lipschitz)
+      is within ``γ_8 (1 + a + a²)``; a product with a unit factor adds ``2 γ_4`` and
+      carries the error so far (norms multiply).
+    - ``R = U(q) / |q|²`` moves by at most ``4 |Δq| / |q|`` per entry, and its own
+      evaluation from q (normalise, then sums of four products) by γ_10.
+
+    So ``E_R <= γ_10 + 4 Σ_j (γ_18 X_j + γ_8 X_j² + γ_16 |Ω_j| + γ_24)``, within
+    ``γ_128 (1 + Σ_j (1 + 2 X_j + X_j² + |Ω_j|))``. The origin: ``γ_9 max|P|`` for the
+    Bernstein dot; ``φ = θ u`` within u|φ|, so ``sin φ`` within ``u (|φ| + 2 |sin φ|)``
+    and ``sh = sin(φ / 2)`` within ``u (|φ| / 2 + 2 |sh|)``; ``2 sh² c1`` and
+    ``sin φ c2``, the stored c1, c2 within ``γ_6 |c|_1 <= γ_18 m`` (m the largest
+    |entry| of c1 and c2: |c1| = |c2| = |c|), and two sums: ``E_p <= γ_128 (max|P| +
+    m (|sh| |φ| + 3 sh² + |φ| + 2 |sin φ|))``. Each is within half of its γ_128 bound,
+    a factor two for what this count missed."""
     m0 = ctrl[start]
     mf = ctrl[start + 1]
     mp = ctrl[start + 2]
     s = F1 - u
     b = wp.vec4d(s * s * s, wp.float64(3.0) * s * s * u, wp.float64(3.0) * s * u * u, u * u * u)
     q = wp.vec4d(m0[0, 0], m0[0, 1], m0[0, 2], m0[0, 3])
+    e_r = F1
     for j in range(3):
-        fj = wp.dot(wp.vec4d(mf[j, 0], mf[j, 1], mf[j, 2], mf[j, 3]), b)
-        q = _qmul_exp(q, fj * wp.vec3d(m0[j + 1, 0], m0[j + 1, 1], m0[j + 1, 2]))
+        fc = wp.vec4d(mf[j, 0], mf[j, 1], mf[j, 2], mf[j, 3])
+        fj = wp.dot(fc, b)
+        om = wp.vec3d(m0[j + 1, 0], m0[j + 1, 1], m0[j + 1, 2])
+        lo = wp.length(om)
+        x = wp.max(wp.max(wp.abs(fc[0]), wp.abs(fc[1])), wp.max(wp.abs(fc[2]), wp.abs(fc[3]))) * lo
+        e_r = e_r + F1 + wp.float64(2.0) * x + x * x + lo
+        q = _qmul_exp(q, fj * om)
     g = F1 / wp.sqrt(wp.dot(q, q))
     q0 = q[0] * g
     q1 = q[1] * g
@@ -80,17 +117,30 @@ def _exp_pose(ctrl: wp.array(dtype=wp.mat44d), start: wp.int32, u: wp.float64) -
     )
     phi = mf[3, 3] * u
     sh = wp.sin(wp.float64(0.5) * phi)
+    sp = wp.sin(phi)
     c1 = wp.vec3d(mf[3, 0], mf[3, 1], mf[3, 2])
     c2 = wp.vec3d(mp[3, 0], mp[3, 1], mp[3, 2])
-    screw = (two * sh * sh) * c1 - wp.sin(phi) * c2
+    screw = (two * sh * sh) * c1 - sp * c2
     out = wp.mat44d()
+    pmax = F0
     for i in range(3):
         out[i, 0] = r[i, 0]
         out[i, 1] = r[i, 1]
         out[i, 2] = r[i, 2]
-        out[i, 3] = wp.dot(wp.vec4d(mp[i, 0], mp[i, 1], mp[i, 2], mp[i, 3]), b) + screw[i]
+        pc = wp.vec4d(mp[i, 0], mp[i, 1], mp[i, 2], mp[i, 3])
+        out[i, 3] = wp.dot(pc, b) + screw[i]
+        pmax = wp.max(
+            pmax, wp.max(wp.max(wp.abs(pc[0]), wp.abs(pc[1])), wp.max(wp.abs(pc[2]), wp.abs(pc[3])))
+        )
     out[3, 3] = F1
-    return out
+    mc = wp.max(
+        wp.max(wp.max(wp.abs(c1[0]), wp.abs(c1[1])), wp.max(wp.abs(c1[2]), wp.abs(c2[0]))),
+        wp.max(wp.abs(c2[1]), wp.abs(c2[2])),
+    )
+    ap = wp.abs(phi)
+    ash = wp.abs(sh)
+    e_p = pmax + mc * (ash * ap + wp.float64(3.0) * sh * sh + ap + two * wp.abs(sp))
+    return out, wp.vec3d(GAMMA_128 * e_r, GAMMA_128 * e_p, F0)
 
 
 @wp.func
@@ -109,11 +159,12 @@ def _eval_pose(
     non-negative and sum to 1, and the sum of k terms adds γ_k; γ_{8k} of the largest
     magnitude covers it all.
 
-    ``k < 0``: an exponential-product piece of -k matrices (:func:`_exp_pose`), whose
-    pose is taken as exact, as the host-evaluated poses of ``pose_rows`` are."""
+    ``k < 0``: an exponential-product piece of -k matrices (:func:`_exp_pose`): the
+    piece's error (its origin's rounding) plus the evaluation's bound."""
     if k < 0:
-        st_ctrl[lane, 0, 0] = _exp_pose(ctrl, start, u)
-        return err
+        pose, e = _exp_pose(ctrl, start, u)
+        st_ctrl[lane, 0, 0] = pose
+        return err + e
     n = k - 1
     s = F1 - u
     acc = wp.mat44d()

@@ -155,8 +155,8 @@ def _rational_stepping_pieces(m: RationalMotion, radius: float) -> tuple:
 def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
     """:func:`_stepping_pieces` for a slerp-family motion: its exponential-product pieces
     (one per knot interval) packed as three matrices each (``_advance_kernels._exp_pose``)
-    with ``k = -3``, no error bounds (its poses are taken as exact, as the host-evaluated
-    ones are), and the motion's own speed bound per piece."""
+    with ``k = -3``, their origins' rounding as the error bound E_b (the kernel adds its
+    evaluation's), and the motion's own speed bound per piece."""
     ep = m.exp_pieces()
     n = len(ep)
     ctrl = np.zeros((n, 3, 4, 4))
@@ -169,6 +169,7 @@ def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
     ctrl[:, 2, 3, :3] = ep.c2
     rows = np.zeros((n, 5 + REACH_ROW))
     rows[:, 0], rows[:, 1] = ep.t0, ep.t1
+    rows[:, 3] = ep.origin_error
     speeds = np.array(
         [m.speed_bound(a, b, radius) for a, b in zip(ep.t0.tolist(), ep.t1.tolist(), strict=True)]
     )
