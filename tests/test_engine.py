@@ -523,6 +523,9 @@ def test_device_and_limit_errors():
         certify("m", box, [box])
     with pytest.raises(QueryError, match="fair grid"):
         certify(m, box, [box], bound="sampled", tolerance=1e-12)
+    for bound in ("hull", "aabb", "lipschitz"):  # (it was ignored)
+        with pytest.raises(QueryError, match=f"`samples` .* got bound='{bound}'"):
+            certify(m, box, [box], bound=bound, samples=10)
 
 
 def test_clearance_brackets_the_minimum_distance(scene):

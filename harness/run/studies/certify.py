@@ -141,7 +141,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             bound=bound,
             tolerance=tol,
             max_depth=st["max_depth"],
-            samples=st["samples"],
+            samples=st["samples"] if bound == "sampled" else None,
             max_nodes=st["max_nodes"],
         )[0],
         rounds=st["rounds"],
