@@ -8,11 +8,14 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass, field
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from ._checks import as_float, as_points, short
+
+if TYPE_CHECKING:
+    from .exp_pieces import ExpPieces
 
 __all__ = ["DOMAIN_SLACK", "Kinematics", "Motion", "Recipe", "skew", "vee"]
 
@@ -209,6 +212,14 @@ class Motion(abc.ABC):
     def speed_bound(self, t0: float, t1: float, radius: float) -> float:
         """Proven bound on the speed of every point within `radius` of the body origin."""
         raise NotImplementedError(f"Scheme {self.scheme!r} has no proven speed bound.")
+
+    def exp_pieces(self) -> ExpPieces:
+        """The motion as exponential-product pieces (:mod:`motions.exp_pieces`), the form
+        the certification kernels pose the slerp family in."""
+        raise NotImplementedError(
+            f"Scheme {self.scheme!r} has no exponential-product form (slerp, slerp-linear,"
+            " sclerp and cumulative-bspline have)."
+        )
 
     def _check_interval(self, t0: Any, t1: Any, radius: Any) -> tuple[float, float, float]:
         a, _ = self._check_t(t0, "t0")

@@ -208,6 +208,14 @@ def test_invariance_is_measured_and_documented():
     assert {s for s, r in rows.items() if r["speed_bound"] == "proven"} == set(BOUNDED)
 
 
+@pytest.mark.parametrize("scheme", ["rational", "squad", "bezier-slerp", "rotation-spline"])
+def test_exp_pieces_of_a_scheme_without_that_form_is_a_named_error(scheme):
+    # (it was an AttributeError of the class)
+    q, p = demo_keyframes(5)
+    with pytest.raises(NotImplementedError, match=f"Scheme '{scheme}' has no exponential"):
+        motions.build(scheme, q, p).exp_pieces()
+
+
 @pytest.mark.parametrize("scheme", ["slerp", "slerp-linear", "sclerp", "cumulative-bspline"])
 def test_exp_pieces_pose_as_the_motion(scheme):
     # The exponential-product pieces the kernels evaluate (motions.exp_pieces) pose as the
