@@ -434,8 +434,13 @@ def hull_vertices(points: np.ndarray) -> np.ndarray:
             f"(thinnest spread {spread[2]:.3g} against {spread[0]:.3g}). MuJoCo cannot build "
             "the hull of a flat mesh either; use a Box with a small half-extent."
         )
+    # qhull's precision thresholds are absolute: points of a solid at 1e80 came back as
+    # "initial simplex is flat". It runs on the points scaled by a power of two (exact)
+    # to magnitude ~1.
+    scale = 2.0 ** np.floor(np.log2(np.abs(v).max()))
+    vs = v / scale
     try:
-        hull = ConvexHull(v)
+        hull = ConvexHull(vs)
     except QhullError as e:
         raise DegenerateMeshError(
             f"Expected `vertices` to span a solid; qhull could not build their hull: "
@@ -443,8 +448,8 @@ def hull_vertices(points: np.ndarray) -> np.ndarray:
         ) from None
     keep = np.zeros(len(v), dtype=bool)
     keep[hull.vertices] = True
-    # hull.equations: n . x + offset <= 0 inside, with unit normals n
-    excess = (v @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1)
+    # hull.equations: n . x + offset <= 0 inside, with unit normals n (of the scaled points)
+    excess = (vs @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1) * scale
     keep |= excess > -HULL_SLACK * (1.0 + np.abs(v).max())
     return np.ascontiguousarray(v[keep])
 

@@ -300,3 +300,15 @@ def test_a_half_space_names_its_bad_half_size():
             HalfSpace([0, 0, 0], half=bad)
     with pytest.raises(TypeError, match="`half`"):
         HalfSpace([0, 0, 0], half="big")
+
+
+@pytest.mark.parametrize("scale", [1e80, 1e120, 1e149])
+def test_a_mesh_at_any_accepted_scale_keeps_its_hull(scale):
+    # qhull's thresholds are absolute: a solid's points at 1e80 were refused as "initial
+    # simplex is flat" (DegenerateMeshError), though MAX_LENGTH accepts up to 1e150
+    pts = np.random.default_rng(0).normal(size=(40, 3))
+    ref = ConvexMesh(pts)
+    big = ConvexMesh(pts * (scale / 4))
+    assert len(big.vertices_) == len(ref.vertices_)
+    d = np.random.default_rng(1).normal(size=(50, 3))
+    np.testing.assert_allclose(big.support(d) / (scale / 4), ref.support(d), rtol=1e-12)
