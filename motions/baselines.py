@@ -447,17 +447,22 @@ class RotationSplineMotion(KeyframeMotion):
 
     def __init__(self, q, p, t):
         super().__init__(q, p, t)
-        # on times scaled to [0, 1]: scipy's spline cubes its time steps, which overflow
-        # past ~1e102 (chordal times of keyframes 1e110 apart: zero quaternions inside
-        # scipy at the first pose); the spline is affine invariant in time, its rates
-        # scale by 1 / span per derivative
-        self._t0, self._span = float(t[0]), float(t[-1] - t[0])
-        tn = (t - self._t0) / self._span
-        tn[-1] = 1.0
-        self._spline = RotationSpline(tn, Rotation.from_quat(q, scalar_first=True))
+        # scipy's spline cubes its time steps: past ~1e102 they overflow (chordal times of
+        # keyframes 1e110 apart: zero quaternions inside scipy at the first pose), below
+        # ~1e-102 they underflow. There it is built on times scaled to [0, 1] (its rates
+        # scaled back by 1 / span per derivative); elsewhere on the times given, as scipy
+        # builds it (it solves for its rates iteratively, so scaling the times moves the
+        # motion: 7e-12 at a span of 5, 2e-6 at 5e6)
+        self._t0, self._span = 0.0, 1.0
+        span = float(t[-1] - t[0])
+        if not 1e-50 <= span <= 1e50:
+            self._t0, self._span = float(t[0]), span
+            t = (t - self._t0) / span
+            t[-1] = 1.0
+        self._spline = RotationSpline(t, Rotation.from_quat(q, scalar_first=True))
 
     def _rotation(self, t, order):
-        tn = np.clip((t - self._t0) / self._span, 0.0, 1.0)
+        tn = (t - self._t0) / self._span
         r = self._spline(tn).as_matrix()
         if order == 0:
             return r, None, None

@@ -17,7 +17,7 @@ import numpy as np
 from motions import Motion, RationalMotion
 from motions.relative import relative_motion
 
-from ..certification import Certificate, certify
+from ..certification import Certificate, QueryError, certify
 from ..errors import HarnessError
 from ..shapes import Shape, as_shape
 from .distance import DistanceModel
@@ -75,9 +75,12 @@ def certify_pair(
         rel = relative_motion(a, b)
     except ValueError as e:
         raise PairError(str(e).replace("`a`", "`motion_a`").replace("`b`", "`motion_b`")) from None
-    return certify(
-        rel, body_b, [body_a], bound=bound, tolerance=tolerance, max_depth=max_depth, **options
-    )
+    try:
+        return certify(
+            rel, body_b, [body_a], bound=bound, tolerance=tolerance, max_depth=max_depth, **options
+        )
+    except QueryError as e:  # (certify names its argument; here it is no argument)
+        raise type(e)(str(e).replace("`motion`", "the relative motion M_a⁻¹ M_b")) from None
 
 
 def pair_distances(
