@@ -13,8 +13,11 @@ import pytest
 import harness
 import motions
 from harness.avoid import PairError, certify_pair, pair_distances
+from harness.certification import QueryError
+from harness.shapes import Sphere
 from harness.workloads import random_keyframes, random_primitive
 from motions.bernstein import bezier_eval
+from motions.demo import demo_keyframes
 from motions.relative import inverse_control, relative_motion, restrict_control
 
 EXACT = 1e-11  # products of Bernstein coefficients of size ~1-10: round-off only
@@ -203,3 +206,13 @@ def test_times_a_rounding_apart_are_not_re_timed(where):
     for tol in (1e-6, 1e-8):
         c = certify_pair(a, harness.Sphere(1.0), b, harness.Sphere(1.0), tolerance=tol)
         assert c.verdict == "collision" and c.toi_lo <= first, (tol, c)
+
+
+def test_a_pairs_query_error_names_the_relative_motion():
+    # certify names its argument `motion`; certify_pair has none of that name
+    q, p = demo_keyframes(5)
+    a = motions.interpolate(q, p * 1e100)
+    b = motions.interpolate(q, p * 1e100 + 1.0)
+    with pytest.raises(QueryError, match="fair grid of the relative motion") as e:
+        harness.certify_pair(a, Sphere(1.0), b, Sphere(1.0), bound="sampled")
+    assert "`motion`" not in str(e.value)
