@@ -570,7 +570,7 @@ class ScLerpMotion(Motion):
             np.einsum("nij,nj->ni", rk, np.cross(self._axis, self._c)),
         )
         # the line's rounding (module doc of motions.exp_pieces)
-        err = gamma(32) * (np.abs(start).max(axis=1) + np.abs(step).max(axis=1))
+        err = gamma(64) * (np.abs(start).max(axis=1) + np.abs(step).max(axis=1))
         return assemble(
             self._t, self._q[:-1], omega, s, linear_cubic(start, start + step), err, screw
         )

@@ -32,16 +32,18 @@ so that each piece lies in one keyframe segment and one knot span.
 (the keyframe quaternions, the logarithms, Ω, the origin spline's coefficients, the screw's
 θ, axis and axis point, as the motion object stores them; ``motion.pose`` is a
 floating-point evaluation of it, as the kernels' is). The pieces copy the quaternions and
-half-angle vectors; what they compute has a bound: the factors f_j (a line's or the
+(but for sclerp's θ/2 k, one rounding) the half-angle vectors; what else they compute
+has a bound: the factors f_j (a line's or the
 cumulative basis's Bézier coefficients, a few roundings relative to 1, which the kernels'
 bound covers through |Ω_j|, see ``harness.certification._advance_kernels._exp_pose``),
 the screw vectors (products with R_i, covered there through |c1|, |c2|), and the origin's
 Bézier points, whose bound ``origin_error`` is here: blossoming is convex combinations
-(de Boor with one argument per level), each level adding at most γ_5 of the largest
-coefficient of the span, then the elevation to cubic γ_3; γ_32 of the largest
-coefficient of the spline covers the k <= 3 levels. For sclerp ``P`` is the line from
-p_i to p_i + R_i (d k + slide): γ_32 (|p_i| + |step|) covers the product (3 γ_3 |step|
-per coordinate), the sum and the elevation.
+(de Boor with one argument per level), ``γ_10k`` of the span's largest coefficient
+(:func:`motions.bernstein.bspline_bezier_error`), then the elevation to cubic, convex
+combinations again, γ_3 more. For sclerp ``P`` is the line from p_i to
+p_i + R_i (d k + slide): the product errs by ``(γ_3 + 6u) |d k + slide|_1 <= γ_27 |step|``
+per coordinate (R_i's entries within 6u of the rotation of q_i), the sum and the
+elevation by γ_4 (|p_i| + |step|); γ_64 (|p_i| + |step|) bounds it.
 """
 
 from __future__ import annotations
@@ -51,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import BSpline
 
-from .bernstein import bernstein_basis, bspline_bezier_pieces, elevate
+from .bernstein import bernstein_basis, bspline_bezier_error, bspline_bezier_pieces, elevate
 from .pieces import gamma
 from .quaternion import qexp, qmul, rotation_matrix
 
@@ -64,7 +66,7 @@ class ExpPieces:
 
     Attributes:
         t0, t1: (P,) time interval of each piece; consecutive pieces share their ends.
-        q0: (P, 4) the leading quaternion (scalar first).
+        q0: (P, 4) the leading unit quaternion (scalar first).
         omega: (P, 3, 3) the half-angle vectors Ω_1..Ω_3 as rows (zero rows: no factor).
         f: (P, 3, 4) the cubic Bézier coefficients of f_1..f_3 in u.
         origin: (P, 4, 3) the cubic Bézier control points of P(u).
@@ -126,17 +128,20 @@ def linear_cubic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return elevate_to_cubic(np.stack([a, b], axis=-2))
 
 
-def spline_cubic(spline: BSpline, breaks: np.ndarray) -> tuple[np.ndarray, float]:
+def spline_cubic(spline: BSpline, breaks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Cubic Bézier control points (P, 4, D) of a vector spline of degree <= 3 on each
-    interval of `breaks` (which holds every knot inside the domain), and a bound per
-    coordinate on their rounding: γ_32 of the largest coefficient (module doc)."""
+    interval of `breaks` (which holds every knot inside the domain), and (P,) bounds per
+    coordinate on their rounding (module doc, "Rounding")."""
     c = np.asarray(spline.c, dtype=float)
     if c.ndim == 1:
         c = c[:, None]
-    if spline.k > 3:
-        raise ValueError(f"Expected a spline of degree at most 3, got {spline.k}.")
-    err = float(gamma(32) * np.abs(c).max()) if c.size else 0.0
-    return elevate_to_cubic(bspline_bezier_pieces(spline.t, c, spline.k, breaks)), err
+    k = spline.k
+    if k > 3:
+        raise ValueError(f"Expected a spline of degree at most 3, got {k}.")
+    err = bspline_bezier_error(spline.t, c, k, breaks)  # γ_10k of the span's largest
+    if k < 3:  # and γ_3 more for the elevation
+        err = err * (gamma(10 * k + 3) / gamma(10 * k)) if k else gamma(3) * np.abs(c).max()
+    return elevate_to_cubic(bspline_bezier_pieces(spline.t, c, k, breaks)), err
 
 
 def assemble(

@@ -61,28 +61,36 @@ def _exp_pose(
     Also returns ``(E_R, E_p, 0)``, bounds per entry on how far R and p are from the
     exact pose of the piece's stored quaternion, Ω_j, θ and vectors (u exact), and from
     the roundings of f_j, c1 and c2 (``motions.exp_pieces``, "Rounding"; P's is the
-    host's ``origin_error``). With ``X_j = max_k |F_jk| |Ω_j|`` (a bound of the factor's
-    angle a_j = |f_j Ω_j|; the Bernstein values are non-negative and sum to 1) and
-    Higham's γ_n:
+    host's ``origin_error``). q0 is a unit quaternion (the schemes store unit ones; the
+    counts are relative to |q|, and a subnormal |q|² would void them). With
+    ``X_j = max_k |F_jk| |Ω_j|`` (a bound of the factor's angle a_j = |f_j Ω_j|; the
+    Bernstein values are non-negative and sum to 1), Higham's γ_n, and sin and cos
+    within 4u (2 ulp: CUDA's documented bound; glibc's is below 1 ulp):
 
-    - f_j: Bernstein values within γ_5 each, the dot γ_4: ``|Δf_j| <= γ_9 max|F_j|``;
-      the stored coefficients' own rounding γ_16 (f ≤ 1): angle error
-      ``|Δ(f_j Ω_j)| <= γ_10 X_j + γ_16 |Ω_j|``.
-    - ``exp`` is 1-Lipschitz from the half-angle vector to the unit quaternions; its
-      evaluation (|v| within γ_4, cos and sin within 2u each, sinc 0.44-Lipschitz)
-      is within ``γ_8 (1 + a + a²)``; a product with a unit factor adds ``2 γ_4`` and
-      carries the error so far (norms multiply).
-    - ``R = U(q) / |q|²`` moves by at most ``4 |Δq| / |q|`` per entry, and its own
-      evaluation from q (normalise, then sums of four products) by γ_10.
+    - f_j: the Bernstein values within γ_5 each, the dot γ_4: ``|Δf_j| <= γ_9 max|F_j|``;
+      the stored coefficients' own rounding (exact ones in [0, 1]) at most γ_33 (three
+      de Boor levels of ``motions.bernstein.bspline_bezier_error``'s γ_10 and the
+      elevation's γ_3; slerp's line γ_6, sclerp's Ω = θ/2 k one u), so the factor's
+      angle vector errs by ``γ_10 X_j + γ_33 |Ω_j|``.
+    - ``exp`` is 1-Lipschitz from the half-angle vector to the unit quaternions. Its
+      evaluation: a = |v| within γ_3 a, cos within γ_4 (1 + a), sinc 0.44-Lipschitz and
+      its own roundings γ_5, e = sinc · v within γ_2 a² + γ_6: ``γ_10 (1 + a + a²)``.
+      The product with the running q: ``2 γ_4 = γ_8`` of |q| (norms multiply, so errors
+      carry over unchanged). Per factor: ``γ_20 X_j + γ_10 X_j² + γ_33 |Ω_j| + γ_18``
+      of |q|.
+    - ``R = U(q) / |q|²``: each entry is ``qᵀ M q / qᵀ q`` with M's eigenvalues in
+      [-1, 1], whose gradient is at most 4 / |q|: ``4 |Δq| / |q|`` per entry; R's own
+      evaluation from q (1 / |q| within γ_4, the products and sums) γ_14.
 
-    So ``E_R <= γ_10 + 4 Σ_j (γ_18 X_j + γ_8 X_j² + γ_16 |Ω_j| + γ_24)``, within
-    ``γ_128 (1 + Σ_j (1 + 2 X_j + X_j² + |Ω_j|))``. The origin: ``γ_9 max|P|`` for the
-    Bernstein dot; ``φ = θ u`` within u|φ|, so ``sin φ`` within ``u (|φ| + 2 |sin φ|)``
-    and ``sh = sin(φ / 2)`` within ``u (|φ| / 2 + 2 |sh|)``; ``2 sh² c1`` and
-    ``sin φ c2``, the stored c1, c2 within ``γ_6 |c|_1 <= γ_18 m`` (m the largest
-    |entry| of c1 and c2: |c1| = |c2| = |c|), and two sums: ``E_p <= γ_128 (max|P| +
-    m (|sh| |φ| + 3 sh² + |φ| + 2 |sin φ|))``. Each is within half of its γ_128 bound,
-    a factor two for what this count missed."""
+    So ``E_R <= γ_14 + Σ_j (γ_80 X_j + γ_40 X_j² + γ_132 |Ω_j| + γ_72)``, within
+    ``γ_128 (1 + Σ_j (1 + 2 X_j + X_j² + 2 |Ω_j|))`` with at least 1.7 times to spare in
+    every term. The origin, with m the largest |entry| of c1 and c2 (|c1| = |c2| = |c|,
+    so |c|_1 <= 3 m): the Bernstein dot γ_9 max|P|; ``φ = θ u`` within u|φ|, so ``sin φ``
+    within ``u |φ| + γ_4 |sin φ|`` and ``sh = sin(φ / 2)`` within ``u |φ| / 2 + γ_4 |sh|``;
+    the stored c1 = R_i c and c2 = R_i (k × c) (R_i's entries within 6u) within γ_27 m
+    and γ_36 m; the products and two sums: ``E_p <= γ_10 max|P| + m (γ_2 |sh| |φ| +
+    γ_80 sh² + u |φ| + γ_43 |sin φ|)``, within ``γ_128 (max|P| + m (|sh| |φ| + 3 sh² +
+    |φ| + 2 |sin φ|))``, again 1.7 times or more in every term."""
     m0 = ctrl[start]
     mf = ctrl[start + 1]
     mp = ctrl[start + 2]
@@ -96,7 +104,7 @@ def _exp_pose(
         om = wp.vec3d(m0[j + 1, 0], m0[j + 1, 1], m0[j + 1, 2])
         lo = wp.length(om)
         x = wp.max(wp.max(wp.abs(fc[0]), wp.abs(fc[1])), wp.max(wp.abs(fc[2]), wp.abs(fc[3]))) * lo
-        e_r = e_r + F1 + wp.float64(2.0) * x + x * x + lo
+        e_r = e_r + F1 + wp.float64(2.0) * (x + lo) + x * x
         q = _qmul_exp(q, fj * om)
     g = F1 / wp.sqrt(wp.dot(q, q))
     q0 = q[0] * g
