@@ -303,15 +303,17 @@ class RationalMotion(Motion):
             raise ValueError(
                 "Expected the weights of `ctrl` to be non-zero at sample points, got 0."
             )
-        a = m[..., :3, :3]
-        err = np.abs(a @ np.swapaxes(a, -1, -2) / (w**2)[..., None, None] - np.eye(3)).max()
+        # A / w, a rotation: A's own squares and cubes under- or overflow for matrices
+        # scaled by 1e±156 (homogeneous: any scale is the same motion)
+        a = m[..., :3, :3] / w[..., None, None]
+        err = np.abs(a @ np.swapaxes(a, -1, -2) - np.eye(3)).max()
         if err > FROM_BEZIER_TOL:
             raise ValueError(
                 f"Expected `ctrl` to describe rigid motions (A A^T = w^2 I within {FROM_BEZIER_TOL:g}"
                 f" relative), got an error of {err:.3g}."
             )
         # A A^T = w² I also holds for reflections; det(A)/w³ = det R must be +1, not -1.
-        det = np.linalg.det(a) / w**3
+        det = np.linalg.det(a)
         if np.any(det <= 0):
             s_bad, u_bad = np.argwhere(det <= 0)[0]
             t_bad = br[s_bad] + u[u_bad] * (br[s_bad + 1] - br[s_bad])

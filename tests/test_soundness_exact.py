@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import warnings
 from collections import Counter
 from fractions import Fraction
 
@@ -87,6 +88,10 @@ motions: the control matrices are products and sums of a few floats, ~1e-15 rela
 FLOAT_REL = 1e-12
 """``RationalMotion.pose`` (float) agrees with the exact pose to this on well-conditioned
 motions."""
+REST_REL = 1e-12
+"""The reach of a body at rest (``test_piece_reach_is_the_box_of_a_rotated_ball``) is its
+exact box and unit scale to this: a few roundings of numbers of size ~1, and the widening
+by GAMMA_C (1.4e-14)."""
 
 
 # ----------------------------------------------------------------------------- the oracle itself
@@ -501,9 +506,34 @@ def test_piece_reach_is_the_box_of_a_rotated_ball():
     q = np.tile([[0.9, 0.1, -0.3, 0.2]], (4, 1))
     p = np.tile([[1.0, -2.0, 0.5]], (4, 1))
     lo, hi, scale, err = reach_extent(interpolate(q, p, times=[0.0, 1.0, 2.0, 3.0]))
-    assert np.allclose(lo, p[0], atol=1e-12) and np.allclose(hi, p[0], atol=1e-12)
-    assert np.all(scale >= 1.0) and np.all(scale <= 1.0 + 1e-12), scale
-    assert 0.0 <= err <= 1e-12
+    np.testing.assert_allclose(lo, p[0], rtol=0, atol=REST_REL)
+    np.testing.assert_allclose(hi, p[0], rtol=0, atol=REST_REL)
+    assert np.all(scale >= 1.0) and np.all(scale <= 1.0 + REST_REL), scale
+    assert 0.0 <= err <= REST_REL
+
+
+def test_piece_reach_of_a_motion_with_tiny_weights():
+    # from_bezier accepts the homogeneous control matrices at any scale; at 1e-156 the
+    # squares of A's entries were subnormal and the reach's scale came out 3.3e-12
+    # (relative) smaller than at scale 1, more than its GAMMA_C widening of 1.4e-14 (a
+    # review found). Rows of A / w are squared instead: the same scale to a few ulps.
+    from harness.certification._refine_kernels import Reach
+    from harness.certification.device import record_dtype
+    from harness.certification.refine import piece_reach
+    from motions.demo import demo_keyframes
+
+    q, p = demo_keyframes(6)
+    br, ctrl = interpolate(q, p).bezier_form()
+    ref = None
+    for factor in (1.0, 1e-156, 1e-200, 1e150):
+        with warnings.catch_warnings():  # (from_bezier's checks squared A: numpy warned)
+            warnings.simplefilter("error")
+            pc = RationalMotion.from_bezier(br, ctrl * factor).positive_pieces()
+            reach = piece_reach(pc.ctrl, pc.error).view(record_dtype(Reach)).reshape(-1)
+        assert reach["ok"].all()
+        ref = reach["scale"] if ref is None else ref
+        # (a few roundings: the division by w, the squares, the square root)
+        np.testing.assert_allclose(reach["scale"], ref, rtol=4 * np.finfo(float).eps, atol=0)
 
 
 def _positive(m: RationalMotion) -> bool:

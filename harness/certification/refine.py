@@ -199,24 +199,27 @@ def piece_reach(ctrl: np.ndarray, err: np.ndarray) -> np.ndarray:
     out = np.zeros(p, dtype=record_dtype(_kernels().Reach))
     if p == 0:
         return out.view(np.float64).reshape(0, REACH_ROW)
-    # b, w and the squared row norms of A of every control matrix in two passes over them
-    # (products with 0/1 selectors: exact, but for the sums of squares, within the GAMMA_C
-    # widening), then as (3 or 4, K, P) arrays: numpy reduces the short axis of a (P, K)
-    # array slowly (5,000 pieces: 8 ms on a busy machine; with (P, K, 3) arrays, 17)
+    # b, w and the squared row norms of A / w of every control matrix in two passes over
+    # them (products with 0/1 selectors: exact, but for the division by w and the sums of
+    # squares, within the GAMMA_C widening; divided first, since A's own squares are
+    # subnormal for weights ~1e-156, which from_bezier accepts), then as (3 or 4, K, P)
+    # arrays: numpy reduces the short axis of a (P, K) array slowly (5,000 pieces: 8 ms
+    # on a busy machine; with (P, K, 3) arrays, 17)
     k = ctrl.shape[1]
     flat = ctrl.reshape(p * k, 16)
     bw = np.ascontiguousarray((flat @ _SELECT_BW).reshape(p, k, 4).transpose(2, 1, 0))
-    a2 = np.ascontiguousarray((np.square(flat) @ _SELECT_ROWS).reshape(p, k, 3).transpose(2, 1, 0))
     w = bw[3]
     el = w - err[:, 2]
     ok = (el > 0).all(axis=0)
     el = np.where(el > 0, el, 1.0)  # (unused where not ok)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        a2 = np.square(flat / flat[:, 15:16]) @ _SELECT_ROWS  # |row j of A_i|² / w_i²
+        a2 = np.ascontiguousarray(a2.reshape(p, k, 3).transpose(2, 1, 0))
         inv = 1.0 / w
         c = bw[:3] * inv
         beta = np.abs(c).max(axis=0)
-        a2 = a2 / (el * el)
-        scale = np.sqrt(a2.max(axis=1)) + np.sqrt(3.0) * err[:, 0] / el.min(axis=0)  # (3, P)
+        rows = np.sqrt(a2) * (w / el)  # |row j of A_i| / (w_i - E_w)
+        scale = rows.max(axis=1) + np.sqrt(3.0) * err[:, 0] / el.min(axis=0)  # (3, P)
         scale = scale * (1 + _GAMMA_C)
         e = ((err[:, 1] + beta * err[:, 2]) / el + 4.0 * UNIT_ROUNDOFF * beta).max(axis=0)
         e = e * (1 + _GAMMA_C)
