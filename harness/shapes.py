@@ -46,16 +46,17 @@ COVER_SLACK = 1e-9
 of that computation are ~1e-16 relative, far below it."""
 
 
-MAX_LENGTH = 1e150
+MAX_LENGTH = 1e75
 """Largest magnitude of a shape's coordinates and sizes (scene units). The certifier, the
 ground truth and the broad phase square lengths (norms, dot products of differences of
-body and obstacle points): three squared differences of coordinates up to L sum to at
-most 12 L², finite for L < sqrt(DBL_MAX / 12) ≈ 3.9e153. Beyond that an obstacle centred
-at 1e300 made numpy warn of an overflow (its bounding radius) and the verdict `unknown`
-(measured: right up to 1e154, `unknown` from 1e155); a bounding radius computed without
-overflow did not help: certify then said `free`, but clearance's proven lower bound was
-inf, the kernels' own sums overflowing. 1e150 leaves the motion's reach and the bounding
-radii a factor ~4e3."""
+body and obstacle points), and GJK's simplex steps multiply two such squares (a
+triangle's or tetrahedron's Gram determinants): products of L⁴ stay finite for
+L < ~1e77. Beyond that, a 1e77 body that held a wall at every pose was `free` by
+`samples=50` (uncertified, but silently wrong: the pose tests' GJK overflowed; `hull` and
+`lipschitz` answered `unknown`; right up to 1e76, a new user measured); an obstacle
+centred at 1e300 made numpy warn of an overflow (its bounding radius); and a bounding
+radius computed without overflow made clearance's proven lower bound inf, the kernels'
+sums overflowing. 1e75 leaves the motion's reach and the bounding radii a factor ~100."""
 
 
 def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
@@ -434,13 +435,8 @@ def hull_vertices(points: np.ndarray) -> np.ndarray:
             f"(thinnest spread {spread[2]:.3g} against {spread[0]:.3g}). MuJoCo cannot build "
             "the hull of a flat mesh either; use a Box with a small half-extent."
         )
-    # qhull's precision thresholds are absolute: points of a solid at 1e80 came back as
-    # "initial simplex is flat". It runs on the points scaled by a power of two (exact)
-    # to magnitude ~1.
-    scale = 2.0 ** np.floor(np.log2(np.abs(v).max()))
-    vs = v / scale
     try:
-        hull = ConvexHull(vs)
+        hull = ConvexHull(v)
     except QhullError as e:
         raise DegenerateMeshError(
             f"Expected `vertices` to span a solid; qhull could not build their hull: "
@@ -448,8 +444,8 @@ def hull_vertices(points: np.ndarray) -> np.ndarray:
         ) from None
     keep = np.zeros(len(v), dtype=bool)
     keep[hull.vertices] = True
-    # hull.equations: n . x + offset <= 0 inside, with unit normals n (of the scaled points)
-    excess = (vs @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1) * scale
+    # hull.equations: n . x + offset <= 0 inside, with unit normals n
+    excess = (v @ hull.equations[:, :3].T + hull.equations[:, 3]).max(axis=1)
     keep |= excess > -HULL_SLACK * (1.0 + np.abs(v).max())
     return np.ascontiguousarray(v[keep])
 

@@ -89,7 +89,7 @@ def test_lengths_that_overflow_when_squared_are_refused(make, name):
     for x in (1e300, 2 * MAX_LENGTH):
         with pytest.raises(ShapeError, match=rf"`{name}` to hold lengths of magnitude at most"):
             make(x)
-    if name != "vertices":  # (qhull cannot build hulls of coordinates beyond ~1e76)
+    if name != "vertices":  # (a mesh's vertices at one point are no solid)
         make(MAX_LENGTH)
 
 
@@ -302,13 +302,13 @@ def test_a_half_space_names_its_bad_half_size():
         HalfSpace([0, 0, 0], half="big")
 
 
-@pytest.mark.parametrize("scale", [1e80, 1e120, 1e149])
-def test_a_mesh_at_any_accepted_scale_keeps_its_hull(scale):
-    # qhull's thresholds are absolute: a solid's points at 1e80 were refused as "initial
-    # simplex is flat" (DegenerateMeshError), though MAX_LENGTH accepts up to 1e150
-    pts = np.random.default_rng(0).normal(size=(40, 3))
-    ref = ConvexMesh(pts)
-    big = ConvexMesh(pts * (scale / 4))
-    assert len(big.vertices_) == len(ref.vertices_)
-    d = np.random.default_rng(1).normal(size=(50, 3))
-    np.testing.assert_allclose(big.support(d) / (scale / 4), ref.support(d), rtol=1e-12)
+def test_shapes_of_the_largest_size_are_sampled_right():
+    # GJK multiplies squared lengths: at 1e77 a body holding a wall at every pose was
+    # `free` by samples=50 (the limit was 1e150), at MAX_LENGTH it is a collision
+    i = [1.0, 0, 0, 0]
+    m = motions.interpolate(np.array([i, [0.9, 0.4, 0, 0], i]), [[0, 0, 0], [1, 0, 0], [2, 0, 0.0]])
+    wall = Box([0.01, 1, 1], center=[1.5, 0, 0])
+    big = Box([MAX_LENGTH] * 3)
+    assert harness.certify(m, big, [wall], bound="sampled", samples=50).verdict == "collision"
+    small = Box([0.1] * 3)
+    assert harness.certify(m, small, [big], bound="sampled", samples=50).verdict == "collision"
