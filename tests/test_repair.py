@@ -364,3 +364,17 @@ def test_cuts_at_penetrating_poses_are_lower_bounds():
         checked += int(sep.sum())
         assert np.all(cut_d[j] + deltas[sep] @ nn[j] <= d2[sep, 0, o[j]] + 1e-9)
     assert checked > 500
+
+
+def test_a_refusal_names_the_keyframes_around_the_trouble(monkeypatch):
+    # "found no offset between the keyframes" did not say which: the refusal names the
+    # keyframe interval of the close poses (a search made to fail here)
+    import importlib
+
+    mod = importlib.import_module("harness.avoid.repair")
+    monkeypatch.setattr(mod, "_smallest_offset", lambda spline, *_: (spline, None))
+    x = np.linspace(0.0, 4.0, 5)
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (5, 1)), np.stack([x, 0 * x, 0 * x], 1))
+    with pytest.raises(RepairError, match=r"between the keyframes \(at t = 2 and 3\)") as e:
+        repair(m, Box([0.2, 0.1, 0.05]), [Box([0.05] * 3, center=[2.5, 0, 0])])
+    assert e.value.obstacles == (0,)

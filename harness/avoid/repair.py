@@ -601,9 +601,15 @@ def repair(
                 best = (trial, spline_try, new_delta)
         if best is None:
             owners = sorted({int(x) for x in cons.owner} | {int(x) for x in dm.obstacle_owner[o]})
+            # the keyframe intervals that hold this round's close poses
+            k = np.unique(
+                np.clip(np.searchsorted(anchors, t, side="right") - 1, 0, anchors.size - 2)
+            )
+            where = ", ".join(f"{anchors[i]:.6g} and {anchors[i + 1]:.6g}" for i in k[:3])
             raise RepairError(
-                f"Cannot repair: the search found no offset between the keyframes that keeps"
-                f" the body {target:.3g} from obstacle(s) {', '.join(map(str, owners))} (with up"
+                f"Cannot repair: the search found no offset between the keyframes (at t ="
+                f" {where}{', ...' if k.size > 3 else ''}) that keeps the body {target:.3g}"
+                f" from obstacle(s) {', '.join(map(str, owners))} (with up"
                 f" to {MAX_KNOTS} knots between two keyframes). Its cuts are sufficient"
                 " conditions linearised at the close poses, so an offset may still exist (a"
                 " narrow way between obstacles, keyframes close to them); this is not a proof"
