@@ -601,9 +601,10 @@ def repair(
                 best = (trial, spline_try, new_delta)
         if best is None:
             owners = sorted({int(x) for x in cons.owner} | {int(x) for x in dm.obstacle_owner[o]})
-            # the keyframe intervals that hold this round's close poses
+            # the keyframe intervals that hold this round's close poses (or the cuts')
+            tt = t if t.size else np.asarray(cons.t, dtype=float)
             k = np.unique(
-                np.clip(np.searchsorted(anchors, t, side="right") - 1, 0, anchors.size - 2)
+                np.clip(np.searchsorted(anchors, tt, side="right") - 1, 0, anchors.size - 2)
             )
             where = ", ".join(f"{anchors[i]:.6g} and {anchors[i + 1]:.6g}" for i in k[:3])
             raise RepairError(
