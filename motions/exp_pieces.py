@@ -136,11 +136,11 @@ def spline_cubic(spline: BSpline, breaks: np.ndarray) -> tuple[np.ndarray, np.nd
     if c.ndim == 1:
         c = c[:, None]
     k = spline.k
-    if k > 3:
-        raise ValueError(f"Expected a spline of degree at most 3, got {k}.")
-    err = bspline_bezier_error(spline.t, c, k, breaks)  # γ_10k of the span's largest
-    if k < 3:  # and γ_3 more for the elevation
-        err = err * (gamma(10 * k + 3) / gamma(10 * k)) if k else gamma(3) * np.abs(c).max()
+    if not 1 <= k <= 3:
+        raise ValueError(f"Expected a spline of degree 1 to 3, got {k}.")
+    err = bspline_bezier_error(spline.t, c, k, breaks)  # γ_10k C, C the span's largest
+    if k < 3:  # the elevation's convex combinations: γ_3 C more
+        err = err * (gamma(10 * k + 3) / gamma(10 * k))
     return elevate_to_cubic(bspline_bezier_pieces(spline.t, c, k, breaks)), err
 
 
@@ -157,6 +157,7 @@ def assemble(
     `origin_error` a scalar or (P,); `screw`: (θ (P,), c1 (P, 3), c2 (P, 3)), default
     none."""
     n = len(breaks) - 1
+    theta, c1, c2 = (np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3))) if screw is None else screw
     om = np.zeros((n, 3, 3))
     om[:, : omega.shape[1]] = omega
     ff = np.zeros((n, 3, 4))
@@ -168,8 +169,8 @@ def assemble(
         omega=om,
         f=ff,
         origin=np.ascontiguousarray(origin, dtype=float),
-        theta=np.zeros(n) if screw is None else np.asarray(screw[0], dtype=float).reshape(n),
-        c1=np.zeros((n, 3)) if screw is None else np.asarray(screw[1], dtype=float).reshape(n, 3),
-        c2=np.zeros((n, 3)) if screw is None else np.asarray(screw[2], dtype=float).reshape(n, 3),
+        theta=np.asarray(theta, dtype=float).reshape(n),
+        c1=np.asarray(c1, dtype=float).reshape(n, 3),
+        c2=np.asarray(c2, dtype=float).reshape(n, 3),
         origin_error=np.broadcast_to(np.asarray(origin_error, dtype=float), (n,)).copy(),
     )

@@ -20,6 +20,8 @@ from harness.certification.tables import ShapeTable
 from harness.mjdistance import MujocoDistance
 from motions.demo import demo_keyframes
 
+from .exact import add, fr, frvec, kinematic_image, matvec, scale
+
 KERNEL_MODULES = (
     "harness.certification._refine_kernels",
     "harness.certification._advance_kernels",
@@ -216,10 +218,10 @@ def test_exp_pose_error_bound_covers_the_kernels_rounding(device, scheme):
     cases = [(1.0, 0.3), (1e4, 1.0), (1e4, 0.3)]
     if scheme == "sclerp":
         cases += [(1e4, 1e-11), (1e4, 1e-7), (1e2, 1e-5)]
-    for scale, turn in cases if scheme != "extreme" else []:
+    for size, turn in cases if scheme != "extreme" else []:
         for _ in range(4):
             q = motions.sign_continuity(rng.normal(size=(5, 4)) * turn + [1, 0, 0, 0])
-            p = np.cumsum(rng.normal(size=(5, 3)), axis=0) * scale
+            p = np.cumsum(rng.normal(size=(5, 3)), axis=0) * size
             try:
                 m = motions.build(scheme, q, p)
             except motions.MotionError:
@@ -255,10 +257,10 @@ def test_exp_pieces_origin_error_bounds_the_origins_rounding(scheme):
 
     rng = np.random.default_rng(3)
     worst = 0.0
-    for scale, off in ((1.0, 0.0), (1e4, 0.0), (1.0, 1e6)):
+    for size, off in ((1.0, 0.0), (1e4, 0.0), (1.0, 1e6)):
         q = motions.sign_continuity(rng.normal(size=(6, 4)) * 0.3 + [1, 0, 0, 0])
         try:
-            m = motions.build(scheme, q, np.cumsum(rng.normal(size=(6, 3)), 0) * scale + off)
+            m = motions.build(scheme, q, np.cumsum(rng.normal(size=(6, 3)), 0) * size + off)
         except motions.MotionError:  # (the cumulative solve refuses some keyframe sets)
             continue
         ep = m.exp_pieces()
@@ -269,24 +271,11 @@ def test_exp_pieces_origin_error_bounds_the_origins_rounding(scheme):
         )
         for i in range(len(ep)):
             if scheme == "sclerp":
-                w, x, y, z = (Fr(c) for c in m._q[i])
-                n2 = w * w + x * x + y * y + z * z
-                r = [
-                    [w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                    [2 * (x * y + w * z), w * w - x * x + y * y - z * z, 2 * (y * z - w * x)],
-                    [2 * (x * z - w * y), 2 * (y * z + w * x), w * w - x * x - y * y + z * z],
-                ]
-                v = [
-                    Fr(m._d[i]) * Fr(a) + Fr(s)
-                    for a, s in zip(m._axis[i], m._slide[i], strict=True)
-                ]
-                step = [sum(r[a][b] * v[b] for b in range(3)) / n2 for a in range(3)]
-                start = [Fr(x) for x in m._p[i]]
-                line = [start, [a + b for a, b in zip(start, step, strict=True)]]
-                exact = [
-                    [line[0][c] * Fr(3 - j, 3) + line[1][c] * Fr(j, 3) for c in range(3)]
-                    for j in range(4)
-                ]
+                u, n2 = kinematic_image(frvec(m._q[i]))  # R_i = U / n2, exactly
+                v = add(scale(fr(m._d[i]), frvec(m._axis[i])), frvec(m._slide[i]))
+                start = frvec(m._p[i])
+                end = add(start, scale(1 / n2, matvec(u, v)))
+                exact = [add(scale(Fr(3 - j, 3), start), scale(Fr(j, 3), end)) for j in range(4)]
             else:
                 sp = m._origin
                 exact = _blossom_cubic(sp.t, np.asarray(sp.c), sp.k, ep.t0[i], ep.t1[i])

@@ -16,7 +16,16 @@ from __future__ import annotations
 import warp as wp
 
 from ._geometry import F0, F1, HUGE, Shape, _core_radius, _gjk, _probed_hi
-from ._refine_kernels import GAMMA_C, R_BUDGET, R_DEPTH, R_TOL, UNIT, _images, _prepare
+from ._refine_kernels import (
+    GAMMA_C,
+    R_BUDGET,
+    R_DEPTH,
+    R_TOL,
+    UNIT,
+    _absmax,
+    _images,
+    _prepare,
+)
 from .device import kernel_module_options
 
 # the refinement's compiler flags (device.CPU_FLAGS), so that the competitors compare at
@@ -27,6 +36,11 @@ wp.set_module_options(kernel_module_options())
 
 
 GAMMA_128 = wp.constant(wp.float64(128.0 * 2.0**-53 / (1.0 - 128.0 * 2.0**-53)))
+
+
+@wp.func
+def _absmax4(v: wp.vec4d) -> wp.float64:
+    return wp.max(wp.max(wp.abs(v[0]), wp.abs(v[1])), wp.max(wp.abs(v[2]), wp.abs(v[3])))
 
 
 @wp.func
@@ -103,7 +117,7 @@ def _exp_pose(
         fj = wp.dot(fc, b)
         om = wp.vec3d(m0[j + 1, 0], m0[j + 1, 1], m0[j + 1, 2])
         lo = wp.length(om)
-        x = wp.max(wp.max(wp.abs(fc[0]), wp.abs(fc[1])), wp.max(wp.abs(fc[2]), wp.abs(fc[3]))) * lo
+        x = _absmax4(fc) * lo
         e_r = e_r + F1 + wp.float64(2.0) * (x + lo) + x * x
         q = _qmul_exp(q, fj * om)
     g = F1 / wp.sqrt(wp.dot(q, q))
@@ -137,14 +151,9 @@ def _exp_pose(
         out[i, 2] = r[i, 2]
         pc = wp.vec4d(mp[i, 0], mp[i, 1], mp[i, 2], mp[i, 3])
         out[i, 3] = wp.dot(pc, b) + screw[i]
-        pmax = wp.max(
-            pmax, wp.max(wp.max(wp.abs(pc[0]), wp.abs(pc[1])), wp.max(wp.abs(pc[2]), wp.abs(pc[3])))
-        )
+        pmax = wp.max(pmax, _absmax4(pc))
     out[3, 3] = F1
-    mc = wp.max(
-        wp.max(wp.max(wp.abs(c1[0]), wp.abs(c1[1])), wp.max(wp.abs(c1[2]), wp.abs(c2[0]))),
-        wp.max(wp.abs(c2[1]), wp.abs(c2[2])),
-    )
+    mc = wp.max(_absmax(c1), _absmax(c2))
     ap = wp.abs(phi)
     ash = wp.abs(sh)
     e_p = pmax + mc * (ash * ap + wp.float64(3.0) * sh * sh + ap + two * wp.abs(sp))

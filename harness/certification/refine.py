@@ -239,9 +239,8 @@ def reach_extent(m: RationalMotion) -> tuple | None:
     """Where the motion can carry points near the body origin: (lo, hi, scale, err) with
     every point within rho of the body origin, over the whole motion, inside the box
     ``[lo - rho scale - err, hi + rho scale + err]`` (scale (3,): per coordinate; the
-    union of its pieces' reach,
-    :func:`piece_reach`, with the largest scale and err: looser than piece by piece, still
-    a bound), before its comparison's roundings (GAMMA_C of the sizes, as the kernels
+    union of its pieces' reach, :func:`piece_reach`, with the largest scale and err:
+    looser than piece by piece, still a bound), before its comparison's roundings (GAMMA_C of the sizes, as the kernels
     add); None where a piece's weights are not provably positive. Cached on the motion."""
     ext = getattr(m, "_certify_extent", None)
     if ext is None:
