@@ -282,8 +282,8 @@ def test_a_small_body_just_beyond_a_keyframe_margin_is_not_moved_by_hundreds_of_
     # keyframe ask for about the sideways push (0.108 against 0.112), in directions that
     # change from pose to pose, and taking them wherever they were cheaper gave a
     # refusal (0.1 mm beyond the margin) and a path moved by 447 m (1 mm), a new user
-    # found. Still metres (2.7-2.9 m) where going round takes ~0.2 m: the offset is the
-    # smallest meeting the cuts, not the smallest detour.
+    # found. It then moved the path 2.7-2.9 m, where going round takes ~0.2 m: the cuts
+    # chosen in the first round stayed; re-cut at the repaired path they give 0.27-0.48 m.
     body = Box([0.05] * 3)
     x = np.linspace(0.0, 4.0, 5)
     m = motions.interpolate(np.tile([1.0, 0, 0, 0], (5, 1)), np.stack([x, 0 * x, 0 * x], 1))
@@ -292,7 +292,7 @@ def test_a_small_body_just_beyond_a_keyframe_margin_is_not_moved_by_hundreds_of_
     case.obstacles = [Box([0.05] * 3, center=[1.0 + 0.05 + gap + 0.05, 0, 0])]
     r = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01)
     check_repaired(case, r, 0.01)
-    assert r.moved.max_deviation < 5.0
+    assert r.moved.max_deviation < 0.6
 
 
 @pytest.mark.parametrize("dx", [0.2, 0.4])
@@ -311,6 +311,25 @@ def test_two_cubes_on_either_side_of_the_path_are_passed_over(dx):
     r = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01)
     check_repaired(case, r, 0.01)
     assert r.moved.max_deviation < 0.6
+
+
+def test_two_staggered_posts_are_passed_on_one_side():
+    # Two tall posts, one either side of the path and 0.4 m apart, each 5 cm from the
+    # body at a keyframe pose: the 0.4 m body cannot weave between them and must pass
+    # both on one side (~0.21 m). The first round's cuts are taken where the path runs
+    # through them; kept, they cost 3.59 m (1.12 m before the per-pose cuts). Cut again
+    # at the repaired path, 0.52 m.
+    body = Box([0.2, 0.1, 0.05])
+    x = np.linspace(0.0, 4.0, 5)
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (5, 1)), np.stack([x, 0 * x, 0 * x], 1))
+    case = type("Case", (), {"motion": m, "body": body})()
+    case.obstacles = [
+        Box([0.05, 0.05, 1.0], center=[1.3, 0.05, 0]),
+        Box([0.05, 0.05, 1.0], center=[1.7, -0.05, 0]),
+    ]
+    r = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01)
+    check_repaired(case, r, 0.01)
+    assert r.moved.max_deviation < 0.8
 
 
 def test_a_keyframe_pose_inside_the_repairs_margin_is_refused():

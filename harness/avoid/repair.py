@@ -23,9 +23,15 @@ Each iteration:
    smallest offset is kept.
 
 When the programme is infeasible the offset gets more knots between the keyframes that
-bound the trouble; a keyframe pose closer to an obstacle than the clearance cannot be
-kept, and the repair refuses it up front (:class:`RepairError` names the obstacle), as it
-does a keyframe pose closer than the cuts' target (:func:`keyframe_margin`).
+bound the trouble. A round's choice stays with its cuts, and cuts linearised where the
+path ran into an obstacle can hold a repair metres out (two staggered posts: 3.59 m);
+once a repair is certified, every close pose met so far is cut anew at the repaired
+path, along the exact direction there (the way it found around), and the programme
+solved again, for as long as the detour shrinks by 5 % (at most :data:`POLISH_ROUNDS`
+rounds; each new motion is certified as the first was). A keyframe pose closer to an
+obstacle than the clearance cannot be kept, and the repair refuses it up front
+(:class:`RepairError` names the obstacle), as it does a keyframe pose closer than the
+cuts' target (:func:`keyframe_margin`).
 """
 
 from __future__ import annotations
@@ -115,7 +121,8 @@ class Repair:
         clearance: the certified bracket of its minimum distance; ``clearance.lower`` is at
             least the requested clearance (the proof of the margin).
         moved: what changed, and by how much.
-        iterations: certify-and-move rounds (0 when the input was already clear).
+        iterations: certify-and-move rounds until this motion was found, those that
+            shrank a found repair's detour included (0 when the input was already clear).
         seconds: wall time.
     """
 
@@ -237,21 +244,33 @@ def least_distance(g: np.ndarray, h: np.ndarray) -> np.ndarray | None:
 
 @dataclass
 class _Constraints:
-    """Accumulated cuts ``n_i · Δ(t_i) >= rhs_i`` with the obstacle of each."""
+    """Accumulated cuts ``n_i · Δ(t_i) >= rhs_i``, each with its (body part, obstacle
+    part) pair and the obstacle owning that part."""
 
     t: list = field(default_factory=list)
     n: list = field(default_factory=list)
     rhs: list = field(default_factory=list)
     owner: list = field(default_factory=list)
+    pair: list = field(default_factory=list)
 
-    def add(self, t, n, rhs, owner) -> None:
+    def add(self, t, n, rhs, owner, pair) -> None:
         self.t.extend(t)
         self.n.extend(n)
         self.rhs.extend(rhs)
         self.owner.extend(owner)
+        self.pair.extend(pair)
 
     def copy(self) -> _Constraints:
-        return _Constraints(list(self.t), list(self.n), list(self.rhs), list(self.owner))
+        return _Constraints(*(list(x) for x in (self.t, self.n, self.rhs, self.owner, self.pair)))
+
+    def since(self, start: int) -> _Constraints:
+        """The cuts added after the first `start`."""
+        return _Constraints(*(x[start:] for x in (self.t, self.n, self.rhs, self.owner, self.pair)))
+
+    def merged(self, other: _Constraints) -> _Constraints:
+        out = self.copy()
+        out.add(other.t, other.n, other.rhs, other.owner, other.pair)
+        return out
 
     def arrays(self):
         return np.array(self.t), np.array(self.n).reshape(-1, 3), np.array(self.rhs)
@@ -471,11 +490,138 @@ def _refine(
 
 
 # ----------------------------------------------------------------------------- the repair
+POLISH_ROUNDS = 8
+"""Certify-and-move rounds a found repair may spend shrinking its detour (:func:`repair`)."""
+SHRINK = 0.95
+"""A polished offset is tried only while its deviation is below this share of the best
+repair's."""
+DEVIATION_GRID = 4001
+"""Times on which ``max_t |Δ(t)|`` is evaluated (:attr:`Moved.max_deviation`)."""
+
+
+def _deviation(spline: OffsetSpline, delta: np.ndarray) -> float:
+    """``max_t |Δ(t)|`` on :data:`DEVIATION_GRID` times of the domain."""
+    t = np.linspace(spline.knots[0], spline.knots[-1], DEVIATION_GRID)
+    return float(np.linalg.norm(spline.basis(t) @ delta, axis=1).max())
+
+
+@dataclass(frozen=True)
+class _Found:
+    """A certified repair: its motion, proofs, offset and the rounds it took."""
+
+    motion: RationalMotion
+    certificate: Certificate
+    clearance: Clearance
+    spline: OffsetSpline
+    delta: np.ndarray
+    iterations: int
+
+    @property
+    def deviation(self) -> float:
+        return _deviation(self.spline, self.delta)
+
+
+@dataclass(frozen=True)
+class _Search:
+    """A repair's close-pose search and moves (what stays fixed over its rounds)."""
+
+    dm: DistanceModel
+    anchors: np.ndarray
+    radius: float
+    step: float
+    target: float
+
+    def close_poses(self, current: RationalMotion, boost: float, witness: float) -> tuple:
+        """:func:`_close_poses` of `current` within the cuts' reach (the closest
+        :data:`MAX_CONSTRAINTS`): times, distances, directions, body and obstacle parts."""
+        reach = self.target + boost + self.step
+        t, d, n, b, o = _close_poses(current, self.dm, self.radius, reach, self.step, witness)
+        if t.size > MAX_CONSTRAINTS:
+            keep = np.argsort(d)[:MAX_CONSTRAINTS]
+            t, d, n, b, o = t[keep], d[keep], n[keep], b[keep], o[keep]
+        return t, d, n, b, o
+
+    def move(self, current, close, boost, cons, spline, delta) -> tuple | None:
+        """`cons` with cuts at the `close` poses of `current` (offset `delta` on `spline`)
+        along the choice (:func:`_cut_choices`) whose smallest offset is smallest:
+        (constraints, spline, offset), or None when no choice has an offset."""
+        t, d, n, b, o = close
+        goal = self.target + boost
+        now = spline.basis(t) @ delta  # Δ_now at the close poses
+        pairs = list(zip(b.tolist(), o.tolist(), strict=True))
+        best = None
+        for dd, nn in _cut_choices(current, self.dm, t, d, n, b, o, goal):
+            trial = cons.copy()
+            rhs = goal - dd + np.einsum("mi,mi->m", nn, now)
+            trial.add(t, nn, rhs, self.dm.obstacle_owner[o], pairs)
+            spline_try, new_delta = _smallest_offset(spline, trial, self.anchors, t)
+            if new_delta is not None and (
+                best is None or np.abs(new_delta).max() < np.abs(best[2]).max()
+            ):
+                best = (trial, spline_try, new_delta)
+        return best
+
+    def relinearised(self, found: _Found, seen: _Constraints) -> _Constraints:
+        """A cut at every pose of `seen`, linearised at the `found` repair's path: along
+        the exact direction there, with the distance taken as :func:`_cut_choices` takes
+        it (each is a lower bound of the distance wherever the offset goes)."""
+        out = _Constraints()
+        if not seen.t:
+            return out
+        # the poses whose cuts bind the most at the found offset (the smallest slack),
+        # each once, at most MAX_CONSTRAINTS of them
+        t_all, n_all, rhs = seen.arrays()
+        slack = np.einsum("mi,mi->m", n_all, found.spline.basis(t_all) @ found.delta) - rhs
+        key, at = np.unique(
+            np.column_stack([t_all, np.reshape(seen.pair, (-1, 2))]), axis=0, return_inverse=True
+        )
+        least = np.full(len(key), np.inf)
+        np.minimum.at(least, at.reshape(-1), slack)
+        key = key[np.argsort(least, kind="stable")[:MAX_CONSTRAINTS]]
+        t, b, o = key[:, 0], key[:, 1].astype(np.int64), key[:, 2].astype(np.int64)
+        times, at = np.unique(t, return_inverse=True)
+        r, p = found.motion.pose(times)
+        d, n = np.empty(len(t)), np.empty((len(t), 3))
+        for i in range(0, len(times), MAX_GRID):  # (the search's bound on one evaluation)
+            sel = (at >= i) & (at < i + MAX_GRID)
+            dist, dirs = self.dm.to_obstacles(r[i : i + MAX_GRID], p[i : i + MAX_GRID])
+            d[sel], n[sel] = dist[at[sel] - i, b[sel], o[sel]], dirs[at[sel] - i, b[sel], o[sel]]
+        ok = np.isfinite(n[:, 0])
+        t, d, n, b, o, at = t[ok], d[ok], n[ok], b[ok], o[ok], at[ok]
+        d = np.minimum(d, _separation(self.dm, r[at], p[at], n, b, o))
+        now = found.spline.basis(t) @ found.delta
+        rhs = self.target - d + np.einsum("mi,mi->m", n, now)
+        out.add(
+            t, n, rhs, self.dm.obstacle_owner[o], list(zip(b.tolist(), o.tolist(), strict=True))
+        )
+        return out
+
+
+def _no_offset(dm: DistanceModel, anchors, target: float, cons, close) -> RepairError:
+    """The refusal when no choice of cuts has an offset."""
+    t, o = close[0], close[4]
+    owners = sorted({int(x) for x in cons.owner} | {int(x) for x in dm.obstacle_owner[o]})
+    # the keyframe intervals that hold this round's close poses (or the cuts')
+    tt = t if t.size else np.asarray(cons.t, dtype=float)
+    k = np.unique(np.clip(np.searchsorted(anchors, tt, side="right") - 1, 0, anchors.size - 2))
+    where = ", ".join(f"{anchors[i]:.6g} and {anchors[i + 1]:.6g}" for i in k[:3])
+    return RepairError(
+        f"Cannot repair: the search found no offset between the keyframes (at t ="
+        f" {where}{', ...' if k.size > 3 else ''}) that keeps the body {target:.3g}"
+        f" from obstacle(s) {', '.join(map(str, owners))} (with up"
+        f" to {MAX_KNOTS} knots between two keyframes). Its cuts are sufficient"
+        " conditions linearised at the close poses, so an offset may still exist (a"
+        " narrow way between obstacles, keyframes close to them); this is not a proof"
+        " that none does.",
+        tuple(owners),
+    )
+
+
 def _moved(motion, new, spline, delta, anchors) -> Moved:
     norms = np.linalg.norm(delta, axis=1) if delta is not None else np.zeros(0)
     scale = 1.0 + np.abs(motion.pose(anchors)[1]).max()
     live = norms > 1e-12 * scale
-    t = np.linspace(*motion.domain, 4001)
+    t = np.linspace(*motion.domain, DEVIATION_GRID)
     dev = 0.0
     kdev = 0.0
     if delta is not None:
@@ -563,75 +709,77 @@ def repair(
             time.perf_counter() - start,
         )
     _check_keyframes(motion, dm, anchors, c, tol, obst)
-    radius = body.bounding_radius
     # the search grid's points are `step` of body travel apart, so between two of them a
     # distance dips by at most step / 2 below theirs: cuts ask for that much more, plus
     # 1.5 tolerances so that a bracket of width `tol` proves the clearance
     step = tol
     target = keyframe_margin(c, tol)  # = c + 1.5 tol + step / 2
+    search = _Search(dm, anchors, body.bounding_radius, step, target)
     cons = _Constraints()
     spline = OffsetSpline.on(anchors[1:-1], motion.domain, anchors)
     delta = np.zeros((spline.size, 3))
     current = motion
     boost = 0.0
+    found = None
     for it in range(1, max_iterations + 1):
-        t, d, n, b, o = _close_poses(current, dm, radius, target + boost + step, step, cl.time)
-        if t.size > MAX_CONSTRAINTS:
-            keep = np.argsort(d)[:MAX_CONSTRAINTS]
-            t, d, n, b, o = t[keep], d[keep], n[keep], b[keep], o[keep]
-        if not t.size:
+        close = search.close_poses(current, boost, cl.time)
+        if not close[0].size:
             # the grid saw no close pose but the certifier is not satisfied: ask for more
             # room where the certifier's bracket is tightest
             boost += tol
             if not cons.t:
                 break
-        # the cuts along the exact directions, and (where the path runs into an obstacle)
-        # along the common sideways ones: the choice whose smallest offset is smaller
-        now = spline.basis(t) @ delta  # Δ_now at the close poses
-        best = None
-        for dd, nn in _cut_choices(current, dm, t, d, n, b, o, target + boost):
-            trial = cons.copy()
-            trial.add(
-                t, nn, target + boost - dd + np.einsum("mi,mi->m", nn, now), dm.obstacle_owner[o]
-            )
-            spline_try, new_delta = _smallest_offset(spline, trial, anchors, t)
-            if new_delta is not None and (
-                best is None or np.abs(new_delta).max() < np.abs(best[2]).max()
-            ):
-                best = (trial, spline_try, new_delta)
+        best = search.move(current, close, boost, cons, spline, delta)
         if best is None:
-            owners = sorted({int(x) for x in cons.owner} | {int(x) for x in dm.obstacle_owner[o]})
-            # the keyframe intervals that hold this round's close poses (or the cuts')
-            tt = t if t.size else np.asarray(cons.t, dtype=float)
-            k = np.unique(
-                np.clip(np.searchsorted(anchors, tt, side="right") - 1, 0, anchors.size - 2)
-            )
-            where = ", ".join(f"{anchors[i]:.6g} and {anchors[i + 1]:.6g}" for i in k[:3])
-            raise RepairError(
-                f"Cannot repair: the search found no offset between the keyframes (at t ="
-                f" {where}{', ...' if k.size > 3 else ''}) that keeps the body {target:.3g}"
-                f" from obstacle(s) {', '.join(map(str, owners))} (with up"
-                f" to {MAX_KNOTS} knots between two keyframes). Its cuts are sufficient"
-                " conditions linearised at the close poses, so an offset may still exist (a"
-                " narrow way between obstacles, keyframes close to them); this is not a proof"
-                " that none does.",
-                tuple(owners),
-            )
+            raise _no_offset(dm, anchors, target, cons, close)
         cons, spline, delta = best
         current = offset_motion(motion, spline, delta)
         ok, cl, cert = proven(current)
         if ok:
-            return Repair(
-                current,
-                cert,
-                cl,
-                _moved(motion, current, spline, delta, anchors),
-                it,
-                time.perf_counter() - start,
-            )
-    owners = sorted({int(x) for x in cons.owner}) or list(range(len(obst)))
-    raise RepairError(
-        f"Cannot repair within `max_iterations` = {max_iterations}: the certified clearance is"
-        f" {cl.lower:.3g} < {c:.3g} near t = {cl.time:.6g} (obstacles{owners}).",
-        tuple(owners),
+            found = _Found(current, cert, cl, spline, delta, it)
+            break
+    if found is None:
+        owners = sorted({int(x) for x in cons.owner}) or list(range(len(obst)))
+        raise RepairError(
+            f"Cannot repair within `max_iterations` = {max_iterations}: the certified"
+            f" clearance is {cl.lower:.3g} < {c:.3g} near t = {cl.time:.6g}"
+            f" (obstacles{owners}).",
+            tuple(owners),
+        )
+    # polishing: the cuts were linearised where the path was, and a round's choice stays
+    # with its cuts; cut every pose met so far anew where the repaired path runs (along
+    # the exact directions there: the way it found around) and solve again while the
+    # detour shrinks (two posts staggered across the path: 3.59 -> 0.52 m)
+    seen = cons
+    rounds = 0
+    while rounds < POLISH_ROUNDS:
+        cons = search.relinearised(found, seen)
+        spline, delta = found.spline, _solve(found.spline, cons)
+        better = None
+        while delta is not None and _deviation(spline, delta) < SHRINK * found.deviation:
+            rounds += 1
+            current = offset_motion(motion, spline, delta)
+            ok, cl, cert = proven(current)
+            if ok:
+                better = _Found(current, cert, cl, spline, delta, it + rounds)
+                break
+            close = search.close_poses(current, 0.0, cl.time)
+            if rounds >= POLISH_ROUNDS or not close[0].size:
+                break
+            old = len(cons.t)
+            moved = search.move(current, close, 0.0, cons, spline, delta)
+            if moved is None:
+                break
+            cons, spline, delta = moved
+            seen = seen.merged(cons.since(old))
+        if better is None:
+            break
+        found = better
+    return Repair(
+        found.motion,
+        found.certificate,
+        found.clearance,
+        _moved(motion, found.motion, found.spline, found.delta, anchors),
+        found.iterations,
+        time.perf_counter() - start,
     )
