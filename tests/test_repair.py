@@ -16,7 +16,8 @@ import harness
 import motions
 from harness import Box, RepairError, Sphere, certify_many, ground_truth, repair
 from harness.avoid import colliding_cases, sampled_repair
-from harness.avoid.repair import keyframe_margin, least_distance
+from harness.avoid.cuts import least_distance
+from harness.avoid.repair import keyframe_margin
 
 CASES = 40
 TOL = 1e-3
@@ -91,8 +92,7 @@ def test_close_pose_search_is_bounded(colliding, monkeypatch):
 
     from harness.avoid import distance
 
-    # the module (harness.avoid.repair the attribute is the function of that name)
-    monkeypatch.setattr(importlib.import_module("harness.avoid.repair"), "MAX_GRID", 40)
+    monkeypatch.setattr(importlib.import_module("harness.avoid.cuts"), "MAX_GRID", 40)
     sizes = []
     to_obstacles = distance.DistanceModel.to_obstacles
 
@@ -330,6 +330,10 @@ def test_two_staggered_posts_are_passed_on_one_side():
     r = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01)
     check_repaired(case, r, 0.01)
     assert r.moved.max_deviation < 0.8
+    # the re-cutting rounds count against `max_iterations`, as the search's do
+    few = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01, max_iterations=4)
+    check_repaired(case, few, 0.01)
+    assert few.iterations <= 4
 
 
 def test_a_keyframe_pose_inside_the_repairs_margin_is_refused():
@@ -358,8 +362,8 @@ def test_cuts_at_penetrating_poses_are_lower_bounds():
     # the separation along n. Checked where the translated pose is separated, where
     # MuJoCo's distance is exact.
     from harness import Capsule
+    from harness.avoid.cuts import _separation
     from harness.avoid.distance import DistanceModel
-    from harness.avoid.repair import _separation
 
     rng = np.random.default_rng(0)
     body = Box([0.1, 0.05, 0.2], center=[0.05, 0.1, -0.1], rotation=[0.9, 0.2, 0.1, 0.3])
@@ -390,7 +394,7 @@ def test_a_refusal_names_the_keyframes_around_the_trouble(monkeypatch):
     # keyframe interval of the close poses (a search made to fail here)
     import importlib
 
-    mod = importlib.import_module("harness.avoid.repair")
+    mod = importlib.import_module("harness.avoid.cuts")
     monkeypatch.setattr(mod, "_smallest_offset", lambda spline, *_: (spline, None))
     x = np.linspace(0.0, 4.0, 5)
     m = motions.interpolate(np.tile([1.0, 0, 0, 0], (5, 1)), np.stack([x, 0 * x, 0 * x], 1))
