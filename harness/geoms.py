@@ -89,6 +89,8 @@ def _group_mask(groups: Any) -> np.ndarray | None:
     """(mjNGROUP,) True for the selected geom groups, or None for all."""
     if groups is None:
         return None
+    if isinstance(groups, np.ndarray) and groups.ndim == 0:
+        groups = groups.item()
     items = [groups] if isinstance(groups, int | np.integer) else groups
     ok = isinstance(items, Iterable) and not isinstance(items, str | bytes)
     items = list(items) if ok else []
@@ -105,6 +107,13 @@ def _group_mask(groups: Any) -> np.ndarray | None:
     mask = np.zeros(mujoco.mjNGROUP, dtype=bool)
     mask[np.asarray(items, dtype=int)] = True
     return mask
+
+
+def _selected(mask: np.ndarray, group: np.ndarray) -> np.ndarray:
+    """Which of the geom groups `group` the mask of :func:`_group_mask` selects (MuJoCo
+    accepts any integer group; those outside 0..mjNGROUP-1 are never selected)."""
+    inside = (group >= 0) & (group < mask.size)
+    return inside & mask[np.clip(group, 0, mask.size - 1)]
 
 
 def _name(model: mujoco.MjModel, kind: mujoco.mjtObj, i: int) -> str:
@@ -165,7 +174,7 @@ def subtree_geoms(model: mujoco.MjModel, body_id: int, groups: Any = None) -> np
     (only those in `groups`, MuJoCo geom groups, when given)."""
     geoms = np.flatnonzero(_subtree_mask(model, body_id)[model.geom_bodyid])
     mask = _group_mask(groups)
-    return geoms if mask is None else geoms[mask[model.geom_group[geoms]]]
+    return geoms if mask is None else geoms[_selected(mask, model.geom_group[geoms])]
 
 
 def reference_qpos(model: mujoco.MjModel) -> np.ndarray:
@@ -242,12 +251,15 @@ def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = Non
                 else " (nor have its child bodies)."
             )
         )
+    _refuse_flexes(model, bid, mocap_body)
     qpos = reference_qpos(model)
     held = held_joints(model, bid, qpos)
     source = "the first keyframe" if model.nkey else "qpos0"
     if held:
         warnings.warn(
-            f"Mocap body {mocap_body!r}: jointed children are certified held at {source}: {held}.",
+            f"Mocap body {mocap_body!r}: jointed children are certified held at {source}:"
+            f" {held}; other keyframes and a simulation may put them elsewhere, which the"
+            " certificate does not cover.",
             HeldJointsWarning,
             stacklevel=2,
         )
@@ -274,6 +286,22 @@ def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = Non
             )
         shapes.append(shape)
     return shapes[0] if len(shapes) == 1 else Compound(shapes)
+
+
+def _refuse_flexes(model: mujoco.MjModel, body_id: int, mocap_body: str) -> None:
+    """Raise for a flex (``<flex>``, ``<flexcomp>``) with vertices on the mocap body's
+    subtree: MuJoCo collides it (a pad's vertices with their radius), and a shape that
+    left it out certified a hand whose pad went 2 mm into a table (a hunt's case)."""
+    inside = _subtree_mask(model, body_id)
+    for f in range(model.nflex):
+        a, n = int(model.flex_vertadr[f]), int(model.flex_vertnum[f])
+        if inside[model.flex_vertbodyid[a : a + n]].any():
+            name = _name(model, mujoco.mjtObj.mjOBJ_FLEX, f)
+            raise UnsupportedGeomError(
+                f"Flex {name!r} has vertices on mocap body {mocap_body!r} or below it:"
+                " flexes have no shape here; model the part with geoms (boxes, capsules,"
+                " meshes) to certify it."
+            )
 
 
 def _geom(model: mujoco.MjModel, g: int) -> str:
@@ -315,7 +343,7 @@ def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
     static = _static_bodies(model)
     geoms = np.flatnonzero(static[model.geom_bodyid] & _colliding(model))
     mask = _group_mask(groups)
-    return geoms if mask is None else geoms[mask[model.geom_group[geoms]]]
+    return geoms if mask is None else geoms[_selected(mask, model.geom_group[geoms])]
 
 
 def obstacles_from_model(
@@ -335,6 +363,13 @@ def obstacles_from_model(
     _check_model(model)
     if isinstance(carried, str) or not isinstance(carried, Iterable):
         raise TypeError(f"Expected `carried` to be a list of body names, got {short(carried)}.")
+    carried = list(carried)
+    bodies = {_name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(model.nbody)}
+    for c in carried:
+        if not isinstance(c, str):
+            raise TypeError(f"Expected `carried` to hold body names, got {short(c)}.")
+        if c not in bodies:
+            raise ValueError(f"Expected `carried` to name bodies of the model, got {c!r}.")
     geoms = obstacle_geoms(model, groups)
     _warn_moving(model, groups, set(carried))
     out = []
@@ -388,7 +423,7 @@ def moving_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
     moving = ~_static_bodies(model)[body] & ~movers[body] & _colliding(model)
     mask = _group_mask(groups)
     if mask is not None:
-        moving &= mask[model.geom_group]
+        moving &= _selected(mask, model.geom_group)
     return np.flatnonzero(moving)
 
 
@@ -403,7 +438,9 @@ def _warn_moving(model: mujoco.MjModel, groups: Any, carried: set[str]) -> None:
     if names:
         warnings.warn(
             f"{sum(b in names for b in bodies)} colliding geom(s) on bodies that joints move"
-            f" are not obstacles (a query sees the scene without them): bodies {names}.",
+            f" are not obstacles, nor part of any mocap body's certified shape (a query sees"
+            f" the scene without them; a tool welded to the mover is certified only as a"
+            f" child body of it): bodies {names}.",
             MovingGeomsWarning,
             stacklevel=3,
         )

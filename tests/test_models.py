@@ -455,6 +455,50 @@ def test_a_plane_on_the_moving_body_is_refused():
         body_from_model(model, "blade")
 
 
+@pytest.mark.parametrize("rigid", ["true", "false"])
+def test_a_flex_on_the_moving_body_is_refused(rigid):
+    # a flexcomp pad under the palm is collision geometry to MuJoCo (its vertices with
+    # their radius): left out, a hand whose pad went 2 mm into a table was certified free
+    edge = '<edge equality="true"/>' if rigid == "false" else ""
+    xml = f"""<mujoco><worldbody>
+    <geom name="table" type="box" size="0.5 0.5 0.02" pos="0 0 -0.02"/>
+    <body name="hand" mocap="true" pos="0 0 0.3"><geom name="palm" type="box" size=".03 .03 .01"/>
+      <flexcomp name="pad" type="grid" count="3 3 1" spacing=".02 .02 .02" pos="0 0 -0.04"
+        radius="0.004" dim="2" rigid="{rigid}">{edge}</flexcomp>
+    </body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HeldJointsWarning)
+        with pytest.raises(harness.errors.UnsupportedGeomError, match=r"Flex 'pad' .*'hand'"):
+            body_from_model(model, "hand")
+
+
+def test_geom_groups_outside_mujocos_six_are_never_selected():
+    # MuJoCo takes any integer group: group 7 made `groups=` raise IndexError from numpy,
+    # and group -1 wrapped round to be selected by groups=[5]
+    for group, selected in ((7, False), (-1, False), (5, True)):
+        xml = f"""<mujoco><worldbody><geom name="table" type="box" size="1 1 .1" group="{group}"/>
+        <body name="hand" mocap="true" pos="0 0 1"><geom name="palm" type="box" size=".1 .1 .1"/>
+        <geom name="tip" type="sphere" size=".02" pos="0 0 -.2" group="{group}"/></body>
+        </worldbody></mujoco>"""
+        model = mujoco.MjModel.from_xml_string(xml)
+        obst = obstacles_from_model(model, groups=[5])
+        assert len(obst) == int(selected)
+        if selected:
+            assert body_from_model(model, "hand", groups=np.array(5)).kind == "sphere"
+        else:
+            with pytest.raises(harness.HarnessError, match="no geoms to certify"):
+                body_from_model(model, "hand", groups=[5])
+
+
+def test_carried_names_bodies_of_the_model():
+    sc, _ = _gripper()
+    with pytest.raises(ValueError, match=r"`carried` to name bodies .* 'no_such_body'"):
+        obstacles_from_model(sc.model, carried=["no_such_body"])
+    with pytest.raises(TypeError, match="`carried` to hold body names, got 1"):
+        obstacles_from_model(sc.model, carried=[1])
+
+
 def test_a_static_geom_reached_only_through_a_contact_pair_is_an_obstacle():
     # an adversarial hunt: DESIGN §5 asks for explicit pairs between a mocap body and
     # static geometry, but a table with contype = conaffinity = 0 named only in a pair was
