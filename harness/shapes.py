@@ -27,6 +27,7 @@ __all__ = [
     "HULL_SLACK",
     "KIND",
     "MAX_LENGTH",
+    "MIN_LENGTH",
     "Box",
     "Capsule",
     "Compound",
@@ -57,6 +58,13 @@ L < ~1e77. Beyond that, a 1e77 body that held a wall at every pose was `free` by
 centred at 1e300 made numpy warn of an overflow (its bounding radius); and a bounding
 radius computed without overflow made clearance's proven lower bound inf, the kernels'
 sums overflowing. 1e75 leaves the motion's reach and the bounding radii a factor ~100."""
+
+
+MIN_LENGTH = 1e-75
+"""Smallest size of a shape (a radius, a half-extent, a mesh's extent): the mirror of
+:data:`MAX_LENGTH`. A scene scaled down to 1e-165 got `collision` at a pose 0.75 of its
+size clear from ``lipschitz`` and ``sampled`` (an adversarial hunt): GJK's squared lengths
+underflowed to 0, which reads as touching."""
 
 
 def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
@@ -122,6 +130,11 @@ def _positive(x: Any, name: str, shape: tuple = ()) -> np.ndarray:
         raise ShapeError(f"Expected `{name}` to have shape {shape}, got {a.shape}.")
     if np.any(a <= 0):
         raise ShapeError(f"Expected `{name}` to be > 0, got {short(a)}.")
+    if np.any(a < MIN_LENGTH):
+        raise ShapeError(
+            f"Expected `{name}` to be at least {MIN_LENGTH:g} (smaller sizes underflow when"
+            f" squared), got {short(a)}."
+        )
     return a
 
 
@@ -381,6 +394,12 @@ class ConvexMesh(Shape):
         if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
             raise ShapeError(
                 f"Expected `vertices` to have shape (V, 3) with V >= 1, got {v.shape}."
+            )
+        extent = float(np.ptp(v, axis=0).max())
+        if extent < MIN_LENGTH:
+            raise ShapeError(
+                f"Expected `vertices` to span at least {MIN_LENGTH:g} (smaller sizes underflow"
+                f" when squared), got an extent of {extent:g}."
             )
         object.__setattr__(self, "vertices_", hull_vertices(v))
         object.__setattr__(self, "input_count", int(v.shape[0]))

@@ -166,6 +166,15 @@ class RationalMotion(Motion):
         self._u0c = None
         if preimage is None and ctrl is None:
             raise MotionError("A RationalMotion needs preimage pieces or control matrices.")
+        given = (breaks, preimage, origin, numerator, ctrl, self._piece_error)
+        if not all(np.isfinite(x).all() for x in given if x is not None):
+            # (a builder's arithmetic overflowed: hermite of keyframes 1e200 apart, 1e-300
+            # apart in time, built a motion whose every pose was NaN)
+            raise ValueError(
+                "Expected a motion with finite Bézier pieces, got NaN or infinite ones: its"
+                " times are too close or its positions too far apart for double precision;"
+                " rescale them."
+            )
 
     # ------------------------------------------------------------------ construction
     @classmethod

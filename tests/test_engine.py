@@ -487,11 +487,15 @@ def test_a_fair_grid_beyond_any_budget_is_refused_in_one_short_line():
     # message; past 1e308 it was inf and int(inf) raised OverflowError
     q, p = demo_keyframes(5)
     box = Box([0.1, 0.1, 0.1])
-    for scale, tol in ((1e100, 1e-3), (1e150, 1e-3), (1e150, 1e-200)):
+    for scale, tol in ((1e70, 1e-3), (1e70, 1e-200), (1e70, 1e-300)):
         m = motions.interpolate(q, p * scale)
         with pytest.raises(QueryError, match=r"needs ([0-9.]+e\+[0-9]+|inf) samples") as e:
             certify(m, box, [box], bound="sampled", tolerance=tol)
         assert len(str(e.value)) < 200, str(e.value)
+    # beyond shapes' lengths (harness.scale) the motion itself is refused, as briefly
+    with pytest.raises(QueryError, match=r"`motion`'s positions .* up to 2.01e\+100") as e:
+        certify(motions.interpolate(q, p * 1e100), box, [box], bound="sampled")
+    assert len(str(e.value)) < 200, str(e.value)
 
 
 def test_device_and_limit_errors():

@@ -211,8 +211,13 @@ def test_times_a_rounding_apart_are_not_re_timed(where):
 def test_a_pairs_query_error_names_the_relative_motion():
     # certify names its argument `motion`; certify_pair has none of that name
     q, p = demo_keyframes(5)
-    a = motions.interpolate(q, p * 1e100)
-    b = motions.interpolate(q, p * 1e100 + 1.0)
+    a = motions.interpolate(q, p * 1e70)
+    b = motions.interpolate(q, p * 1e70 + 1.0)
     with pytest.raises(QueryError, match="fair grid of the relative motion") as e:
         harness.certify_pair(a, Sphere(1.0), b, Sphere(1.0), bound="sampled")
     assert "`motion`" not in str(e.value)
+    # (past shapes' lengths, the relative motion's positions are refused, as named)
+    a = motions.interpolate(q, p * 1e100)
+    b = motions.interpolate(q, p * 1e100 + 1.0)
+    with pytest.raises(QueryError, match="the relative motion M_a⁻¹ M_b's positions") as e:
+        harness.certify_pair(a, Sphere(1.0), b, Sphere(1.0), bound="sampled")

@@ -211,6 +211,23 @@ def _eval_pose(
     return err + g * (wp.vec3d(ma, mb, mw) + err)
 
 
+TIME_SLACK = wp.constant(wp.float64(4.0 * 2.0**-53))
+"""A pose at time t is evaluated at ``u = (t - t0) / (t1 - t0)`` rounded (three
+roundings): the exact pose of a time within ``TIME_SLACK (t1 - t0)`` of t."""
+
+
+@wp.func
+def _safe_reach(t: wp.float64, step: wp.float64, span: wp.float64) -> wp.float64:
+    """A double at most ``t + step - TIME_SLACK span`` (`step` computed as ``gap / v``
+    and rounded up by at most 2 ulp): the end of a step certified by a pose evaluated
+    at t on a piece of length `span` (:data:`TIME_SLACK`). ``fl(t + s)`` can round up
+    by u|r|; subtracting ``3u|r| + 2 TIME_SLACK span`` (itself rounded) more than makes
+    up for it and the slack. NaN and infinite steps give NaN or t: no advance."""
+    s = step * (F1 - wp.float64(4.0) * UNIT)
+    r = t + s
+    return r - (wp.float64(3.0) * UNIT * wp.abs(r) + wp.float64(2.0) * TIME_SLACK * span)
+
+
 @wp.func
 def _pose_bracket(
     st_ctrl: wp.array3d(dtype=wp.mat44d),
@@ -370,11 +387,16 @@ def _advance(
                         v = wp.max(v, p_speed[q])
                         if v > F0:
                             reach = t + gap / v
+                    # the certified step ends at most at t + gap / v less the pose's own
+                    # time error (:func:`_safe_reach`; at rest, the piece's end exactly)
+                    if v > F0:
+                        reach = _safe_reach(t, gap / v, tp[1] - tp[0])
                     if reach >= t_end:
                         break
-                    if reach <= t:
+                    if not (reach > t):
                         # the step is below the time's resolution (times near 1e6, speeds
-                        # of 1e5): the track cannot advance, so from t on it stays
+                        # of 1e5; near 1e15 every step below 0.125), or the speed bound is
+                        # not finite: the track cannot advance, so from t on it stays
                         # unsearched, a limit as the refinement's depth is
                         toi_lo = wp.min(toi_lo, t)
                         n_depth += 1
@@ -475,12 +497,20 @@ def _sample(
                     if ns > 0:
                         if j >= ns:
                             break
+                        # cells between the midpoints, each computed once for both cells
+                        # it bounds (so that the cells meet exactly, however times round)
                         h = (t_end - t_start) / wp.float64(ns - 1)
                         t = t_start + wp.float64(j) * h
-                        if j == ns - 1:
+                        c0 = t_start
+                        c1 = t_end
+                        if j > 0:
+                            c0 = t_start + (wp.float64(j) - wp.float64(0.5)) * h
+                        if j < ns - 1:
+                            c1 = t_start + (wp.float64(j) + wp.float64(0.5)) * h
+                        else:
                             t = t_end
-                        c0 = wp.max(t_start, t - wp.float64(0.5) * h)
-                        c1 = wp.min(t_end, t + wp.float64(0.5) * h)
+                        c0 = wp.min(c0, t)
+                        c1 = wp.max(c1, t)
                     else:
                         if cell_p >= pr[1]:
                             break
@@ -537,8 +567,13 @@ def _sample(
                         if tq[1] >= c0 and tq[0] <= c1:
                             v = wp.max(v, p_speed[q])
                         q += 1
-                    cover = v * wp.max(t - c0, c1 - t)
-                    if lb <= cover:
+                    # how far a body point can move from the pose evaluated (at a time
+                    # within TIME_SLACK of the piece's span from t) within the cell, the
+                    # differences' and products' roundings covered by (1 + 4u) each
+                    far = wp.max(t - c0, c1 - t) * (F1 + wp.float64(4.0) * UNIT)
+                    far = far + TIME_SLACK * (tp[1] - tp[0])
+                    cover = v * far * (F1 + wp.float64(4.0) * UNIT)
+                    if not (lb > cover):  # (NaN: unproven)
                         unproven += 1
                         toi_lo = wp.min(toi_lo, c0)
         out_t[m, 0] = toi_lo

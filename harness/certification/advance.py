@@ -26,7 +26,7 @@ from motions.baselines import (
     SlerpLinearMotion,
     SlerpMotion,
 )
-from motions.pieces import speed_bounds
+from motions.pieces import UNIT_ROUNDOFF, speed_bounds
 
 from ..shapes import Shape
 from .api import MAX_SAMPLES, Certificate, QueryError, assemble, motion_cache
@@ -41,6 +41,7 @@ from .refine import (
     pack_pieces,
     pack_shapes,
 )
+from .scale import MotionScaleError, check_pieces, check_times
 from .tables import ShapeTable
 
 __all__ = ["advance_many", "default_samples", "pose_matrices", "pose_rows", "sample_many"]
@@ -127,7 +128,18 @@ def _stepping_pieces(m: Motion, radius: float) -> tuple:
     hit = cache.get(radius)
     if hit is None or type(hit[0]) is not Packed:  # (or pickled by another version)
         make = _rational_stepping_pieces if isinstance(m, RationalMotion) else _exp_stepping_pieces
-        hit = cache[radius] = make(m, radius)
+        packed, speeds = make(m, radius)
+        c = packed.ctrl
+        if isinstance(m, RationalMotion):
+            with np.errstate(all="ignore"):
+                pos = c[:, :3, 3] / c[:, 3, 3][:, None]
+        else:
+            pos = m.exp_pieces().origin
+        check_pieces(m, packed.rows[:, :2], np.r_[c.ravel(), packed.rows[:, 2:5].ravel()], pos)
+        # a speed bound that came out NaN (a motion whose numbers overflow) is no bound:
+        # infinite, so that no step advances and no cell is proven (the kernels' max
+        # would drop a NaN, and a speed of 0 proves everything)
+        hit = cache[radius] = packed, np.where(np.isnan(speeds), np.inf, speeds)
     return hit
 
 
@@ -245,6 +257,8 @@ def advance_many(ms, bodies, obst, o) -> list[Certificate]:
     """Conservative advancement for every motion (DESIGN §4, ``bound="lipschitz"``)."""
     kernel = [i for i, m in enumerate(ms) if _in_kernel(m)]
     host = [i for i, m in enumerate(ms) if not _in_kernel(m)]
+    for i in host:
+        check_times(ms[i], ms[i].domain)
     specs = {i: _interval_speeds(ms[i], bodies[i].bounding_radius, i, "lipschitz") for i in host}
     res: list[Certificate | None] = [None] * len(ms)
     if kernel:
@@ -296,6 +310,7 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
     nodes = np.zeros(n_m, dtype=np.int64)
     steps = np.zeros(len(mt), dtype=np.int64)
     budget = np.zeros(n_m, dtype=np.int64)
+    depth = np.zeros(n_m, dtype=np.int64)
     warm = np.zeros((len(mt), 3))
     while live.any():
         live &= t < tcoll[mt]
@@ -337,9 +352,21 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
         cols = np.arange(vv.shape[1])
         window = (cols[None, :] >= s[:, None]) & (cols[None, :] <= e[:, None])
         vmax = np.where(window, vv, 0.0).max(axis=1)
-        t[g] = np.where(
-            vmax > 0, t[g] + gaps / np.maximum(vmax, 1e-300), kn[np.arange(len(g)), e + 1]
-        )
+        # a double at most t + gap / v (the quotient and the sum round up by at most 2
+        # ulp and 1/2 ulp: lowered by 4u, then by one ulp); a step below the time's
+        # resolution, or with a speed bound that is not finite, cannot advance: from t
+        # on the track stays unsearched, a limit as the refinement's depth is
+        with np.errstate(invalid="ignore", over="ignore"):
+            ahead = np.nextafter(
+                t[g] + gaps / np.maximum(vmax, 1e-300) * (1 - 4 * UNIT_ROUNDOFF), -np.inf
+            )
+        ahead = np.where(vmax > 0, ahead, kn[np.arange(len(g)), e + 1])
+        stuck = ~(ahead > t[g])
+        for j in g[stuck]:
+            toi_lo[mt[j]] = min(toi_lo[mt[j]], t[j])
+            depth[mt[j]] += 1
+        live[g[stuck]] = False
+        t[g] = np.where(stuck, t[g], ahead)
         live[g[t[g] >= tend[g]]] = False
     # per-motion outcome
     wit_t = np.full(n_m, np.inf)
@@ -348,14 +375,14 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
         if near_t[j] < wit_t[mt[j]]:
             wit_t[mt[j]], wit_d[mt[j]] = near_t[j], near_d[j]
     n_tol = np.bincount(mt[np.isfinite(near_t)], minlength=n_m)
-    unk_r = np.where(budget > 0, 4, np.where(n_tol > 0, 2, 0))
-    both = (budget > 0) & (n_tol > 0)
-    unk_r[both] = np.where(wit_t[both] <= toi_lo[both], 2, 4)
+    unk_r = np.where(budget > 0, 4, np.where(depth > 0, 3, np.where(n_tol > 0, 2, 0)))
+    both = (budget + depth > 0) & (n_tol > 0)
+    unk_r[both] = np.where(wit_t[both] <= toi_lo[both], 2, unk_r[both])
     deepest = np.zeros(n_m, dtype=np.int64)
     np.maximum.at(deepest, mt, steps)
     out = Outcome.from_fields(
         toi_lo, tcoll, wit_t, wit_d, unk_r, nodes, nodes, deepest,
-        np.stack([n_tol, np.zeros(n_m, np.int64), budget], axis=1),
+        np.stack([n_tol, depth, budget], axis=1),
     )  # fmt: skip
     return assemble(
         out, time.perf_counter() - start, "lipschitz", tol, certified=True,
@@ -384,6 +411,12 @@ def default_samples(m: Motion, body: Shape, tol: float, cap: int = 2_000_000) ->
     v = float(
         (np.linalg.norm(k.velocity, axis=1) + r * np.linalg.norm(k.angular_velocity, axis=1)).max()
     )
+    if not math.isfinite(v):
+        raise MotionScaleError(
+            f"Expected the motion's speed to be finite (the sampling rule of {m.scheme!r}"
+            f" motions without a proven speed bound), got {v:g}: its numbers overflow.",
+            m,
+        )
     return int(min(cap, max(2, math.ceil(v * (t1 - t0) / tol))))
 
 
@@ -417,6 +450,8 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
         for i, c in zip(kernel, _sampled_certs(out, elapsed, tol, rm), strict=True):
             res[i] = c
     if host:
+        for i in host:
+            check_times(ms[i], ms[i].domain)
         certs = _sample_host(
             [ms[i] for i in host], [bodies[i] for i in host], [obst[i] for i in host], o
         )

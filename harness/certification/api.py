@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from itertools import chain
 from typing import Any
@@ -27,6 +28,7 @@ from ..timing import collector_paused
 from .device import resolve_device
 from .refine import BIG
 from .refine import REASONS as KERNEL_REASONS
+from .scale import MotionScaleError
 
 __all__ = [
     "BOUNDS",
@@ -388,6 +390,19 @@ def certify(
     return out
 
 
+@contextmanager
+def naming(ms: list) -> Iterator[None]:
+    """A query over motions `ms`: a :class:`.scale.MotionScaleError` from inside it comes
+    out as a :class:`QueryError` naming the motion, ``motions[i]`` (a single query's
+    :func:`single_query` makes that its argument `motion`)."""
+    try:
+        yield
+    except MotionScaleError as e:
+        i = next((k for k, m in enumerate(ms) if m is e.motion), None)
+        where = "a motion" if i is None else f"motions[{i}]"
+        raise QueryError(str(e).replace("the motion", where, 1)) from None
+
+
 def single_query(e: QueryError) -> QueryError:
     """The error `e` of a batch of one motion, as the single query that made that batch
     raises it: the motion is its argument `motion`, not ``motions[0]``."""
@@ -425,15 +440,17 @@ def certify_many(
     if o["bound"] in ("fcl", "ipctk"):
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
-        obst = cover_half_spaces(ms, bodies, obst)
+        with naming(ms):
+            obst = cover_half_spaces(ms, bodies, obst)
         if not ms:
             return []
         return _comparators(o["bound"], ms, bodies, obst, o["tol"], comparator_options)
     with collector_paused():
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
-        obst = cover_half_spaces(ms, bodies, obst)
-        return _engine(ms, bodies, obst, o) if ms else []
+        with naming(ms):
+            obst = cover_half_spaces(ms, bodies, obst)
+            return _engine(ms, bodies, obst, o) if ms else []
 
 
 def _engine(ms, bodies, obst, o: dict) -> list[Certificate]:

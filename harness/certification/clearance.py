@@ -25,6 +25,7 @@ from .api import (
     body_list,
     check_options,
     cover_half_spaces,
+    naming,
     obstacle_lists,
     single_query,
 )
@@ -128,19 +129,20 @@ def clearance_many(
             )
     ms = list(motions)
     bodies = body_list(body, len(ms))
-    obst = cover_half_spaces(ms, bodies, obstacle_lists(obstacles, len(ms)))
-    if not ms:
-        return []
-    start = time.perf_counter()
     ts, ns = [], []
-    for c in range(0, len(ms), MOTIONS_PER_CHUNK):
-        sl = slice(c, c + MOTIONS_PER_CHUNK)
-        t, n = clearance_chunk(
-            packed_all(ms[sl]), bodies[sl], obst[sl], o["tol"], o["max_depth"],
-            o["max_nodes"], o["max_iter"], o["threads"], o["device"],
-        )  # fmt: skip
-        ts.append(t)
-        ns.append(n)
+    with naming(ms):
+        obst = cover_half_spaces(ms, bodies, obstacle_lists(obstacles, len(ms)))
+        if not ms:
+            return []
+        start = time.perf_counter()
+        for c in range(0, len(ms), MOTIONS_PER_CHUNK):
+            sl = slice(c, c + MOTIONS_PER_CHUNK)
+            t, n = clearance_chunk(
+                packed_all(ms[sl]), bodies[sl], obst[sl], o["tol"], o["max_depth"],
+                o["max_nodes"], o["max_iter"], o["threads"], o["device"],
+            )  # fmt: skip
+            ts.append(t)
+            ns.append(n)
     t, n = np.concatenate(ts), np.concatenate(ns)
     elapsed = time.perf_counter() - start
     share = elapsed * n[:, 0] / max(1, int(n[:, 0].sum()))

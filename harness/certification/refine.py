@@ -22,8 +22,9 @@ import numpy as np
 from motions import RationalMotion
 from motions.pieces import UNIT_ROUNDOFF, BezierPieces, gamma
 
-from ..shapes import Shape
+from ..shapes import MAX_LENGTH, Shape
 from .device import buffers, is_cpu, record_dtype, warp
+from .scale import MAX_TIME, check_pieces
 from .tables import ShapeTable
 
 __all__ = ["MOTIONS_PER_CHUNK", "REACH_ROW", "Outcome", "Packed", "pack_pieces", "refine_many"]
@@ -145,12 +146,32 @@ def _pack_motions(ms: list[RationalMotion]) -> None:
         by_k.setdefault(pc.n_ctrl, []).append(i)
     for idx in by_k.values():
         group = [pcs[i] for i in idx]
-        # each motion's rows: a view of the group's
-        table = pack_pieces(BezierPieces.concat(group), 0).rows
+        cat = BezierPieces.concat(group)
         ends = np.cumsum([len(pc) for pc in group])
+        _check_scale([ms[i] for i in idx], cat, ends)
+        # each motion's rows: a view of the group's
+        table = pack_pieces(cat, 0).rows
         for i, pc, rows in zip(idx, group, np.split(table, ends[:-1]), strict=True):
             flat = np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4))
             ms[i]._certify_packed = Packed(flat, pc.n_ctrl, rows, len(pc) - ms[i].segments)
+
+
+def _check_scale(ms: list, cat: BezierPieces, ends: np.ndarray) -> None:
+    """:func:`.scale.check_pieces` of motions `ms` whose pieces are `cat`, rows
+    ``ends[i - 1]:ends[i]`` motion i's: the checks vectorised, the message from the first
+    motion refused."""
+    with np.errstate(all="ignore"):
+        c = cat.ctrl
+        pos = np.abs(c[:, :, :3, 3] / c[:, :, 3, 3][..., None]).max(axis=(1, 2))
+        ok = np.isfinite(c).all(axis=(1, 2, 3)) & np.isfinite(cat.error).all(axis=1)
+        ok &= (pos <= MAX_LENGTH) & (np.maximum(np.abs(cat.t0), np.abs(cat.t1)) <= MAX_TIME)
+    starts = np.r_[0, ends[:-1]]
+    bad = np.flatnonzero(~np.logical_and.reduceat(ok, starts))
+    if bad.size:
+        i = int(bad[0])
+        sl = slice(starts[i], ends[i])
+        check_pieces(ms[i], np.r_[cat.t0[sl], cat.t1[sl]], c[sl], pos[sl])
+        check_pieces(ms[i], [], cat.error[sl], [])  # (the error bounds', if not those)
 
 
 def pack_pieces(pc, extra: int, reach: np.ndarray | None = None) -> Packed:

@@ -1,0 +1,155 @@
+"""Motions and shapes at the edges of double precision: refused with a named error, or
+answered without a false `free` (the cases of an adversarial hunt; each failed before).
+
+Ground truths here are independent of the certifier: poses from the motion's own
+definition at keyframes it interpolates, and paths that run straight through a wall.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import harness
+import motions
+from harness import Box, ConvexMesh, ShapeError, Sphere
+from harness.certification import QueryError
+from motions.demo import demo_keyframes
+
+I4 = np.array([[1.0, 0, 0, 0]] * 4)
+
+
+@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz", "sampled"])
+def test_times_beyond_the_kernels_range_are_refused(bound):
+    # the kernels read a time above 1e299 as "none": a contact at t = 2.4e299 came out
+    # `free`, certified, from hull, aabb and certify_many (the body sits inside the box
+    # at the last keyframe)
+    q, p = demo_keyframes(4)
+    m = motions.interpolate(q, p, 1e299 * np.arange(4.0))
+    body, box = Sphere(0.1), Box([1.0, 1.0, 1.0], center=p[3])
+    with pytest.raises(QueryError, match=r"`motion`'s times .* at most 1e\+150"):
+        harness.certify(m, body, [box], bound=bound)
+    ok = motions.interpolate(q, p)
+    with pytest.raises(QueryError, match=r"motions\[1\]'s times"):
+        harness.certify_many([ok, m], body, [box], bound=bound)
+    if bound == "hull":
+        with pytest.raises(QueryError, match=r"motions\[1\]'s times"):
+            harness.clearance_many([ok, m], body, [box])
+        with pytest.raises(ValueError, match=r"`motion`'s times"):
+            harness.swept_aabbs(m, body, 1)
+
+
+def test_lipschitz_steps_never_pass_a_contact_where_times_are_coarse():
+    # keyframe times offset by 1e15 (microseconds since 1970): doubles there are 0.125
+    # apart, and the step t + d / V rounded to one of them passed the contact at the last
+    # keyframe: `free`, certified. The step now ends at a double no later than t + d / V
+    # (less the pose's own time error); where none is later than t, the answer is unknown.
+    q = np.array(
+        [[-1.29, 0.35, -1.69, -2.04], [-0.3, -0.9, 0.16, 2.24], [-0.83, -0.62, 0.21, 0.49],
+         [-0.18, -0.21, 0.7, 0.52]]
+    )  # fmt: skip
+    pos = np.array([[-0.2, -1.11, -0.01], [-0.44, 1.17, 0.65], [-0.02, 0.67, -0.34], [0, 0, 0]])
+    body, obst = Sphere(0.01), [Sphere(0.01)]
+    for off in (0.0, 1e15):
+        m = motions.interpolate(q, pos, off + np.arange(4.0))
+        # the motion interpolates its last keyframe: the spheres overlap there
+        assert np.linalg.norm(m.pose(m.keyframe_times[3])[1]) < 1e-12
+        c = harness.certify(m, body, obst, bound="lipschitz", tolerance=1e-5)
+        assert c.verdict != "free", (off, c)
+        if c.certified:
+            assert c.toi_lo <= m.keyframe_times[3]
+
+
+def test_samples_on_a_coarse_time_grid_prove_no_cell_they_do_not_cover():
+    # a path along the x axis through a 1 cm wall, times offset by 1e15: the N sample
+    # times round to a 0.125 grid while each cell's cover used the nominal spacing
+    # (0.003), so the wall fell between covered cells: `free`, certified
+    body = Sphere(0.001)
+    pos = np.array([[-1.5, 0, 0], [-0.5, 0, 0], [0.5, 0, 0], [1.5, 0, 0]])
+    for off in (0.0, 1e15):
+        m = motions.interpolate(I4, pos, off + np.arange(4.0))
+        _, p = m.pose(np.linspace(*m.domain, 2001))
+        assert p[0, 0] < -1.4 and p[-1, 0] > 1.4 and np.abs(p[:, 1:]).max() == 0.0
+        for wx in (0.0, 0.03, 0.06):
+            wall = [Box([0.005, 1, 1], center=[wx, 0, 0])]
+            for n in (1000, 4000):
+                c = harness.certify(m, body, wall, bound="sampled", samples=n, tolerance=1e-4)
+                assert not (c.verdict == "free" and c.certified), (off, wx, n, c)
+
+
+def test_a_speed_bound_that_overflows_proves_nothing():
+    # cumulative-bspline keyframes 1.5e-300 apart in time: the speed bounds came out NaN,
+    # the kernels' max dropped them, and samples=2 proved every cell: `free`, certified,
+    # with a keyframe pose inside the box (samples=100 found that contact)
+    rot = np.array(
+        [[0.8985961317313903, 0.4203402679342754, -0.0691342774805797, -0.10516417102588423],
+         [-0.5355321800065158, -0.24656756326619736, -0.7300783268602256, 0.3455363332146304],
+         [0.10107846490984189, -0.9652368222717328, -0.16684729102022464, 0.173962646397006],
+         [0.752189073143098, 0.05835920873864067, -0.6557412591949764, 0.02844647586106018]]
+    )  # fmt: skip
+    pos = np.array(
+        [[-8.7495826154578293e-01, -6.2034874285306563e-01, 1.6045522836209405e-01],
+         [-6.9555700655907415e50, -4.6056969173975231e50, 5.6353730354743715e50],
+         [-1.6194358565279984e-01, -5.5023602096331592e-01, 5.0912849956536310e-01],
+         [-9.6920439270843051e-01, 6.8343481512141935e-01, -1.3069904017379570e00]]
+    )  # fmt: skip
+    times = np.array(
+        [-9.999999999999993e-286, -9.999999999999978e-286, -9.999999999999962e-286,
+         -9.999999999999947e-286]
+    )  # fmt: skip
+    centre = np.array([-6.889181159053067e50, -4.597682027105120e50, 5.725969591590929e50])
+    half = np.array([1.0417083313228909e50, 8.9230568361255961e49, 1.5662897461452201e50])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        m = motions.build("cumulative-bspline", rot, pos, times)
+        assert np.all(np.abs(m.pose(m.keyframe_times[1])[1] - centre) <= half)
+        for n in (2, 3):
+            c = harness.certify(
+                m, Sphere(1e49), [Box(half, center=centre)], bound="sampled", samples=n,
+                tolerance=1e47,
+            )  # fmt: skip
+            assert not (c.verdict == "free" and c.certified), (n, c)
+
+
+def test_a_motion_whose_numbers_overflow_is_refused_when_built():
+    # hermite of keyframes 1e200 apart, 1e-300 apart in time, built a motion whose every
+    # pose was NaN, and hull certified it `free`
+    rng = np.random.default_rng(13)
+    q, p = rng.normal(size=(6, 4)), rng.normal(size=(6, 3)) * 1e200
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        with pytest.raises(ValueError, match="finite Bézier pieces"):
+            motions.hermite(q, p, 1e-300 * np.arange(1.0, 7.0))
+
+
+def test_positions_beyond_shapes_lengths_are_refused():
+    q, p = demo_keyframes(4)
+    m = motions.interpolate(q, p * 1e80)
+    for bound in ("hull", "lipschitz", "sampled"):
+        with pytest.raises(QueryError, match=r"`motion`'s positions .* at most 1e\+75"):
+            harness.certify(m, Sphere(1.0), [Box([1, 1, 1])], bound=bound)
+
+
+def test_a_sampling_rule_that_overflows_is_a_named_error():
+    # squad without a proven speed bound at positions 1e300: math.ceil(inf) raised a
+    # bare OverflowError from inside the sampling rule
+    rng = np.random.default_rng(0)
+    m = motions.build("squad", rng.normal(size=(4, 4)), rng.normal(size=(4, 3)) * 1e300, "uniform")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        with pytest.raises(QueryError, match=r"`motion`'s speed to be finite"):
+            harness.certify(m, Sphere(1.0), [Box([1, 1, 1])], bound="sampled")
+
+
+def test_shapes_below_the_smallest_length_are_refused():
+    # a scene scaled to 1e-165 got `collision` at a clear pose from lipschitz and
+    # sampled: GJK's squared lengths underflowed to 0
+    for make in (
+        lambda s: Sphere(s),
+        lambda s: Box([1.0, 1.0, s]),
+        lambda s: harness.Capsule(1.0, s),
+        lambda s: ConvexMesh(s * np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])),
+    ):
+        with pytest.raises(ShapeError, match=r"at least 1e-75"):
+            make(1e-80)
+        make(1e-70)  # (small, but its squares do not underflow)
