@@ -153,3 +153,18 @@ def test_shapes_below_the_smallest_length_are_refused():
         with pytest.raises(ShapeError, match=r"at least 1e-75"):
             make(1e-80)
         make(1e-70)  # (small, but its squares do not underflow)
+
+
+def test_a_sample_that_may_touch_is_not_passed_as_free():
+    # an obstacle far below the poses' rounding (1e-50 at coordinates ~1): the sample
+    # at its centre can neither prove a contact nor clear it, and `samples=N` answered
+    # free (uncertified) as though no sample came near. Now unknown ("tolerance"), as
+    # lipschitz answers such a pose.
+    pos = np.array([[-1.5, 0, 0], [-0.5, 0, 0], [0.5, 0, 0], [1.5, 0, 0]])
+    m = motions.interpolate(I4, pos, np.arange(4.0))
+    assert np.abs(m.pose(1.5)[1]).max() < 1e-15  # the middle sample sits on the obstacle
+    for n in (3, 101):
+        c = harness.certify(
+            m, Sphere(1e-50), [Sphere(1e-50)], bound="sampled", samples=n, tolerance=1e-30
+        )
+        assert (c.verdict, c.reason) == ("unknown", "tolerance"), (n, c)

@@ -550,7 +550,10 @@ def _sample(
                         toi_lo = wp.min(toi_lo, c0)
                         done = 1
                         continue
-                    if ub < tol and near == 0:
+                    # (a pose whose own bound may touch, lb <= 0, is as near as one
+                    # within tolerance: an obstacle below the pose's rounding is not
+                    # passed as "no contact seen", as lipschitz does not)
+                    if (ub < tol or lb <= F0) and near == 0:
                         near = 1
                         n_tol += 1
                         if t < wit_t:
