@@ -148,9 +148,10 @@ def _geom_shape(
         # the half-space below the plane, as a cube that the engine enlarges for a motion
         # that could leave it
         return HalfSpace(pos, rot, half=PLANE_HALF)
+    usable = [k for k in SUPPORTED_GEOMS if not (moving and k == "plane")]
     raise UnsupportedGeomError(
-        f"{_geom(model, g)} has type {_kind(model, g)!r}; supported geom types:"
-        f" {list(SUPPORTED_GEOMS)}."
+        f"{_geom(model, g)} has type {_kind(model, g)!r}; supported geom types"
+        f"{' on the moving body' if moving else ''}: {usable}."
     )
 
 

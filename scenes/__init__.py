@@ -111,7 +111,10 @@ def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
         )
     times = np.array(model.key_time, dtype=float)
     if np.any(np.diff(times) <= 0):
-        raise SceneError(f"Expected the keyframe times to be strictly increasing, got {times}.")
+        raise SceneError(
+            f"Expected the keyframe times to be strictly increasing, got {times} (give each"
+            ' <key> a time="..." attribute; MuJoCo reads a missing one as 0).'
+        )
     pos = np.array(model.key_mpos).reshape(model.nkey, -1, 3)[:, mid]
     quat = np.array(model.key_mquat).reshape(model.nkey, -1, 4)[:, mid]
     # any non-zero norm, however small (mquat="1e-200 0 0 0"): the largest component

@@ -491,6 +491,25 @@ def test_geom_groups_outside_mujocos_six_are_never_selected():
                 body_from_model(model, "hand", groups=[5])
 
 
+def test_unsupported_geoms_on_the_mover_list_what_it_takes():
+    # the list offered a plane, which the moving body refuses
+    xml = """<mujoco><worldbody><body name="hand" mocap="true">
+    <geom name="can" type="cylinder" size=".1 .2"/></body></worldbody></mujoco>"""
+    with pytest.raises(
+        harness.errors.UnsupportedGeomError,
+        match=r"'can' .*'cylinder'; supported geom types on the moving body: \['box', 'sphere',"
+        r" 'capsule', 'mesh'\]\.$",
+    ):
+        body_from_model(mujoco.MjModel.from_xml_string(xml), "hand")
+
+
+def test_keys_without_times_are_named():
+    xml = """<mujoco><worldbody><body name="hand" mocap="true"><geom type="box" size=".1 .1 .1"/>
+    </body></worldbody><keyframe><key mpos="0 0 0"/><key mpos="1 0 0"/></keyframe></mujoco>"""
+    with pytest.raises(scenes.SceneError, match=r'strictly increasing, .*time="\.\.\."'):
+        scenes.from_xml(xml, "hand")
+
+
 def test_carried_names_bodies_of_the_model():
     sc, _ = _gripper()
     with pytest.raises(ValueError, match=r"`carried` to name bodies .* 'no_such_body'"):

@@ -128,7 +128,8 @@ def _stepping_pieces(m: Motion, radius: float) -> tuple:
     hit = cache.get(radius)
     if hit is None or type(hit[0]) is not Packed:  # (or pickled by another version)
         make = _rational_stepping_pieces if isinstance(m, RationalMotion) else _exp_stepping_pieces
-        packed, speeds = make(m, radius)
+        with np.errstate(all="ignore"):  # (what overflows is refused just below)
+            packed, speeds = make(m, radius)
         c = packed.ctrl
         if isinstance(m, RationalMotion):
             with np.errstate(all="ignore"):
