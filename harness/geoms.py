@@ -289,14 +289,29 @@ def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = Non
     return shapes[0] if len(shapes) == 1 else Compound(shapes)
 
 
+def _colliding_flexes(model: mujoco.MjModel) -> list[int]:
+    """Ids of the flexes MuJoCo collides (contype or conaffinity non-zero)."""
+    return [f for f in range(model.nflex) if model.flex_contype[f] or model.flex_conaffinity[f]]
+
+
+def _flex_bodies(model: mujoco.MjModel, f: int) -> np.ndarray:
+    """The bodies that carry flex f: its vertices' bodies, or for an interpolated flex
+    (``dof="trilinear"``, whose vertices have body -1) its nodes' bodies."""
+    a, n = int(model.flex_vertadr[f]), int(model.flex_vertnum[f])
+    bodies = np.asarray(model.flex_vertbodyid[a : a + n])
+    if (bodies < 0).any():
+        a, n = int(model.flex_nodeadr[f]), int(model.flex_nodenum[f])
+        bodies = np.asarray(model.flex_nodebodyid[a : a + n])
+    return bodies[bodies >= 0]
+
+
 def _refuse_flexes(model: mujoco.MjModel, body_id: int, mocap_body: str) -> None:
     """Raise for a flex (``<flex>``, ``<flexcomp>``) with vertices on the mocap body's
     subtree: MuJoCo collides it (a pad's vertices with their radius), and a shape that
     left it out certified a hand whose pad went 2 mm into a table (a hunt's case)."""
     inside = _subtree_mask(model, body_id)
-    for f in range(model.nflex):
-        a, n = int(model.flex_vertadr[f]), int(model.flex_vertnum[f])
-        if inside[model.flex_vertbodyid[a : a + n]].any():
+    for f in _colliding_flexes(model):
+        if inside[_flex_bodies(model, f)].any():
             name = _name(model, mujoco.mjtObj.mjOBJ_FLEX, f)
             raise UnsupportedGeomError(
                 f"Flex {name!r} has vertices on mocap body {mocap_body!r} or below it:"
@@ -373,6 +388,7 @@ def obstacles_from_model(
             raise ValueError(f"Expected `carried` to name bodies of the model, got {c!r}.")
     geoms = obstacle_geoms(model, groups)
     _warn_moving(model, groups, set(carried))
+    _warn_flexes(model)
     out = []
     for g, shape in _static_shapes(model, geoms):
         if isinstance(shape, UnsupportedGeomError):  # (its message names the geom)
@@ -442,6 +458,26 @@ def _warn_moving(model: mujoco.MjModel, groups: Any, carried: set[str]) -> None:
             f" are not obstacles, nor part of any mocap body's certified shape (a query sees"
             f" the scene without them; a tool welded to the mover is certified only as a"
             f" child body of it): bodies {names}.",
+            MovingGeomsWarning,
+            stacklevel=3,
+        )
+
+
+def _warn_flexes(model: mujoco.MjModel) -> None:
+    """A :class:`MovingGeomsWarning` naming the colliding flexes outside every mocap
+    body's subtree: MuJoCo collides them, a query does not see them."""
+    movers = np.zeros(model.nbody, dtype=bool)
+    for b in np.flatnonzero(model.body_mocapid >= 0):
+        movers |= _subtree_mask(model, int(b))
+    names = [
+        _name(model, mujoco.mjtObj.mjOBJ_FLEX, f)
+        for f in _colliding_flexes(model)
+        if not movers[_flex_bodies(model, f)].any()
+    ]
+    if names:
+        warnings.warn(
+            f"{len(names)} colliding flex(es) are not obstacles (flexes have no shape here;"
+            f" a query sees the scene without them): {names}.",
             MovingGeomsWarning,
             stacklevel=3,
         )

@@ -308,7 +308,7 @@ def test_caches_pickled_by_another_version_are_rebuilt(scene):
     old = pickle.loads(pickle.dumps(m))
     extra = (np.zeros(3, np.int32), np.zeros((1, 2), np.int32))
     old._certify_packed = old._certify_packed + extra
-    old._certify_speeds = {r: (p + extra, v) for r, (p, v) in old._certify_speeds.items()}
+    old._certify_speeds = {r: (h[0] + extra, *h[1:]) for r, h in old._certify_speeds.items()}
     got = [certify(old, body, obst, bound=b) for b in ("hull", "lipschitz")]
     assert all(_same(a, b) for a, b in zip(want, got, strict=True))
 

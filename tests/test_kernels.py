@@ -122,7 +122,7 @@ def test_exp_pose_kernel_equals_numpy(device, scheme, rng):
 
     q, p = demo_keyframes(7, seed=2)
     m = motions.build(scheme, q, p * 30.0)
-    packed, _ = _exp_stepping_pieces(m, 0.1)
+    packed, _, _ = _exp_stepping_pieces(m, 0.1)
     ep = m.exp_pieces()
     n = len(ep)
     i = np.concatenate([np.arange(n), np.arange(n), rng.integers(0, n, 40)])
@@ -226,7 +226,7 @@ def test_exp_pose_error_bound_covers_the_kernels_rounding(device, scheme):
                 m = motions.build(scheme, q, p)
             except motions.MotionError:
                 continue
-            packed, _ = _exp_stepping_pieces(m, 0.1)
+            packed, _, _ = _exp_stepping_pieces(m, 0.1)
             n = len(packed.rows)
             rows.append(packed.ctrl.reshape(n, 3, 4, 4)[np.arange(n).repeat(9)])
             us.append(np.tile(np.linspace(0.0, 1.0, 9), n))
@@ -265,7 +265,7 @@ def test_exp_pieces_origin_error_bounds_the_origins_rounding(scheme):
             continue
         ep = m.exp_pieces()
         # the kernels receive it as the pieces' E_b
-        packed, _ = _exp_stepping_pieces(m, 0.1)
+        packed, _, _ = _exp_stepping_pieces(m, 0.1)
         np.testing.assert_array_equal(
             packed.rows[:, 2:5], np.c_[0 * ep.t0, ep.origin_error, 0 * ep.t0]
         )

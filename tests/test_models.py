@@ -473,6 +473,36 @@ def test_a_flex_on_the_moving_body_is_refused(rigid):
             body_from_model(model, "hand")
 
 
+def test_an_interpolated_flex_on_the_moving_body_is_refused():
+    # a trilinear flexcomp's vertices have body -1 (its nodes carry it): read as the last
+    # body, the refusal held only when that body was the mover's; with a shelf after the
+    # hand the pad was left out and a hand 2.5 cm into the table certified free
+    xml = """<mujoco><worldbody>
+    <body name="hand" mocap="true"><geom name="palm" type="box" size=".03 .03 .01"/>
+      <flexcomp name="pad" type="grid" count="3 3 3" spacing=".02 .02 .02" pos="0 0 -.05"
+        radius=".004" dim="3" dof="trilinear"/></body>
+    <body name="shelf" pos="1 0 0"><geom type="box" size=".1 .1 .1"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", HeldJointsWarning)
+        with pytest.raises(harness.errors.UnsupportedGeomError, match=r"Flex 'pad'"):
+            body_from_model(model, "hand")
+
+
+def test_a_flex_in_the_scene_is_named_not_dropped_silently():
+    xml = """<mujoco><worldbody><geom name="table" type="box" size=".5 .5 .02"/>
+    <body name="hand" mocap="true" pos="0 0 1"><geom type="box" size=".1 .1 .1"/></body>
+    <body name="cloth" pos="0 0 .1"><flexcomp name="sheet" type="grid" count="3 3 1"
+      spacing=".05 .05 .05" radius=".002" dim="2" rigid="true"/></body>
+    </worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    with pytest.warns(
+        harness.sim.MovingGeomsWarning, match=r"flex\(es\) are not obstacles.*'sheet'"
+    ):
+        assert len(obstacles_from_model(model)) == 1
+
+
 def test_geom_groups_outside_mujocos_six_are_never_selected():
     # MuJoCo takes any integer group: group 7 made `groups=` raise IndexError from numpy,
     # and group -1 wrapped round to be selected by groups=[5]

@@ -50,7 +50,7 @@ def test_lipschitz_steps_never_pass_a_contact_where_times_are_coarse():
     )  # fmt: skip
     pos = np.array([[-0.2, -1.11, -0.01], [-0.44, 1.17, 0.65], [-0.02, 0.67, -0.34], [0, 0, 0]])
     body, obst = Sphere(0.01), [Sphere(0.01)]
-    for off in (0.0, 1e15):
+    for off in (0.0, 1e9, 1e15):
         m = motions.interpolate(q, pos, off + np.arange(4.0))
         # the motion interpolates its last keyframe: the spheres overlap there
         assert np.linalg.norm(m.pose(m.keyframe_times[3])[1]) < 1e-12
@@ -58,6 +58,10 @@ def test_lipschitz_steps_never_pass_a_contact_where_times_are_coarse():
         assert c.verdict != "free", (off, c)
         if c.certified:
             assert c.toi_lo <= m.keyframe_times[3]
+        if off <= 1e9:
+            # where doubles are fine enough (epoch seconds: 1.2e-7 apart, the time slack
+            # ~1e-6), the steps go on and prove the contact, as at t = 0
+            assert c.verdict == "collision", (off, c)
 
 
 def test_samples_on_a_coarse_time_grid_prove_no_cell_they_do_not_cover():
@@ -168,3 +172,16 @@ def test_a_sample_that_may_touch_is_not_passed_as_free():
             m, Sphere(1e-50), [Sphere(1e-50)], bound="sampled", samples=n, tolerance=1e-30
         )
         assert (c.verdict, c.reason) == ("unknown", "tolerance"), (n, c)
+
+
+def test_a_users_speed_bound_that_is_nan_proves_nothing():
+    # a user's own motion (stepped on the host) whose speed_bound returns NaN: the host
+    # advancement read it as "at rest" and jumped to the next knot, through a 1 cm wall
+    class Odd(motions.baselines.SlerpMotion):
+        def speed_bound(self, t0, t1, radius=0.0):
+            return float("nan")
+
+    pos = np.array([[-1.5, 0, 0], [-0.5, 0, 0], [0.5, 0, 0], [1.5, 0, 0]])
+    m = Odd(I4, pos, np.arange(4.0))
+    c = harness.certify(m, Sphere(0.01), [Box([0.005, 1, 1])], bound="lipschitz")
+    assert c.verdict != "free", c

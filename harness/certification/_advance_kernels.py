@@ -6,7 +6,9 @@ The rational-motion kernels evaluate poses inside the kernel from the motion's p
 Bézier pieces (``sum_i B_i(u) C_i``, then the pose's own margin as in
 :mod:`._refine_kernels`), one lane per motion, tracks in (body part, obstacle part)
 order, so that they run at the same implementation level as the hull. Each piece carries
-a proven speed bound ``p_speed`` for points within the body's radius. Slerp-family
+a proven speed bound ``p_speed`` for points within the body's radius, and a time slack
+``p_slack``: the pose evaluated for time t is the motion's exact pose at a time within it
+of t (rounded parameters and stored times; ``advance._stepping_pieces``). Slerp-family
 motions with a proven speed bound step in the same kernels from their exponential-product
 pieces (:mod:`motions.exp_pieces`), marked by a negative ``p_k``.
 """
@@ -211,21 +213,23 @@ def _eval_pose(
     return err + g * (wp.vec3d(ma, mb, mw) + err)
 
 
-TIME_SLACK = wp.constant(wp.float64(4.0 * 2.0**-53))
-"""A pose at time t is evaluated at ``u = (t - t0) / (t1 - t0)`` rounded (three
-roundings): the exact pose of a time within ``TIME_SLACK (t1 - t0)`` of t."""
+TIME_TINY = wp.constant(wp.float64(2.0**-1073))
+"""Two subnormal units: what a subtraction of ``3u|r|`` loses when it underflows."""
 
 
 @wp.func
-def _safe_reach(t: wp.float64, step: wp.float64, span: wp.float64) -> wp.float64:
-    """A double at most ``t + step - TIME_SLACK span`` (`step` computed as ``gap / v``
-    and rounded up by at most 2 ulp): the end of a step certified by a pose evaluated
-    at t on a piece of length `span` (:data:`TIME_SLACK`). ``fl(t + s)`` can round up
-    by u|r|; subtracting ``3u|r| + 2 TIME_SLACK span`` (itself rounded) more than makes
-    up for it and the slack. NaN and infinite steps give NaN or t: no advance."""
+def _safe_reach(t: wp.float64, step: wp.float64, slack: wp.float64) -> wp.float64:
+    """A double at most ``t + step - slack`` (`step` computed as ``gap / v`` and rounded
+    up by at most 2 ulp, `slack` the piece's time slack, ``p_slack``: the pose evaluated
+    for t is the exact pose of a time within it, ``advance._stepping_pieces``): the end
+    of a step certified by that pose. ``s = fl(step (1 -
+    4u))`` is at most the exact ``gap / v``; ``fl(t + s)`` can round up by u|r|; subtracting
+    ``3u|r| + 2 slack`` (itself rounded, and TIME_TINY where that underflows) more than
+    makes up for it and the slack (1.26 million exact checks in a review, subnormal times
+    included once TIME_TINY was added). NaN and infinite steps give NaN or t: no advance."""
     s = step * (F1 - wp.float64(4.0) * UNIT)
     r = t + s
-    return r - (wp.float64(3.0) * UNIT * wp.abs(r) + wp.float64(2.0) * TIME_SLACK * span)
+    return r - (wp.float64(3.0) * UNIT * wp.abs(r) + wp.float64(2.0) * slack + TIME_TINY)
 
 
 @wp.func
@@ -275,6 +279,7 @@ def _advance(
     p_t: wp.array(dtype=wp.vec2d),
     p_err: wp.array(dtype=wp.vec3d),
     p_speed: wp.array(dtype=wp.float64),
+    p_slack: wp.array(dtype=wp.float64),
     # In: motions
     m_pieces: wp.array(dtype=wp.vec2i),
     m_parts: wp.array(dtype=wp.vec2i),
@@ -390,7 +395,7 @@ def _advance(
                     # the certified step ends at most at t + gap / v less the pose's own
                     # time error (:func:`_safe_reach`; at rest, the piece's end exactly)
                     if v > F0:
-                        reach = _safe_reach(t, gap / v, tp[1] - tp[0])
+                        reach = _safe_reach(t, gap / v, p_slack[pi])
                     if reach >= t_end:
                         break
                     if not (reach > t):
@@ -430,6 +435,7 @@ def _sample(
     p_t: wp.array(dtype=wp.vec2d),
     p_err: wp.array(dtype=wp.vec3d),
     p_speed: wp.array(dtype=wp.float64),
+    p_slack: wp.array(dtype=wp.float64),
     # In: motions
     m_pieces: wp.array(dtype=wp.vec2i),
     m_parts: wp.array(dtype=wp.vec2i),
@@ -571,10 +577,10 @@ def _sample(
                             v = wp.max(v, p_speed[q])
                         q += 1
                     # how far a body point can move from the pose evaluated (at a time
-                    # within TIME_SLACK of the piece's span from t) within the cell, the
+                    # within the piece's time slack p_slack of t) within the cell, the
                     # differences' and products' roundings covered by (1 + 4u) each
                     far = wp.max(t - c0, c1 - t) * (F1 + wp.float64(4.0) * UNIT)
-                    far = far + TIME_SLACK * (tp[1] - tp[0])
+                    far = far + p_slack[pi]
                     cover = v * far * (F1 + wp.float64(4.0) * UNIT)
                     if not (lb > cover):  # (NaN: unproven)
                         unproven += 1

@@ -120,16 +120,19 @@ def pose_rows(
 
 # ----------------------------------------------------------------------------- speeds
 def _stepping_pieces(m: Motion, radius: float) -> tuple:
-    """(packed pieces as :func:`.refine.pack_pieces` gives them, speed bounds (P,)) for
-    stepping, one piece per knot interval or less, so that the speed bound is per knot
-    interval as DESIGN §6 states the fair grid and CA competitor, for points within
-    `radius`; cached on the motion per radius."""
+    """(packed pieces as :func:`.refine.pack_pieces` gives them, speed bounds (P,), time
+    slacks (P,)) for stepping, one piece per knot interval or less, so that the speed
+    bound is per knot interval as DESIGN §6 states the fair grid and CA competitor, for
+    points within `radius`; cached on the motion per radius.
+
+    A piece's time slack bounds how far from t the motion's exact pose lies that the
+    kernels evaluate for time t (:func:`_rational_stepping_pieces`)."""
     cache = motion_cache(m, "_certify_speeds")
     hit = cache.get(radius)
-    if hit is None or type(hit[0]) is not Packed:  # (or pickled by another version)
+    if hit is None or type(hit[0]) is not Packed or len(hit) != 3:  # (or another version's)
         make = _rational_stepping_pieces if isinstance(m, RationalMotion) else _exp_stepping_pieces
         with np.errstate(all="ignore"):  # (what overflows is refused just below)
-            packed, speeds = make(m, radius)
+            packed, speeds, slack = make(m, radius)
         c = packed.ctrl
         if isinstance(m, RationalMotion):
             with np.errstate(all="ignore"):
@@ -140,14 +143,22 @@ def _stepping_pieces(m: Motion, radius: float) -> tuple:
         # a speed bound that came out NaN (a motion whose numbers overflow) is no bound:
         # infinite, so that no step advances and no cell is proven (the kernels' max
         # would drop a NaN, and a speed of 0 proves everything)
-        hit = cache[radius] = packed, np.where(np.isnan(speeds), np.inf, speeds)
+        hit = cache[radius] = packed, np.where(np.isnan(speeds), np.inf, speeds), slack
     return hit
 
 
 def _rational_stepping_pieces(m: RationalMotion, radius: float) -> tuple:
     """:func:`_stepping_pieces` for a rational motion: its positive pieces cut at its knots
     (keyframe times and breakpoints), restricted with their interval widened by a few
-    units in the last place, so that together they certainly cover the domain."""
+    units in the last place, so that together they certainly cover the domain.
+
+    Time slack: a piece's stored times are those of the exact piece only up to rounding.
+    The kernels round ``u = (t - t0) / (t1 - t0)`` three times (3u of the span); the
+    positivity splitter stores each of its `depth` midpoints rounded (u τ a level, τ the
+    largest |time| of the segment); a cut stores ``fl(t0 + fl(u h))`` and is the exact
+    restriction at parameters de Casteljau rounds once more (within 3u |h| + u τ, h at
+    most 2τ). So the slack is ``u (4 span + (8 + depth) τ)``: at times offset by 1e15 it
+    is about 1 time unit, at 1e9 about 1e-6."""
     pc = m.positive_pieces()
     knots = m.knots
     rows, u0, u1 = [], [], []
@@ -161,8 +172,12 @@ def _rational_stepping_pieces(m: RationalMotion, radius: float) -> tuple:
     u0[np.r_[True, np.diff(rows) != 0]] = 0.0  # piece ends stay exact
     u1[np.r_[np.diff(rows) != 0, True]] = 1.0
     pc = pc.take(np.asarray(rows)).restrict(u0, u1, cover=True)
+    br = m.breaks
+    tau = np.maximum(np.abs(br[pc.segment]), np.abs(br[pc.segment + 1]))
+    slack = UNIT_ROUNDOFF * (4.0 * (pc.t1 - pc.t0) + (8.0 + pc.depth) * tau) * (1 + 1e-12)
     # (stepping reads no reach: zero rows, records that say "no bound")
-    return pack_pieces(pc, 0, np.zeros((len(pc), REACH_ROW))), speed_bounds(pc, radius)
+    packed = pack_pieces(pc, 0, np.zeros((len(pc), REACH_ROW)))
+    return packed, speed_bounds(pc, radius), slack
 
 
 def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
@@ -186,7 +201,10 @@ def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
     speeds = np.array(
         [m.speed_bound(a, b, radius) for a, b in zip(ep.t0.tolist(), ep.t1.tolist(), strict=True)]
     )
-    return Packed(ctrl.reshape(-1, 4, 4), -3, rows, 0), speeds
+    # time slack: the pieces' times are the knots themselves; only u's rounding (3u of
+    # the span) separates the pose evaluated from the exact one
+    slack = 4.0 * UNIT_ROUNDOFF * (ep.t1 - ep.t0) * (1 + 1e-12)
+    return Packed(ctrl.reshape(-1, 4, 4), -3, rows, 0), speeds, slack
 
 
 EXP_SCHEMES = (SlerpMotion, SlerpLinearMotion, ScLerpMotion, CumulativeBSplineMotion)
@@ -204,7 +222,9 @@ def _interval_speeds(m: Motion, radius: float, index: int, bound: str) -> tuple:
     """(knots (K,), proven speed bounds (K-1,)) per knot interval of a non-rational motion."""
     k = m.knots
     try:
-        return k, np.array([m.speed_bound(a, b, radius) for a, b in itertools.pairwise(k)])
+        v = np.array([m.speed_bound(a, b, radius) for a, b in itertools.pairwise(k)])
+        # (a NaN bound is no bound: infinite, so that no step advances on it)
+        return k, np.where(np.isnan(v), np.inf, v)
     except NotImplementedError as e:
         raise QueryError(
             f"Bound {bound!r} needs a proven speed bound; motions[{index}] ({m.scheme!r}) has"
@@ -229,6 +249,7 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
         arrays, kmax = pack_inputs(buf, [x[0] for x in stepping], cb, co)
         head = [arrays[k] for k in ("ctrl", "p_start", "p_k", "p_t", "p_err")]
         head.append(buf.put_concat("p_speed", [x[1] for x in stepping], wp.float64))
+        head.append(buf.put_concat("p_slack", [x[2] for x in stepping], wp.float64))
         head += [arrays[k] for k in ("m_pieces", "m_parts", "m_obst")]
         if kernel_name == "sample":
             head.append(buf.put("m_samples", samples[c : c + n].astype(np.int32), wp.int32))
@@ -436,7 +457,7 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
         if o["samples"] is None:
             counts = np.zeros(len(rm), dtype=np.int64)
             for j, (m, b) in enumerate(zip(rm, rb, strict=True)):
-                pack, v = _stepping_pieces(m, b.bounding_radius)
+                pack, v, _ = _stepping_pieces(m, b.bounding_radius)
                 tt = pack.t
                 with np.errstate(over="ignore", invalid="ignore"):
                     need = float(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())

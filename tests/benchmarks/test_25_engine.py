@@ -101,7 +101,7 @@ def _stepping_speeds(ms, bodies):
 
     out = []
     for m, b in zip(ms, bodies, strict=True):
-        pack, v = _stepping_pieces(m, b.bounding_radius)
+        pack, v, _ = _stepping_pieces(m, b.bounding_radius)
         t = pack.t
         out.append((np.append(t[:, 0], t[-1, 1]), v))
     return out
