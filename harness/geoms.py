@@ -385,7 +385,10 @@ def obstacles_from_model(
         if not isinstance(c, str):
             raise TypeError(f"Expected `carried` to hold body names, got {short(c)}.")
         if c not in bodies:
-            raise ValueError(f"Expected `carried` to name bodies of the model, got {c!r}.")
+            raise ValueError(
+                f"Expected `carried` to name bodies of the model, got {c!r}; its bodies:"
+                f" {short(sorted(bodies))}."
+            )
     geoms = obstacle_geoms(model, groups)
     _warn_moving(model, groups, set(carried))
     _warn_flexes(model)

@@ -100,6 +100,25 @@ def test_halve_kernel_equals_numpy(device, pieces):
 
 
 @pytest.mark.parametrize("device", DEVICES)
+def test_safe_reach_ends_a_step_no_later_than_it_may(device, rng):
+    # the end of a lipschitz step: a double at most t + step - slack, exactly, for any
+    # t, step and slack (the step as the kernel computes gap / v, so the exact quotient
+    # it stands for may be 2 ulp less); times from subnormal to 1e150, of either sign
+    from fractions import Fraction
+
+    n = 20_000
+    t = rng.choice([-1.0, 1.0], n) * 10.0 ** rng.uniform(-320, 150, n)
+    t[:50] = 0.0
+    step = np.abs(t) * 10.0 ** rng.uniform(-18, 2, n) + 10.0 ** rng.uniform(-320, 0, n)
+    slack = np.abs(t) * 10.0 ** rng.uniform(-17, -13, n) * (rng.uniform(size=n) < 0.9)
+    got = probes.reach_rows(t, step, slack, device)
+    np.testing.assert_array_equal(got, probes.reach_numpy(t, step, slack))
+    for ti, si, ki, gi in zip(t.tolist(), step.tolist(), slack.tolist(), got.tolist(), strict=True):
+        exact_step = Fraction(si) * (1 - Fraction(2, 2**53))  # 2 ulp below the quotient's
+        assert Fraction(gi) <= Fraction(ti) + exact_step - Fraction(ki), (ti, si, ki, gi)
+
+
+@pytest.mark.parametrize("device", DEVICES)
 def test_eval_kernel_equals_numpy_within_its_error_bound(device, pieces, rng):
     ctrl, _ = pieces
     u = np.concatenate([[0.0, 1.0], rng.uniform(0, 1, len(ctrl) - 2)])

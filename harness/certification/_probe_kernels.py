@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ._advance_kernels import _eval_pose
+from ._advance_kernels import _eval_pose, _safe_reach
 from ._geometry import F0, HUGE, Shape, _gjk
 from ._refine_kernels import GAMMA_C, _extent, _halve, _images, _prepare
 
@@ -115,3 +115,15 @@ def _eval_rows(
     e = _eval_pose(ctrl, tid * wp.abs(k), k, u[tid], wp.vec3d(F0, F0, F0), st_ctrl, tid)
     m_out[tid] = st_ctrl[tid, 0, 0]
     err_out[tid] = e
+
+
+@wp.kernel
+def _reach_rows(
+    t: wp.array(dtype=wp.float64),
+    step: wp.array(dtype=wp.float64),
+    slack: wp.array(dtype=wp.float64),
+    out: wp.array(dtype=wp.float64),
+):
+    """`_safe_reach` of row tid."""
+    tid = wp.tid()
+    out[tid] = _safe_reach(t[tid], step[tid], slack[tid])

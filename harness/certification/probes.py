@@ -231,3 +231,25 @@ def eval_rows(
 def eval_numpy(ctrl: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Oracle of `_eval_pose`: the Bernstein sum."""
     return np.stack([bezier_eval(c, x, axis=0) for c, x in zip(ctrl, u, strict=True)])
+
+
+def reach_rows(
+    t: np.ndarray, step: np.ndarray, slack: np.ndarray, device: str = "cpu"
+) -> np.ndarray:
+    """Kernel `_safe_reach` of rows (R,) each: the ends of certified steps."""
+    from ._probe_kernels import _reach_rows
+
+    wp, _ = _ws(device)
+    arrays = [
+        wp.array(np.asarray(x, float), dtype=wp.float64, device=device) for x in (t, step, slack)
+    ]
+    out = wp.zeros(len(arrays[0]), dtype=wp.float64, device=device)
+    wp.launch(_reach_rows, dim=len(out), inputs=arrays, outputs=[out], device=device)
+    return out.numpy()
+
+
+def reach_numpy(t: np.ndarray, step: np.ndarray, slack: np.ndarray) -> np.ndarray:
+    """Oracle of `_safe_reach`: the same operations in numpy (float64, round to nearest)."""
+    u = 2.0**-53
+    r = t + step * (1.0 - 4.0 * u)
+    return r - (3.0 * u * np.abs(r) + 2.0 * slack + 2.0**-1073)
