@@ -69,7 +69,10 @@ def spline_speed_bound(spline: BSpline, t0: float, t1: float) -> float:
         if breaks.size < 2:  # one instant: both one-sided derivatives (t0 may be a knot)
             idx = np.array([np.searchsorted(d.t, t0, side=s) for s in ("left", "right")]) - 1
         else:
-            idx = np.searchsorted(d.t, 0.5 * (breaks[:-1] + breaks[1:]), side="right") - 1
+            # each interval's knot span by its left end (a midpoint can round onto the
+            # right end when the interval is one double long, and read the next span's
+            # speed: a slerp-linear bound of 0 for a 1 m step, certified `free`)
+            idx = np.searchsorted(d.t, breaks[:-1], side="right") - 1
         idx = np.clip(idx, 0, d.c.shape[0] - 1)
         return float(np.linalg.norm(d.c[idx], axis=-1).max())
     inner = d.t[(d.t > t0) & (d.t < t1)]
@@ -152,7 +155,7 @@ class SlerpMotion(KeyframeMotion):
         """The motion as exponential-product pieces (:mod:`motions.exp_pieces`), one per
         interval between breakpoints: ``q_i exp(s L_i)`` and the origin spline."""
         br = self.breakpoints
-        i, h, _ = self._segment(0.5 * (br[:-1] + br[1:]))
+        i, h, _ = self._segment(br[:-1])  # (by the left end: see spline_speed_bound)
         s = linear_cubic(
             ((br[:-1] - self._t[i]) / h)[:, None], ((br[1:] - self._t[i]) / h)[:, None]
         )
@@ -417,7 +420,8 @@ class CumulativeBSplineMotion(_JetRotationMotion):
         br = self.breakpoints
         k, knots = self._k, self._knots
         n = self._c.shape[0]
-        mu = np.clip(np.searchsorted(knots, 0.5 * (br[:-1] + br[1:]), side="right") - 1, k, n - 1)
+        # each span by its left end (a midpoint can round onto the right end)
+        mu = np.clip(np.searchsorted(knots, br[:-1], side="right") - 1, k, n - 1)
         cum = np.tril(np.ones((n, n)))[:, 1:]  # column j-1: B~_j = sum_{l>=j} B_l
         fb = elevate_to_cubic(bspline_bezier_pieces(knots, cum, k, br))  # (P, 4, n-1)
         j = mu[:, None] - k + np.arange(1, k + 1)[None, :]  # (P, k), in 1..n-1

@@ -5,6 +5,7 @@ Ground truths here are independent of the certifier: poses from the motion's own
 definition at keyframes it interpolates, and paths that run straight through a wall.
 """
 
+import itertools
 import warnings
 
 import numpy as np
@@ -185,3 +186,37 @@ def test_a_users_speed_bound_that_is_nan_proves_nothing():
     m = Odd(I4, pos, np.arange(4.0))
     c = harness.certify(m, Sphere(0.01), [Box([0.005, 1, 1])], bound="lipschitz")
     assert c.verdict != "free", c
+
+
+def test_intervals_one_double_long_get_their_own_speed_and_pieces():
+    # a speed bound and the slerp family's exponential-product pieces chose each knot
+    # interval by its midpoint, which rounds onto the right end when the interval is one
+    # double long: slerp-linear's bound read the next interval's speed (or 0 after the
+    # last), and lipschitz and sampled certified `free` for a body whose centre sits on
+    # the obstacle's at the last keyframe (epoch seconds 1.7e9)
+    pos = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]])
+    rot = np.tile([1.0, 0, 0, 0], (3, 1))
+    box = [Box([0.05] * 3, center=[2.0, 0, 0])]
+    for scheme in ("slerp-linear", "slerp", "sclerp", "cumulative-bspline", "rational"):
+        for t0 in (1e6, 1.7e9):
+            u = np.spacing(t0)
+            times = np.array([t0, t0 + 5 * u, t0 + 6 * u])  # the last interval: one double
+            m = motions.build(scheme, rot, pos, times)
+            k = m.knots
+            chord = np.linalg.norm(np.diff(m.pose(k)[1], axis=0), axis=1) / np.diff(k)
+            bound = np.array([m.speed_bound(a, b, 0.01) for a, b in itertools.pairwise(k)])
+            assert np.all(bound >= chord * (1 - 1e-9)), (scheme, t0, bound, chord)  # (mean value)
+            for b, kw in (("lipschitz", {}), ("sampled", {}), ("sampled", {"samples": 2})):
+                c = harness.certify(m, Sphere(0.01), box, bound=b, **kw)
+                assert not (c.verdict == "free" and c.certified), (scheme, t0, b, kw, c)
+    # the pieces at times 1e15 + 0.125 k (each interval one double) are those at 0 + 0.125 k
+    rng = np.random.default_rng(2)
+    q = motions.sign_continuity(rng.normal(size=(6, 4)) * 0.3 + [1.0, 0, 0, 0])
+    p = rng.normal(size=(6, 3))
+    for scheme in ("slerp", "slerp-linear", "cumulative-bspline"):
+        near, far = (
+            motions.build(scheme, q, p, off + 0.125 * np.arange(6)).exp_pieces()
+            for off in (0.0, 1e15)
+        )
+        np.testing.assert_allclose(far.q0, near.q0, atol=1e-12)
+        np.testing.assert_allclose(far.omega, near.omega, atol=1e-12)
