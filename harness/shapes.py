@@ -83,6 +83,8 @@ def as_array(x: Any, name: str, **kw: Any) -> np.ndarray:
 
 def _length(x: Any, name: str, **kw: Any) -> np.ndarray:
     """:func:`as_array` of coordinates or sizes, at most :data:`MAX_LENGTH` in magnitude."""
+    if isinstance(x, bool | np.bool_) or (isinstance(x, np.ndarray) and x.dtype.kind == "b"):
+        raise TypeError(f"Expected `{name}` to hold numbers (lengths), got {short(x)}.")
     a = as_array(x, name, **kw)
     if a.size and np.abs(a).max() > MAX_LENGTH:
         i = int(np.abs(a).argmax())

@@ -220,3 +220,20 @@ def test_intervals_one_double_long_get_their_own_speed_and_pieces():
         )
         np.testing.assert_allclose(far.q0, near.q0, atol=1e-12)
         np.testing.assert_allclose(far.omega, near.omega, atol=1e-12)
+
+
+def test_keyframe_times_beyond_double_precision_are_named():
+    # times a few subnormals apart, or near 1e308: scipy's spline raised an error that
+    # named no argument; a tolerance of 5e-324 overflowed the host sampling rule
+    rng = np.random.default_rng(0)
+    q, p = rng.normal(size=(4, 4)), rng.normal(size=(4, 3))
+    for times in ([0, 5e-324, 1e-323, 1.5e-323], [-1e308, 0, 1e308, 1.7e308]):
+        for scheme in ("slerp", "squad", "cumulative-bspline", "rotation-spline"):
+            with pytest.raises(ValueError, match="`times` and `positions` whose origin spline"):
+                motions.build(scheme, q, p, np.array(times))
+    m = motions.build("squad", q, p)
+    far = [Box([1, 1, 1], center=[50, 0, 0])]
+    c = harness.certify(m, Sphere(1.0), far, bound="sampled", tolerance=5e-324)
+    assert c.verdict == "free" and not c.certified
+    with pytest.raises(TypeError, match="`radius` to hold numbers"):
+        Sphere(True)

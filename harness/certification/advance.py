@@ -439,7 +439,8 @@ def default_samples(m: Motion, body: Shape, tol: float, cap: int = 2_000_000) ->
             f" motions without a proven speed bound), got {v:g}: its numbers overflow.",
             m,
         )
-    return int(min(cap, max(2, math.ceil(v * (t1 - t0) / tol))))
+    need = v * (t1 - t0) / tol
+    return cap if not need < cap else int(max(2, math.ceil(need)))  # (inf: the cap)
 
 
 def sample_many(ms, bodies, obst, o) -> list[Certificate]:
