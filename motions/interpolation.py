@@ -280,6 +280,10 @@ def _minimal_numerator(base: RationalMotion, t: np.ndarray, p: np.ndarray) -> np
     g = a0[..., None] * b0 + a1[..., None] * b1 + a2[..., None] * b2  # (S, G, k+1)
     gw = g * (wu[None, :] * h[:, None])[..., None]
     blocks = np.einsum("sgi,sgj->sij", gw, g)  # (S, k+1, k+1): the energy per span
+    # the energy scales as 1/h³: times 1e-9 apart made it 1e27 against constraint rows of
+    # ~1, and the solve missed keyframes by a kilometre (a hunt's case). A constant factor
+    # leaves the minimiser alone: bring the energy to the constraints' scale.
+    blocks *= np.median(h) ** 3
     n_c = n_s * (k + 1)
     idx = np.arange(n_c).reshape(n_s, k + 1)
     con_rows, con_cols, con_vals = [], [], []  # constraint matrix A, rows numbered from 0

@@ -237,3 +237,60 @@ def test_keyframe_times_beyond_double_precision_are_named():
     assert c.verdict == "free" and not c.certified
     with pytest.raises(TypeError, match="`radius` to hold numbers"):
         Sphere(True)
+
+
+def test_minimal_translation_meets_its_keyframes_at_any_time_scale():
+    # the minimal-degree energy scales as 1/h³: with keyframes 1e-6 .. 1e-12 s apart it
+    # swamped the interpolation constraints, and the motion missed its keyframes by a
+    # kilometre and jumped at its breaks (lipschitz then stepped across a jump into an
+    # obstacle and reported a toi_lo after the contact)
+    pos = np.array(
+        [[-342.83, -603.46, 570.22], [-974.63, -934.52, 147.75], [1472.34, -492.68, 1702.07],
+         [-852.87, 996.25, -184.58], [1087.20, 1151.73, -315.59]]
+    )  # fmt: skip
+    rot = np.array([[1.0, 0, 0, 0]] * 5)
+    base = np.array([0.0, 1, 2, 5, 6])
+    for scale in (1.0, 1e-6, 1e-9, 1e-12):
+        m = motions.interpolate(rot, pos, base * scale, translation="minimal")
+        np.testing.assert_allclose(m.pose(base * scale)[1], pos, rtol=0, atol=1e-8)
+        br = m.breaks[1:-1]
+        left = [m.split(b)[0].pose(b)[1] for b in br]  # each piece's own end
+        np.testing.assert_allclose(left, m.pose(br)[1], rtol=0, atol=1e-8)
+
+
+def test_a_motion_whose_pieces_do_not_meet_is_refused_by_the_steppers():
+    # pieces built directly that jump at their join (x 1 -> 5, into a sphere at x = 5):
+    # lipschitz stepped over the jump on the speed bounds of the pieces either side
+    from motions.rational import RationalMotion
+
+    pre = np.array([[[1.0, 0, 0, 0]] * 2] * 2)
+    org = np.array([[[0.0, 0, 0], [1.0, 0, 0]], [[5.0, 0, 0], [6.0, 0, 0]]])
+    m = RationalMotion(np.array([0.0, 1.0, 2.0]), preimage=pre, origin=org)
+    obst = [Sphere(0.2, center=[5.0, 0, 0])]
+    for bound in ("lipschitz", "sampled"):
+        with pytest.raises(QueryError, match=r"`motion` to be continuous .* jump of 4 at t = 1"):
+            harness.certify(m, Sphere(0.1), obst, bound=bound)
+    # the hull takes the pieces one by one: the contact at t = 1 is found
+    assert harness.certify(m, Sphere(0.1), obst).verdict == "collision"
+
+
+@pytest.mark.parametrize(
+    ("value", "error", "match"),
+    [
+        (-2.0, QueryError, r"`motion`.speed_bound to return a bound >= 0, got -2.0"),
+        (None, QueryError, r"`motion`.speed_bound to return a number, got None"),
+        ("2.0", QueryError, r"`motion`.speed_bound to return a number"),
+        (True, QueryError, r"`motion`.speed_bound to return a number, got True"),
+    ],
+)
+def test_a_users_speed_bound_must_be_a_bound(value, error, match):
+    # a negative bound was read as "at rest" and the step jumped to the next knot,
+    # through a wall (certified free); None and strings raised from inside numpy
+    class Odd(motions.baselines.SlerpMotion):
+        def speed_bound(self, t0, t1, radius=0.0):
+            return value
+
+    pos = np.array([[-1.5, 0, 0], [-0.5, 0, 0], [0.5, 0, 0], [1.5, 0, 0]])
+    m = Odd(I4, pos, np.arange(4.0))
+    with pytest.raises(error, match=match):
+        harness.certify(m, Sphere(0.01), [Box([0.001, 1, 1])], bound="lipschitz")

@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from motions import Motion, RationalMotion
+from motions._checks import short
 from motions.baselines import (
     CumulativeBSplineMotion,
     ScLerpMotion,
@@ -175,9 +176,48 @@ def _rational_stepping_pieces(m: RationalMotion, radius: float) -> tuple:
     br = m.breaks
     tau = np.maximum(np.abs(br[pc.segment]), np.abs(br[pc.segment + 1]))
     slack = UNIT_ROUNDOFF * (4.0 * (pc.t1 - pc.t0) + (8.0 + pc.depth) * tau) * (1 + 1e-12)
+    speeds = speed_bounds(pc, radius)
+    _check_joins(m, pc, radius, speeds, slack)
     # (stepping reads no reach: zero rows, records that say "no bound")
     packed = pack_pieces(pc, 0, np.zeros((len(pc), REACH_ROW)))
-    return packed, speed_bounds(pc, radius), slack
+    return packed, speeds, slack
+
+
+def _check_joins(m, pc, radius: float, speeds: np.ndarray, slack: np.ndarray) -> None:
+    """Refuse a motion whose consecutive pieces do not meet: a step of lipschitz (or a
+    cell of sampled) spans a join on the speed bound of the pieces on either side, which
+    says nothing of a jump between them (a motion built with pieces that do not meet,
+    stepped across a jump into an obstacle, got a toi_lo after the contact). At a join
+    of a continuous motion the pose at the end of one piece and at the start of the next
+    differ by at most their error bounds and the motion over the times between them; a
+    larger difference, for points within `radius`, is a jump."""
+    if len(pc) < 2:
+        return
+    c, e = pc.ctrl, pc.error
+    ends, starts = c[:-1, -1], c[1:, 0]
+
+    def pose(mat, err):  # (A/w, b/w) and its error bound for points within radius
+        w = mat[:, 3, 3]
+        a, b = mat[:, :3, :3] / w[:, None, None], mat[:, :3, 3] / w[:, None]
+        na, nb = np.linalg.norm(a, axis=(1, 2)), np.linalg.norm(b, axis=1)
+        bound = (
+            np.sqrt(3.0) * err[:, 1] + nb * err[:, 2] + radius * (3.0 * err[:, 0] + na * err[:, 2])
+        ) / (np.abs(w) - err[:, 2])
+        return a, b, bound, nb + radius * na
+
+    a1, b1, e1, s1 = pose(ends, e[:-1])
+    a2, b2, e2, s2 = pose(starts, e[1:])
+    jump = np.linalg.norm(b1 - b2, axis=1) + radius * np.linalg.norm(a1 - a2, axis=(1, 2))
+    gap = np.abs(pc.t1[:-1] - pc.t0[1:]) + slack[:-1] + slack[1:]
+    allowed = e1 + e2 + np.maximum(speeds[:-1], speeds[1:]) * gap + 1e-13 * (s1 + s2)
+    bad = np.flatnonzero(~(jump <= allowed))
+    if bad.size:
+        i = int(bad[0])
+        raise MotionScaleError(
+            f"Expected the motion to be continuous (lipschitz and sampled step across its"
+            f" joins), got a jump of {jump[i]:.3g} at t = {pc.t1[i]:.6g} where its pieces meet.",
+            m,
+        )
 
 
 def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
@@ -222,14 +262,24 @@ def _interval_speeds(m: Motion, radius: float, index: int, bound: str) -> tuple:
     """(knots (K,), proven speed bounds (K-1,)) per knot interval of a non-rational motion."""
     k = m.knots
     try:
-        v = np.array([m.speed_bound(a, b, radius) for a, b in itertools.pairwise(k)])
-        # (a NaN bound is no bound: infinite, so that no step advances on it)
-        return k, np.where(np.isnan(v), np.inf, v)
+        got = [m.speed_bound(a, b, radius) for a, b in itertools.pairwise(k)]
     except NotImplementedError as e:
         raise QueryError(
             f"Bound {bound!r} needs a proven speed bound; motions[{index}] ({m.scheme!r}) has"
             f" none: {e}"
         ) from None
+    for x in got:  # a user's own motion: its bound is a number >= 0, or no bound
+        if isinstance(x, bool) or not isinstance(x, int | float | np.integer | np.floating):
+            raise QueryError(
+                f"Expected motions[{index}].speed_bound to return a number, got {short(x)}."
+            )
+        if x < 0:
+            raise QueryError(
+                f"Expected motions[{index}].speed_bound to return a bound >= 0, got {x!r}."
+            )
+    # (a NaN bound is no bound: infinite, so that no step advances on it)
+    v = np.array(got, dtype=float)
+    return k, np.where(np.isnan(v), np.inf, v)
 
 
 # ----------------------------------------------------------------------------- in-kernel
@@ -462,7 +512,13 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
                 tt = pack.t
                 with np.errstate(over="ignore", invalid="ignore"):
                     need = float(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
-                if not need <= MAX_SAMPLES:  # (a float: the count can pass 1e100, or inf)
+                if not math.isfinite(need):  # (a speed bound that is not finite)
+                    raise QueryError(
+                        f"The fair grid of motions[{kernel[j]}] needs inf samples: a piece"
+                        " has no finite speed bound (a zero-length piece, or numbers that"
+                        " overflow); use bound='hull' or 'lipschitz'."
+                    )
+                if not need <= MAX_SAMPLES:  # (a float: the count can pass 1e100)
                     raise QueryError(
                         f"The fair grid of motions[{kernel[j]}] needs {need:.4g} samples at"
                         f" `tolerance` {tol!r} (more than {MAX_SAMPLES}); raise `tolerance`."
