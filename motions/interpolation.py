@@ -326,11 +326,23 @@ def _minimal_numerator(base: RationalMotion, t: np.ndarray, p: np.ndarray) -> np
     band = int(np.abs(i - j).max())
     ab = np.zeros((2 * band + 1, order.size))
     ab[band + i - j, j] = v  # every (i, j) occurs once: blocks, A and Aᵀ do not overlap
+    # solved for the positions about their mean, which is added back as u0 * mean (the
+    # energy of v/u0 and the joins do not see a constant): in absolute coordinates,
+    # positions 1e6 with steps of mm lost their precision in the solve (pieces that did not
+    # meet by 1e-6, keyframes missed by 1 mm; a hunt's cases)
+    ref = p.mean(axis=0)
     rhs = np.zeros((n_c + n_con, 3))
-    rhs[n_c + n_con - t.size :] = np.einsum("ni,ni->n", bt, u0c[seg])[:, None] * p
+    rhs[n_c + n_con - t.size :] = np.einsum("ni,ni->n", bt, u0c[seg])[:, None] * (p - ref)
     sol = np.empty_like(rhs)
-    sol[order] = solve_banded((band, band), ab, rhs[order], check_finite=False)
-    coeffs = np.asarray(sol)[:n_c].reshape(n_s, k + 1, 3)
+    b = rhs[order]
+    y = solve_banded((band, band), ab, b, check_finite=False)
+    # two steps of iterative refinement: spans of lengths a thousand times apart leave the
+    # system ill-conditioned, and its pieces met only to 1e-9 of the positions
+    kkt = sp.csr_matrix((v, (i, j)), shape=(order.size, order.size))
+    for _ in range(2):
+        y = y + solve_banded((band, band), ab, b - kkt @ y, check_finite=False)
+    sol[order] = y
+    coeffs = np.asarray(sol)[:n_c].reshape(n_s, k + 1, 3) + u0c[:, :, None] * ref
     if not np.all(np.isfinite(coeffs)):
         raise MotionError("The minimal-degree translation system is singular for these keyframes.")
     return coeffs

@@ -239,6 +239,16 @@ def test_keyframe_times_beyond_double_precision_are_named():
         Sphere(True)
 
 
+def _largest_jump(m) -> float:
+    """Largest distance between the origin at the end of one Bézier segment and at the
+    start of the next (the stored pieces, each evaluated at its own end)."""
+    _, c = m.bezier_form()
+    end, start = c[:-1, -1], c[1:, 0]
+    return float(
+        np.abs(end[:, :3, 3] / end[:, 3, 3, None] - start[:, :3, 3] / start[:, 3, 3, None]).max()
+    )
+
+
 def test_minimal_translation_meets_its_keyframes_at_any_time_scale():
     # the minimal-degree energy scales as 1/h³: with keyframes 1e-6 .. 1e-12 s apart it
     # swamped the interpolation constraints, and the motion missed its keyframes by a
@@ -253,9 +263,7 @@ def test_minimal_translation_meets_its_keyframes_at_any_time_scale():
     for scale in (1.0, 1e-6, 1e-9, 1e-12):
         m = motions.interpolate(rot, pos, base * scale, translation="minimal")
         np.testing.assert_allclose(m.pose(base * scale)[1], pos, rtol=0, atol=1e-8)
-        br = m.breaks[1:-1]
-        left = [m.split(b)[0].pose(b)[1] for b in br]  # each piece's own end
-        np.testing.assert_allclose(left, m.pose(br)[1], rtol=0, atol=1e-8)
+        assert _largest_jump(m) <= 1e-8
 
 
 def test_a_motion_whose_pieces_do_not_meet_is_refused_by_the_steppers():
@@ -294,3 +302,23 @@ def test_a_users_speed_bound_must_be_a_bound(value, error, match):
     m = Odd(I4, pos, np.arange(4.0))
     with pytest.raises(error, match=match):
         harness.certify(m, Sphere(0.01), [Box([0.001, 1, 1])], bound="lipschitz")
+
+
+def test_minimal_translation_meets_its_keyframes_far_from_the_origin_and_on_uneven_times():
+    # solved in absolute coordinates, positions ~1e6 with steps of mm gave pieces that
+    # did not meet by 1e-6 (lipschitz refused the motion); spans 1e3 times apart left the
+    # system ill-conditioned, pieces meeting only to 1e-9 of the positions
+    rng = np.random.default_rng(5)
+    q = motions.sign_continuity(rng.normal(size=(14, 4)) * 0.2 + [1.0, 0, 0, 0])
+    steps = np.cumsum(rng.normal(size=(14, 3)) * 2e-3, axis=0)
+    for offset, times in (
+        (8.8e5, None),
+        (0.0, np.cumsum(np.r_[0.0, 10.0 ** rng.uniform(-3, 0.3, 13)])),
+    ):
+        p = steps * (1.0 if times is None else 1e3) + offset
+        m = motions.interpolate(q, p, times, translation="minimal")
+        assert _largest_jump(m) <= 1e-12 * np.abs(p).max(), (offset, times)
+        c = harness.certify(
+            m, Sphere(1e-3), [Box([1e-3] * 3, center=p[0] + 1.0)], bound="lipschitz"
+        )
+        assert c.verdict in ("free", "unknown")  # (answered, not refused)
