@@ -433,12 +433,18 @@ def unusable_obstacles(model: mujoco.MjModel, groups: Any = None) -> dict[int, s
     return out
 
 
-def moving_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
-    """Ids of the colliding geoms (in `groups`) on bodies that joints move, outside every
-    mocap body's subtree: a free block, a door. Neither mover nor obstacle to a query."""
+def _movers(model: mujoco.MjModel) -> np.ndarray:
+    """(nbody,) True for every body in a mocap body's subtree."""
     movers = np.zeros(model.nbody, dtype=bool)
     for b in np.flatnonzero(model.body_mocapid >= 0):
         movers |= _subtree_mask(model, int(b))
+    return movers
+
+
+def moving_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
+    """Ids of the colliding geoms (in `groups`) on bodies that joints move, outside every
+    mocap body's subtree: a free block, a door. Neither mover nor obstacle to a query."""
+    movers = _movers(model)
     body = model.geom_bodyid
     moving = ~_static_bodies(model)[body] & ~movers[body] & _colliding(model)
     mask = _group_mask(groups)
@@ -469,9 +475,7 @@ def _warn_moving(model: mujoco.MjModel, groups: Any, carried: set[str]) -> None:
 def _warn_flexes(model: mujoco.MjModel) -> None:
     """A :class:`MovingGeomsWarning` naming the colliding flexes outside every mocap
     body's subtree: MuJoCo collides them, a query does not see them."""
-    movers = np.zeros(model.nbody, dtype=bool)
-    for b in np.flatnonzero(model.body_mocapid >= 0):
-        movers |= _subtree_mask(model, int(b))
+    movers = _movers(model)
     names = [
         _name(model, mujoco.mjtObj.mjOBJ_FLEX, f)
         for f in _colliding_flexes(model)

@@ -88,16 +88,6 @@ class Constraints:
     def copy(self) -> Constraints:
         return Constraints(*(list(x) for x in (self.t, self.n, self.rhs, self.owner, self.pair)))
 
-    def since(self, start: int) -> Constraints:
-        """The cuts added after the first `start`."""
-        return Constraints(*(x[start:] for x in (self.t, self.n, self.rhs, self.owner, self.pair)))
-
-    def merged(self, other: Constraints) -> Constraints:
-        """These cuts and then `other`'s."""
-        out = self.copy()
-        out.add(other.t, other.n, other.rhs, other.owner, other.pair)
-        return out
-
     def arrays(self):
         return np.array(self.t), np.array(self.n).reshape(-1, 3), np.array(self.rhs)
 

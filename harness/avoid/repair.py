@@ -249,14 +249,14 @@ def _no_offset(dm: DistanceModel, anchors, target: float, cons, close) -> Repair
     )
 
 
-def _moved(motion, new, spline, delta, anchors) -> Moved:
+def _moved(motion, new, spline, delta, anchors, dev: float = 0.0) -> Moved:
+    """What moved from `motion` to `new` (offset `delta` on `spline`, of deviation `dev`;
+    None: nothing)."""
     norms = np.linalg.norm(delta, axis=1) if delta is not None else np.zeros(0)
     scale = 1.0 + np.abs(motion.pose(anchors)[1]).max()
     live = norms > 1e-12 * scale
-    dev = 0.0
     kdev = 0.0
     if delta is not None:
-        dev = _deviation(spline, delta)
         kt = motion.keyframe_times
         if kt.size:
             kdev = float(np.linalg.norm(new.pose(kt)[1] - motion.pose(kt)[1], axis=1).max())
@@ -383,12 +383,10 @@ def repair(
     # exact directions there: the way it found around) and solve again while the detour
     # shrinks (two posts staggered across the path: 3.59 -> 0.52 m), within the rounds
     # `max_iterations` leaves
-    seen = cons
     rounds = 0
     budget = min(POLISH_ROUNDS, max_iterations - it)
     while rounds < budget:
-        cons = search.relinearised(found.motion, found.spline, found.delta, seen)
-        seen = cons
+        cons = search.relinearised(found.motion, found.spline, found.delta, cons)
         spline, delta = found.spline, solve(found.spline, cons)
         better = None
         while delta is not None and (dev := _deviation(spline, delta)) < SHRINK * found.deviation:
@@ -401,12 +399,10 @@ def repair(
             close = search.close_poses(current, 0.0, cl.time)
             if rounds >= budget or not close[0].size:
                 break
-            old = len(cons.t)
             moved = search.move(current, close, 0.0, cons, spline, delta)
             if moved is None:
                 break
             cons, spline, delta = moved
-            seen = seen.merged(cons.since(old))
         if better is None:
             break
         found = better
@@ -414,7 +410,7 @@ def repair(
         found.motion,
         found.certificate,
         found.clearance,
-        _moved(motion, found.motion, found.spline, found.delta, anchors),
+        _moved(motion, found.motion, found.spline, found.delta, anchors, found.deviation),
         found.iterations,
         time.perf_counter() - start,
     )

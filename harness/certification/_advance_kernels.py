@@ -222,11 +222,11 @@ def _safe_reach(t: wp.float64, step: wp.float64, slack: wp.float64) -> wp.float6
     """A double at most ``t + step - slack`` (`step` computed as ``gap / v`` and rounded
     up by at most 2 ulp, `slack` the piece's time slack, ``p_slack``: the pose evaluated
     for t is the exact pose of a time within it, ``advance._stepping_pieces``): the end
-    of a step certified by that pose. ``s = fl(step (1 -
-    4u))`` is at most the exact ``gap / v``; ``fl(t + s)`` can round up by u|r|; subtracting
-    ``3u|r| + 2 slack`` (itself rounded, and TIME_TINY where that underflows) more than
-    makes up for it and the slack (1.26 million exact checks in a review, subnormal times
-    included once TIME_TINY was added). NaN and infinite steps give NaN or t: no advance."""
+    of a step certified by that pose. ``s = fl(step (1 - 4u))`` is at most the exact
+    ``gap / v``; ``fl(t + s)`` can round up by u|r|; subtracting ``3u|r| + 2 slack``
+    (itself rounded, and TIME_TINY where that underflows) more than makes up for it and
+    the slack (1.26 million exact checks in a review, subnormal times included once
+    TIME_TINY was added). NaN and infinite steps give NaN or t: no advance."""
     s = step * (F1 - wp.float64(4.0) * UNIT)
     r = t + s
     return r - (wp.float64(3.0) * UNIT * wp.abs(r) + wp.float64(2.0) * slack + TIME_TINY)

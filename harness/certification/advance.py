@@ -42,7 +42,7 @@ from .refine import (
     pack_pieces,
     pack_shapes,
 )
-from .scale import MotionScaleError, check_pieces, check_times
+from .scale import MotionScaleError, check_pieces, check_times, control_positions
 from .tables import ShapeTable
 
 __all__ = ["advance_many", "default_samples", "pose_matrices", "pose_rows", "sample_many"]
@@ -135,11 +135,9 @@ def _stepping_pieces(m: Motion, radius: float) -> tuple:
         with np.errstate(all="ignore"):  # (what overflows is refused just below)
             packed, speeds, slack = make(m, radius)
         c = packed.ctrl
-        if isinstance(m, RationalMotion):
-            with np.errstate(all="ignore"):
-                pos = c[:, :3, 3] / c[:, 3, 3][:, None]
-        else:
-            pos = m.exp_pieces().origin
+        # the origin's control positions: b / w, or an exponential-product piece's third
+        # matrix, whose first three rows hold its origin's Bézier points
+        pos = control_positions(c) if packed.k > 0 else c.reshape(-1, 3, 4, 4)[:, 2, :3]
         check_pieces(m, packed.rows[:, :2], np.r_[c.ravel(), packed.rows[:, 2:5].ravel()], pos)
         # a speed bound that came out NaN (a motion whose numbers overflow) is no bound:
         # infinite, so that no step advances and no cell is proven (the kernels' max

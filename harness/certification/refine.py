@@ -24,7 +24,7 @@ from motions.pieces import UNIT_ROUNDOFF, BezierPieces, gamma
 
 from ..shapes import MAX_LENGTH, Shape
 from .device import buffers, is_cpu, record_dtype, warp
-from .scale import MAX_TIME, check_pieces
+from .scale import MAX_TIME, check_pieces, control_positions
 from .tables import ShapeTable
 
 __all__ = ["MOTIONS_PER_CHUNK", "REACH_ROW", "Outcome", "Packed", "pack_pieces", "refine_many"]
@@ -160,18 +160,17 @@ def _check_scale(ms: list, cat: BezierPieces, ends: np.ndarray) -> None:
     """:func:`.scale.check_pieces` of motions `ms` whose pieces are `cat`, rows
     ``ends[i - 1]:ends[i]`` motion i's: the checks vectorised, the message from the first
     motion refused."""
-    with np.errstate(all="ignore"):
-        c = cat.ctrl
-        pos = np.abs(c[:, :, :3, 3] / c[:, :, 3, 3][..., None]).max(axis=(1, 2))
+    c = cat.ctrl
+    pos = np.abs(control_positions(c)).max(axis=(1, 2))
+    with np.errstate(invalid="ignore"):
         ok = np.isfinite(c).all(axis=(1, 2, 3)) & np.isfinite(cat.error).all(axis=1)
         ok &= (pos <= MAX_LENGTH) & (np.maximum(np.abs(cat.t0), np.abs(cat.t1)) <= MAX_TIME)
     starts = np.r_[0, ends[:-1]]
     bad = np.flatnonzero(~np.logical_and.reduceat(ok, starts))
     if bad.size:
-        i = int(bad[0])
-        sl = slice(starts[i], ends[i])
-        check_pieces(ms[i], np.r_[cat.t0[sl], cat.t1[sl]], c[sl], pos[sl])
-        check_pieces(ms[i], [], cat.error[sl], [])  # (the error bounds', if not those)
+        sl = slice(starts[bad[0]], ends[bad[0]])
+        values = np.r_[c[sl].ravel(), cat.error[sl].ravel()]
+        check_pieces(ms[bad[0]], np.r_[cat.t0[sl], cat.t1[sl]], values, pos[sl])
 
 
 def pack_pieces(pc, extra: int, reach: np.ndarray | None = None) -> Packed:

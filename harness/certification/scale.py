@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import HarnessError
 from ..shapes import MAX_LENGTH
 
-__all__ = ["MAX_TIME", "MotionScaleError", "check_pieces", "check_times"]
+__all__ = ["MAX_TIME", "MotionScaleError", "check_pieces", "check_times", "control_positions"]
 
 MAX_TIME = 1e150
 """Largest magnitude of a time of a certified motion (far below the kernels' sentinels:
@@ -29,6 +29,14 @@ class MotionScaleError(HarnessError):
     def __init__(self, message: str, motion):
         super().__init__(message)
         self.motion = motion
+
+
+def control_positions(ctrl: np.ndarray) -> np.ndarray:
+    """The origin's control positions ``b / w`` of control matrices (..., 4, 4) (a zero
+    or non-finite weight gives a non-finite position, which :func:`check_pieces`
+    refuses)."""
+    with np.errstate(all="ignore"):
+        return ctrl[..., :3, 3] / ctrl[..., 3, 3, None]
 
 
 def check_times(motion, t: np.ndarray) -> None:

@@ -9,7 +9,7 @@ from motions.pieces import BezierPieces
 
 from ..shapes import Shape, as_shape, parts
 from .api import MAX_DEPTH_LIMIT, TIME_ULPS, UNIT_ROUNDOFF, _integer
-from .scale import MotionScaleError, check_pieces
+from .scale import MotionScaleError, check_pieces, control_positions
 
 __all__ = ["MAX_SWEPT_BOXES", "control_aabbs", "swept_aabbs"]
 
@@ -96,8 +96,7 @@ def swept_aabbs(
             f" got depth {depth}."
         )
     table = BezierPieces.from_motion(motion)
-    with np.errstate(all="ignore"):
-        pos = table.ctrl[:, :, :3, 3] / table.ctrl[:, :, 3, 3][..., None]
+    pos = control_positions(table.ctrl)
     try:
         check_pieces(motion, np.r_[table.t0, table.t1], table.ctrl, pos[np.isfinite(pos)])
     except MotionScaleError as e:
