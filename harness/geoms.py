@@ -374,8 +374,8 @@ def obstacles_from_model(
 
     Colliding geoms on bodies that joints move (a free block, a door) are not obstacles:
     a :class:`MovingGeomsWarning` names their bodies, except those in `carried` (bodies
-    the mover carries, as a scene's ``carried``). Mocap bodies' subtrees are movers, not
-    warned about."""
+    the mover carries, as a scene's ``carried``). Mocap bodies' subtrees are movers, never
+    obstacles: with two or more that carry colliding geoms, a warning names them."""
     _check_model(model)
     if isinstance(carried, str) or not isinstance(carried, Iterable):
         raise TypeError(f"Expected `carried` to be a list of body names, got {short(carried)}.")
@@ -391,6 +391,7 @@ def obstacles_from_model(
             )
     geoms = obstacle_geoms(model, groups)
     _warn_moving(model, groups, set(carried))
+    _warn_mocaps(model, groups)
     _warn_flexes(model)
     out = []
     for g, shape in _static_shapes(model, geoms):
@@ -467,6 +468,30 @@ def _warn_moving(model: mujoco.MjModel, groups: Any, carried: set[str]) -> None:
             f" are not obstacles, nor part of any mocap body's certified shape (a query sees"
             f" the scene without them; a tool welded to the mover is certified only as a"
             f" child body of it): bodies {names}.",
+            MovingGeomsWarning,
+            stacklevel=3,
+        )
+
+
+def _warn_mocaps(model: mujoco.MjModel, groups: Any) -> None:
+    """A :class:`MovingGeomsWarning` when two or more mocap bodies carry colliding geoms
+    (in `groups`): each is certified as a mover, none is an obstacle to another (a fixed
+    jig on a mocap body included; its pose is set at run time)."""
+    colliding = _colliding(model)
+    mask = _group_mask(groups)
+    if mask is not None:
+        colliding &= _selected(mask, model.geom_group)
+    names = [
+        _name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+        for b in np.flatnonzero(model.body_mocapid >= 0)
+        if colliding[_subtree_mask(model, int(b))[model.geom_bodyid]].any()
+    ]
+    if len(names) > 1:
+        warnings.warn(
+            f"{len(names)} mocap bodies carry colliding geoms: {names}. None is an obstacle"
+            " to another (their poses are set at run time): a query certifies one mover"
+            " against the static geoms only; to keep a fixed jig as an obstacle, make it a"
+            " static body.",
             MovingGeomsWarning,
             stacklevel=3,
         )

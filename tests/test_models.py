@@ -602,8 +602,9 @@ def test_colliding_geoms_that_joints_move_are_named_not_dropped_silently(tmp_pat
     <body name="hand" mocap="true" pos="0 0 0.5"><geom name="h" type="sphere" size="0.1"/>
       <body name="finger" pos="0 0 -0.1"><joint name="f" type="slide"/>
         <geom name="fg" type="capsule" size=".01 .05"/></body></body>
-    <body name="other" mocap="true" pos="0 1 0.5"><geom name="o" type="sphere" size="0.1"/>
-    </body></worldbody><contact><pair geom1="h" geom2="knob"/></contact></mujoco>"""
+    <body name="target" mocap="true" pos="0 1 0.5"><geom name="o" type="sphere" size="0.1"
+      contype="0" conaffinity="0"/></body>
+    </worldbody><contact><pair geom1="h" geom2="knob"/></contact></mujoco>"""
     model = mujoco.MjModel.from_xml_string(xml)
     with pytest.warns(harness.sim.MovingGeomsWarning) as got:
         obst = obstacles_from_model(model)
@@ -653,3 +654,23 @@ def test_a_held_joint_at_a_bad_value_names_the_joint_or_the_geom(qpos, error, ma
         warnings.simplefilter("ignore", harness.sim.HeldJointsWarning)
         with pytest.raises(error, match=match):
             body_from_model(model, "hand")
+
+
+def test_several_colliding_mocap_bodies_are_named():
+    # a fixed jig on a second mocap body was neither an obstacle nor named: the hand
+    # certified free through it
+    xml = """<mujoco><worldbody><geom name="table" type="box" size="1 1 .05" pos="0 0 -.05"/>
+    <body name="hand" mocap="true" pos="0 0 0.5"><geom name="h" type="sphere" size="0.1"/></body>
+    <body name="jig" mocap="true" pos="0 0 0.3"><geom name="j" type="box" size=".2 .2 .05"/></body>
+    <body name="marker" mocap="true"><geom type="sphere" size=".01" contype="0" conaffinity="0"/>
+    </body></worldbody></mujoco>"""
+    model = mujoco.MjModel.from_xml_string(xml)
+    with pytest.warns(harness.sim.MovingGeomsWarning) as got:
+        obst = obstacles_from_model(model)
+    assert len(got) == 1 and got[0].filename == __file__
+    assert "2 mocap bodies carry colliding geoms: ['hand', 'jig']" in str(got[0].message)
+    assert len(obst) == 1  # the table; the jig is not an obstacle, as the warning says
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the jig's group (0) not selected: one mover left
+        model.geom_group[2] = 3
+        assert len(obstacles_from_model(model, groups=[0])) == 1
