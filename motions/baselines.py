@@ -34,7 +34,7 @@ from ._jet import Jet, qexp_jet, qmul_jet, slerp_jet
 from .bernstein import bspline_bezier_pieces
 from .errors import MotionError
 from .exp_pieces import ExpPieces, assemble, elevate_to_cubic, linear_cubic, spline_cubic
-from .interpolation import keyframes
+from .interpolation import interp_spline, keyframes
 from .motion import Motion, Recipe
 from .pieces import gamma
 from .quaternion import preimage_kinematics, qconj, qexp, qlog, qmul, rotation_matrix
@@ -84,23 +84,6 @@ def spline_speed_bound(spline: BSpline, t0: float, t1: float) -> float:
     return float(np.linalg.norm(pieces, axis=-1).max())
 
 
-def _origin_spline(t: np.ndarray, p: np.ndarray, k: int) -> BSpline:
-    """scipy's interpolating spline of degree k through the keyframe positions, refused
-    with a named error where its numbers overflow (times a few subnormals apart, or
-    near 1e308: scipy's own error named no argument)."""
-    with np.errstate(all="ignore"):
-        try:
-            spline = make_interp_spline(t, p, k=k)
-        except (ValueError, np.linalg.LinAlgError):
-            spline = None
-    if spline is None or not (np.isfinite(spline.c).all() and np.isfinite(spline.t).all()):
-        raise ValueError(
-            "Expected `times` and `positions` whose origin spline is finite, got times"
-            f" {short(t)} too close or too large for double precision; rescale them."
-        )
-    return spline
-
-
 class KeyframeMotion(Motion):
     """A baseline: keyframe rotations (sign-fixed unit quaternions) plus the C² cubic
     not-a-knot origin spline; subclasses provide the rotation part."""
@@ -112,7 +95,7 @@ class KeyframeMotion(Motion):
         self._q = q
         self._p = p
         self._t = t
-        self._origin = _origin_spline(t, p, min(3, t.size - 1))
+        self._origin = interp_spline(t, p, min(3, t.size - 1))
 
     @property
     def breakpoints(self) -> np.ndarray:
@@ -504,7 +487,7 @@ class SlerpLinearMotion(SlerpMotion):
 
     def __init__(self, q, p, t):
         super().__init__(q, p, t)
-        self._origin = _origin_spline(t, p, 1)
+        self._origin = interp_spline(t, p, 1)
 
 
 # --------------------------------------------------------------------------- screw interpolation

@@ -100,6 +100,23 @@ def _distances(p: np.ndarray) -> np.ndarray:
     return scale * np.linalg.norm(np.diff(p / scale, axis=0), axis=1)
 
 
+def interp_spline(t: np.ndarray, y: np.ndarray, k: int, what: str = "positions") -> BSpline:
+    """scipy's interpolating spline of degree k through keyframe values `y` (the argument
+    `what`), refused with a named error where its numbers overflow (times a few
+    subnormals apart, or near 1e308: scipy's own error named no argument)."""
+    with np.errstate(all="ignore"):
+        try:
+            spline = make_interp_spline(t, y, k=k)
+        except (ValueError, np.linalg.LinAlgError):
+            spline = None
+    if spline is None or not (np.isfinite(spline.c).all() and np.isfinite(spline.t).all()):
+        raise ValueError(
+            f"Expected `times` and `{what}` whose interpolating spline is finite, got times"
+            f" {short(t)} too close or too large for double precision; rescale them."
+        )
+    return spline
+
+
 def keyframes(
     rotations: Any, positions: Any, times: Any = None, *, omega: float = 1.0, min_count: int = 2
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -186,9 +203,9 @@ def interpolate(
     check_choice(translation, "translation", TRANSLATIONS)
     q, p, t = keyframes(rotations, positions, times, omega=omega)
     d = min(3, q.shape[0] - 1)
-    sq = make_interp_spline(t, q, k=d)
+    sq = interp_spline(t, q, d, "rotations")
     if translation == "cubic":
-        so = make_interp_spline(t, p, k=d)
+        so = interp_spline(t, p, d)
         motion = RationalMotion.from_preimage(d, sq.t, sq.c, (d, so.t, so.c), keyframe_times=t)
     else:
         base = RationalMotion.from_preimage(d, sq.t, sq.c, keyframe_times=t)
@@ -389,19 +406,25 @@ def hermite(
     """
     q, p, t = keyframes(rotations, positions, times, omega=omega)
     n = q.shape[0]
-    if angular_velocities is None:
-        dq = _three_point_slopes(t, q)
-        dq -= np.einsum("ij,ij->i", dq, q)[:, None] * q
-    else:
-        w = as_points(angular_velocities, "angular_velocities", n)
-        dq = 0.5 * qmul(np.concatenate([np.zeros((n, 1)), w], axis=1), q)
-    dp = _three_point_slopes(t, p) if velocities is None else as_points(velocities, "velocities", n)
-    h = np.diff(t)[:, None]
+    # (overflow at extreme keyframes is refused by name: RationalMotion's finite-pieces check)
+    with np.errstate(all="ignore"):
+        if angular_velocities is None:
+            dq = _three_point_slopes(t, q)
+            dq -= np.einsum("ij,ij->i", dq, q)[:, None] * q
+        else:
+            w = as_points(angular_velocities, "angular_velocities", n)
+            dq = 0.5 * qmul(np.concatenate([np.zeros((n, 1)), w], axis=1), q)
+        dp = (
+            _three_point_slopes(t, p)
+            if velocities is None
+            else as_points(velocities, "velocities", n)
+        )
+        h = np.diff(t)[:, None]
 
-    def pieces(y, m):
-        return np.stack([y[:-1], y[:-1] + h * m[:-1] / 3, y[1:] - h * m[1:] / 3, y[1:]], axis=1)
+        def pieces(y, m):
+            return np.stack([y[:-1], y[:-1] + h * m[:-1] / 3, y[1:] - h * m[1:] / 3, y[1:]], axis=1)
 
-    motion = RationalMotion(t, preimage=pieces(q, dq), origin=pieces(p, dp), keyframe_times=t)
+        motion = RationalMotion(t, preimage=pieces(q, dq), origin=pieces(p, dp), keyframe_times=t)
     motion.scheme = "rational-hermite"
     _check_weight(motion, t)
     # Given derivatives go into the recipe (world frame), so that the motion can be

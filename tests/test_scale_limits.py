@@ -229,8 +229,16 @@ def test_keyframe_times_beyond_double_precision_are_named():
     q, p = rng.normal(size=(4, 4)), rng.normal(size=(4, 3))
     for times in ([0, 5e-324, 1e-323, 1.5e-323], [-1e308, 0, 1e308, 1.7e308]):
         for scheme in ("slerp", "squad", "cumulative-bspline", "rotation-spline"):
-            with pytest.raises(ValueError, match="`times` and `positions` whose origin spline"):
+            with pytest.raises(ValueError, match="`times` and `positions` whose interpolating"):
                 motions.build(scheme, q, p, np.array(times))
+        # the rational scheme's rotation spline raised scipy's "array must not contain
+        # infs or NaNs"; hermite's RuntimeWarnings leaked before its named error
+        with pytest.raises(ValueError, match="`times` and `rotations` whose interpolating"):
+            motions.interpolate(q, p, np.array(times))
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(ValueError, match="finite Bézier pieces"):
+                motions.hermite(q, p, np.array(times))
     m = motions.build("squad", q, p)
     far = [Box([1, 1, 1], center=[50, 0, 0])]
     c = harness.certify(m, Sphere(1.0), far, bound="sampled", tolerance=5e-324)
