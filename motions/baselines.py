@@ -29,7 +29,6 @@ from scipy.interpolate import BSpline, make_interp_spline
 from scipy.sparse.linalg import spsolve
 from scipy.spatial.transform import Rotation, RotationSpline
 
-from ._checks import short
 from ._jet import Jet, qexp_jet, qmul_jet, slerp_jet
 from .bernstein import bspline_bezier_pieces
 from .errors import MotionError
