@@ -44,6 +44,7 @@ __all__ = [
     "gamma",
     "speed_bounds",
     "square_lower",
+    "weight_scaled",
 ]
 
 UNIT_ROUNDOFF = 2.0**-53
@@ -306,6 +307,17 @@ SPEED_MARGIN = 1e-9
 the final division (a few units in the last place)."""
 
 
+def weight_scaled(ctrl: np.ndarray, error: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Control matrices (P, K, 4, 4) and their error bounds (P, 3) scaled per piece by the
+    power of two that brings its largest weight into [0.5, 1): exact (no rounding, short
+    of subnormals far below the error bounds), and the motion is unchanged (a matrix and
+    its multiples are one pose). Speed bounds square products of the weights and the
+    blocks; unscaled, a preimage of size 1e40 (weights 1e80) overflowed them to inf."""
+    w = np.abs(ctrl[..., 3, 3]).max(axis=1) + error[:, W_BLOCK]
+    _, k = np.frexp(np.where(np.isfinite(w) & (w > 0), w, 1.0))
+    return np.ldexp(ctrl, -k[:, None, None, None]), np.ldexp(error, -k[:, None])
+
+
 def speed_bounds(table: BezierPieces, radius: float) -> np.ndarray:
     """(P,) proven bounds on the speed of every point within `radius` of the body origin on
     each piece (time units), from the piece's own control matrices.
@@ -318,13 +330,12 @@ def speed_bounds(table: BezierPieces, radius: float) -> np.ndarray:
     coefficients, plus their rounding) are added to the numerator and subtracted from
     the weight. A piece whose weight is not provably positive gets ``inf``.
     """
-    c = table.ctrl
-    p, k = c.shape[:2]
+    p, k = table.ctrl.shape[:2]
     n = k - 1
     if n == 0:
         return np.zeros(p)
-    e = table.error
-    mag = table.magnitude() + e
+    c, e = weight_scaled(table.ctrl, table.error)
+    mag = block_magnitude(c) + e
     m, w = c[..., :3, :], c[..., 3, 3]
     dm = n * np.diff(m, axis=1)
     dw = n * np.diff(w, axis=1)

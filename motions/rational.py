@@ -47,6 +47,7 @@ from .pieces import (
     block_magnitude,
     gamma,
     square_lower,
+    weight_scaled,
 )
 from .quaternion import U_TENSOR, preimage_kinematics, rotation_matrix
 
@@ -841,9 +842,8 @@ class RationalMotion(Motion):
         u1 = np.clip((b - br[segs]) / h, 0.0, 1.0)
         keep = (u1 > u0) | (np.arange(segs.size) == 0)  # an instant: its one segment
         segs, h, u0, u1 = segs[keep], h[keep], u0[keep], u1[keep]
-        c = np.array(self.ctrl[segs])
+        c, e = weight_scaled(self.ctrl[segs], self.ctrl_error[segs])
         n = c.shape[1] - 1
-        e = self.ctrl_error[segs]
         mag = block_magnitude(c) + e  # (P, 3): A, b, w
         m, w = c[..., :3, :], c[..., 3, 3]
         num = bezier_product(

@@ -330,3 +330,27 @@ def test_minimal_translation_meets_its_keyframes_far_from_the_origin_and_on_unev
             m, Sphere(1e-3), [Box([1e-3] * 3, center=p[0] + 1.0)], bound="lipschitz"
         )
         assert c.verdict in ("free", "unknown")  # (answered, not refused)
+
+
+def test_speed_bounds_do_not_depend_on_the_preimages_scale():
+    # a preimage and its multiples are one motion; at size 1e40 (weights 1e80) the speed
+    # bounds' norms overflowed to inf, and `lipschitz` answered unknown, the fair grid
+    # refused the motion
+    q = np.array([[1, 0, 0, 0], [0.9, 0.4, 0, 0], [0.7, 0.5, 0.5, 0], [0.6, 0, 0.8, 0]])
+    p = np.array([[0, 0, 0], [1, 0.5, 0], [2, 1, 0.5], [3, 0.5, 1]], dtype=float)
+    m1 = motions.interpolate(q, p)
+    walls = [Box([0.01, 1, 1], center=[1.5, 0.6, 0.2])]  # across the path
+    body = Box([0.1, 0.1, 0.1])
+    a, b = m1.domain
+    cuts = np.linspace(a, b, 5)
+    for scale in (1e40, 1e60, 1e-60):
+        m = motions.RationalMotion(
+            m1.breaks, preimage=[x * scale for x in m1.preimage_pieces], origin=m1.origin_pieces
+        )
+        for t0, t1 in itertools.pairwise(cuts):
+            assert m.speed_bound(t0, t1, 0.2) == pytest.approx(m1.speed_bound(t0, t1, 0.2), 1e-9)
+        for bound in ("lipschitz", "sampled"):
+            c = harness.certify(m, body, walls, bound=bound, tolerance=1e-3)
+            assert c.verdict == "collision" and c.certified, (scale, bound, c)
+            far = harness.certify(m, body, [Box([1, 1, 1], center=[0, 5, 0])], bound=bound)
+            assert far.verdict == "free" and far.certified, (scale, bound, far)
