@@ -401,3 +401,50 @@ def test_a_refusal_names_the_keyframes_around_the_trouble(monkeypatch):
     with pytest.raises(RepairError, match=r"between the keyframes \(at t = 2 and 3\)") as e:
         repair(m, Box([0.2, 0.1, 0.05]), [Box([0.05] * 3, center=[2.5, 0, 0])])
     assert e.value.obstacles == (0,)
+
+
+def test_the_deviation_sees_a_detour_between_close_keyframes():
+    # an even grid of 4,001 times had no point between keyframes 0.4 ms apart, and
+    # max_deviation said 1.5e-5 m for a 7.4 cm detour there (a hunt's case)
+    times = np.array([0.0, 1.0, 1.0004, 2.0])
+    pos = np.array([[0, 0, 0], [1.0, 0, 0], [1.4, 0, 0], [2.4, 0, 0]])
+    vel = np.array([[1.0, 0, 0], [1000.0, 0, 0], [1000.0, 0, 0], [1.0, 0, 0]])
+    m = motions.hermite(
+        np.tile([1.0, 0, 0, 0], (4, 1)),
+        pos,
+        times,
+        velocities=vel,
+        angular_velocities=np.zeros((4, 3)),
+    )
+    r = repair(m, Box([0.05] * 3), [Sphere(0.05, center=[1.2, 0.06, 0])], tolerance=1e-3)
+    t = np.linspace(1.0, 1.0004, 20_001)  # the fast interval, 20 ns apart
+    moved = np.linalg.norm(r.motion.pose(t)[1] - m.pose(t)[1], axis=1).max()
+    assert moved > 0.05
+    assert moved * (1 - 1e-6) <= r.moved.max_deviation <= r.moved.deviation_bound
+
+
+def test_keyframe_times_beyond_the_domain_do_not_break_a_repair():
+    # a motion may carry keyframe times beyond its domain: the finished repair posed them
+    # and raised about an argument `t` that repair does not have
+    base = motions.interpolate(
+        np.tile([1.0, 0, 0, 0], (3, 1)), np.array([[0, 0, 0], [2, 0, 0], [4, 0, 0]]), [0, 2, 4]
+    )
+    m = motions.RationalMotion(
+        base.breaks, preimage=base.preimage_pieces, origin=base.origin_pieces,
+        keyframe_times=[0, 2, 5],
+    )  # fmt: skip
+    r = repair(m, Box([0.05] * 3), [Sphere(0.05, center=[1.0, 0.05, 0])])
+    assert r.certificate.verdict == "free" and r.moved.keyframe_deviation < 1e-12
+
+
+@pytest.mark.parametrize("limit", [{"max_nodes": 1}, {"max_depth": 0}])
+def test_a_certifier_held_by_its_limits_is_named(limit):
+    # with cuts already made and no close pose left, the search cut at no pose and failed
+    # inside scipy ("min() arg is an empty sequence")
+    rot = np.array([[np.cos(a / 2), 0, 0, np.sin(a / 2)] for a in np.linspace(0, 0.5, 5)])
+    m = motions.interpolate(rot, np.array([[x, 0, 0] for x in range(5)], dtype=float))
+    name = next(iter(limit))
+    with pytest.raises(
+        RepairError, match=rf"stopped at its limits \(`{name}` = .*raise the limits"
+    ):
+        repair(m, Box([0.05] * 3), [Sphere(0.05, center=[1.5, 0.05, 0])], **limit)

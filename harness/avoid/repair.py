@@ -1,5 +1,6 @@
-"""Repair of a colliding rational motion (DESIGN §4 "Repair"): a new C² motion, certified
-free with at least a requested clearance, with the rotation and every keyframe kept.
+"""Repair of a colliding rational motion (DESIGN §4 "Repair"): a new motion (C² wherever
+the input was), certified free with at least a requested clearance, with the rotation and
+every keyframe kept.
 
 The origin path is moved by a cubic offset ``Δ(t)`` (:mod:`.offset`) that vanishes at
 the keyframe times, so only the translational control positions between keyframes move.
@@ -101,8 +102,9 @@ class Repair:
     """Result of :func:`repair`.
 
     Attributes:
-        motion: the repaired C² :class:`RationalMotion` (the input when it was already
-            clear).
+        motion: the repaired :class:`RationalMotion` (the input when it was already
+            clear), C² wherever the input was (a C² offset is added: a Hermite input stays
+            C¹ at its keyframes).
         certificate: ``certify(motion, ...)``, verdict ``free`` (the proof of freedom).
         clearance: the certified bracket of its minimum distance; ``clearance.lower`` is at
             least the requested clearance (the proof of the margin).
@@ -206,12 +208,23 @@ SHRINK = 0.95
 """A polished offset is tried only while its deviation is below this share of the best
 repair's."""
 DEVIATION_GRID = 4001
-"""Times on which ``max_t |Δ(t)|`` is evaluated (:attr:`Moved.max_deviation`)."""
+"""Times on which ``max_t |Δ(t)|`` is evaluated (:attr:`Moved.max_deviation`)..."""
+DEVIATION_PER_SPAN = 33
+"""... and times in each knot span of the offset."""
 
 
 def _deviation(spline: OffsetSpline, delta: np.ndarray) -> float:
-    """``max_t |Δ(t)|`` on :data:`DEVIATION_GRID` times of the domain."""
-    t = np.linspace(spline.knots[0], spline.knots[-1], DEVIATION_GRID)
+    """``max_t |Δ(t)|`` on :data:`DEVIATION_GRID` times of the domain and
+    :data:`DEVIATION_PER_SPAN` times in each knot span of the offset (Δ is a cubic on
+    each: an even grid alone missed a 7 cm detour between keyframes 0.4 ms apart)."""
+    u = np.unique(spline.knots)
+    s = np.linspace(0.0, 1.0, DEVIATION_PER_SPAN)
+    t = np.concatenate(
+        [
+            np.linspace(u[0], u[-1], DEVIATION_GRID),
+            (u[:-1, None] + np.diff(u)[:, None] * s).ravel(),
+        ]
+    )
     return float(np.linalg.norm(spline.basis(t) @ delta, axis=1).max())
 
 
@@ -249,6 +262,21 @@ def _no_offset(dm: DistanceModel, anchors, target: float, cons, close) -> Repair
     )
 
 
+def _limited(cl: Clearance, reach: float, cert_opts: dict, n_obst: int) -> RepairError:
+    """The refusal when the certifier's limits, not the obstacles, stop the proof."""
+    limits = ", ".join(
+        f"`{k}` = {cert_opts[k]}" for k in ("max_nodes", "max_depth") if k in cert_opts
+    )
+    return RepairError(
+        f"Cannot repair: the certifier stopped at its limits ({limits or 'the defaults'})"
+        f" with the clearance bracket [{cl.lower:.3g}, {cl.upper:.3g}] near t ="
+        f" {cl.time:.6g}, and the search finds no pose closer than {reach:.3g} to an"
+        " obstacle;"
+        " raise the limits to prove the clearance.",
+        tuple(range(n_obst)),
+    )
+
+
 def _moved(motion, new, spline, delta, anchors, dev: float = 0.0) -> Moved:
     """What moved from `motion` to `new` (offset `delta` on `spline`, of deviation `dev`;
     None: nothing)."""
@@ -258,6 +286,8 @@ def _moved(motion, new, spline, delta, anchors, dev: float = 0.0) -> Moved:
     kdev = 0.0
     if delta is not None:
         kt = motion.keyframe_times
+        kt = kt[(kt >= anchors[0]) & (kt <= anchors[-1])]  # (as the anchors: a motion
+        # may carry keyframe times beyond its domain, which pose() refuses)
         if kt.size:
             kdev = float(np.linalg.norm(new.pose(kt)[1] - motion.pose(kt)[1], axis=1).max())
     return Moved(
@@ -356,11 +386,16 @@ def repair(
     for it in range(1, max_iterations + 1):
         close = search.close_poses(current, boost, cl.time)
         if not close[0].size:
+            if not cl.width_ok and not cl.penetrating:
+                # (with cuts already made, this branch went on to cut at no pose and
+                # failed inside scipy: max_nodes=1, max_depth=0)
+                raise _limited(cl, target + boost + step, cert_opts, len(obst))
             # the grid saw no close pose but the certifier is not satisfied: ask for more
             # room where the certifier's bracket is tightest
             boost += tol
             if not cons.t:
                 break
+            continue
         best = search.move(current, close, boost, cons, spline, delta)
         if best is None:
             raise _no_offset(dm, anchors, target, cons, close)
