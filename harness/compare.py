@@ -24,6 +24,10 @@ pair, of half the groups in 376 of 380 and of one group alone in 75 % of the cas
 failing gate is therefore worth confirming by running base and new back to back. On a
 quiet machine use ``--time-threshold 15%``.
 
+**Rows.** Two runs of one suite and seed hold the same rows, so a row of BASE missing from
+NEW (a case that stopped running) is a regression, and so is a figure timed in BASE that
+has no rounds in NEW; a row only in NEW is a new case, and fine.
+
 **Accuracy** (runs only; verdicts are deterministic for a suite and seed, so any change
 is real): a row that is a false free (truth collision, verdict free) in NEW but not in
 BASE; more false collisions than BASE (beyond ``fp_threshold``); a higher unknown rate
@@ -392,10 +396,12 @@ def _rounds(df: pd.DataFrame, timer: str) -> list[np.ndarray | None]:
                 out.append(a if a.size and np.all(np.isfinite(a)) else None)
             else:
                 out.append(None)
-        else:  # a run from before repeated rounds: one sample of wall time per row
+        elif timer == "wall":  # a run from before repeated rounds: one wall time per row
             s = df["seconds"].iat[i] if "seconds" in df else None
             ok = isinstance(s, int | float | np.floating) and np.isfinite(s) and s > 0
             out.append(np.array([float(s)]) if ok else None)
+        else:
+            out.append(None)
     return out
 
 
@@ -411,17 +417,58 @@ def _compare_runs(
     ]
     if problems:
         raise CompareError("The runs are of different suites: " + "; ".join(problems))
-    keys = sorted(set(base["_key"]) & set(new["_key"]))
+    kb, kn = set(base["_key"]), set(new["_key"])
+    keys = sorted(kb & kn)
     if not keys:
         raise CompareError("The runs share no case.")
     bi = base.set_index("_key").loc[keys]
     ni = new.set_index("_key").loc[keys]
     out = Comparison()
-    only = len(set(base["_key"]) ^ set(new["_key"]))
-    out.lines.append(f"{len(keys)} matched rows ({only} rows in only one run); timer: {timer} time")
+    # a row of the base that the new run lacks is a case that stopped running or crashed
+    # (suite and seed match, so the rows are the same); a row only in NEW is a new case
+    lost = base[~base["_key"].isin(kn)]
+    timer, why = _timer_used(base, new, timer)
+    out.lines.append(
+        f"{len(keys)} matched rows, {len(lost)} only in the base, {len(kn - kb)} only in the"
+        f" new run; timer: {timer} time" + (f" ({why})" if why else "")
+    )
+    if len(lost):
+        out.regressions.append(
+            f"missing: {len(lost)} row(s) of the base are not in the new run"
+            f" ({_count_groups([_group_name(r) for _, r in lost.iterrows()])})"
+        )
     _run_timing(out, bi, ni, thr, timer)
     _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
     return out
+
+
+def _has_rounds(df: pd.DataFrame, timer: str) -> bool:
+    col = f"{timer}_rounds"
+    return col in df and bool(df[col].notna().any())
+
+
+def _timer_used(base: pd.DataFrame, new: pd.DataFrame, timer: str) -> tuple[str, str]:
+    """The timer to compare, and why it is not `timer`: wall time when a whole run kept no
+    CPU-time rounds (a run from before they were kept) but both runs kept wall time."""
+    if timer != "cpu":
+        return timer, ""
+    lacking = [name for name, df in (("base", base), ("new", new)) if not _has_rounds(df, "cpu")]
+    if not lacking or not all(_has_rounds(df, "wall") or _has_seconds(df) for df in (base, new)):
+        return timer, ""
+    runs = "the base and new runs" if len(lacking) == 2 else f"the {lacking[0]} run"
+    return "wall", f"{runs} kept no CPU-time rounds"
+
+
+def _has_seconds(df: pd.DataFrame) -> bool:
+    return "seconds" in df and bool(pd.to_numeric(df["seconds"], errors="coerce").gt(0).any())
+
+
+def _count_groups(names: list[str], limit: int = 6) -> str:
+    """'a: 3, b: 1' for the most frequent `limit` names, then how many more there are."""
+    counts = pd.Series(names, dtype=object).value_counts(sort=False)
+    order = sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))
+    text = ", ".join(f"{name or 'ungrouped'}: {c}" for name, c in order[:limit])
+    return text + (f", and {len(order) - limit} more group(s)" if len(order) > limit else "")
 
 
 def _group_name(row: pd.Series) -> str:
@@ -435,19 +482,25 @@ def _run_timing(
     out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame, thr: float, timer: str
 ) -> None:
     rb, rn = _rounds(bi, timer), _rounds(ni, timer)
-    if timer == "cpu" and not any(x is not None for x in rb):  # runs without CPU rounds
-        rb, rn = _rounds(bi, "wall"), _rounds(ni, "wall")
-        out.lines.append("(the base has no CPU-time rounds: comparing wall time)")
     groups: dict[str, tuple[list, list]] = {}
+    lost: list[str] = []
     for j in range(len(bi)):
-        if rb[j] is None or rn[j] is None:
+        if rb[j] is None:
             continue
         name = _group_name(bi.iloc[j])
+        if rn[j] is None:  # timed in the base, not in the new run: it stopped running
+            lost.append(name)
+            continue
         gb, gn = groups.setdefault(name, ([], []))
         gb.append(rb[j])
         gn.append(rn[j])
+    if lost:
+        out.regressions.append(
+            f"timing: {len(lost)} figure(s) timed in the base have no {timer}-time rounds in"
+            f" the new run ({_count_groups(lost)})"
+        )
     if not groups:
-        out.lines.append("(no timed figure in both runs)")
+        out.lines.append("(no matched row is timed in both runs)")
         return
     rows = [
         _decide(name, gb, gn, thr, MIN_TIMING_SECONDS) for name, (gb, gn) in sorted(groups.items())

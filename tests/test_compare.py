@@ -258,7 +258,7 @@ def test_every_study_kind_has_distinct_row_keys(tmp_path):
     run = _run(tmp_path / "run", rows)
     res = compare(run, run)
     assert res.exit_code == 0, res.text()
-    assert res.lines[0].startswith(f"{len(rows)} matched rows (0 rows in only one run)")
+    assert res.lines[0].startswith(f"{len(rows)} matched rows, 0 only in the base, 0 only in")
     # a row that really appears twice is refused, naming its key without 'nan'
     twice = _run(tmp_path / "twice", [*rows, rows[-1]])
     with pytest.raises(CompareError, match="same key") as e:

@@ -1,0 +1,77 @@
+"""The compare gate on inputs at its edges, through the CLI entry point: rows lost from the
+new run, times of zero, subnormal or overflowing size, huge round counts and integers, and
+empty inputs. Each must give an honest exit code (0 pass, 1 regression, 2 unusable input
+with one line on stderr), never a traceback, a leaked numpy warning, or an inf/nan "ok"."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .test_compare import _cli, _rows, _run
+
+
+def _one_line_error(r, *phrases: str) -> None:
+    """Exit 2, one line on stderr naming every phrase, no traceback, nothing on stdout."""
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2, (r.returncode, r.stdout, r.stderr)
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert r.stdout == ""
+    for p in phrases:
+        assert p in lines[0], (p, lines[0])
+
+
+# ----------------------------------------------------------------------------- lost rows
+def test_rows_missing_from_the_new_run_fail_the_gate(tmp_path, capsys):
+    rows = _rows(np.random.default_rng(20))
+    base = _run(tmp_path / "base", rows)
+    # NEW keeps 2 of the 12 rows (the hunter's 8 of 452), then loses every hull row
+    for name, keep in (
+        ("few", lambda r: r["case_id"] in ("sampled-0", "sampled-1")),
+        ("nohull", lambda r: r["bound"] != "hull"),
+    ):
+        new = _run(tmp_path / name, [r for r in rows if keep(r)])
+        r = _cli(capsys, "compare", str(base), str(new))
+        lost = sum(not keep(x) for x in rows)
+        assert r.returncode == 1, r.stdout
+        assert f"{12 - lost} matched rows, {lost} only in the base, 0 only in the new run" in (
+            r.stdout
+        )
+        assert f"missing: {lost} row(s) of the base are not in the new run" in r.stdout
+        assert "certify/rational/hull: 4" in r.stdout
+        # every timed row has CPU rounds in both runs: no claim to the contrary
+        assert "no CPU-time rounds" not in r.stdout and r.stderr == ""
+    # rows only in NEW are new cases: they pass, and are counted
+    few = _run(tmp_path / "few2", [r for r in rows if r["bound"] == "sampled"])
+    r = _cli(capsys, "compare", str(few), str(base))
+    assert r.returncode == 0 and "0 only in the base, 8 only in the new run" in r.stdout
+
+
+def test_a_figure_no_longer_timed_in_the_new_run_fails(tmp_path, capsys):
+    rows = _rows(np.random.default_rng(21))
+    base = _run(tmp_path / "base", rows)
+    untimed = {"cpu_rounds": None, "wall_rounds": None, "seconds": None, "verdict": "n/a"}
+    new = _run(tmp_path / "new", _rows(np.random.default_rng(21), **{"hull-2": untimed}))
+    r = _cli(capsys, "compare", str(base), str(new))
+    assert r.returncode == 1
+    assert "timing: 1 figure(s) timed in the base have no cpu-time rounds in the new run" in (
+        r.stdout
+    )
+
+
+def test_wall_time_is_used_only_when_a_run_kept_no_cpu_rounds(tmp_path, capsys):
+    rng = np.random.default_rng(22)
+    base = _run(tmp_path / "base", _rows(rng))
+    old = _run(tmp_path / "old", [{**x, "cpu_rounds": None} for x in _rows(rng)])
+    r = _cli(capsys, "compare", str(old), str(base))
+    assert r.returncode == 0, r.stdout
+    assert "timer: wall time (the base run kept no CPU-time rounds)" in r.stdout
+    r = _cli(capsys, "compare", str(base), str(old))
+    assert r.returncode == 0 and "(the new run kept no CPU-time rounds)" in r.stdout
+    # a new run with no timing at all is not "compared in wall time": its figures are lost
+    none = _run(
+        tmp_path / "none",
+        [{**x, "cpu_rounds": None, "wall_rounds": None, "seconds": None} for x in _rows(rng)],
+    )
+    r = _cli(capsys, "compare", str(base), str(none))
+    assert r.returncode == 1 and "timer: cpu time\n" in r.stdout
+    assert "12 figure(s) timed in the base have no cpu-time rounds" in r.stdout
