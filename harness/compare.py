@@ -12,7 +12,9 @@ is the sum of its figures' medians. The ratio NEW / BASE gets a 95 % bootstrap i
 (figures resampled together, then each figure's rounds within each run: see
 :func:`harness.timing.ratio_interval`). A group is a **regression only when the slowdown
 is significant (the interval lies above 1) and larger than the threshold** (the ratio
-exceeds 1 + threshold).
+exceeds 1 + threshold). Groups below :data:`MIN_TIMING_SECONDS` (runs), with fewer than
+:data:`MIN_ROUNDS` samples, or whose base or new cost is below :data:`TIMER_RESOLUTION`
+are printed as "not gated", with the reason.
 
 The interval captures the noise between rounds of one run, not the drift between runs:
 on a shared machine a whole case can run while another process holds the other hardware
@@ -56,6 +58,7 @@ __all__ = [
     "MIN_ROUNDS",
     "MIN_TIMING_SECONDS",
     "TIMERS",
+    "TIMER_RESOLUTION",
     "CompareError",
     "Comparison",
     "TimingRow",
@@ -68,6 +71,11 @@ on the shared 2-core machine (see the module docstring)."""
 MIN_TIMING_SECONDS = 0.005
 """Run groups whose base cost (sum of medians) is below this are printed, not gated:
 below a few milliseconds the scheduler and the caches, not the code, decide the ratio."""
+TIMER_RESOLUTION = 1e-9
+"""Groups whose base or new cost is below this (seconds) are printed, not gated, in runs
+and benchmark files alike: ``time.perf_counter`` and ``time.process_time`` tick in
+nanoseconds at best, so a cost of 0 or a subnormal number is no measurement, and its ratio
+would be infinite (a base of 0 once read "inf, ok")."""
 MIN_ROUNDS = 5
 """Timing samples (rounds over all figures of a group) each side needs to be gated."""
 TOI_SLACK = 1e-9
@@ -188,13 +196,19 @@ def _decide(
     name: str, xb: list[np.ndarray], xn: list[np.ndarray], thr: float, floor: float
 ) -> TimingRow:
     samples = (sum(a.size for a in xb), sum(a.size for a in xn))
-    ratio, lo, hi = ratio_interval(xb, xn)
     mb = sum(float(np.median(a)) for a in xb)
     mn = sum(float(np.median(a)) for a in xn)
+    low = max(floor, TIMER_RESOLUTION)
+    if min(mb, mn) >= TIMER_RESOLUTION:  # shown for groups below `floor` too
+        ratio, lo, hi = ratio_interval(xb, xn)
+    else:  # a time of 0 (or a subnormal number) is no measurement: its ratio is 0 or inf
+        ratio = lo = hi = math.nan
     if min(samples) < MIN_ROUNDS:
         status = f"not gated: {min(samples)} timing sample(s) < {MIN_ROUNDS}"
-    elif mb < floor:
-        status = f"not gated: base {mb * 1e3:.3g} ms < {floor * 1e3:g} ms"
+    elif mb < low:
+        status = f"not gated: base {_fmt_s(mb)} < {_fmt_s(low)}"
+    elif mn < TIMER_RESOLUTION:
+        status = f"not gated: new {_fmt_s(mn)} < {_fmt_s(TIMER_RESOLUTION)}"
     elif lo > 1 and ratio > 1 + thr:
         status = "regression"
     elif hi < 1:
@@ -211,8 +225,9 @@ def _timing_lines(out: Comparison, rows: list[TimingRow], thr: float, what: str)
     )
     for r in rows:
         iv = f"[{r.lo:.3f}, {r.hi:.3f}]" if np.isfinite(r.lo) else "–"
+        ratio = f"{r.ratio:7.3f}" if np.isfinite(r.ratio) else "–"
         out.lines.append(
-            f"{r.name:{width}s} {_fmt_s(r.base):>10s} {_fmt_s(r.new):>10s} {r.ratio:7.3f} {iv:>17s}  {r.status}"
+            f"{r.name:{width}s} {_fmt_s(r.base):>10s} {_fmt_s(r.new):>10s} {ratio:>7s} {iv:>17s}  {r.status}"
         )
         out.timing.append(r)
         if r.status == "regression":
@@ -223,16 +238,21 @@ def _timing_lines(out: Comparison, rows: list[TimingRow], thr: float, what: str)
     out.lines.append(
         f"(a regression: the ratio exceeds {1 + thr:.2f} and its 95% bootstrap interval lies above 1)"
     )
+    loose = sum(r.status.startswith("not gated") for r in rows)
+    if loose:
+        out.lines.append(f"({loose} of {len(rows)} group(s) not gated: see their status)")
 
 
 def _fmt_s(x: float) -> str:
     if not np.isfinite(x):
         return "–"
-    if x >= 1:
+    if x == 0 or x >= 1:
         return f"{x:.3g} s"
     if x >= 1e-3:
         return f"{x * 1e3:.3g} ms"
-    return f"{x * 1e6:.3g} µs"
+    if x >= 1e-6:
+        return f"{x * 1e6:.3g} µs"
+    return f"{x * 1e9:.3g} ns"
 
 
 # ----------------------------------------------------------------------------- benchmarks

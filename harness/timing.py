@@ -146,7 +146,8 @@ def ratio_interval(
             different numbers of rounds).
 
     Returns:
-        (ratio, lo, hi).
+        (ratio, lo, hi); ``hi`` (and ``lo``) is inf when resampled base cases cost 0. A
+        base of 0 gives ``(inf, nan, nan)`` (``(1, nan, nan)`` if new is 0 too).
     """
     b = _cases(base, "base")
     n = _cases(new, "new")
@@ -168,10 +169,14 @@ def ratio_interval(
     else:
         sb = med_b[pick, cols[:, None]].sum(axis=1)
         sn = med_n[pick, cols[:, None]].sum(axis=1)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         boot = np.where(sb > 0, sn / sb, np.inf)
-    lo, hi = np.quantile(boot, [(1 - level) / 2, (1 + level) / 2])
-    return ratio, float(lo), float(hi)
+    # A resampled base of 0 gives an infinite ratio, and a quantile interpolated between
+    # two infinities is NaN (inf - inf): the largest float stands in for inf meanwhile.
+    big = np.finfo(float).max
+    q = np.quantile(np.minimum(boot, big), [(1 - level) / 2, (1 + level) / 2])
+    lo, hi = (math.inf if v >= big else float(v) for v in q)
+    return ratio, lo, hi
 
 
 def _cases(x: Any, name: str) -> list[np.ndarray]:

@@ -5,9 +5,30 @@ with one line on stderr), never a traceback, a leaked numpy warning, or an inf/n
 
 from __future__ import annotations
 
+import json
+import warnings
+from pathlib import Path
+
 import numpy as np
 
 from .test_compare import _cli, _rows, _run
+
+
+def _quiet_cli(capsys, *args: str):
+    """`rsmbench ARGS` (see `_cli`), failing on any warning it raises (numpy's overflow
+    and invalid-value warnings reach a user's stderr; under pytest they are captured)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = _cli(capsys, *args)
+    assert not caught, [str(w.message) for w in caught]
+    return r
+
+
+def _bench_file(path: Path, **data: list) -> str:
+    """A pytest-benchmark JSON file of one benchmark per keyword (its `stats.data`)."""
+    doc = {"benchmarks": [{"fullname": k, "stats": {"data": v}} for k, v in data.items()]}
+    path.write_text(json.dumps(doc))
+    return str(path)
 
 
 def _one_line_error(r, *phrases: str) -> None:
@@ -75,3 +96,26 @@ def test_wall_time_is_used_only_when_a_run_kept_no_cpu_rounds(tmp_path, capsys):
     r = _cli(capsys, "compare", str(base), str(none))
     assert r.returncode == 1 and "timer: cpu time\n" in r.stdout
     assert "12 figure(s) timed in the base have no cpu-time rounds" in r.stdout
+
+
+# ----------------------------------------------------------------------------- zero time
+def test_a_base_of_zero_time_is_not_gated_never_inf_and_ok(tmp_path, capsys):
+    pos = _bench_file(tmp_path / "pos.json", a=[1e-3] * 10)
+    for name, rounds in (("zero", [0.0] * 10), ("subnormal", [5e-324] * 10)):
+        other = _bench_file(tmp_path / f"{name}.json", a=rounds)
+        for base, new, side in ((other, pos, "base"), (pos, other, "new")):
+            r = _quiet_cli(capsys, "compare", base, new)
+            row = next(line for line in r.stdout.splitlines() if line.startswith("a "))
+            assert r.returncode == 0 and f"not gated: {side} " in row and "< 1 ns" in row, row
+            assert "inf" not in row and "nan" not in row and r.stderr == ""
+            assert "(1 of 1 group(s) not gated" in r.stdout
+
+
+def test_a_resampled_base_of_zero_gives_an_infinite_bound_not_nan(tmp_path, capsys):
+    # the median is 1 ms, but about a third of the resampled medians are 0: the upper end
+    # of the interval is infinite (was NaN, with numpy's "invalid value" warning)
+    base = _bench_file(tmp_path / "base.json", a=[0.0, 0.0, 1e-3, 1e-3, 1e-3])
+    new = _bench_file(tmp_path / "new.json", a=[1e-3] * 5)
+    r = _quiet_cli(capsys, "compare", base, new)
+    row = next(line for line in r.stdout.splitlines() if line.startswith("a "))
+    assert r.returncode == 0 and "inf]" in row and "nan" not in row and row.endswith("ok"), row
