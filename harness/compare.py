@@ -3,7 +3,8 @@
 
 BASE and NEW are two run folders (``results.parquet`` + ``meta.json``) of the same suite
 and seed, or two pytest-benchmark JSON files. Exit codes: 0 no regression, 1 a
-regression, 2 the inputs cannot be read or do not match.
+regression, 2 the inputs cannot be read or do not match (a round time that is not a number
+in [0, :data:`MAX_ROUND_SECONDS`] makes an input unreadable).
 
 **Timing.** Every timed figure carries its repeated rounds (``cpu_rounds``/``wall_rounds``
 in a run, ``stats.data`` in a benchmark file). Figures are grouped (a run: by study,
@@ -55,6 +56,7 @@ from .timing import ratio_interval
 
 __all__ = [
     "DEFAULT_THRESHOLD",
+    "MAX_ROUND_SECONDS",
     "MIN_ROUNDS",
     "MIN_TIMING_SECONDS",
     "TIMERS",
@@ -71,6 +73,11 @@ on the shared 2-core machine (see the module docstring)."""
 MIN_TIMING_SECONDS = 0.005
 """Run groups whose base cost (sum of medians) is below this are printed, not gated:
 below a few milliseconds the scheduler and the caches, not the code, decide the ratio."""
+MAX_ROUND_SECONDS = 1e6
+"""Longest round time (seconds, about 11.6 days) an input may hold; a longer one makes the
+input unreadable (exit 2): no benchmark round lasts that long, and the bound keeps sums of
+medians and their ratios far from overflow (rounds of 1e308 s once summed to inf and read
+"nan, ok")."""
 TIMER_RESOLUTION = 1e-9
 """Groups whose base or new cost is below this (seconds) are printed, not gated, in runs
 and benchmark files alike: ``time.perf_counter`` and ``time.process_time`` tick in
@@ -285,25 +292,62 @@ def _load_benchmarks(p: Path) -> dict[str, dict]:
             )
         data = stats.get("data")
         if data is not None:
-            ok = isinstance(data, list) and data and all(_finite_nonneg(x) for x in data)
-            if not ok:
+            bad = _bad_times(data, "stats.data")
+            if bad:
                 raise CompareError(
                     f"{where} ({bm['fullname']}): expected `stats.data` to be a non-empty list of"
-                    f" times >= 0, got {data!r:.80}."
+                    f" round times in seconds, each in [0, {MAX_ROUND_SECONDS:g}], got {bad}."
                 )
         else:
-            need = ("median", "iqr", "rounds")
-            if not all(_finite_nonneg(stats.get(k)) for k in need):
+            bad = [
+                f"`stats.{k}` = {_clip(stats.get(k))}"
+                for k, ok in (("median", _time), ("iqr", _time), ("rounds", _count))
+                if not ok(stats.get(k))
+            ]
+            if bad:
+                if not {"median", "iqr", "rounds"} & set(stats):
+                    bad = [f"keys {sorted(stats)}"]
                 raise CompareError(
-                    f"{where} ({bm['fullname']}): expected `stats.data` (per-round times) or the"
-                    f" numbers {list(need)}, got keys {sorted(stats)}."
+                    f"{where} ({bm['fullname']}): expected `stats.data` (per-round times) or"
+                    f" `stats.median` and `stats.iqr` (seconds in [0, {MAX_ROUND_SECONDS:g}]) with"
+                    f" `stats.rounds` (an integer >= 1), got {', '.join(bad)}."
                 )
         out[bm["fullname"]] = stats
     return out
 
 
-def _finite_nonneg(x: Any) -> bool:
-    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x) and x >= 0
+def _time(x: Any) -> bool:
+    """A round time as JSON gives it: a number, not a bool, in [0, MAX_ROUND_SECONDS]. An
+    integer of any size compares exactly here (``math.isfinite`` would convert it to a float
+    first, which overflows for 400 digits); NaN fails every comparison."""
+    return isinstance(x, int | float) and not isinstance(x, bool) and 0 <= x <= MAX_ROUND_SECONDS
+
+
+def _count(x: Any) -> bool:
+    """A round count: an integer >= 1 (a float such as 7.0 too), of any size."""
+    if isinstance(x, bool) or not isinstance(x, int | float):
+        return False
+    return x >= 1 and (isinstance(x, int) or (math.isfinite(x) and x.is_integer()))
+
+
+def _bad_times(data: Any, name: str) -> str:
+    """'' when `data` is a non-empty list of round times (:func:`_time`), else what is wrong."""
+    if not isinstance(data, list):
+        return f"{type(data).__name__} {_clip(data)}"
+    if not data:
+        return "an empty list"
+    for k, x in enumerate(data):
+        if not _time(x):
+            return f"`{name}[{k}]` = {_clip(x)}"
+    return ""
+
+
+def _clip(x: Any) -> str:
+    """A repr short enough for a one-line message; a huge integer by its number of digits."""
+    if isinstance(x, int) and not isinstance(x, bool) and abs(x) >= 10**20:
+        return f"an integer of {math.floor(math.log10(abs(x))) + 1} digits"
+    r = repr(x)
+    return r if len(r) <= 60 else r[:57] + "..."
 
 
 def _benchmark_sample(stats: dict) -> np.ndarray:
@@ -400,25 +444,42 @@ def _key_part(v: Any) -> str:
     return str(v)
 
 
-def _rounds(df: pd.DataFrame, timer: str) -> list[np.ndarray | None]:
-    """Per row: its timing rounds under `timer` (None when the row carries no timing)."""
+def _rounds(df: pd.DataFrame, timer: str, table: Path) -> list[np.ndarray | None]:
+    """Per row of `df` (indexed by row key): its timing rounds under `timer` (None when the
+    row carries no timing).
+
+    Raises:
+        CompareError: a row's rounds are not a JSON list of times (:func:`_time`).
+    """
     col = f"{timer}_rounds"
     out: list[np.ndarray | None] = []
-    has_rounds = col in df and df[col].notna().any()
+    has_rounds = _has_rounds(df, timer)
     for i in range(len(df)):
         if has_rounds:
             v = df[col].iat[i]
-            if isinstance(v, str):
-                try:
-                    a = np.asarray(json.loads(v), dtype=float)
-                except (ValueError, TypeError):
-                    a = np.zeros(0)
-                out.append(a if a.size and np.all(np.isfinite(a)) else None)
-            else:
+            if v is None or v is pd.NA or _isnan(v):
                 out.append(None)
+                continue
+            try:
+                vals = json.loads(v) if isinstance(v, str) else v
+            except ValueError:  # not JSON, or an integer of more than 4300 digits
+                vals = v
+            bad = _bad_times(vals, col)
+            if bad:
+                raise CompareError(
+                    f"{table}: row {df.index[i]!r}: expected `{col}` to be a non-empty JSON"
+                    f" list of round times in seconds, each in [0, {MAX_ROUND_SECONDS:g}],"
+                    f" got {bad}."
+                )
+            out.append(np.asarray(vals, dtype=float))
         elif timer == "wall":  # a run from before repeated rounds: one wall time per row
             s = df["seconds"].iat[i] if "seconds" in df else None
             ok = isinstance(s, int | float | np.floating) and np.isfinite(s) and s > 0
+            if ok and s > MAX_ROUND_SECONDS:
+                raise CompareError(
+                    f"{table}: row {df.index[i]!r}: expected `seconds` in"
+                    f" [0, {MAX_ROUND_SECONDS:g}], got {_clip(float(s))}."
+                )
             out.append(np.array([float(s)]) if ok else None)
         else:
             out.append(None)
@@ -457,7 +518,7 @@ def _compare_runs(
             f"missing: {len(lost)} row(s) of the base are not in the new run"
             f" ({_count_groups([_group_name(r) for _, r in lost.iterrows()])})"
         )
-    _run_timing(out, bi, ni, thr, timer)
+    _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"))
     _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
     return out
 
@@ -499,9 +560,14 @@ def _group_name(row: pd.Series) -> str:
 
 
 def _run_timing(
-    out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame, thr: float, timer: str
+    out: Comparison,
+    bi: pd.DataFrame,
+    ni: pd.DataFrame,
+    thr: float,
+    timer: str,
+    tables: tuple[Path, Path],
 ) -> None:
-    rb, rn = _rounds(bi, timer), _rounds(ni, timer)
+    rb, rn = _rounds(bi, timer, tables[0]), _rounds(ni, timer, tables[1])
     groups: dict[str, tuple[list, list]] = {}
     lost: list[str] = []
     for j in range(len(bi)):

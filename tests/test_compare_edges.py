@@ -119,3 +119,48 @@ def test_a_resampled_base_of_zero_gives_an_infinite_bound_not_nan(tmp_path, caps
     r = _quiet_cli(capsys, "compare", base, new)
     row = next(line for line in r.stdout.splitlines() if line.startswith("a "))
     assert r.returncode == 0 and "inf]" in row and "nan" not in row and row.endswith("ok"), row
+
+
+# ----------------------------------------------------------------------------- overflow
+def test_round_times_that_overflow_are_refused_in_one_line(tmp_path, capsys):
+    pos = _bench_file(tmp_path / "pos.json", a=[1e-3] * 10)
+    huge = _bench_file(tmp_path / "huge.json", a=[1e308] * 10)
+    for base, new in ((huge, huge), (pos, huge), (huge, pos)):
+        r = _quiet_cli(capsys, "compare", base, new)
+        _one_line_error(r, "huge.json", "`stats.data[0]` = 1e+308", "[0, 1e+06]")
+    # a 400-digit integer round time (math.isfinite raised OverflowError on it)
+    big = tmp_path / "bigint.json"
+    big.write_text('{"benchmarks": [{"fullname": "a", "stats": {"data": [1' + "0" * 400 + "]}}]}")
+    r = _quiet_cli(capsys, "compare", str(big), pos)
+    _one_line_error(r, "bigint.json", "`stats.data[0]` = an integer of 401 digits")
+
+
+def test_summary_statistics_are_checked_like_rounds(tmp_path, capsys):
+    pos = _bench_file(tmp_path / "pos.json", a=[1e-3] * 10)
+    for name, stats, said in (
+        ("nanmed", {"median": float("nan"), "iqr": 1.0, "rounds": 5}, "`stats.median` = nan"),
+        ("hugeiqr", {"median": 1e-3, "iqr": 1e308, "rounds": 5}, "`stats.iqr` = 1e+308"),
+        ("norounds", {"median": 1e-3, "iqr": 0.0, "rounds": 0}, "`stats.rounds` = 0"),
+        ("halfround", {"median": 1e-3, "iqr": 0.0, "rounds": 2.5}, "`stats.rounds` = 2.5"),
+    ):
+        path = tmp_path / f"{name}.json"
+        path.write_text(json.dumps({"benchmarks": [{"fullname": "a", "stats": stats}]}))
+        r = _quiet_cli(capsys, "compare", pos, str(path))
+        _one_line_error(r, f"{name}.json", said, "`stats.rounds` (an integer >= 1)")
+
+
+def test_run_rounds_that_overflow_or_are_not_numbers_are_refused(tmp_path, capsys):
+    rows = _rows(np.random.default_rng(23))
+    base = _run(tmp_path / "base", rows)
+    for name, text, said in (
+        ("huge", json.dumps([1e308] * 5), "`cpu_rounds[0]` = 1e+308"),
+        ("bigint", "[1" + "0" * 400 + ", 1, 1, 1, 1]", "`cpu_rounds[0]` = an integer of 401"),
+        ("nan", "[NaN, 1, 1, 1, 1]", "`cpu_rounds[0]` = nan"),
+        ("empty", "[]", "got an empty list"),
+        ("text", "fast", "got str 'fast'"),
+    ):
+        new = _run(
+            tmp_path / name, _rows(np.random.default_rng(23), **{"hull-1": {"cpu_rounds": text}})
+        )
+        r = _quiet_cli(capsys, "compare", str(base), str(new))
+        _one_line_error(r, f"{name}/results.parquet", "hull-1", said)
