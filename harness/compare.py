@@ -57,6 +57,7 @@ from .timing import ratio_interval
 __all__ = [
     "DEFAULT_THRESHOLD",
     "MAX_ROUND_SECONDS",
+    "MAX_SAMPLE",
     "MIN_ROUNDS",
     "MIN_TIMING_SECONDS",
     "TIMERS",
@@ -83,6 +84,12 @@ TIMER_RESOLUTION = 1e-9
 and benchmark files alike: ``time.perf_counter`` and ``time.process_time`` tick in
 nanoseconds at best, so a cost of 0 or a subnormal number is no measurement, and its ratio
 would be infinite (a base of 0 once read "inf, ok")."""
+MAX_SAMPLE = 1001
+"""Most rounds of one figure the bootstrap resamples. The bootstrap draws a (resamples,
+rounds) array per figure, so a file saying ``"rounds": 1e9`` once asked for 23.7 GB: a
+longer sample is replaced by this many of its evenly spaced quantiles (an odd number, so
+that its median is among them), which widens the interval to that of 1001 rounds and never
+narrows it; a summary without ``data`` stands in for at most this many rounds."""
 MIN_ROUNDS = 5
 """Timing samples (rounds over all figures of a group) each side needs to be gated."""
 TOI_SLACK = 1e-9
@@ -203,6 +210,7 @@ def _decide(
     name: str, xb: list[np.ndarray], xn: list[np.ndarray], thr: float, floor: float
 ) -> TimingRow:
     samples = (sum(a.size for a in xb), sum(a.size for a in xn))
+    xb, xn = [_thin(a) for a in xb], [_thin(a) for a in xn]
     mb = sum(float(np.median(a)) for a in xb)
     mn = sum(float(np.median(a)) for a in xn)
     low = max(floor, TIMER_RESOLUTION)
@@ -223,6 +231,13 @@ def _decide(
     else:
         status = "ok"
     return TimingRow(name, mb, mn, ratio, lo, hi, samples, status)
+
+
+def _thin(a: np.ndarray) -> np.ndarray:
+    """At most MAX_SAMPLE rounds: the evenly spaced quantiles of a longer sample."""
+    if a.size <= MAX_SAMPLE:
+        return a
+    return np.quantile(a, (np.arange(MAX_SAMPLE) + 0.5) / MAX_SAMPLE)
 
 
 def _timing_lines(out: Comparison, rows: list[TimingRow], thr: float, what: str) -> None:
@@ -253,11 +268,12 @@ def _timing_lines(out: Comparison, rows: list[TimingRow], thr: float, what: str)
 def _fmt_s(x: float) -> str:
     if not np.isfinite(x):
         return "–"
-    if x == 0 or x >= 1:
+    # 0.9995 of a unit prints as 1 of it at 3 digits, not as 1e+03 of the next one down
+    if x == 0 or x >= 0.9995:
         return f"{x:.3g} s"
-    if x >= 1e-3:
+    if x >= 0.9995e-3:
         return f"{x * 1e3:.3g} ms"
-    if x >= 1e-6:
+    if x >= 0.9995e-6:
         return f"{x * 1e6:.3g} µs"
     return f"{x * 1e9:.3g} ns"
 
@@ -352,10 +368,11 @@ def _clip(x: Any) -> str:
 
 def _benchmark_sample(stats: dict) -> np.ndarray:
     """Per-round times; without them, a stand-in sample with the same median and IQR
-    (quantiles of a normal of sigma = IQR / 1.349 at the file's round count)."""
+    (quantiles of a normal of sigma = IQR / 1.349 at the file's round count, at most
+    MAX_SAMPLE)."""
     if stats.get("data") is not None:
         return np.asarray(stats["data"], dtype=float)
-    n = max(1, int(stats["rounds"]))
+    n = int(min(stats["rounds"], MAX_SAMPLE))
     z = np.array([0.0]) if n == 1 else _normal_quantiles(n)
     return np.maximum(0.0, stats["median"] + z * stats["iqr"] / 1.349)
 

@@ -6,6 +6,10 @@ with one line on stderr), never a traceback, a leaked numpy warning, or an inf/n
 from __future__ import annotations
 
 import json
+import os
+import resource
+import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -164,3 +168,49 @@ def test_run_rounds_that_overflow_or_are_not_numbers_are_refused(tmp_path, capsy
         )
         r = _quiet_cli(capsys, "compare", str(base), str(new))
         _one_line_error(r, f"{name}/results.parquet", "hull-1", said)
+
+
+# ----------------------------------------------------------------------------- memory
+MEMORY_LIMIT = 3 * 2**30
+"""Address space (bytes) for a compare under test: the interpreter with numpy, scipy and
+pandas maps well under 1 GB; a bootstrap over 2000 x 10^9 rounds (the hunter's "rounds":
+1e9, once 23.7 GB) or 2000 x 2 x 10^5 rounds (once 3.3 GB) fails inside it."""
+
+
+def _cli_limited(*args: str) -> subprocess.CompletedProcess:
+    """`python -m harness.cli ARGS` in a process whose address space is MEMORY_LIMIT, so a
+    regression of the memory bound fails this test instead of the machine."""
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
+
+    return subprocess.run(
+        [sys.executable, "-m", "harness.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        preexec_fn=limit,
+        env={**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"},
+    )
+
+
+def test_a_huge_round_count_without_data_is_read_as_a_bounded_stand_in(tmp_path):
+    stats = {"median": 1e-3, "iqr": 1e-4, "rounds": 1e9}
+    (tmp_path / "big.json").write_text(
+        json.dumps({"benchmarks": [{"fullname": "a", "stats": stats}]})
+    )
+    pos = _bench_file(tmp_path / "pos.json", a=[1e-3] * 10)
+    r = _cli_limited("compare", pos, str(tmp_path / "big.json"))
+    assert r.returncode == 0 and r.stderr == "", r.stderr[-500:]
+    assert "ok" in next(line for line in r.stdout.splitlines() if line.startswith("a "))
+
+
+def test_a_long_data_list_is_thinned_and_still_gated(tmp_path):
+    rng = np.random.default_rng(24)
+    n = 200_000  # pytest-benchmark's default 1 s of 5 µs rounds
+    base = _bench_file(tmp_path / "base.json", a=(1e-5 * rng.lognormal(0, 0.1, n)).tolist())
+    slow = _bench_file(tmp_path / "slow.json", a=(2e-5 * rng.lognormal(0, 0.1, n)).tolist())
+    r = _cli_limited("compare", base, slow)
+    assert r.returncode == 1 and r.stderr == "", r.stderr[-500:]
+    row = next(line for line in r.stdout.splitlines() if line.startswith("a "))
+    assert " 10 µs " in row and "regression" in row, row
