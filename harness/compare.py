@@ -105,7 +105,8 @@ a scaling row by ``method``; a corpus row by ``keyframes`` (the corpus case id, 
 
 
 class CompareError(HarnessError):
-    """The two inputs cannot be compared (unreadable, different suites, formats or cases)."""
+    """The two inputs cannot be compared (unreadable, different suites, formats or cases),
+    or an argument of :func:`compare` is invalid. A ValueError, as every HarnessError."""
 
 
 @dataclass(frozen=True)
@@ -143,13 +144,19 @@ class Comparison:
 
 
 def _check_threshold(value: Any, name: str, integer: bool = False) -> float:
-    bad = isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating)
-    if not bad:
-        bad = not math.isfinite(float(value)) or value < 0 or (integer and value != int(value))
-    if bad:
-        what = "an integer >= 0" if integer else "a finite number >= 0"
-        raise ValueError(f"Expected `{name}` to be {what}, got {short(value)}.")
-    return float(value)
+    """`value` as a float, or a CompareError (a ValueError, and what the CLI reports in one
+    line) when it is not a finite number >= 0 (an integer if `integer`): an integer too
+    large for a float (``--fp-threshold`` with 401 digits) counts as not finite."""
+    x = math.nan
+    if not isinstance(value, bool) and isinstance(value, int | float | np.integer | np.floating):
+        try:
+            x = float(value)
+        except OverflowError:
+            x = math.inf
+    if not (math.isfinite(x) and x >= 0 and (x.is_integer() or not integer)):
+        what = "a finite integer >= 0" if integer else "a finite number >= 0"
+        raise CompareError(f"Expected `{name}` to be {what}, got {_clip(value)}.")
+    return x
 
 
 def _kind(p: Path) -> str:
@@ -188,14 +195,14 @@ def compare(
         timer: "cpu" (process CPU time) or "wall"; benchmark files hold wall time only.
 
     Raises:
-        ValueError: a threshold or the timer is invalid.
-        CompareError: an input cannot be read, or the two do not match.
+        CompareError: a threshold or the timer is invalid, an input cannot be read, or the
+            two do not match (a ValueError).
     """
     thr = _check_threshold(time_threshold, "time_threshold")
     fpt = int(_check_threshold(fp_threshold, "fp_threshold", integer=True))
     ut = _check_threshold(unknown_threshold, "unknown_threshold")
     if timer not in TIMERS:
-        raise ValueError(f"Unknown `timer` {short(timer)}; expected one of {list(TIMERS)}.")
+        raise CompareError(f"Unknown `timer` {short(timer)}; expected one of {list(TIMERS)}.")
     b, n = Path(base), Path(new)
     kb, kn = _kind(b), _kind(n)
     if kb != kn:

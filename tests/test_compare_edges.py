@@ -14,6 +14,9 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pytest
+
+from harness.compare import compare
 
 from .test_compare import _cli, _rows, _run
 
@@ -214,3 +217,15 @@ def test_a_long_data_list_is_thinned_and_still_gated(tmp_path):
     assert r.returncode == 1 and r.stderr == "", r.stderr[-500:]
     row = next(line for line in r.stdout.splitlines() if line.startswith("a "))
     assert " 10 µs " in row and "regression" in row, row
+
+
+# ----------------------------------------------------------------------------- arguments
+def test_a_threshold_too_large_for_a_float_is_one_line_exit_2(tmp_path, capsys):
+    pos = _bench_file(tmp_path / "pos.json", a=[1e-3] * 10)
+    run = _run(tmp_path / "run", _rows(np.random.default_rng(25)))
+    for target in (pos, str(run)):
+        r = _quiet_cli(capsys, "compare", target, target, "--fp-threshold", "1" + "0" * 400)
+        _one_line_error(r, "`fp_threshold`", "a finite integer >= 0", "an integer of 401 digits")
+    # the library says the same, as a ValueError (CompareError is one)
+    with pytest.raises(ValueError, match=r"`time_threshold` to be a finite number >= 0, got an"):
+        compare(pos, pos, time_threshold=10**400)
