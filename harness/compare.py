@@ -4,7 +4,8 @@
 BASE and NEW are two run folders (``results.parquet`` + ``meta.json``) of the same suite
 and seed, or two pytest-benchmark JSON files. Exit codes: 0 no regression, 1 a
 regression, 2 the inputs cannot be read or do not match (a round time that is not a number
-in [0, :data:`MAX_ROUND_SECONDS`] makes an input unreadable).
+in [0, :data:`MAX_ROUND_SECONDS`] makes an input unreadable, and an input without rows or
+benchmarks one that cannot be compared, even with itself).
 
 **Timing.** Every timed figure carries its repeated rounds (``cpu_rounds``/``wall_rounds``
 in a run, ``stats.data`` in a benchmark file). Figures are grouped (a run: by study,
@@ -392,6 +393,13 @@ def _normal_quantiles(n: int) -> np.ndarray:
 
 def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
     base, new = _load_benchmarks(b), _load_benchmarks(n)
+    # Two empty files are identical, yet a gate that compared nothing has no evidence to
+    # pass on: an empty file is what a benchmark step that collected nothing writes.
+    for p, d in ((b, base), (n, new)):
+        if not d:
+            raise CompareError(
+                f"{p} holds no benchmark (`benchmarks` is empty): nothing to compare."
+            )
     common = sorted(set(base) & set(new))
     if not common:
         raise CompareError(f"No benchmark appears in both {b} and {n}.")
@@ -515,6 +523,9 @@ def _compare_runs(
 ) -> Comparison:
     base, mb = _load_run(b)
     new, mn = _load_run(n)
+    for p, df in ((b, base), (n, new)):  # as for benchmark files: nothing compared, no pass
+        if not len(df):
+            raise CompareError(f"{p / 'results.parquet'} has no rows: nothing to compare.")
     problems = [
         f"{k}: base {mb.get(k)!r} vs new {mn.get(k)!r}"
         for k in ("suite", "suite_hash", "seed")

@@ -14,6 +14,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from harness.compare import compare
@@ -229,3 +230,19 @@ def test_a_threshold_too_large_for_a_float_is_one_line_exit_2(tmp_path, capsys):
     # the library says the same, as a ValueError (CompareError is one)
     with pytest.raises(ValueError, match=r"`time_threshold` to be a finite number >= 0, got an"):
         compare(pos, pos, time_threshold=10**400)
+
+
+# ----------------------------------------------------------------------------- empty
+def test_inputs_with_nothing_to_compare_exit_2_even_against_themselves(tmp_path, capsys):
+    empty = tmp_path / "empty.json"
+    empty.write_text('{"benchmarks": []}')
+    pos = _bench_file(tmp_path / "pos.json", a=[1e-3] * 10)
+    for base, new in ((empty, empty), (empty, pos), (pos, empty)):
+        r = _quiet_cli(capsys, "compare", str(base), str(new))
+        _one_line_error(r, "empty.json holds no benchmark (`benchmarks` is empty)")
+    run = _run(tmp_path / "run", _rows(np.random.default_rng(26)))
+    hollow = _run(tmp_path / "hollow", _rows(np.random.default_rng(26)))
+    pd.read_parquet(hollow / "results.parquet").iloc[:0].to_parquet(hollow / "results.parquet")
+    for base, new in ((hollow, hollow), (run, hollow)):
+        r = _quiet_cli(capsys, "compare", str(base), str(new))
+        _one_line_error(r, "hollow/results.parquet has no rows: nothing to compare")
