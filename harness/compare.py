@@ -336,6 +336,11 @@ def _load_benchmarks(p: Path) -> dict[str, dict]:
                     f" `stats.median` and `stats.iqr` (seconds in [0, {MAX_ROUND_SECONDS:g}]) with"
                     f" `stats.rounds` (an integer >= 1), got {', '.join(bad)}."
                 )
+        if bm["fullname"] in out:  # the later one would silently replace the first
+            raise CompareError(
+                f"{where}: `fullname` {_clip(bm['fullname'])} appears twice; expected each"
+                " benchmark once (one pytest-benchmark run per file)."
+            )
         out[bm["fullname"]] = stats
     return out
 

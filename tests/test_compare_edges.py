@@ -246,3 +246,17 @@ def test_inputs_with_nothing_to_compare_exit_2_even_against_themselves(tmp_path,
     for base, new in ((hollow, hollow), (run, hollow)):
         r = _quiet_cli(capsys, "compare", str(base), str(new))
         _one_line_error(r, "hollow/results.parquet has no rows: nothing to compare")
+
+
+def test_a_benchmark_named_twice_is_refused(tmp_path, capsys):
+    # the second "a" (1 s rounds) replaced the first (1 ms) unseen: a "1000x regression"
+    doc = {
+        "benchmarks": [
+            {"fullname": "a", "stats": {"data": [1e-3] * 10}},
+            {"fullname": "a", "stats": {"data": [1.0] * 10}},
+        ]
+    }
+    (tmp_path / "dup.json").write_text(json.dumps(doc))
+    pos = _bench_file(tmp_path / "pos.json", a=[1e-3] * 10)
+    r = _quiet_cli(capsys, "compare", pos, str(tmp_path / "dup.json"))
+    _one_line_error(r, "dup.json: benchmarks[1]: `fullname` 'a' appears twice")
