@@ -681,3 +681,56 @@ def test_slug_and_shorten_keep_words_whole():
 def test_warnings_are_listed_once(written):
     md = written[0].read_text()
     assert md.count(WARNING) == 1 and "(2 cases)" in md
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {
+        str(p.relative_to(folder)): p.read_bytes()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file() and not p.name.startswith(".")
+    }
+
+
+def test_a_report_killed_part_way_leaves_the_last_one_and_the_users_files(tmp_path, monkeypatch):
+    # a hunt: report files were written in place (SIGKILL left report.html empty and an
+    # SVG cut short), old figures were deleted first, and `--out` deleted a user's own
+    # figures/*.svg and tables/*.csv
+    run = _write_run(tmp_path / "run")
+    write_report(run)
+    (run / "figures" / "my_diagram.svg").write_text("<svg>mine</svg>")
+    (run / "tables" / "measurements.csv").write_text("a,b\n1,2\n")
+    before = _snapshot(run)
+    assert "report.html" in before and any(k.startswith("figures/") for k in before)
+
+    def killed(*a, **k):
+        raise RuntimeError("killed while drawing")
+
+    with monkeypatch.context() as mp:
+        mp.setattr("harness.report.memory_section", killed)  # late in the report
+        with pytest.raises(RuntimeError, match="killed"):
+            write_report(run)
+    assert _snapshot(run) == before
+    assert not list(run.glob(".report-staging-*"))
+    # a figure the last report wrote and this one does not is removed; the user's stay
+    stale = run / "figures" / "stale.png"
+    stale.write_bytes(b"old")
+    manifest = run / ".report-files.json"
+    manifest.write_text(json.dumps([*json.loads(manifest.read_text()), "figures/stale.png"]))
+    write_report(run)
+    after = _snapshot(run)
+    assert not stale.exists()
+    assert after["figures/my_diagram.svg"] == b"<svg>mine</svg>"
+    assert after["tables/measurements.csv"] == b"a,b\n1,2\n"
+    assert set(after) == set(before)
+
+
+def test_a_report_refuses_another_runs_folder_and_a_second_writer(tmp_path):
+    from harness.run.journal import OutputLock, OutputLocked
+
+    run, other = _write_run(tmp_path / "run"), _write_run(tmp_path / "other")
+    with pytest.raises(ReportError, match="holds another run's results"):
+        write_report(run, out=other)
+    assert not (other / "report.md").exists()
+    with OutputLock(run), pytest.raises(OutputLocked, match="in use by another rsmbench run"):
+        write_report(run)
+    assert not (run / "report.md").exists()

@@ -20,11 +20,15 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import shutil
+import tempfile
 from pathlib import Path
 
 import pandas as pd
 
 from ..errors import HarnessError
+from ..run.journal import OutputLock, atomic_json
 from .avoid import repair_section
 from .corpus import corpus_section
 from .data import format_headline, headline, scaling_slopes
@@ -95,21 +99,43 @@ def _read_run(run: Path) -> tuple[pd.DataFrame, dict]:
     return df, meta
 
 
-def write_report(run_dir: str | os.PathLike, out: str | os.PathLike | None = None) -> Path:
+def write_report(
+    run_dir: str | os.PathLike, out: str | os.PathLike | None = None, *, lock: bool = True
+) -> Path:
     """Write ``report.md``, ``report.html``, ``figures/`` and ``tables/`` for a run.
+
+    The report is drawn into a hidden staging folder and then moved into place file by
+    file (each ``os.replace``, ``report.md`` last), so a report killed part-way leaves the
+    previous one whole; the folder is locked as a run locks it (a second writer is
+    refused). Only the files an earlier report wrote (listed in ``.report-files.json``)
+    are removed: a user's own files beside them stay.
 
     Args:
         run_dir: a run folder (``results.parquet``, ``meta.json``).
-        out: where to write (default: the run folder itself).
+        out: where to write (default: the run folder itself); a folder holding another
+            run's results is refused.
+        lock: take the folder's lock (False: the caller holds it, as ``run_suite`` does).
 
     Raises:
         ReportError: the run cannot be read, or the report cannot be written there.
+        OutputLocked: another rsmbench process is writing the folder.
     """
     run = Path(run_dir)
     df, meta = _read_run(run)
     dest = run if out is None else Path(out)
+    if dest.resolve() != run.resolve() and any(
+        (dest / f).exists() for f in ("results.parquet", "meta.json", "rows.jsonl")
+    ):
+        raise ReportError(
+            f"{str(dest)!r} holds another run's results; write the report into the run's own"
+            " folder or an empty one."
+        )
     try:
-        return _write(df, meta, dest)
+        dest.mkdir(parents=True, exist_ok=True)
+        if not lock:
+            return _write(df, meta, dest)
+        with OutputLock(dest):
+            return _write(df, meta, dest)
     except PermissionError as e:
         raise ReportError(
             f"Cannot write the report into {str(dest)!r}: {e.strerror or e} (a read-only run?"
@@ -119,8 +145,63 @@ def write_report(run_dir: str | os.PathLike, out: str | os.PathLike | None = Non
         raise ReportError(f"Cannot write the report into {str(dest)!r}: {e}.") from None
 
 
+MANIFEST = ".report-files.json"
+"""The files (paths relative to the folder) the last report wrote into figures/ and tables/."""
+_STAGING = ".report-staging-"
+
+
+def _written_before(dest: Path) -> set[str]:
+    """The files an earlier report wrote: its manifest, or for a report from before the
+    manifest, the figures and tables its ``report.md`` names."""
+    try:
+        names = json.loads((dest / MANIFEST).read_text())
+        if isinstance(names, list):
+            return {n for n in names if isinstance(n, str)}
+    except (OSError, ValueError):
+        pass
+    try:
+        text = (dest / "report.md").read_text()
+    except (OSError, UnicodeDecodeError):
+        return set()
+    return set(re.findall(r"\b((?:figures|tables)/[\w.-]+\.(?:png|svg|csv|tex))", text))
+
+
+def _publish(stage: Path, dest: Path) -> None:
+    """Move the staged report into `dest`: figures and tables first, then the manifest,
+    ``report.html`` and ``report.md``; then remove what the earlier report wrote and this
+    one did not."""
+    before = _written_before(dest)
+    files = sorted(
+        f.relative_to(stage).as_posix()
+        for d in ("figures", "tables")
+        for f in (stage / d).rglob("*")
+        if f.is_file()
+    )
+    for rel in files:
+        (dest / rel).parent.mkdir(parents=True, exist_ok=True)
+        os.replace(stage / rel, dest / rel)
+    atomic_json(dest / MANIFEST, files)
+    for name in ("report.html", "report.md"):
+        os.replace(stage / name, dest / name)
+    for rel in sorted(before - set(files)):
+        target = dest / rel
+        if target.is_file() and target.resolve().is_relative_to(dest.resolve()):
+            target.unlink()
+
+
 def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
-    dest.mkdir(parents=True, exist_ok=True)
+    for old in dest.glob(_STAGING + "*"):  # a report killed part-way (the lock is ours)
+        shutil.rmtree(old, ignore_errors=True)
+    stage = Path(tempfile.mkdtemp(prefix=_STAGING, dir=dest))
+    try:
+        _draw(df, meta, stage)
+        _publish(stage, dest)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return dest / "report.md"
+
+
+def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
     plt = pyplot()
     doc = Document(dest)
     doc.h(f"rsmbench report: suite {meta.get('suite', '?')}", 1)
@@ -162,4 +243,3 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
         + body
         + "</body></html>"
     )
-    return dest / "report.md"

@@ -155,9 +155,6 @@ class Document:
         self.names: set[str] = set()
         for d in (self.figs, self.tabs):
             d.mkdir(parents=True, exist_ok=True)
-            for old in d.iterdir():  # a rewritten report leaves no figure of an older one
-                if old.suffix in (".png", ".svg", ".csv", ".tex") and old.is_file():
-                    old.unlink()
 
     def _unique(self, name: str) -> str:
         base, k = name, 2

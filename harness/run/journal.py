@@ -349,7 +349,7 @@ def _json_default(x):
 
 
 # ----------------------------------------------------------------------------- meta
-def atomic_json(path: Path, obj: dict) -> None:
+def atomic_json(path: Path, obj: dict | list) -> None:
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(json.dumps(obj, indent=2, default=_json_default))
     os.replace(tmp, path)
