@@ -8,6 +8,8 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import signal
 import sys
 from datetime import datetime
 from pathlib import Path
@@ -15,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.errors import HarnessError, SceneError
+from harness.run.suite import MAX_SEED
 
 
 class UsageError(ValueError):
@@ -92,6 +95,9 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     hint = 'none (add mocap="true" to the driven body, a child of <worldbody>)'
     print(f"mocap bodies: {', '.join(names) if names else hint}")
     for name in names:
+        if name.startswith("<unnamed body "):
+            print(f"  {name}: has no name; give it one to drive or certify it")
+            continue
         bid = model.body(name).id
         geoms = subtree_geoms(model, bid)
         held = held_joints(model, bid, reference_qpos(model))
@@ -146,16 +152,34 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     return 0
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def _run(args) -> int:
+    """`rsmbench run`: SIGTERM stops it as Ctrl-C does (the cases in progress finish and
+    are kept; it had left no message and up to 5 s of wall time out of meta.json)."""
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        return _run_suite(args)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _run_suite(args) -> int:
     import shlex
 
-    from harness.report import format_headline, headline, write_report
+    from harness.report import format_headline, headline
     from harness.run import RunInterrupted, load_suite, run_suite
 
-    if args.jobs < 1:
-        raise UsageError(f"Expected `--jobs` >= 1, got {args.jobs}.")
-    if args.seed is not None and args.seed < 0:
-        raise UsageError(f"Expected `--seed` to be an integer >= 0, got {args.seed}.")
+    most = 4 * (os.cpu_count() or 1)
+    if not 1 <= args.jobs <= most:
+        raise UsageError(
+            f"Expected `--jobs` in [1, {most}] (local processes, at most 4 per core), got"
+            f" {args.jobs}."
+        )
+    if args.seed is not None and not 0 <= args.seed <= MAX_SEED:
+        raise UsageError(f"Expected `--seed` to be an integer in [0, 2**63 - 1], got {args.seed}.")
     suite = load_suite(args.suite)
     scheduler = args.scheduler if args.scheduler is not None else suite.scheduler
     if scheduler is not None and not scheduler.strip():
@@ -171,6 +195,8 @@ def _run(args) -> int:
             f"`--jobs` starts local processes and `--scheduler` ({scheduler}) runs on a Dask"
             " cluster: give one (`--scheduler local` ignores the suite's scheduler)."
         )
+    if args.out is not None and not args.out.strip():
+        raise UsageError("Expected `--out` to name a folder, got ''.")
     if args.out:
         out = Path(args.out)
     else:
@@ -188,7 +214,13 @@ def _run(args) -> int:
         resume += ["--jobs", str(args.jobs)]
     try:
         df = run_suite(
-            suite, out, seed=args.seed, jobs=args.jobs, scheduler=scheduler, progress=not args.quiet
+            suite,
+            out,
+            seed=args.seed,
+            jobs=args.jobs,
+            scheduler=scheduler,
+            progress=not args.quiet,
+            report=True,
         )
     except KeyboardInterrupt as e:
         done = f" ({e.done} of {e.total} cases done)" if isinstance(e, RunInterrupted) else ""
@@ -198,7 +230,7 @@ def _run(args) -> int:
             file=sys.stderr,
         )
         return 130
-    report = write_report(out)
+    report = out / "report.md"
     print(f"{len(df)} rows in {out / 'results.parquet'} (and results.csv, meta.json)")
     print(f"report: {report} and {out / 'report.html'}")
     meta = json.loads((out / "meta.json").read_text()) if (out / "meta.json").exists() else {}
@@ -280,14 +312,16 @@ def _render(args) -> int:
 
 def _corpus(args) -> int:
     """`rsmbench corpus export DIR` / `rsmbench corpus check FILE`."""
-    from harness.corpus import generate
+    from harness.corpus import MAX_SIZE, generate
     from harness.corpus.io import export, load
 
     if args.action == "export":
-        if not math.isfinite(args.size) or args.size <= 0:
-            raise UsageError(f"Expected `--size` > 0 (finite), got {args.size}.")
-        if args.seed < 0:
-            raise UsageError(f"Expected `--seed` to be an integer >= 0, got {args.seed}.")
+        if not math.isfinite(args.size) or not 0 < args.size <= MAX_SIZE:
+            raise UsageError(f"Expected `--size` in (0, {MAX_SIZE:g}], got {args.size}.")
+        if not 0 <= args.seed <= MAX_SEED:
+            raise UsageError(
+                f"Expected `--seed` to be an integer in [0, 2**63 - 1], got {args.seed}."
+            )
         fams = args.families.split(",") if args.families else None
         from harness.corpus import FAMILIES
 
@@ -310,10 +344,16 @@ def _corpus(args) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the CLI's one-line errors (exit 2), for its subcommands too."""
+
+    def error(self, message: str):
+        print(f"{self.prog}: error: {message} (see {self.prog} --help)", file=sys.stderr)
+        raise SystemExit(2)
+
+
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="rsmbench", description="Benchmark harness for rational spline motions."
-    )
+    p = _Parser(prog="rsmbench", description="Benchmark harness for rational spline motions.")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a benchmark suite and write its report")
     r.add_argument(
@@ -399,7 +439,10 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    try:
+        args = parser().parse_args(argv)
+    except SystemExit as e:  # --help (0) or a usage error (2, one line on stderr)
+        return e.code if isinstance(e.code, int) else 2
     handlers = {
         "run": _run,
         "report": _report,

@@ -78,9 +78,10 @@ class Scene:
 
 
 def mocap_bodies(model: mujoco.MjModel) -> list[str]:
-    """Names of the model's mocap bodies."""
+    """Names of the model's mocap bodies; an unnamed one as ``"<unnamed body N>"`` (N its
+    body id), which no query can choose (:func:`mocap_id` says to name it)."""
     return [
-        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b)
+        mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or f"<unnamed body {b}>"
         for b in range(model.nbody)
         if model.body_mocapid[b] >= 0
     ]
@@ -90,10 +91,18 @@ def mocap_id(model: mujoco.MjModel, body: str) -> int:
     """Index of `body` among the mocap bodies; InvalidMocapBody lists the valid ones."""
     bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body) if isinstance(body, str) else -1
     if bid < 0 or model.body_mocapid[bid] < 0:
+        unnamed = isinstance(body, str) and body.startswith("<unnamed body ")
         raise InvalidMocapBody(
-            f"Body {body!r} is not a mocap body. Mocap bodies: {mocap_bodies(model)}"
+            f'Mocap body {body} has no name; give it one (<body name="..." mocap="true">).'
+            if unnamed
+            else f"Body {body!r} is not a mocap body. Mocap bodies: {mocap_bodies(model)}"
         )
     return int(model.body_mocapid[bid])
+
+
+MAX_KEY_TIME = 1e12
+"""The largest keyframe time a scene takes, in magnitude (splines of times near 1e300
+overflow; a certified query refuses times beyond 1e150)."""
 
 
 def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
@@ -110,6 +119,11 @@ def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
             f" in the model's <keyframe>, got {model.nkey}."
         )
     times = np.array(model.key_time, dtype=float)
+    if not np.all(np.isfinite(times)) or np.any(np.abs(times) > MAX_KEY_TIME):
+        raise SceneError(
+            f"Expected finite keyframe times of magnitude at most {MAX_KEY_TIME:g}, got"
+            f" {np.array2string(times, threshold=8)}."
+        )
     if np.any(np.diff(times) <= 0):
         raise SceneError(
             f"Expected the keyframe times to be strictly increasing, got {times} (give each"

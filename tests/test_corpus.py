@@ -322,9 +322,11 @@ def test_cli_corpus_export_and_check(tmp_path, capsys):
     capsys.readouterr()
     # NaN and inf passed `size <= 0`, a negative seed reached numpy: tracebacks, exit 1
     for args, says in (
-        (["--size", "nan"], "`--size` > 0"),
-        (["--size", "inf"], "`--size` > 0"),
-        (["--seed", "-1"], "`--seed` to be an integer >= 0"),
+        (["--size", "nan"], "`--size` in (0, 100]"),
+        (["--size", "inf"], "`--size` in (0, 100]"),
+        (["--size", "1e7"], "`--size` in (0, 100]"),  # (it generated for minutes)
+        (["--seed", "-1"], "`--seed` to be an integer in [0, 2**63 - 1]"),
+        (["--seed", str(2**63)], "`--seed` to be an integer in [0, 2**63 - 1]"),
     ):
         assert main(["corpus", "export", str(tmp_path / "g"), *args]) == 2
         err = capsys.readouterr().err

@@ -674,3 +674,29 @@ def test_several_colliding_mocap_bodies_are_named():
         warnings.simplefilter("error")  # the jig's group (0) not selected: one mover left
         model.geom_group[2] = 3
         assert len(obstacles_from_model(model, groups=[0])) == 1
+
+
+@pytest.mark.parametrize("time", ["nan", "inf", "-1e300"])
+def test_keyframe_times_that_are_not_finite_or_huge_are_named(time):
+    # a hunt: NaN and inf passed the increasing-times check and failed mid-run, -1e300
+    # failed inside scipy ("Colocation matrix is singular")
+    xml = f"""<mujoco><worldbody><body name="hand" mocap="true"><geom type="box" size=".1 .1 .1"/>
+    </body></worldbody><keyframe><key time="{time}" mpos="0 0 0"/><key time="1" mpos="1 0 0"/>
+    <key time="2" mpos="2 0 0"/></keyframe></mujoco>"""
+    with pytest.raises(
+        scenes.SceneError, match=r"finite keyframe times of magnitude at most 1e\+12"
+    ):
+        scenes.from_xml(xml, "hand")
+
+
+def test_an_unnamed_mocap_body_is_asked_for_a_name():
+    # a hunt: `rsmbench scenes` failed with a TypeError joining None, and a scene said
+    # "Body None is not a mocap body. Mocap bodies: [None]"
+    xml = """<mujoco><worldbody><body mocap="true"><geom type="box" size=".1 .1 .1"/></body>
+    </worldbody><keyframe><key time="0" mpos="0 0 0"/><key time="1" mpos="1 0 0"/></keyframe>
+    </mujoco>"""
+    with pytest.raises(
+        harness.InvalidMocapBody, match=r"<unnamed body 1> has no name; give it one"
+    ):
+        scenes.from_xml(xml)
+    assert scenes.mocap_bodies(mujoco.MjModel.from_xml_string(xml)) == ["<unnamed body 1>"]

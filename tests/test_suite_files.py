@@ -44,6 +44,8 @@ BAD = [
     (SCALING + "motions = 0", r"study\[0\]\.motions", "got 0"),
     (SCALING + "seed = -3", r"study\[0\]\.seed", ">= 0, got -3"),
     ('[[study]]\nkind = "simulate"\ndt = -0.01', r"study\[0\]\.dt", "positive number"),
+    ('[[study]]\nkind = "simulate"\ndt = 1e-9', r"study\[0\]\.dt", r"in \[1e-06, 1\] s, got 1e-09"),
+    ('[[study]]\nkind = "simulate"\ndt = 1e6', r"study\[0\]\.dt", r"control step in"),
     ("study = [1, 2]", r"study\[0\]", "expected a \\[\\[study\\]\\] table, got 1"),
     ('[[study]]\nkind = ["certify"]', r"study\[0\]\.kind", "expected one of"),
     (SCALING + SCALING, r"study\[1\]", r"the same study as study\[0\]"),
@@ -51,7 +53,8 @@ BAD = [
     ("[extra]\nx = 1\n" + SCALING, "extra", "unknown top-level key or table"),
     ("[suite]\nname = 5\n" + SCALING, r"suite\.name", "expected a string, got 5"),
     ('[suite]\nname = "../escaped"\n' + SCALING, r"suite\.name", "expected a folder name"),
-    ("[suite]\nseed = -1\n" + SCALING, r"suite\.seed", ">= 0, got -1"),
+    ("[suite]\nseed = -1\n" + SCALING, r"suite\.seed", r"in \[0, 9,223,372,036,854,775,807\], got -1"),
+    (f"[suite]\nseed = {2**63}\n" + SCALING, r"suite\.seed", f"got {2**63}"),
     ('[suite]\nscheduler = ""\n' + SCALING, r"suite\.scheduler", "Dask scheduler address"),
     (CERTIFY + "repeats = 1000\nkeyframes = 'both'\nrandom_sets = 100", r"study\[0\]", f"more than {MAX_CASES:,} cases"),
 ]  # fmt: skip
@@ -109,15 +112,31 @@ def test_bad_run_arguments_exit_2_with_one_line(tmp_path, capsys):
         text=True,
         timeout=300,
     )
-    assert r.returncode == 2 and "`--seed` to be an integer >= 0, got -1" in r.stderr
+    assert r.returncode == 2 and "`--seed` to be an integer in [0, 2**63 - 1], got -1" in r.stderr
     assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1
     for args, says in (
         (["--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], "give one"),
         (["--scheduler", ""], "`--scheduler`"),
         # a missing scheduler file: distributed waits for it to appear, forever
         (["--scheduler", str(tmp_path / "nope.json")], "scheduler file"),
+        # a hunt: a seed beyond int64 ran every case, then failed inside pyarrow
+        (["--seed", str(2**63)], "`--seed` to be an integer in [0, 2**63 - 1]"),
+        (["--out", ""], "`--out` to name a folder, got ''"),  # (it wrote into results/)
+        (["--jobs", "100000"], "`--jobs` in [1, "),
+        # argparse's own errors: the usage block made them 2-6 lines
+        (["--seed", "abc"], "invalid int value: 'abc' (see rsmbench run --help)"),
     ):
         assert main(["run", str(f), "--out", str(out), *args]) == 2
         err = capsys.readouterr().err
         assert says in err and err.count("\n") == 1, err
     assert not out.exists()  # refused before any work
+
+
+def test_a_folder_named_like_a_suite_does_not_hide_it(tmp_path, monkeypatch):
+    # a hunt: `rsmbench run smoke --out smoke` made the next `rsmbench run smoke` (and the
+    # resume command it printed) read the folder as the suite: "Is a directory"
+    from harness.run.suite import SUITE_DIR, suite_path
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "smoke").mkdir()
+    assert suite_path("smoke") == SUITE_DIR / "smoke.toml"

@@ -17,7 +17,21 @@ from motions._checks import as_float, short
 from .cases import CLASSES, SCHEMES, TOLERANCE, Case, Truth, classify
 from .families import FAMILIES
 
-__all__ = ["CLASSES", "FAMILIES", "SCHEMES", "TOLERANCE", "Case", "Truth", "classify", "generate"]
+__all__ = [
+    "CLASSES",
+    "FAMILIES",
+    "MAX_SIZE",
+    "SCHEMES",
+    "TOLERANCE",
+    "Case",
+    "Truth",
+    "classify",
+    "generate",
+]
+
+
+MAX_SIZE = 100.0
+"""The largest `size` of :func:`generate` (about 60,000 cases: a suite's MAX_CASES order)."""
 
 
 def generate(seed: int = 0, size: float = 1.0, families: list[str] | None = None) -> list[Case]:
@@ -33,8 +47,8 @@ def generate(seed: int = 0, size: float = 1.0, families: list[str] | None = None
         Cases in a deterministic order with unique ids.
     """
     scale = as_float(size, "size")
-    if not np.isfinite(scale) or scale <= 0:
-        raise ValueError(f"Expected `size` > 0, got {short(size)}.")
+    if not np.isfinite(scale) or not 0 < scale <= MAX_SIZE:
+        raise ValueError(f"Expected `size` in (0, {MAX_SIZE}], got {short(size)}.")
     names = list(FAMILIES) if families is None else list(families)
     bad = [f for f in names if f not in FAMILIES]
     if bad:

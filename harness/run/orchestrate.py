@@ -39,7 +39,7 @@ from .journal import (
     read_meta,
 )
 from .studies import STUDIES, Context, run_case
-from .suite import Suite
+from .suite import MAX_SEED, Suite
 
 __all__ = ["PLACEMENT_COLUMNS", "RunInterrupted", "expand", "run_suite", "units"]
 
@@ -101,6 +101,7 @@ def run_suite(
     jobs: int = 1,
     scheduler: str | None = None,
     progress: bool = True,
+    report: bool = False,
 ) -> pd.DataFrame:
     """Run (or resume) a suite into the folder `out`; returns the results table.
 
@@ -112,6 +113,8 @@ def run_suite(
         scheduler: a Dask scheduler address (``tcp://host:8786``) or scheduler JSON file;
             the cluster's workers run the cases and this process journals them.
         progress: show a progress bar on stderr.
+        report: write the report (:func:`harness.report.write_report`) before the folder's
+            lock is released, so that no other writer comes between.
 
     Raises:
         OutputLocked: another run is writing `out`.
@@ -119,8 +122,8 @@ def run_suite(
         RunInterrupted: Ctrl-C stopped the run after the cases in progress.
     """
     seed = suite.seed if seed is None else seed
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"Expected `seed` to be an integer >= 0, got {short(seed)}.")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"Expected `seed` to be an integer in [0, 2**63 - 1], got {short(seed)}.")
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ValueError(f"Expected `jobs` to be an integer >= 1, got {short(jobs)}.")
     if scheduler is not None and jobs > 1:
@@ -131,7 +134,12 @@ def run_suite(
     out = Path(out)
     check_writable(out)
     with OutputLock(out) as lock:
-        return _run_locked(suite, out, seed, jobs, scheduler, progress, lock)
+        df = _run_locked(suite, out, seed, jobs, scheduler, progress, lock)
+        if report:
+            from ..report import write_report
+
+            write_report(out, lock=False)
+        return df
 
 
 def _run_locked(
@@ -372,6 +380,23 @@ def _init_local_worker(lock_fd: int | None, stop_event) -> None:
     _STOP_EVENT = stop_event
     if lock_fd is not None:
         os.close(lock_fd)  # a worker outliving a killed parent must not hold the lock
+    _die_with_parent()
+
+
+def _die_with_parent() -> None:
+    """Linux: a worker gets SIGTERM when the run that forked it dies, however it dies (a
+    SIGKILLed run left its workers running for a minute, orphaned); elsewhere nothing."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() == 1:  # the parent died before the call
+        os._exit(1)
 
 
 def _on_processes(

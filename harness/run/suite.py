@@ -25,6 +25,8 @@ SUITE_DIR = Path(__file__).parent.parent / "suites"
 # past this is a typo (`repeats = 100000000`), not a benchmark.
 MAX_CASES = 100_000
 _SUITE_KEYS = ("name", "seed", "description", "scheduler")
+MAX_SEED = 2**63 - 1
+"""The largest seed: the results table stores it as a 64-bit integer."""
 # A suite name becomes a folder name under results/: no separators, no leading dot.
 _NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*")
 
@@ -58,7 +60,7 @@ class Suite:
 def suite_path(name_or_path: str | os.PathLike) -> Path:
     """A built-in suite name (``harness/suites/NAME.toml``) or a path."""
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
+    if p.suffix == ".toml" or p.is_file():
         return p
     builtin = SUITE_DIR / f"{name_or_path}.toml"
     if not builtin.exists():
@@ -104,7 +106,7 @@ def load_suite(name_or_path: str | os.PathLike) -> Suite:
         f"expected a folder name (letters, digits, _ . + -, not starting with a dot), got {name!r}"
         + ("" if "name" in head else "; the file name is used when [suite] has no name"),
     )
-    seed = integer(head.get("seed", 0), file, "suite.seed", lo=0)
+    seed = integer(head.get("seed", 0), file, "suite.seed", lo=0, hi=MAX_SEED)
     description = text(head.get("description", ""), file, "suite.description")
     scheduler = head.get("scheduler")
     if scheduler is not None:

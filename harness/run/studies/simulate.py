@@ -17,11 +17,15 @@ import motions
 
 from ...certification import certify_many
 from ...timing import repeat
-from ..fields import names, number, scene_names
+from ..fields import names, need, number, scene_names
 from .context import Context, rounds_key, smoothness_cols
 
 KEYS = frozenset({"scenes", "schemes", "dt", "rounds"})
 FORCE_COLUMNS = ("force_jump", "force_rate_jump", "acceleration_jump", "jerk_jump", "peak_jerk")
+
+
+DT_RANGE = (1e-6, 1.0)
+"""The control steps (seconds) a suite may give the simulate study."""
 
 
 def parse(st: dict, file: Path, where: str) -> dict:
@@ -30,6 +34,14 @@ def parse(st: dict, file: Path, where: str) -> dict:
     out["schemes"] = names(st.get("schemes", "all"), file, f"{where}.schemes", motions.SCHEMES)
     dt = st.get("dt")
     out["dt"] = None if dt is None else number(dt, file, f"{where}.dt")
+    if out["dt"] is not None:
+        # (a control step of 1e-9 s failed mid-run on its step count; 1e6 s took one step)
+        need(
+            DT_RANGE[0] <= out["dt"] <= DT_RANGE[1],
+            file,
+            f"{where}.dt",
+            f"expected a control step in [{DT_RANGE[0]:g}, {DT_RANGE[1]:g}] s, got {dt!r}",
+        )
     out["rounds"] = rounds_key(st, file, f"{where}.rounds")
     return out
 
