@@ -459,6 +459,9 @@ def main(argv: list[str] | None = None) -> int:
     except (HarnessError, SceneError, CompareError, FileNotFoundError, UsageError) as e:
         print(f"rsmbench {args.command}: error: {e}", file=sys.stderr)
         return 2
+    except OSError as e:  # the machine's, not the input's: a full disk, a folder in a file's place
+        print(f"rsmbench {args.command}: error: {e}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"rsmbench {args.command}: interrupted", file=sys.stderr)
         return 130

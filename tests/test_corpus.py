@@ -318,6 +318,13 @@ def test_cli_corpus_export_and_check(tmp_path, capsys):
     assert main(["corpus", "check", bad]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "version 99" in err[0]
+    # a parquet table or deeply nested JSON: UnicodeDecodeError, RecursionError (a hunt)
+    (tmp_path / "t.parquet").write_bytes(b"PAR1\xff\xfe\x00" * 10)
+    (tmp_path / "deep.json").write_text("[" * 200_000)
+    for bad, says in (("t.parquet", "not UTF-8 JSON text"), ("deep.json", "nested too deeply")):
+        assert main(["corpus", "check", str(tmp_path / bad)]) == 2
+        err = capsys.readouterr().err
+        assert says in err and err.count("\n") == 1, err
     assert main(["corpus", "export", str(tmp_path / "f"), "--families", "nope"]) == 2
     capsys.readouterr()
     # NaN and inf passed `size <= 0`, a negative seed reached numpy: tracebacks, exit 1

@@ -157,6 +157,10 @@ def test_damaged_journal_and_meta_are_named_errors(mini_clean, tmp_path):
     (out / "meta.json").write_text(meta[: len(meta) // 2])
     with pytest.raises(JournalError, match=r"meta.json is damaged: not valid JSON.*new --out"):
         run_suite(suite, out, progress=False)
+    # a meta.json whose legs are not a list (an AttributeError, a hunt found)
+    (out / "meta.json").write_text(json.dumps({**json.loads(meta), "legs": 5}))
+    with pytest.raises(JournalError, match=r"key `legs`: expected a list of objects, got 5"):
+        run_suite(suite, out, progress=False)
     # records of another suite in the journal
     (out / "meta.json").unlink()
     other = tmp_path / "other.toml"
@@ -317,3 +321,16 @@ def test_local_workers_die_with_a_killed_run_and_sigterm_stops_like_ctrl_c(mini,
             w for w in alive if Path(f"/proc/{w}/stat").read_text().split(")")[1].split()[0] != "Z"
         ]
         assert not alive, (sig, alive)
+
+
+def test_errors_of_the_machine_are_one_line(monkeypatch, capsys):
+    # a hunt: a full disk gave a 31-line OSError traceback
+    import harness.cli
+
+    def full(*a):
+        raise OSError(28, "No space left on device", "results/x/.meta.json.tmp")
+
+    monkeypatch.setattr(harness.cli, "_schemes", full)
+    assert harness.cli.main(["schemes"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "No space left on device" in err, err

@@ -337,10 +337,14 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
         raise FileNotFoundError(f"No corpus file at {str(p)!r}.") from None
     except OSError as e:
         raise CorpusFormatError(f"Cannot read {str(p)!r}: {e}") from None
+    except UnicodeDecodeError:  # (a parquet table given by mistake)
+        raise CorpusFormatError(f"{p}: not a corpus file (not UTF-8 JSON text).") from None
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as e:
         raise CorpusFormatError(f"{p}: not valid JSON: {e}") from None
+    except RecursionError:
+        raise CorpusFormatError(f"{p}: not a corpus file (JSON nested too deeply).") from None
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         got = doc.get("format") if isinstance(doc, dict) else type(doc).__name__
         raise CorpusFormatError(f"{p}: expected `format` {FORMAT!r}, got {got!r}.")

@@ -248,6 +248,11 @@ def _start_meta(
         meta.pop("finished", None)
         if "legs" not in meta:  # written before legs were kept: its total is one leg
             meta["legs"] = [{"wall_seconds": float(meta.get("wall_seconds", 0.0))}]
+        legs = meta["legs"]
+        if not isinstance(legs, list) or not all(isinstance(g, dict) for g in legs):
+            raise JournalError(
+                f"meta.json: key `legs`: expected a list of objects, got {short(legs)}."
+            )
     meta["legs"].append(leg)
     return meta, leg
 
