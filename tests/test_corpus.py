@@ -344,8 +344,9 @@ def test_cli_corpus_export_and_check(tmp_path, capsys):
 def test_generate_rejects_bad_arguments():
     with pytest.raises(ValueError, match="Unknown corpus family"):
         generate(0, 1.0, ["nope"])
-    with pytest.raises(ValueError, match="`size` > 0"):
-        generate(0, 0.0)
+    for size in (0.0, 1e7):  # (1e7 generated for minutes)
+        with pytest.raises(ValueError, match=r"`size` in \(0, 100\], got"):
+            generate(0, size)
 
 
 def test_corpus_study_end_to_end(tmp_path):

@@ -48,7 +48,7 @@ def generate(seed: int = 0, size: float = 1.0, families: list[str] | None = None
     """
     scale = as_float(size, "size")
     if not np.isfinite(scale) or not 0 < scale <= MAX_SIZE:
-        raise ValueError(f"Expected `size` in (0, {MAX_SIZE}], got {short(size)}.")
+        raise ValueError(f"Expected `size` in (0, {MAX_SIZE:g}], got {short(size)}.")
     names = list(FAMILIES) if families is None else list(families)
     bad = [f for f in names if f not in FAMILIES]
     if bad:
