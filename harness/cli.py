@@ -51,6 +51,8 @@ def _scenes(args) -> int:
 
     if args.file is not None:
         return _describe_file(args.file, args.mocap_body)
+    if args.mocap_body is not None:
+        raise UsageError("`--mocap-body` chooses a body of an MJCF FILE: give the FILE too.")
     for name in scenes.SCENES:
         sc = scenes.load(name)
         model = sc.model
@@ -300,7 +302,11 @@ def _render(args) -> int:
     except (ValueError, TypeError) as e:  # bad arguments: a usage error, one line
         if isinstance(e, HarnessError | SceneError):
             raise
-        raise UsageError(str(e)) from None
+        text = str(e)
+        for param, option in (("`control_segment`", "`--control-segment`"),
+                              ("`scheme`", "`--scheme`"), ("`out`", "`--out`")):  # fmt: skip
+            text = text.replace(param, option)
+        raise UsageError(text) from None
     note = (
         ""
         if backend == "mujoco"

@@ -275,3 +275,20 @@ def test_a_users_file_end_to_end_from_another_folder(tmp_path, capsys, monkeypat
     err = capsys.readouterr().err
     assert "key `study[0].scenes`" in err and "gripper_palm.obj" in err
     assert not (tmp_path / "elsewhere" / "run2").exists()
+
+
+def test_cli_errors_name_the_options_not_the_parameters(tmp_path, capsys):
+    # a hunt: render's errors named `scheme`, `control_segment`; `scenes --mocap-body X`
+    # without a FILE was silently ignored
+    from harness.cli import main
+
+    out = str(tmp_path / "r.png")
+    for argv, says in (
+        (["render", "cube_keyframes", "--scheme", "nope", "--out", out], "Unknown `--scheme`"),
+        (["render", "cube_keyframes", "--control-segment", "99", "--out", out], "`--control-segment` in"),
+        (["scenes", "--mocap-body", "hand"], "`--mocap-body` chooses a body of an MJCF FILE"),
+    ):  # fmt: skip
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert says in err and err.count("\n") == 1, err
+    assert not (tmp_path / "r.png").exists()

@@ -105,6 +105,8 @@ def test_bad_run_arguments_exit_2_with_one_line(tmp_path, capsys):
     f = tmp_path / "s.toml"
     f.write_text(CERTIFY + 'keyframes = "random"\nscenes = ["slot"]\nschemes = ["rational"]\n')
     out = tmp_path / "o"
+    empty_json = tmp_path / "sched.json"
+    empty_json.write_text("{}")
     # a negative seed used to reach numpy's default_rng with random keyframes
     r = subprocess.run(
         [sys.executable, "-m", "harness.cli", "run", str(f), "--out", str(out), "--seed", "-1"],
@@ -119,6 +121,11 @@ def test_bad_run_arguments_exit_2_with_one_line(tmp_path, capsys):
         (["--scheduler", ""], "`--scheduler`"),
         # a missing scheduler file: distributed waits for it to appear, forever
         (["--scheduler", str(tmp_path / "nope.json")], "scheduler file"),
+        # a bad address printed a traceback from Client.__del__ and hung 40 s; a scheduler
+        # file without an address raised AssertionError (a hunt)
+        (["--scheduler", "foo://bar"], "address like tcp://host:8786"),
+        (["--scheduler", str(f)], "address like tcp://host:8786"),
+        (["--scheduler", str(empty_json)], "holds no `address`"),
         # a hunt: a seed beyond int64 ran every case, then failed inside pyarrow
         (["--seed", str(2**63)], "`--seed` to be an integer in [0, 2**63 - 1]"),
         (["--out", ""], "`--out` to name a folder, got ''"),  # (it wrote into results/)

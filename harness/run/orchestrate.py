@@ -132,6 +132,8 @@ def run_suite(
             f" jobs={jobs}, scheduler={scheduler!r}."
         )
     out = Path(out)
+    if scheduler is not None:
+        scheduler_target(scheduler)
     check_writable(out)
     with OutputLock(out) as lock:
         df = _run_locked(suite, out, seed, jobs, scheduler, progress, lock)
@@ -448,6 +450,47 @@ def _on_processes(
     pool.shutdown(wait=True)
 
 
+_PROTOCOLS = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
+"""The address schemes of dask.distributed's communications."""
+
+
+def scheduler_target(scheduler: str) -> dict:
+    """``Client`` keywords for a scheduler address (``tcp://host:8786``) or a scheduler JSON
+    file (whose ``address`` it reads). Checked before any connection: a bad address made
+    distributed print a traceback from ``Client.__del__`` and hang for 40 s, a JSON file
+    without an address raised an AssertionError.
+
+    Raises:
+        RunError: neither an address of a known scheme nor a readable scheduler file.
+    """
+    if scheduler.endswith(".json"):
+        path = Path(scheduler)
+        if not path.is_file():
+            # (distributed waits for a scheduler file to appear, whatever its timeout)
+            raise RunError(f"The Dask scheduler file {scheduler!r} does not exist.")
+        try:
+            doc = json.loads(path.read_text())
+        except (OSError, UnicodeDecodeError, ValueError) as e:
+            raise RunError(
+                f"The Dask scheduler file {scheduler!r} is not readable JSON ({e})."
+            ) from None
+        if not isinstance(doc, dict) or not isinstance(doc.get("address"), str):
+            raise RunError(
+                f"The Dask scheduler file {scheduler!r} holds no `address` (expected the file"
+                " `dask scheduler --scheduler-file` writes)."
+            )
+        return {"scheduler_file": scheduler}
+    scheme, sep, rest = scheduler.partition("://")
+    if not sep:  # host:port: distributed's default scheme (tcp)
+        scheme, rest = "tcp", scheduler if ":" in scheduler else ""
+    if scheme not in _PROTOCOLS or not rest or any(c.isspace() for c in rest):
+        raise RunError(
+            f"Expected `scheduler` to be an address like tcp://host:8786 (schemes"
+            f" {list(_PROTOCOLS)}) or a scheduler JSON file, got {scheduler!r}."
+        )
+    return {"address": scheduler}
+
+
 def _on_dask(
     work: list[list[dict]],
     suite: Suite,
@@ -463,10 +506,7 @@ def _on_dask(
             "`--scheduler` runs on a Dask cluster and needs dask.distributed: pip install"
             " 'dask[distributed]'."
         ) from None
-    where = {"scheduler_file": scheduler} if scheduler.endswith(".json") else {"address": scheduler}
-    if "scheduler_file" in where and not Path(scheduler).is_file():
-        # (distributed waits for a scheduler file to appear, whatever its timeout)
-        raise RunError(f"The Dask scheduler file {scheduler!r} does not exist.")
+    where = scheduler_target(scheduler)
     try:
         client = Client(**where, timeout="20s", set_as_default=False)
     except (OSError, TimeoutError, ValueError) as e:
