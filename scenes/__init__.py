@@ -180,7 +180,10 @@ def _pick_mocap_body(model: mujoco.MjModel, mocap_body: str | None, where: str) 
                 f'{where} has no mocap body; add mocap="true" to the body that the motion'
                 " drives (a child of <worldbody>)."
             )
-        raise SceneError(f"{where} has several mocap bodies {names}; choose one with `mocap_body`.")
+        raise SceneError(
+            f"{where} has several mocap bodies {names}; choose one with `mocap_body` (in a"
+            f' suite\'s scenes, "FILE.xml#{names[0]}").'
+        )
     if not isinstance(mocap_body, str):
         raise TypeError(
             f"Expected `mocap_body` to be a body name (str) or None, got {type(mocap_body).__name__}."
@@ -253,6 +256,7 @@ def load(name_or_path: str | os.PathLike, *, mocap_body: str | None = None, **pa
         )
     if isinstance(name_or_path, str) and name_or_path in _REGISTRY:
         return _load_registered(name_or_path, mocap_body, params)
+    name_or_path, mocap_body = _split_body(name_or_path, mocap_body)
     p = Path(name_or_path).expanduser()
     if not p.exists() and not _looks_like_path(name_or_path):
         raise SceneError(
@@ -264,6 +268,16 @@ def load(name_or_path: str | os.PathLike, *, mocap_body: str | None = None, **pa
     model = compile_file(p)
     body = _pick_mocap_body(model, mocap_body, f"MJCF file {str(p)!r}")
     return _scene(model, body, p.stem, xml=p.read_text(errors="replace"), path=p.resolve())
+
+
+def _split_body(x: str | os.PathLike, mocap_body: str | None) -> tuple:
+    """``"file.xml#body"`` (how a suite names the mocap body of a file with several) as
+    (file, body); anything else unchanged."""
+    if isinstance(x, str) and "#" in x and mocap_body is None:
+        head, _, body = x.rpartition("#")
+        if head.lower().endswith((".xml", ".mjcf")) and body:
+            return head, body
+    return x, mocap_body
 
 
 def _looks_like_path(x: str | os.PathLike) -> bool:
@@ -297,8 +311,8 @@ def _load_registered(name: str, mocap_body: str | None, params: dict[str, Any]) 
 
 def suite_scenes(value: Any, relative_to: str | os.PathLike) -> list[str]:
     """The `scenes` of a suite: ``"all"`` (the registered scenes) or a non-empty list of
-    registered names and MJCF paths; a relative path is relative to `relative_to` (the
-    suite file's folder). Paths come back absolute, and every file is compiled now, so a
+    registered names and MJCF paths (``"FILE.xml#BODY"`` names the mocap body of a file
+    with several); a relative path is relative to `relative_to` (the suite file's folder). Paths come back absolute, and every file is compiled now, so a
     missing mesh or keyframe is reported before any work.
 
     Raises:
@@ -315,16 +329,17 @@ def suite_scenes(value: Any, relative_to: str | os.PathLike) -> list[str]:
         if v in _REGISTRY:
             out.append(v)
             continue
-        p = Path(v).expanduser()
+        f, body = _split_body(v, None)
+        p = Path(f).expanduser()
         if not p.is_absolute():
             p = Path(relative_to) / p
-        if not p.exists() and not _looks_like_path(v):
+        if not p.exists() and not _looks_like_path(f):
             raise SceneError(
                 f"unknown scene {v!r}; valid: {list(SCENES)}, or the path of an MJCF file "
-                "(relative to the suite file)."
+                '(relative to the suite file; "FILE.xml#BODY" chooses its mocap body).'
             )
-        load(p)
-        out.append(str(p.resolve()))
+        load(p, mocap_body=body)
+        out.append(str(p.resolve()) + ("" if body is None else f"#{body}"))
     return out
 
 

@@ -147,3 +147,26 @@ def test_a_folder_named_like_a_suite_does_not_hide_it(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "smoke").mkdir()
     assert suite_path("smoke") == SUITE_DIR / "smoke.toml"
+
+
+def test_a_suite_chooses_the_mocap_body_of_a_file_with_several(tmp_path):
+    # a hunt: the error asked for `mocap_body`, which a suite had no way to give
+    import scenes
+
+    (tmp_path / "two.xml").write_text(
+        """<mujoco><worldbody><geom type="box" size="1 1 .1" pos="0 0 -1"/>
+        <body name="mover" mocap="true"><geom type="box" size=".1 .1 .1"/></body>
+        <body name="m2" mocap="true" pos="0 2 0"><geom type="sphere" size=".1"/></body>
+        </worldbody><keyframe><key time="0" mpos="0 0 0 0 2 0"/><key time="1" mpos="1 0 0 1 2 0"/>
+        </keyframe></mujoco>"""
+    )
+    study = '[[study]]\nkind = "simulate"\nschemes = ["rational"]\nscenes = ["{}"]\n'
+    (tmp_path / "a.toml").write_text(study.format("two.xml"))
+    with pytest.raises(SuiteError, match=r'several mocap bodies .*"FILE.xml#mover"'):
+        load_suite(tmp_path / "a.toml")
+    (tmp_path / "b.toml").write_text(study.format("two.xml#m2"))
+    suite = load_suite(tmp_path / "b.toml")
+    entry = suite.studies[0]["scenes"][0]
+    assert entry.endswith("two.xml#m2")
+    sc = scenes.load(entry)
+    assert sc.mocap_body == "m2" and sc.keyframes.positions[0][1] == pytest.approx(2.0)
