@@ -381,18 +381,23 @@ def _run_unit(
     return out
 
 
-def _init_local_worker(lock_fd: int | None, stop_event) -> None:
+def _init_local_worker(lock_fd: int | None, stop_event, parent: int) -> None:
     global _STOP_EVENT
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
+    # the CLI's SIGTERM handler (stop as Ctrl-C) is inherited by a fork: a worker caught
+    # the SIGTERM its parent's death sends it and lived on
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _STOP_EVENT = stop_event
     if lock_fd is not None:
         os.close(lock_fd)  # a worker outliving a killed parent must not hold the lock
-    _die_with_parent()
+    _die_with_parent(parent)
 
 
-def _die_with_parent() -> None:
-    """Linux: a worker gets SIGTERM when the run that forked it dies, however it dies (a
-    SIGKILLed run left its workers running for a minute, orphaned); elsewhere nothing."""
+def _die_with_parent(parent: int) -> None:
+    """Linux: a worker gets SIGTERM when the run `parent` that forked it dies, however it
+    dies (a SIGKILLed run left its workers running for a minute, orphaned); elsewhere
+    nothing. A run that died before this call has already given its worker another
+    parent (init, or a subreaper: not always pid 1), so the worker exits."""
     if not sys.platform.startswith("linux"):
         return
     try:
@@ -402,7 +407,7 @@ def _die_with_parent() -> None:
         libc.prctl(1, int(signal.SIGTERM))  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         return
-    if os.getppid() == 1:  # the parent died before the call
+    if os.getppid() != parent:  # the run died before the call
         os._exit(1)
 
 
@@ -422,7 +427,7 @@ def _on_processes(
     # a forked worker holds a copy of the lock's descriptor; a spawned one has none
     fd = lock.fd if mp.get_start_method() == "fork" else None
     pool = ProcessPoolExecutor(
-        jobs, mp_context=mp, initializer=_init_local_worker, initargs=(fd, event)
+        jobs, mp_context=mp, initializer=_init_local_worker, initargs=(fd, event, os.getpid())
     )
     pending = iter(work)
     running: set = set()
