@@ -100,7 +100,7 @@ def test_render_bad_arguments_exit_2_with_one_line(tmp_path, capsys):
         (["render", "slot", "--scheme", "nope", "--out", out], "nope"),
         (
             ["render", "slot", "--control-segment", "99", "--out", out],
-            r"`control_segment` in \[0, 1\]",
+            r"`--control-segment` in \[0, 1\]",
         ),
         (
             ["render", "slot", "--scheme", "squad", "--control-segment", "0", "--out", out],

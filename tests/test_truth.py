@@ -57,3 +57,21 @@ def test_mesh_bodies_against_mujoco_distances():
     hit = ground_truth(m, body, [Box([1.0, 1.0, 0.1], center=[0.0, 0.0, -0.05])])
     assert clear.verdict == "free" and 0.05 - 1e-3 <= clear.clearance <= 0.05
     assert hit.verdict == "collision"
+
+
+def test_a_thin_capsule_into_a_box_edge_is_not_free_to_the_mujoco_truth():
+    # a hunt: mj_geomDistance returns its distmax (1e6) for a capsule of half length
+    # ~1e-9 at a box's edge, and the ground truth certified a motion free whose end pose
+    # is 7.8 mm deep (exact: hypot(0.02, 0.09) - 0.1); such answers are recomputed by GJK
+    from harness.mjdistance import MujocoDistance
+
+    body = harness.Capsule(0.1, 1e-9)
+    box = Box([0.5, 0.5, 0.5], center=[0, 0, 0.59])
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[-1.0, 0, 0], [-0.52, 0, 0]], [0, 1])
+    exact = math.hypot(0.02, 0.09) - 0.1
+    r, p = m.pose(np.array([1.0]))
+    assert MujocoDistance(body, [box]).distances(r, p).item() == pytest.approx(exact, abs=1e-9)
+    c = ground_truth(m, body, [box], resolution=1e-3)
+    assert c.verdict == "collision" and c.certified
+    exact_first = 1 - (math.sqrt(0.1**2 - 0.09**2) - 0.02) / 0.48  # the edge first touched
+    assert c.toi_lo <= exact_first + 1e-9
