@@ -59,6 +59,8 @@ def as_array(
         a = np.array(x, dtype=np.float64)
     except (TypeError, ValueError):
         raise TypeError(f"Expected `{name}` to be an array of numbers, got {short(x)}.") from None
+    except OverflowError:  # a Python integer beyond the doubles (10**400)
+        raise ValueError(f"Expected `{name}` to be finite, got a number beyond 1e308.") from None
     if ndim is not None and a.ndim != ndim:
         raise ValueError(f"Expected `{name}` to have {ndim} dimension(s), got shape {a.shape}.")
     if shape is not None:

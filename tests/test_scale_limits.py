@@ -354,3 +354,17 @@ def test_speed_bounds_do_not_depend_on_the_preimages_scale():
             assert c.verdict == "collision" and c.certified, (scale, bound, c)
             far = harness.certify(m, body, [Box([1, 1, 1], center=[0, 5, 0])], bound=bound)
             assert far.verdict == "free" and far.certified, (scale, bound, far)
+
+
+def test_integers_beyond_the_doubles_and_non_motions_are_named():
+    # a hunt: 10**400 raised a bare OverflowError from numpy or float(); swept_aabbs of a
+    # non-motion raised AttributeError reading its `scheme`
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[0, 0, 0], [1, 0, 0]])
+    with pytest.raises(ShapeError, match="`half_extents` to be finite, got a number beyond"):
+        Box([10**400, 1, 1])
+    with pytest.raises(QueryError, match="`tolerance` > 0"):
+        harness.certify(m, Box([1, 1, 1]), [], tolerance=10**400)
+    with pytest.raises(
+        ValueError, match="needs a rational motion's control structure, got NoneType"
+    ):
+        harness.swept_aabbs(None, Box([1, 1, 1]), 2)

@@ -161,7 +161,10 @@ def _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, dev
         tolerance, int | float | np.floating | np.integer
     ):
         raise TypeError(f"Expected `tolerance` to be a number (a length), got {short(tolerance)}.")
-    tol = float(tolerance)
+    try:
+        tol = float(tolerance)
+    except OverflowError:  # a Python integer beyond the doubles (10**400)
+        tol = math.inf
     if not math.isfinite(tol) or tol <= 0:
         raise QueryError(f"Expected `tolerance` > 0 (a length in scene units), got {tol!r}.")
     if samples is not None and bound != "sampled":

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from motions import RationalMotion
+from motions import Motion, RationalMotion
 from motions.pieces import BezierPieces
 
 from ..shapes import Shape, as_shape, parts
@@ -86,7 +86,8 @@ def swept_aabbs(
     if not isinstance(motion, RationalMotion):
         raise ValueError(
             "`swept_aabbs` needs a rational motion's control structure, got"
-            f" {type(motion).__name__} ({motion.scheme!r})."
+            f" {type(motion).__name__}"
+            + (f" ({motion.scheme!r})." if isinstance(motion, Motion) else ".")
         )
     body = as_shape(body)
     depth = _integer(depth, "depth", 0, MAX_DEPTH_LIMIT)
