@@ -5,6 +5,7 @@ Messages name the argument in backticks, say what was expected and what was got.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -155,6 +156,8 @@ def as_float(x: Any, name: str, what: str = "a number") -> float:
             return float(x)
         except (TypeError, ValueError):
             pass
+        except OverflowError:  # a Python integer beyond the doubles (10**400)
+            return math.inf if x > 0 else -math.inf
     raise TypeError(f"Expected `{name}` to be {what}, got {short(x)}.")
 
 

@@ -8,6 +8,8 @@ parametrised by the generalised chordal rule (31) unless times are given.
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -15,7 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.interpolate import BSpline, make_interp_spline
 from scipy.linalg import solve_banded
-from scipy.sparse.linalg import spsolve
+from scipy.sparse.linalg import MatrixRankWarning, spsolve
 from scipy.special import comb
 
 from ._checks import as_float, as_points, as_rotations, as_times, check_choice, short
@@ -539,7 +541,8 @@ def fit(
         ("fairing", fairing),
         ("scale_weight", scale_weight),
     ):
-        if not isinstance(val, int | float | np.floating) or not np.isfinite(val) or val < 0:
+        ok = isinstance(val, int | float | np.floating) and not isinstance(val, bool)
+        if not ok or not math.isfinite(as_float(val, name)) or val < 0:
             raise ValueError(f"Expected `{name}` to be a finite number >= 0, got {short(val)}.")
     breaks = np.linspace(t[0], t[-1], int(s) + 1)
     knots = clamped_knots(breaks, 3, 1)
@@ -552,12 +555,23 @@ def fit(
     def solve(target, lam):
         return np.asarray(spsolve(ata + lam * pen, a.T @ target)).reshape(-1, target.shape[1])
 
-    cq = (
-        _homogeneous_fit(a, q, pen, float(fairing), float(scale_weight))
-        if homogeneous
-        else solve(q, float(fairing))
-    )
-    cp = solve(p, float(smoothing))
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        # (overflow, and the singular systems it makes, are refused by name below)
+        warnings.simplefilter("ignore", MatrixRankWarning)
+        cq = (
+            _homogeneous_fit(a, q, pen, float(fairing), float(scale_weight))
+            if homogeneous
+            else solve(q, float(fairing))
+        )
+        cp = solve(p, float(smoothing))
+    for coeffs, names in ((cq, "`fairing` and `scale_weight`"), (cp, "`smoothing`")):
+        if not np.all(np.isfinite(coeffs)):
+            # (the finite check of the motion's pieces named `origin[2]` or `quaternions`)
+            raise ValueError(
+                f"Expected `times` and {names} within the fit's double precision: its solution"
+                f" overflowed (times span {t[-1] - t[0]:.3g}; smoothing={short(smoothing)},"
+                f" fairing={short(fairing)}, scale_weight={short(scale_weight)})."
+            )
     if np.any(np.einsum("ij,ij->i", a @ cq, q) <= 0):
         raise MotionError(
             "The fitted preimage turns away from the data (too few segments or too much fairing)."

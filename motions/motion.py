@@ -134,6 +134,10 @@ class Motion(abc.ABC):
             raise TypeError(
                 f"Expected `{name}` to be a number or an array of numbers, got {short(t)}."
             ) from None
+        except OverflowError:  # a Python integer beyond the doubles (10**400)
+            raise ValueError(
+                f"Expected `{name}` to be finite, got a number beyond 1e308."
+            ) from None
         if not np.all(np.isfinite(a)):
             raise ValueError(f"Expected `{name}` to be finite, got {short(a)}.")
         t0, t1 = self._domain

@@ -368,3 +368,27 @@ def test_integers_beyond_the_doubles_and_non_motions_are_named():
         ValueError, match="needs a rational motion's control structure, got NoneType"
     ):
         harness.swept_aabbs(None, Box([1, 1, 1]), 2)
+
+
+def test_fit_weights_and_times_beyond_double_precision_are_named():
+    # a hunt: fit(smoothing=1e300) named `origin[2]`, scale_weight=1e300 and times 1e-300
+    # apart named `quaternions`, smoothing=10**30 gave numpy's TypeError; pose(10**400)
+    # and omega=10**400 an OverflowError
+    rot = np.array([[1, 0, 0, 0], [0.9, 0.1, 0, 0], [0.8, 0.2, 0.1, 0], [0.7, 0.2, 0.3, 0.1]])
+    pos = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [2, 1, 1.0]])
+    t = np.array([0, 1, 2, 3.0])
+    for kw, says in (
+        ({"smoothing": 1e300}, "`times` and `smoothing` within"),
+        ({"smoothing": 10**30}, "`times` and `smoothing` within"),
+        ({"scale_weight": 1e300}, "`times` and `fairing` and `scale_weight` within"),
+        ({"times": [0, 1e-300, 2e-300, 3e-300]}, "times span 3e-300"),
+    ):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(ValueError, match=says):
+                motions.fit(rot, pos, **{"times": t, **kw})
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[0, 0, 0], [1, 0, 0]])
+    with pytest.raises(ValueError, match="`t` to be finite, got a number beyond 1e308"):
+        m.pose(10**400)
+    with pytest.raises(ValueError, match="`omega` to be finite"):
+        motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[0, 0, 0], [1, 0, 0]], omega=10**400)
