@@ -154,6 +154,11 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     return 0
 
 
+def _check_seed(seed: int) -> None:
+    if not 0 <= seed <= MAX_SEED:
+        raise UsageError(f"Expected `--seed` to be an integer in [0, 2**63 - 1], got {seed}.")
+
+
 def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
@@ -180,8 +185,8 @@ def _run_suite(args) -> int:
             f"Expected `--jobs` in [1, {most}] (local processes, at most 4 per core), got"
             f" {args.jobs}."
         )
-    if args.seed is not None and not 0 <= args.seed <= MAX_SEED:
-        raise UsageError(f"Expected `--seed` to be an integer in [0, 2**63 - 1], got {args.seed}.")
+    if args.seed is not None:
+        _check_seed(args.seed)
     suite = load_suite(args.suite)
     scheduler = args.scheduler if args.scheduler is not None else suite.scheduler
     if scheduler is not None and not scheduler.strip():
@@ -324,10 +329,7 @@ def _corpus(args) -> int:
     if args.action == "export":
         if not math.isfinite(args.size) or not 0 < args.size <= MAX_SIZE:
             raise UsageError(f"Expected `--size` in (0, {MAX_SIZE:g}], got {args.size}.")
-        if not 0 <= args.seed <= MAX_SEED:
-            raise UsageError(
-                f"Expected `--seed` to be an integer in [0, 2**63 - 1], got {args.seed}."
-            )
+        _check_seed(args.seed)
         fams = args.families.split(",") if args.families else None
         from harness.corpus import FAMILIES
 
