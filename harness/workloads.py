@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 import motions
-from motions.quaternion import qexp, qmul
+from motions.quaternion import qexp, qmul, rotation_matrix
 
 from .certification import certify, certify_many
 from .mjdistance import MujocoDistance
@@ -87,6 +87,10 @@ def _moved(shape: Shape, shift: np.ndarray) -> Shape:
     return shape.transformed(np.eye(3), shift)
 
 
+DISTMAX = 1e6
+"""``mj_geomDistance``'s search radius (m): no body of a workload is near that size."""
+
+
 def _distances(
     m, md: MujocoDistance, t: np.ndarray, directions: bool = False
 ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -110,18 +114,34 @@ def _pose_distances(
     data, model = md.data, md.model
     pairs = md.pairs
     ft = np.zeros(6) if directions else None
+    failed = []  # (pose, pair) where MuJoCo answered DISTMAX (see below)
     for i in range(len(p)):
         data.mocap_pos[0] = p[i]
         data.mocap_quat[0] = quats[i]
         mujoco.mj_kinematics(model, data)
         best = math.inf
-        for g1, g2 in pairs:
-            v = mujoco.mj_geomDistance(model, data, g1, g2, 1e6, ft)
-            if v < best:
+        for k, (g1, g2) in enumerate(pairs):
+            v = mujoco.mj_geomDistance(model, data, g1, g2, DISTMAX, ft)
+            if v >= DISTMAX:
+                failed.append((i, k))
+            elif v < best:
                 best = v
                 if directions:
                     n[i] = ft[3:] - ft[:3]
         d[i] = best
+    if failed:
+        # MuJoCo's DISTMAX means "none below it", which it also answers for some
+        # penetrating pairs (a capsule of half length ~1e-9 at a box's edge): those
+        # pairs' distances from the harness's GJK (MujocoDistance._gjk; no direction)
+        i, k = np.array(failed).T
+        no = len(md.obst_parts)
+        at = np.stack([np.arange(len(i)), k // no, k % no], axis=1)
+        rot = rotation_matrix(np.asarray(quats)[i])
+        for j, v in zip(i.tolist(), md._gjk(rot, np.asarray(p)[i], at).tolist(), strict=True):
+            if v < d[j]:
+                d[j] = v
+                if directions:
+                    n[j] = 0.0
     return d, n
 
 

@@ -166,3 +166,23 @@ def test_dense_sampling_does_not_claim_a_proof_closer_than_its_spacing(workload)
     assert 0 < c2[0] < TOL
     assert dense_sampling(m, b, [closer], TOL).verdict == "unknown"
     assert conservative_advancement(m, b, [closer], TOL).verdict == "unknown"
+
+
+def test_the_competitors_distances_where_mujoco_answers_its_search_radius():
+    # mj_geomDistance answers its distmax for every pair of a capsule of half length ~1e-9
+    # (tests/test_truth.py), penetrating or 2.9 m away: the competitors' loop took that
+    # for the distance
+    import math
+
+    import motions
+    from harness import Box, Capsule
+    from harness.workloads import _distances
+
+    body = Capsule(0.1, 1e-9)
+    boxes = [Box([0.5, 0.5, 0.5], center=[0, 0, 0.59]), Box([0.1] * 3, center=[0, 3, 0])]
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[-1.0, 0, 0], [-0.52, 0, 0]], [0, 1])
+    exact = math.hypot(0.02, 0.09) - 0.1  # the end pose: 7.8 mm deep
+    d, n = _distances(m, MujocoDistance(body, boxes), np.array([0.0, 1.0]), directions=True)
+    assert d[1] == pytest.approx(exact, abs=1e-9)
+    assert d[0] == pytest.approx(math.hypot(0.5, 0.09) - 0.1, abs=1e-9)  # the near box
+    assert np.isfinite(n).all()
