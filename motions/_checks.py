@@ -47,6 +47,10 @@ def short(x: Any, limit: int = 6) -> str:
     return f"{body} (shape {a.shape})" if a.ndim > 1 else body
 
 
+class _Complex(Exception):
+    """(as_array's signal: complex input)"""
+
+
 def as_array(
     x: Any, name: str, *, ndim: int | None = None, shape: tuple | None = None
 ) -> np.ndarray:
@@ -57,7 +61,19 @@ def as_array(
     if isinstance(x, str | bytes) or x is None:
         raise TypeError(f"Expected `{name}` to be an array of numbers, got {type(x).__name__}.")
     try:
-        a = np.array(x, dtype=np.float64)
+        # complex numbers are refused, not cast (numpy would drop their imaginary parts
+        # with a warning): arrays by their type, anything else once converted
+        if isinstance(getattr(x, "dtype", None), np.dtype):
+            if x.dtype.kind == "c":
+                raise _Complex
+            a = np.array(x, dtype=np.float64)
+        else:
+            a = np.array(x)
+            if a.dtype.kind == "c":
+                raise _Complex
+            a = a.astype(np.float64, copy=False)
+    except _Complex:
+        raise TypeError(f"Expected `{name}` to hold real numbers, got {short(x)}.") from None
     except (TypeError, ValueError):
         raise TypeError(f"Expected `{name}` to be an array of numbers, got {short(x)}.") from None
     except OverflowError:  # a Python integer beyond the doubles (10**400)

@@ -393,3 +393,19 @@ def test_a_motion_keeps_its_data_when_the_caller_reuses_its_arrays(builder):
             x if isinstance(x, tuple) else (x,), y if isinstance(y, tuple) else (y,), strict=True
         ):
             np.testing.assert_array_equal(u, v)
+
+
+@pytest.mark.parametrize(
+    "positions",
+    [
+        np.array([[0, 0, 0], [1j, 0, 0]]),  # numpy casts these with a ComplexWarning
+        [[0, 0, 0], [np.complex64(1), 0, 0]],
+        [[0, 0, 0], [1 + 0j, 0, 0]],
+    ],
+)
+def test_complex_positions_are_refused_not_cast(positions):
+    q = np.tile([1.0, 0, 0, 0], (2, 1))
+    with pytest.raises(TypeError, match=r"`positions` to hold real numbers"):
+        motions.interpolate(q, positions, [0, 1])
+    with pytest.raises(TypeError, match=r"`times` to hold real numbers"):
+        motions.interpolate(q, [[0, 0, 0], [1, 0, 0]], np.array([0, 1 + 1e-3j]))
