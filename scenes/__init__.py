@@ -10,6 +10,7 @@ from __future__ import annotations
 import inspect
 import os
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -162,12 +163,26 @@ def compile_file(path: str | os.PathLike) -> mujoco.MjModel:
         raise SceneError(f"MJCF file {str(p)!r} does not exist.")
     if not p.is_file():
         raise SceneError(f"Expected an MJCF file, got the folder {str(p)!r}.")
+    said: list[str] = []
+    before = mujoco.get_mju_user_warning()
+    # MuJoCo's warnings come back here instead of its own print and MUJOCO_LOG.TXT in the
+    # working folder (a hook of the whole process: set for the compile only)
+    mujoco.set_mju_user_warning(said.append)
     try:
-        return mujoco.MjModel.from_xml_path(str(p))
+        model = mujoco.MjModel.from_xml_path(str(p))
     except ValueError as e:
         raise SceneError(
             f"Cannot compile MJCF file {str(p)!r}: {' '.join(str(e).split())}"
         ) from None
+    finally:
+        mujoco.set_mju_user_warning(before)
+    for msg in said:
+        if "nan" in msg.lower():  # MuJoCo compiles NaN values and says so
+            raise SceneError(
+                f"Cannot use MJCF file {str(p)!r}: MuJoCo says: {' '.join(msg.split())}"
+            )
+        warnings.warn(f"MJCF file {str(p)!r}: MuJoCo says: {' '.join(msg.split())}", stacklevel=2)
+    return model
 
 
 def _pick_mocap_body(model: mujoco.MjModel, mocap_body: str | None, where: str) -> str:

@@ -700,3 +700,18 @@ def test_an_unnamed_mocap_body_is_asked_for_a_name():
     ):
         scenes.from_xml(xml)
     assert scenes.mocap_bodies(mujoco.MjModel.from_xml_string(xml)) == ["<unnamed body 1>"]
+
+
+def test_a_nan_in_a_file_is_named_without_mujocos_own_print_or_log(tmp_path, monkeypatch, capfd):
+    # MuJoCo compiles NaN values with a warning that it prints and appends to
+    # MUJOCO_LOG.TXT in the working folder (a CLI hunt's finding)
+    monkeypatch.chdir(tmp_path)
+    path = tmp_path / "nan.xml"
+    path.write_text(KEYS.format('<key time="0"/><key time="1" mpos="nan 0 0"/>'))
+    with pytest.raises(scenes.SceneError, match=r"nan\.xml'.*XML contains a 'NaN'"):
+        scenes.load(path)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    assert "WARNING" not in capfd.readouterr().out
+    assert mujoco.get_mju_user_warning() is None  # the hook is the process's: restored
+    path.write_text(KEYS.format('<key time="0"/><key time="1" mpos="1 0 0"/>'))
+    assert scenes.load(path).keyframes.positions[1].tolist() == [1.0, 0.0, 0.0]
