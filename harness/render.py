@@ -23,7 +23,7 @@ from motions import Motion, RationalMotion, build, quat_from_matrix
 from motions._checks import short
 
 from .errors import HarnessError
-from .shapes import Shape, parts
+from .shapes import MAX_LENGTH, Shape, parts
 
 __all__ = ["BACKENDS", "RenderError", "frame_box", "render"]
 
@@ -133,6 +133,12 @@ def render(
     body = body_from_model(sc.model, sc.mocap_body)
     obstacles = obstacles_from_model(sc.model, carried=sc.carried)
     lo, hi = frame_box(motion, body, obstacles)
+    far = float(np.abs(np.r_[lo, hi]).max())
+    if not far <= MAX_LENGTH:  # (NaN too) as far as the certifier takes lengths
+        raise ValueError(
+            f"Cannot draw the motion: it carries the body {far:g} m from the origin "
+            f"(at most {MAX_LENGTH:g})."
+        )
     if backend in ("auto", "mujoco") and control_segment is None:
         try:
             image = _render_mujoco(sc, motion, times, (lo, hi), tuple(size))

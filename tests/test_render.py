@@ -292,3 +292,13 @@ def test_cli_errors_name_the_options_not_the_parameters(tmp_path, capsys):
         err = capsys.readouterr().err
         assert says in err and err.count("\n") == 1, err
     assert not (tmp_path / "r.png").exists()
+
+
+def test_a_motion_beyond_the_lengths_the_tool_takes_is_refused_before_drawing(tmp_path):
+    # a key at mpos="1e300 0 0" drew a picture with numpy's overflow warnings (a CLI hunt)
+    m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[0, 0, 0], [1e300, 0, 0]], [0, 1])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"carries the body 1e\+300 m from the origin"):
+            harness.render("slot", m, out=tmp_path / "far.png", frames=1)
+    assert not list(tmp_path.iterdir())
