@@ -6,6 +6,7 @@ definition at keyframes it interpolates, and paths that run straight through a w
 """
 
 import itertools
+import re
 import warnings
 
 import numpy as np
@@ -385,8 +386,18 @@ def test_fit_weights_and_times_beyond_double_precision_are_named():
     ):
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            with pytest.raises(ValueError, match=says):
-                motions.fit(rot, pos, **{"times": t, **kw})
+            try:
+                got = motions.fit(rot, pos, **{"times": t, **kw})
+            except ValueError as e:
+                assert re.search(says, str(e)), str(e)
+                continue
+        # whether the solution overflows depends on the machine's BLAS (smoothing=1e300
+        # overflowed on an AVX-512 machine, not on an AVX2 one): where it does not, the
+        # fit is a motion, finite where it is defined
+        assert kw == {"smoothing": 1e300}, f"{kw}: no error"
+        r, p = got.motion.pose(np.linspace(0, 3, 31))
+        assert np.isfinite(r).all() and np.isfinite(p).all()
+        assert np.isfinite([got.max_angle_error, got.max_position_error]).all()
     m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[0, 0, 0], [1, 0, 0]])
     with pytest.raises(ValueError, match="`t` to be finite, got a number beyond 1e308"):
         m.pose(10**400)
