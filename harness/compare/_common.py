@@ -1,0 +1,182 @@
+"""Shared parts of :mod:`harness.compare`: its constants, error and result types, the
+checks of round times, and the timing decision and table both kinds of input print.
+
+Private: import the public names from :mod:`harness.compare`, which re-exports them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import HarnessError
+from ..timing import ratio_interval
+
+DEFAULT_THRESHOLD = 0.75
+"""Allowed slowdown by default: above the drift measured between runs of unchanged code
+on the shared 2-core machine (see the :mod:`harness.compare` docstring)."""
+MIN_TIMING_SECONDS = 0.005
+"""Run groups whose base cost (sum of medians) is below this are printed, not gated:
+below a few milliseconds the scheduler and the caches, not the code, decide the ratio."""
+MAX_ROUND_SECONDS = 1e6
+"""Longest round time (seconds, about 11.6 days) an input may hold; a longer one makes the
+input unreadable (exit 2): no benchmark round lasts that long, and the bound keeps sums of
+medians and their ratios far from overflow (rounds of 1e308 s once summed to inf and read
+"nan, ok")."""
+TIMER_RESOLUTION = 1e-9
+"""Groups whose base or new cost is below this (seconds) are printed, not gated, in runs
+and benchmark files alike: ``time.perf_counter`` and ``time.process_time`` tick in
+nanoseconds at best, so a cost of 0 or a subnormal number is no measurement, and its ratio
+would be infinite (a base of 0 once read "inf, ok")."""
+MAX_SAMPLE = 1001
+"""Most rounds of one figure the bootstrap resamples. The bootstrap draws a (resamples,
+rounds) array per figure, so a file saying ``"rounds": 1e9`` once asked for 23.7 GB: a
+longer sample is replaced by this many of its evenly spaced quantiles (an odd number, so
+that its median is among them), which widens the interval to that of 1001 rounds and never
+narrows it; a summary without ``data`` stands in for at most this many rounds."""
+MIN_ROUNDS = 5
+"""Timing samples (rounds over all figures of a group) each side needs to be gated."""
+TIMERS = ("cpu", "wall")
+
+
+class CompareError(HarnessError):
+    """The two inputs cannot be compared (unreadable, different suites, formats or cases),
+    or an argument of :func:`compare` is invalid. A ValueError, as every HarnessError."""
+
+
+@dataclass(frozen=True)
+class TimingRow:
+    """One gated timing group: its name, medians, ratio with interval, and decision."""
+
+    name: str
+    base: float
+    new: float
+    ratio: float
+    lo: float
+    hi: float
+    samples: tuple[int, int]
+    status: str  # "ok", "regression", "faster", or "not gated: <why>"
+
+
+@dataclass
+class Comparison:
+    """Result of :func:`compare`: printable lines, timing rows and regressions."""
+
+    lines: list[str] = field(default_factory=list)
+    timing: list[TimingRow] = field(default_factory=list)
+    regressions: list[str] = field(default_factory=list)
+
+    @property
+    def exit_code(self) -> int:
+        return 1 if self.regressions else 0
+
+    def text(self) -> str:
+        out = list(self.lines)
+        out.append("")
+        out.append(f"{len(self.regressions)} regression(s)" + (":" if self.regressions else "."))
+        out.extend(f"  - {r}" for r in self.regressions)
+        return "\n".join(out)
+
+
+# ----------------------------------------------------------------------------- timing
+def _decide(
+    name: str, xb: list[np.ndarray], xn: list[np.ndarray], thr: float, floor: float
+) -> TimingRow:
+    samples = (sum(a.size for a in xb), sum(a.size for a in xn))
+    xb, xn = [_thin(a) for a in xb], [_thin(a) for a in xn]
+    mb = sum(float(np.median(a)) for a in xb)
+    mn = sum(float(np.median(a)) for a in xn)
+    low = max(floor, TIMER_RESOLUTION)
+    if min(mb, mn) >= TIMER_RESOLUTION:  # shown for groups below `floor` too
+        ratio, lo, hi = ratio_interval(xb, xn)
+    else:  # a time of 0 (or a subnormal number) is no measurement: its ratio is 0 or inf
+        ratio = lo = hi = math.nan
+    if min(samples) < MIN_ROUNDS:
+        status = f"not gated: {min(samples)} timing sample(s) < {MIN_ROUNDS}"
+    elif mb < low:
+        status = f"not gated: base {_fmt_s(mb)} < {_fmt_s(low)}"
+    elif mn < TIMER_RESOLUTION:
+        status = f"not gated: new {_fmt_s(mn)} < {_fmt_s(TIMER_RESOLUTION)}"
+    elif lo > 1 and ratio > 1 + thr:
+        status = "regression"
+    elif hi < 1:
+        status = "faster"
+    else:
+        status = "ok"
+    return TimingRow(name, mb, mn, ratio, lo, hi, samples, status)
+
+
+def _thin(a: np.ndarray) -> np.ndarray:
+    """At most MAX_SAMPLE rounds: the evenly spaced quantiles of a longer sample."""
+    if a.size <= MAX_SAMPLE:
+        return a
+    return np.quantile(a, (np.arange(MAX_SAMPLE) + 0.5) / MAX_SAMPLE)
+
+
+def _timing_lines(out: Comparison, rows: list[TimingRow], thr: float, what: str) -> None:
+    width = max([len(r.name) for r in rows] + [len(what)])
+    out.lines.append(
+        f"{what:{width}s} {'base':>10s} {'new':>10s} {'ratio':>7s} {'95% interval':>17s}  status"
+    )
+    for r in rows:
+        iv = f"[{r.lo:.3f}, {r.hi:.3f}]" if np.isfinite(r.lo) else "–"
+        ratio = f"{r.ratio:7.3f}" if np.isfinite(r.ratio) else "–"
+        out.lines.append(
+            f"{r.name:{width}s} {_fmt_s(r.base):>10s} {_fmt_s(r.new):>10s} {ratio:>7s} {iv:>17s}  {r.status}"
+        )
+        out.timing.append(r)
+        if r.status == "regression":
+            out.regressions.append(
+                f"timing: {r.name} takes {r.ratio:.2f}x the base (95% interval [{r.lo:.2f}, {r.hi:.2f}],"
+                f" threshold {1 + thr:.2f}x)"
+            )
+    out.lines.append(
+        f"(a regression: the ratio exceeds {1 + thr:.2f} and its 95% bootstrap interval lies above 1)"
+    )
+    loose = sum(r.status.startswith("not gated") for r in rows)
+    if loose:
+        out.lines.append(f"({loose} of {len(rows)} group(s) not gated: see their status)")
+
+
+def _fmt_s(x: float) -> str:
+    if not np.isfinite(x):
+        return "–"
+    # 0.9995 of a unit prints as 1 of it at 3 digits, not as 1e+03 of the next one down
+    if x == 0 or x >= 0.9995:
+        return f"{x:.3g} s"
+    if x >= 0.9995e-3:
+        return f"{x * 1e3:.3g} ms"
+    if x >= 0.9995e-6:
+        return f"{x * 1e6:.3g} µs"
+    return f"{x * 1e9:.3g} ns"
+
+
+# ----------------------------------------------------------------------------- round times
+def _time(x: Any) -> bool:
+    """A round time as JSON gives it: a number, not a bool, in [0, MAX_ROUND_SECONDS]. An
+    integer of any size compares exactly here (``math.isfinite`` would convert it to a float
+    first, which overflows for 400 digits); NaN fails every comparison."""
+    return isinstance(x, int | float) and not isinstance(x, bool) and 0 <= x <= MAX_ROUND_SECONDS
+
+
+def _bad_times(data: Any, name: str) -> str:
+    """'' when `data` is a non-empty list of round times (:func:`_time`), else what is wrong."""
+    if not isinstance(data, list):
+        return f"{type(data).__name__} {_clip(data)}"
+    if not data:
+        return "an empty list"
+    for k, x in enumerate(data):
+        if not _time(x):
+            return f"`{name}[{k}]` = {_clip(x)}"
+    return ""
+
+
+def _clip(x: Any) -> str:
+    """A repr short enough for a one-line message; a huge integer by its number of digits."""
+    if isinstance(x, int) and not isinstance(x, bool) and abs(x) >= 10**20:
+        return f"an integer of {math.floor(math.log10(abs(x))) + 1} digits"
+    r = repr(x)
+    return r if len(r) <= 60 else r[:57] + "..."

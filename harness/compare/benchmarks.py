@@ -1,0 +1,134 @@
+"""Reading and comparing two pytest-benchmark JSON files: one timing group per benchmark,
+wall time per round (see :mod:`harness.compare`)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._common import (
+    MAX_ROUND_SECONDS,
+    MAX_SAMPLE,
+    CompareError,
+    Comparison,
+    _bad_times,
+    _clip,
+    _decide,
+    _time,
+    _timing_lines,
+)
+
+
+def _load_benchmarks(p: Path) -> dict[str, dict]:
+    try:
+        doc = json.loads(p.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise CompareError(f"{p}: not a readable JSON file ({e}).") from None
+    if not isinstance(doc, dict) or "benchmarks" not in doc:
+        raise CompareError(
+            f"{p}: not a pytest-benchmark JSON file: expected an object with a `benchmarks` list,"
+            f" got {type(doc).__name__}{' without it' if isinstance(doc, dict) else ''}."
+        )
+    if not isinstance(doc["benchmarks"], list):
+        raise CompareError(
+            f"{p}: not a pytest-benchmark JSON file: expected `benchmarks` to be a list,"
+            f" got {type(doc['benchmarks']).__name__}."
+        )
+    out = {}
+    for i, bm in enumerate(doc["benchmarks"]):
+        where = f"{p}: benchmarks[{i}]"
+        if not isinstance(bm, dict) or not isinstance(bm.get("fullname"), str):
+            raise CompareError(
+                f"{where}: expected an object with a string `fullname`, got {bm!r:.80}."
+            )
+        stats = bm.get("stats")
+        if not isinstance(stats, dict):
+            raise CompareError(
+                f"{where} ({bm['fullname']}): expected a `stats` object, got {stats!r:.80}."
+            )
+        data = stats.get("data")
+        if data is not None:
+            bad = _bad_times(data, "stats.data")
+            if bad:
+                raise CompareError(
+                    f"{where} ({bm['fullname']}): expected `stats.data` to be a non-empty list of"
+                    f" round times in seconds, each in [0, {MAX_ROUND_SECONDS:g}], got {bad}."
+                )
+        else:
+            bad = [
+                f"`stats.{k}` = {_clip(stats.get(k))}"
+                for k, ok in (("median", _time), ("iqr", _time), ("rounds", _count))
+                if not ok(stats.get(k))
+            ]
+            if bad:
+                if not {"median", "iqr", "rounds"} & set(stats):
+                    bad = [f"keys {sorted(stats)}"]
+                raise CompareError(
+                    f"{where} ({bm['fullname']}): expected `stats.data` (per-round times) or"
+                    f" `stats.median` and `stats.iqr` (seconds in [0, {MAX_ROUND_SECONDS:g}]) with"
+                    f" `stats.rounds` (an integer >= 1), got {', '.join(bad)}."
+                )
+        if bm["fullname"] in out:  # the later one would silently replace the first
+            raise CompareError(
+                f"{where}: `fullname` {_clip(bm['fullname'])} appears twice; expected each"
+                " benchmark once (one pytest-benchmark run per file)."
+            )
+        out[bm["fullname"]] = stats
+    return out
+
+
+def _count(x: Any) -> bool:
+    """A round count: an integer >= 1 (a float such as 7.0 too), of any size."""
+    if isinstance(x, bool) or not isinstance(x, int | float):
+        return False
+    return x >= 1 and (isinstance(x, int) or (math.isfinite(x) and x.is_integer()))
+
+
+def _benchmark_sample(stats: dict) -> np.ndarray:
+    """Per-round times; without them, a stand-in sample with the same median and IQR
+    (quantiles of a normal of sigma = IQR / 1.349 at the file's round count, at most
+    MAX_SAMPLE)."""
+    if stats.get("data") is not None:
+        return np.asarray(stats["data"], dtype=float)
+    n = int(min(stats["rounds"], MAX_SAMPLE))
+    z = np.array([0.0]) if n == 1 else _normal_quantiles(n)
+    return np.maximum(0.0, stats["median"] + z * stats["iqr"] / 1.349)
+
+
+def _normal_quantiles(n: int) -> np.ndarray:
+    from scipy.stats import norm
+
+    return norm.ppf((np.arange(n) + 0.5) / n)
+
+
+def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
+    base, new = _load_benchmarks(b), _load_benchmarks(n)
+    # Two empty files are identical, yet a gate that compared nothing has no evidence to
+    # pass on: an empty file is what a benchmark step that collected nothing writes.
+    for p, d in ((b, base), (n, new)):
+        if not d:
+            raise CompareError(
+                f"{p} holds no benchmark (`benchmarks` is empty): nothing to compare."
+            )
+    common = sorted(set(base) & set(new))
+    if not common:
+        raise CompareError(f"No benchmark appears in both {b} and {n}.")
+    out = Comparison()
+    out.lines.append(f"{len(common)} benchmarks in both files (wall time per round)")
+    rows = [
+        _decide(name, [_benchmark_sample(base[name])], [_benchmark_sample(new[name])], thr, 0.0)
+        for name in common
+    ]
+    _timing_lines(out, rows, thr, "benchmark")
+    for label, names in (
+        ("only in the base", sorted(set(base) - set(new))),
+        ("only in the new file", sorted(set(new) - set(base))),
+    ):
+        if names:
+            more = " ..." if len(names) > 5 else ""
+            out.lines.append(f"(benchmarks {label}: {names[:5]}{more})")
+    return out

@@ -1,0 +1,307 @@
+"""Reading and comparing two run folders (``results.parquet`` + ``meta.json``): matching
+their rows, timing by study, scheme, bound and mode, and accuracy (see
+:mod:`harness.compare`)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ._common import (
+    MAX_ROUND_SECONDS,
+    MIN_TIMING_SECONDS,
+    CompareError,
+    Comparison,
+    _bad_times,
+    _clip,
+    _decide,
+    _timing_lines,
+)
+
+TOI_SLACK = 1e-9
+"""Absolute slack (motion parameter units) before a larger |TOI error| counts: the
+certified times are deterministic, so only round-off may move them."""
+_GROUP = ("study", "scheme", "bound", "mode")
+_ROW_KEY = ("study", "case_id", "keyframes", "scheme", "pair", "bound", "method", "mode")
+"""Columns that identify a row within one run, for every study kind: a certify row by its
+``case_id``; a workload row by ``pair``, ``bound`` and ``mode`` (one case holds every pair);
+a scaling row by ``method``; a corpus row by ``keyframes`` (the corpus case id, e.g.
+``thin-wall-000-rational``) and ``bound`` (its ``case_id`` names a chunk of cases)."""
+
+
+def _load_run(p: Path) -> tuple[pd.DataFrame, dict]:
+    table = p / "results.parquet"
+    try:
+        df = pd.read_parquet(table)
+    except Exception as e:  # pyarrow raises ArrowInvalid, OSError, ...: all mean unreadable
+        raise CompareError(
+            f"{table}: not a readable parquet table ({type(e).__name__}: {str(e)[:120]})."
+        ) from None
+    meta: dict = {}
+    if (p / "meta.json").exists():
+        try:
+            meta = json.loads((p / "meta.json").read_text())
+        except (OSError, UnicodeDecodeError, ValueError) as e:
+            raise CompareError(f"{p / 'meta.json'}: not readable JSON ({e}).") from None
+        if not isinstance(meta, dict):
+            raise CompareError(
+                f"{p / 'meta.json'}: expected a JSON object, got {type(meta).__name__}."
+            )
+    missing = [c for c in ("study", "scheme", "bound") if c not in df.columns]
+    if missing:
+        raise CompareError(
+            f"{table}: not an rsmbench results table: column(s) {missing} missing"
+            f" (has {sorted(map(str, df.columns))[:12]})."
+        )
+    df = df.reset_index(drop=True)
+    for k in _ROW_KEY:
+        if k not in df:
+            df[k] = None
+    if "mode" in df:
+        df["mode"] = df["mode"].where(df["mode"].notna(), "")
+    # plain Python strings: pandas' string dtype would turn a missing part into a missing key
+    parts = [[_key_part(v) for v in df[k].tolist()] for k in _ROW_KEY]
+    df["_key"] = ["|".join(vals) for vals in zip(*parts, strict=True)]
+    dup = df["_key"].duplicated()
+    if dup.any():
+        i = int(np.flatnonzero(dup.to_numpy())[0])
+        named = ", ".join(f"{k}={parts[j][i]}" for j, k in enumerate(_ROW_KEY) if parts[j][i])
+        raise CompareError(
+            f"{table}: two rows have the same key ({named}); the table is not one run."
+        )
+    return df, meta
+
+
+def _key_part(v: Any) -> str:
+    """One column's part of a row key: '' for a missing value (None, NaN), an integral
+    float as an integer (pair 3.0 -> '3')."""
+    if v is None or v is pd.NA:
+        return ""
+    if isinstance(v, float | np.floating):
+        if math.isnan(v):
+            return ""
+        return str(int(v)) if float(v).is_integer() else str(float(v))
+    return str(v)
+
+
+def _rounds(df: pd.DataFrame, timer: str, table: Path) -> list[np.ndarray | None]:
+    """Per row of `df` (indexed by row key): its timing rounds under `timer` (None when the
+    row carries no timing).
+
+    Raises:
+        CompareError: a row's rounds are not a JSON list of times (:func:`_time`).
+    """
+    col = f"{timer}_rounds"
+    out: list[np.ndarray | None] = []
+    has_rounds = _has_rounds(df, timer)
+    for i in range(len(df)):
+        if has_rounds:
+            v = df[col].iat[i]
+            if v is None or v is pd.NA or _isnan(v):
+                out.append(None)
+                continue
+            try:
+                vals = json.loads(v) if isinstance(v, str) else v
+            except ValueError:  # not JSON, or an integer of more than 4300 digits
+                vals = v
+            bad = _bad_times(vals, col)
+            if bad:
+                raise CompareError(
+                    f"{table}: row {df.index[i]!r}: expected `{col}` to be a non-empty JSON"
+                    f" list of round times in seconds, each in [0, {MAX_ROUND_SECONDS:g}],"
+                    f" got {bad}."
+                )
+            out.append(np.asarray(vals, dtype=float))
+        elif timer == "wall":  # a run from before repeated rounds: one wall time per row
+            s = df["seconds"].iat[i] if "seconds" in df else None
+            ok = isinstance(s, int | float | np.floating) and np.isfinite(s) and s > 0
+            if ok and s > MAX_ROUND_SECONDS:
+                raise CompareError(
+                    f"{table}: row {df.index[i]!r}: expected `seconds` in"
+                    f" [0, {MAX_ROUND_SECONDS:g}], got {_clip(float(s))}."
+                )
+            out.append(np.array([float(s)]) if ok else None)
+        else:
+            out.append(None)
+    return out
+
+
+def _compare_runs(
+    b: Path, n: Path, thr: float, fp_threshold: int, unknown_threshold: float, timer: str
+) -> Comparison:
+    base, mb = _load_run(b)
+    new, mn = _load_run(n)
+    for p, df in ((b, base), (n, new)):  # as for benchmark files: nothing compared, no pass
+        if not len(df):
+            raise CompareError(f"{p / 'results.parquet'} has no rows: nothing to compare.")
+    problems = [
+        f"{k}: base {mb.get(k)!r} vs new {mn.get(k)!r}"
+        for k in ("suite", "suite_hash", "seed")
+        if mb.get(k) != mn.get(k)
+    ]
+    if problems:
+        raise CompareError("The runs are of different suites: " + "; ".join(problems))
+    kb, kn = set(base["_key"]), set(new["_key"])
+    keys = sorted(kb & kn)
+    if not keys:
+        raise CompareError("The runs share no case.")
+    bi = base.set_index("_key").loc[keys]
+    ni = new.set_index("_key").loc[keys]
+    out = Comparison()
+    # a row of the base that the new run lacks is a case that stopped running or crashed
+    # (suite and seed match, so the rows are the same); a row only in NEW is a new case
+    lost = base[~base["_key"].isin(kn)]
+    timer, why = _timer_used(base, new, timer)
+    out.lines.append(
+        f"{len(keys)} matched rows, {len(lost)} only in the base, {len(kn - kb)} only in the"
+        f" new run; timer: {timer} time" + (f" ({why})" if why else "")
+    )
+    if len(lost):
+        out.regressions.append(
+            f"missing: {len(lost)} row(s) of the base are not in the new run"
+            f" ({_count_groups([_group_name(r) for _, r in lost.iterrows()])})"
+        )
+    _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"))
+    _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
+    return out
+
+
+def _has_rounds(df: pd.DataFrame, timer: str) -> bool:
+    col = f"{timer}_rounds"
+    return col in df and bool(df[col].notna().any())
+
+
+def _timer_used(base: pd.DataFrame, new: pd.DataFrame, timer: str) -> tuple[str, str]:
+    """The timer to compare, and why it is not `timer`: wall time when a whole run kept no
+    CPU-time rounds (a run from before they were kept) but both runs kept wall time."""
+    if timer != "cpu":
+        return timer, ""
+    lacking = [name for name, df in (("base", base), ("new", new)) if not _has_rounds(df, "cpu")]
+    if not lacking or not all(_has_rounds(df, "wall") or _has_seconds(df) for df in (base, new)):
+        return timer, ""
+    runs = "the base and new runs" if len(lacking) == 2 else f"the {lacking[0]} run"
+    return "wall", f"{runs} kept no CPU-time rounds"
+
+
+def _has_seconds(df: pd.DataFrame) -> bool:
+    return "seconds" in df and bool(pd.to_numeric(df["seconds"], errors="coerce").gt(0).any())
+
+
+def _count_groups(names: list[str], limit: int = 6) -> str:
+    """'a: 3, b: 1' for the most frequent `limit` names, then how many more there are."""
+    counts = pd.Series(names, dtype=object).value_counts(sort=False)
+    order = sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))
+    text = ", ".join(f"{name or 'ungrouped'}: {c}" for name, c in order[:limit])
+    return text + (f", and {len(order) - limit} more group(s)" if len(order) > limit else "")
+
+
+def _group_name(row: pd.Series) -> str:
+    parts = [
+        str(row.get(k)) for k in _GROUP if k in row and str(row.get(k)) not in ("", "None", "nan")
+    ]
+    return "/".join(parts)
+
+
+def _run_timing(
+    out: Comparison,
+    bi: pd.DataFrame,
+    ni: pd.DataFrame,
+    thr: float,
+    timer: str,
+    tables: tuple[Path, Path],
+) -> None:
+    rb, rn = _rounds(bi, timer, tables[0]), _rounds(ni, timer, tables[1])
+    groups: dict[str, tuple[list, list]] = {}
+    lost: list[str] = []
+    for j in range(len(bi)):
+        if rb[j] is None:
+            continue
+        name = _group_name(bi.iloc[j])
+        if rn[j] is None:  # timed in the base, not in the new run: it stopped running
+            lost.append(name)
+            continue
+        gb, gn = groups.setdefault(name, ([], []))
+        gb.append(rb[j])
+        gn.append(rn[j])
+    if lost:
+        out.regressions.append(
+            f"timing: {len(lost)} figure(s) timed in the base have no {timer}-time rounds in"
+            f" the new run ({_count_groups(lost)})"
+        )
+    if not groups:
+        out.lines.append("(no matched row is timed in both runs)")
+        return
+    rows = [
+        _decide(name, gb, gn, thr, MIN_TIMING_SECONDS) for name, (gb, gn) in sorted(groups.items())
+    ]
+    _timing_lines(out, rows, thr, "study/scheme/bound/mode")
+
+
+def _flag(df: pd.DataFrame, col: str) -> pd.Series:
+    if col not in df:
+        return pd.Series(False, index=df.index)
+    return df[col].map(lambda v: bool(v) if isinstance(v, bool | np.bool_) else v == 1).astype(bool)
+
+
+def _where(r: pd.Series) -> str:
+    bits = [f"{k} {r.get(k)}" for k in ("pair",) if r.get(k) is not None and not _isnan(r.get(k))]
+    scene = r.get("scene")
+    return f"{scene}/{r.get('scheme')}/{r.get('bound')}" + (f" ({', '.join(bits)})" if bits else "")
+
+
+def _isnan(v: Any) -> bool:
+    return isinstance(v, float) and math.isnan(v)
+
+
+def _run_accuracy(
+    out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame, fp_threshold: int, unknown_threshold: float
+) -> None:
+    fnb, fnn = _flag(bi, "false_negative"), _flag(ni, "false_negative")
+    for key in bi.index[(fnn & ~fnb).to_numpy()]:
+        out.regressions.append(
+            f"accuracy: new false free in {_where(ni.loc[key])} where the base had none"
+        )
+    fpb, fpn = int(_flag(bi, "false_positive").sum()), int(_flag(ni, "false_positive").sum())
+    fnb_n, fnn_n = int(fnb.sum()), int(fnn.sum())
+    out.lines.append(
+        f"false free: base {fnb_n}, new {fnn_n}; false collisions: base {fpb}, new {fpn}"
+    )
+    if fpn - fpb > fp_threshold:
+        out.regressions.append(
+            f"accuracy: {fpn - fpb} more false collisions than the base (threshold {fp_threshold})"
+        )
+    if "verdict" in bi:
+        ran_b = bi["verdict"].isin(["free", "collision", "unknown"])
+        ran_n = ni["verdict"].isin(["free", "collision", "unknown"])
+        gb = bi[ran_b].assign(_u=bi["verdict"] == "unknown").groupby(["study", "scheme", "bound"])
+        gn = ni[ran_n].assign(_u=ni["verdict"] == "unknown").groupby(["study", "scheme", "bound"])
+        ub, un = gb["_u"].mean(), gn["_u"].mean()
+        cb, cn = gb["_u"].sum(), gn["_u"].sum()
+        for g in ub.index:
+            if g in un.index and un[g] - ub[g] > unknown_threshold + 1e-12:
+                out.regressions.append(
+                    f"accuracy: unknown rate of {'/'.join(map(str, g))} rose from {ub[g]:.3g}"
+                    f" ({int(cb[g])} rows) to {un[g]:.3g} ({int(cn[g])} rows)"
+                )
+    if "toi_error" in bi:
+        eb = pd.to_numeric(bi["toi_error"], errors="coerce").abs()
+        en = pd.to_numeric(ni["toi_error"], errors="coerce").abs()
+        worse = (en > eb + TOI_SLACK) & eb.notna() & en.notna()
+        for key in bi.index[worse.to_numpy()]:
+            out.regressions.append(
+                f"accuracy: larger |TOI error| in {_where(ni.loc[key])}: {eb[key]:.3g} -> {en[key]:.3g}"
+            )
+    if "continuity_order" in bi:
+        cb = pd.to_numeric(bi["continuity_order"], errors="coerce").groupby(bi["scheme"]).min()
+        cn = pd.to_numeric(ni["continuity_order"], errors="coerce").groupby(ni["scheme"]).min()
+        for scheme in cb.index:
+            if scheme in cn and np.isfinite(cb[scheme]) and np.isfinite(cn[scheme]):
+                if cn[scheme] < cb[scheme]:
+                    out.regressions.append(
+                        f"accuracy: scheme {scheme} measured C{int(cn[scheme])}, the base C{int(cb[scheme])}"
+                    )
