@@ -256,8 +256,9 @@ def _report(args) -> int:
     return 0
 
 
-def _fraction(text: str, option: str) -> float:
-    """A fraction >= 0 given as "15%" or "0.15"."""
+def _fraction(text: str, option: str, most: float) -> float:
+    """A fraction in [0, `most`] given as "15%" or "0.15". Beyond `most`, a gate that could
+    never fail: most likely a percentage without its sign ("75" is 7500 %)."""
     t = text.strip()
     try:
         value = float(t[:-1]) / 100 if t.endswith("%") else float(t)
@@ -265,20 +266,26 @@ def _fraction(text: str, option: str) -> float:
         value = float("nan")
     if not np.isfinite(value) or value < 0:
         raise UsageError(f"Expected `{option}` >= 0, like 15% or 0.15, got {text!r}.")
+    if value > most:
+        hint = f" (for {t} %, write {t}%)" if not t.endswith("%") else ""
+        raise UsageError(
+            f"Expected `{option}` at most {most:.0%} (a fraction like 0.15, or 15%), got"
+            f" {text!r}, {value:.0%}: a gate that never fails{hint}."
+        )
     return value
 
 
 def _compare(args) -> int:
-    from harness.compare import compare
+    from harness.compare import MAX_TIME_THRESHOLD, compare
 
     if args.fp_threshold < 0:
         raise UsageError(f"Expected `--fp-threshold` >= 0, got {args.fp_threshold}.")
     result = compare(
         args.base,
         args.new,
-        time_threshold=_fraction(args.time_threshold, "--time-threshold"),
+        time_threshold=_fraction(args.time_threshold, "--time-threshold", MAX_TIME_THRESHOLD),
         fp_threshold=args.fp_threshold,
-        unknown_threshold=_fraction(args.unknown_threshold, "--unknown-threshold"),
+        unknown_threshold=_fraction(args.unknown_threshold, "--unknown-threshold", 1.0),
         timer=args.timer,
     )
     print(result.text())

@@ -260,3 +260,19 @@ def test_a_benchmark_named_twice_is_refused(tmp_path, capsys):
     pos = _bench_file(tmp_path / "pos.json", a=[1e-3] * 10)
     r = _quiet_cli(capsys, "compare", pos, str(tmp_path / "dup.json"))
     _one_line_error(r, "dup.json: benchmarks[1]: `fullname` 'a' appears twice")
+
+
+# ----------------------------------------------------------------------------- thresholds
+def test_a_threshold_that_would_turn_the_gate_off_is_refused(tmp_path, capsys):
+    # a new user's `--time-threshold 75` meant 7500 %: no slowdown could fail the gate
+    base = str(_run(tmp_path / "base", _rows(np.random.default_rng(21))))
+    r = _cli(capsys, "compare", base, base, "--time-threshold", "75")
+    _one_line_error(r, "`--time-threshold` at most 1000%", "7500%", "write 75%")
+    r = _cli(capsys, "compare", base, base, "--unknown-threshold", "5")
+    _one_line_error(r, "`--unknown-threshold` at most 100%", "write 5%")
+    assert _cli(capsys, "compare", base, base, "--time-threshold", "75%").returncode == 0
+    assert _cli(capsys, "compare", base, base, "--time-threshold", "10").returncode == 0
+    with pytest.raises(ValueError, match=r"`time_threshold` at most 10 .* got 75"):
+        compare(base, base, time_threshold=75)
+    with pytest.raises(ValueError, match=r"`unknown_threshold` at most 1 .* got 5"):
+        compare(base, base, unknown_threshold=5)

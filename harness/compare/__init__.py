@@ -53,6 +53,7 @@ from ._common import (
     DEFAULT_THRESHOLD,
     MAX_ROUND_SECONDS,
     MAX_SAMPLE,
+    MAX_TIME_THRESHOLD,
     MIN_ROUNDS,
     MIN_TIMING_SECONDS,
     TIMER_RESOLUTION,
@@ -70,6 +71,7 @@ __all__ = [
     "DEFAULT_THRESHOLD",
     "MAX_ROUND_SECONDS",
     "MAX_SAMPLE",
+    "MAX_TIME_THRESHOLD",
     "MIN_ROUNDS",
     "MIN_TIMING_SECONDS",
     "TIMERS",
@@ -86,10 +88,12 @@ for _public in (CompareError, Comparison, TimingRow):
 del _public
 
 
-def _check_threshold(value: Any, name: str, integer: bool = False) -> float:
+def _check_threshold(value: Any, name: str, integer: bool = False, most: float = math.inf) -> float:
     """`value` as a float, or a CompareError (a ValueError, and what the CLI reports in one
-    line) when it is not a finite number >= 0 (an integer if `integer`): an integer too
-    large for a float (``--fp-threshold`` with 401 digits) counts as not finite."""
+    line) when it is not a finite number in [0, `most`] (an integer if `integer`): an
+    integer too large for a float (``--fp-threshold`` with 401 digits) counts as not
+    finite, and a fraction beyond `most` (``time_threshold=75``: 7500 %) makes a gate
+    that never fails."""
     x = math.nan
     if not isinstance(value, bool) and isinstance(value, int | float | np.integer | np.floating):
         try:
@@ -99,6 +103,11 @@ def _check_threshold(value: Any, name: str, integer: bool = False) -> float:
     if not (math.isfinite(x) and x >= 0 and (x.is_integer() or not integer)):
         what = "a finite integer >= 0" if integer else "a finite number >= 0"
         raise CompareError(f"Expected `{name}` to be {what}, got {_clip(value)}.")
+    if x > most:
+        raise CompareError(
+            f"Expected `{name}` at most {most:g} (a fraction: 0.15 is 15 %), got {_clip(value)}:"
+            " a gate that never fails."
+        )
     return x
 
 
@@ -141,9 +150,9 @@ def compare(
         CompareError: a threshold or the timer is invalid, an input cannot be read, or the
             two do not match (a ValueError).
     """
-    thr = _check_threshold(time_threshold, "time_threshold")
+    thr = _check_threshold(time_threshold, "time_threshold", most=MAX_TIME_THRESHOLD)
     fpt = int(_check_threshold(fp_threshold, "fp_threshold", integer=True))
-    ut = _check_threshold(unknown_threshold, "unknown_threshold")
+    ut = _check_threshold(unknown_threshold, "unknown_threshold", most=1.0)
     if timer not in TIMERS:
         raise CompareError(f"Unknown `timer` {short(timer)}; expected one of {list(TIMERS)}.")
     b, n = Path(base), Path(new)

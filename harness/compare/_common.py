@@ -18,6 +18,9 @@ from ..timing import ratio_interval
 DEFAULT_THRESHOLD = 0.75
 """Allowed slowdown by default: above the drift measured between runs of unchanged code
 on the shared 2-core machine (see the :mod:`harness.compare` docstring)."""
+MAX_TIME_THRESHOLD = 10.0
+"""Largest allowed slowdown a gate takes (1000 %): beyond it a gate never fails, and the
+value is most likely a percentage without its sign."""
 MIN_TIMING_SECONDS = 0.005
 """Run groups whose base cost (sum of medians) is below this are printed, not gated:
 below a few milliseconds the scheduler and the caches, not the code, decide the ratio."""
