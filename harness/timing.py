@@ -403,7 +403,9 @@ def kernel_cache_entries() -> set[str] | None:
         import warp as wp
 
         if wp.config.kernel_cache_dir is None:
-            wp.config.quiet = True
+            from .certification.device import quiet
+
+            quiet(wp)
             wp.init()
         folder = wp.config.kernel_cache_dir
         return {p.name for p in Path(folder).iterdir() if p.name.startswith("wp_")}

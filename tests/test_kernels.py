@@ -548,3 +548,16 @@ def test_swept_aabbs_bad_input(motion):
     slerp = motions.build("slerp", *demo_keyframes(5))
     with pytest.raises(ValueError, match="rational"):
         swept_aabbs(slerp, BODIES[0], 1)
+
+
+def test_a_query_prints_nothing_of_warps_own_on_stdout():
+    # Warp 1.19's banner and module-load lines landed in a user's stdout (a new user's
+    # trial): config.quiet no longer silences them, config.log_level does
+    code = (
+        "import numpy as np, harness, motions\n"
+        "m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[0, 0, 0], [1, 0, 0]])\n"
+        "print(harness.certify(m, harness.Sphere(0.1), [harness.Box([0.1] * 3)]).verdict)\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout == "collision\n"

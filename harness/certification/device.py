@@ -49,10 +49,22 @@ def warp():
         if _wp is None:
             import warp as wp
 
-            wp.config.quiet = True
+            quiet(wp)
             wp.init()
             _wp = wp
     return _wp
+
+
+def quiet(wp) -> None:
+    """Warp's informational messages off (its banner and module loads printed to the
+    user's stdout), unless the user set Warp's log level: ``config.log_level`` from Warp
+    1.19 on, whose ``config.quiet`` no longer silences the banner; ``quiet`` before."""
+    level = getattr(wp, "LOG_WARNING", None)
+    if level is not None and hasattr(wp.config, "log_level"):
+        if wp.config.log_level == getattr(wp, "LOG_INFO", None):  # (Warp's default)
+            wp.config.log_level = level
+    else:
+        wp.config.quiet = True
 
 
 def default_device() -> str:
