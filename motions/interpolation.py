@@ -25,6 +25,7 @@ from ._spline import clamped_knots, gauss_nodes
 from .bernstein import bezier_derivative, bezier_eval
 from .errors import DegenerateMotionError, MotionError
 from .motion import Recipe
+from .pieces import UNIT_ROUNDOFF
 from .quaternion import qmul, sign_continuity
 from .rational import RationalMotion, bezier_minimum
 
@@ -496,6 +497,14 @@ class FitResult:
     angular_acceleration_energy: float
 
 
+SOLVE_RESIDUAL = 1e-8
+DATA_SHARE = 1e-3
+"""Largest relative rounding a fit's data may get in its system's matrix (the penalty's
+entries beside theirs: smoothing or fairing times the penalty, over the data's)."""
+"""Largest residual of a fit's solve, relative to its matrix times its solution plus its
+right-hand side, taken as a solution (LU's are ~1e-15 of that)."""
+
+
 def fit(
     rotations: Any,
     positions: Any,
@@ -553,7 +562,17 @@ def fit(
     ata = (a.T @ a).tocsc()
 
     def solve(target, lam):
-        return np.asarray(spsolve(ata + lam * pen, a.T @ target)).reshape(-1, target.shape[1])
+        m, rhs = ata + lam * pen, a.T @ target
+        c = np.asarray(spsolve(m, rhs)).reshape(-1, target.shape[1])
+        # a solution of the system as rounded, or none: where lam * pen's entries hide
+        # the data's (smoothing=1e300) the system is singular in double precision, and
+        # the solver returned an overflow on one machine, positions ~1e-284 on another
+        r = np.abs(m @ c - rhs.reshape(c.shape)).max(initial=0.0)
+        size = abs(m).max() * np.abs(c).max(initial=0.0) + np.abs(rhs).max(initial=0.0)
+        # and the data's part of the matrix must survive its rounding beside lam * pen's
+        # (the solution's dependence on the data is computed to ~u times their ratio)
+        kept = lam * abs(pen).max() * UNIT_ROUNDOFF <= DATA_SHARE * abs(ata).max()
+        return c if kept and r <= SOLVE_RESIDUAL * size else np.full_like(c, np.nan)
 
     with np.errstate(all="ignore"), warnings.catch_warnings():
         # (overflow, and the singular systems it makes, are refused by name below)
@@ -568,8 +587,8 @@ def fit(
         if not np.all(np.isfinite(coeffs)):
             # (the finite check of the motion's pieces named `origin[2]` or `quaternions`)
             raise ValueError(
-                f"Expected `times` and {names} within the fit's double precision: its solution"
-                f" overflowed (times span {t[-1] - t[0]:.3g}; smoothing={short(smoothing)},"
+                f"Expected `times` and {names} within the fit's double precision: its system"
+                f" overflowed or is singular at that precision (times span {t[-1] - t[0]:.3g}; smoothing={short(smoothing)},"
                 f" fairing={short(fairing)}, scale_weight={short(scale_weight)})."
             )
     if np.any(np.einsum("ij,ij->i", a @ cq, q) <= 0):

@@ -6,7 +6,6 @@ definition at keyframes it interpolates, and paths that run straight through a w
 """
 
 import itertools
-import re
 import warnings
 
 import numpy as np
@@ -380,24 +379,21 @@ def test_fit_weights_and_times_beyond_double_precision_are_named():
     t = np.array([0, 1, 2, 3.0])
     for kw, says in (
         ({"smoothing": 1e300}, "`times` and `smoothing` within"),
+        ({"smoothing": 1e14}, "`times` and `smoothing` within"),
         ({"smoothing": 10**30}, "`times` and `smoothing` within"),
         ({"scale_weight": 1e300}, "`times` and `fairing` and `scale_weight` within"),
         ({"times": [0, 1e-300, 2e-300, 3e-300]}, "times span 3e-300"),
     ):
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            try:
-                got = motions.fit(rot, pos, **{"times": t, **kw})
-            except ValueError as e:
-                assert re.search(says, str(e)), str(e)
-                continue
-        # whether the solution overflows depends on the machine's BLAS (smoothing=1e300
-        # overflowed on an AVX-512 machine, not on an AVX2 one): where it does not, the
-        # fit is a motion, finite where it is defined
-        assert kw == {"smoothing": 1e300}, f"{kw}: no error"
-        r, p = got.motion.pose(np.linspace(0, 3, 31))
-        assert np.isfinite(r).all() and np.isfinite(p).all()
-        assert np.isfinite([got.max_angle_error, got.max_position_error]).all()
+            with pytest.raises(ValueError, match=says):
+                motions.fit(rot, pos, **{"times": t, **kw})
+    # smoothing=1e300 overflowed on an AVX-512 machine and gave positions ~1e-284 on an
+    # AVX2 one (a new user's trial): the data's share of the system is checked, not the
+    # solver's luck; just below the limit the fit is the smooth limit it tends to
+    near = motions.fit(rot, pos, times=t, smoothing=1e12)
+    far = motions.fit(rot, pos, times=t, smoothing=1e9)
+    assert near.max_position_error == pytest.approx(far.max_position_error, rel=1e-3)
     m = motions.interpolate(np.tile([1.0, 0, 0, 0], (2, 1)), [[0, 0, 0], [1, 0, 0]])
     with pytest.raises(ValueError, match="`t` to be finite, got a number beyond 1e308"):
         m.pose(10**400)
