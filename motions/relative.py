@@ -15,7 +15,7 @@ import numpy as np
 from .bernstein import bezier_product_weights, de_casteljau_split
 from .errors import MotionError
 from .motion import DOMAIN_SLACK
-from .pieces import block_magnitude, gamma
+from .pieces import UNIT_ROUNDOFF, block_magnitude, gamma
 from .rational import RationalMotion
 
 __all__ = ["inverse_control", "relative_motion", "restrict_control"]
@@ -123,15 +123,35 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     ctrl = _relative_ctrl(br_a, ca, br_b, cb, breaks)
     # Round-off: every entry is a polynomial in the inputs' entries whose coefficients'
     # absolute values give the same pipeline on |inputs| (restriction by convex weights,
-    # products with the non-negative Bernstein weights); so, with the inputs' own bounds
-    # E, |f(x + e) - f(x)| <= f_abs(|x| + E) - f_abs(|x|), plus γ_m f_abs for the roundings.
+    # products with the non-negative Bernstein weights): F_abs. With the inputs' own
+    # bounds E, |F(x + e) - F(x)| <= F_abs(|x| + E) - F_abs(|x|), and the roundings add
+    # γ_m F_abs(|x|), m the most roundings on any product's way to an entry:
+    #   restriction, two de Casteljau splits of n levels, (1 - u) c_i + u c_{i+1}: 3 n
+    #     each (6 n);
+    #   inverse: w_p A_q^T or A_p^T b_q (3-term dot: 3), its weight (1, itself rounded: 1),
+    #     then a sum over (n_a + 1)^2 terms: (n_a + 1)^2 + 4;
+    #   product: 4x4 products (4), weight (2), a sum over (2 n_a + 1)(n_b + 1) terms.
+    # The split parameters are rounded too (u0, u1 and u0 / u1: within 10 u of exact):
+    # a Bézier segment restricted to a sub-interval moved by δ at each end moves its
+    # coefficients by at most 2 n δ max_i |c_i| (the blossom's derivative in each of its
+    # n arguments is a blossom of the hodograph, at most 2 max |c_i|), an input error P.
+    # hi and lo are computed by the same non-negative pipeline: each within γ_m of its
+    # exact value, so  F_abs(|x| + E + P) - (1 - γ_m) F_abs(|x|)
+    #   <= hi / (1 - γ_m) - lo (1 - γ_m) / (1 + γ_m) <= hi (1 + 2 g) - lo (1 - 2 g)
+    # with g = γ_(m + 8) (the last products' and the difference's own roundings).
+    na, nb = ca.shape[1] - 1, cb.shape[1] - 1
+    m = 6 * (na + nb) + (na + 1) ** 2 + 4 + (2 * na + 1) * (nb + 1) + 6
     abs_a, abs_b = np.abs(ca), np.abs(cb)
+    shift_a = 2 * na * 10 * UNIT_ROUNDOFF * abs_a.max(axis=1, keepdims=True)
+    shift_b = 2 * nb * 10 * UNIT_ROUNDOFF * abs_b.max(axis=1, keepdims=True)
     lo = _relative_ctrl(br_a, abs_a, br_b, abs_b, breaks, absolute=True)
     hi = _relative_ctrl(
-        br_a, abs_a + _entrywise(a.ctrl_error), br_b, abs_b + _entrywise(b.ctrl_error), breaks,
-        absolute=True,
+        br_a, abs_a + _entrywise(a.ctrl_error) + shift_a,
+        br_b, abs_b + _entrywise(b.ctrl_error) + shift_b,
+        breaks, absolute=True,
     )  # fmt: skip
-    diff = hi * (1.0 + gamma(8 * (ca.shape[1] + cb.shape[1]) + 64)) - lo
+    g = gamma(m + 8)
+    diff = hi * (1.0 + 2.0 * g) - lo * (1.0 - 2.0 * g)
     err = block_magnitude(diff)
     kt = np.union1d(a.keyframe_times, b.keyframe_times)
     return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt, ctrl_error=err)
