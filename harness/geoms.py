@@ -549,6 +549,8 @@ def check_body_covers_subtree(
         UncoveredGeomError: names the geoms (and their bodies) not covered.
     """
     _check_model(model)
+    if not isinstance(body, Shape):
+        raise TypeError(f"Expected `body` to be a harness Shape, got {type(body).__name__}.")
     bid = _mocap_body_id(model, mocap_body)
     geoms = subtree_geoms(model, bid, groups)
     rot, pos = _poses_at(model, bid, reference_qpos(model), _CHECK_ROT, _CHECK_POS)

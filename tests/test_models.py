@@ -282,6 +282,9 @@ def test_coverage_check_names_a_dropped_or_misplaced_geom():
         check_body_covers_subtree(
             model, "hand", harness.Compound(parts[:pad] + [moved] + parts[pad + 1 :])
         )
+    for bad in (None, parts):  # a hunt: None raised an AttributeError from inside
+        with pytest.raises(TypeError, match="`body` to be a harness Shape, got"):
+            check_body_covers_subtree(model, "hand", bad)
 
 
 def test_geom_groups_select_what_is_certified():
