@@ -276,3 +276,19 @@ def test_a_threshold_that_would_turn_the_gate_off_is_refused(tmp_path, capsys):
         compare(base, base, time_threshold=75)
     with pytest.raises(ValueError, match=r"`unknown_threshold` at most 1 .* got 5"):
         compare(base, base, unknown_threshold=5)
+
+
+def test_the_false_free_line_says_how_many_are_certified(tmp_path, capsys):
+    # a new user's trial read "false free: base 22, new 22" beside the headline's
+    # "certified false free 0/132": the 22 were sampled and fcl claims
+    over = {
+        "sampled-0": {"verdict": "free", "false_negative": True, "certified": False},
+        "hull-0": {"certified": True},
+    }
+    base = _rows(np.random.default_rng(22), **over)
+    for r in base:
+        r.setdefault("certified", r["bound"] != "sampled")
+    a = str(_run(tmp_path / "a", base))
+    r = _cli(capsys, "compare", a, a)
+    assert r.returncode == 0, r.stdout
+    assert "false free: base 1, new 1 (0 and 0 of them certified" in r.stdout
