@@ -176,7 +176,9 @@ class Shape:
 
 @dataclass(frozen=True, eq=False)
 class Box(Shape):
-    """Box with half extents (3,), centre (3,) and rotation (3, 3) in its frame."""
+    """Box with half extents (3,), centre (3,) and rotation in its frame: a (3, 3) matrix,
+    or a quaternion (4,) in rsmbench's order, scalar first (w, x, y, z) like MuJoCo's, not
+    scipy's default (x, y, z, w); stored as the matrix."""
 
     half_extents: np.ndarray
     center: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -312,7 +314,8 @@ class Sphere(Shape):
 
 @dataclass(frozen=True, eq=False)
 class Capsule(Shape):
-    """Segment of half length `half_length` along the local z axis, swept by a ball."""
+    """Segment of half length `half_length` along the local z axis, swept by a ball; its
+    `rotation` is a (3, 3) matrix or a quaternion (w, x, y, z), as for :class:`Box`."""
 
     radius: float
     half_length: float
