@@ -498,11 +498,11 @@ class FitResult:
 
 
 SOLVE_RESIDUAL = 1e-8
+"""Largest residual of a fit's solve, relative to its matrix times its solution plus its
+right-hand side, taken as a solution (LU's are ~1e-15 of that)."""
 DATA_SHARE = 1e-3
 """Largest relative rounding a fit's data may get in its system's matrix (the penalty's
 entries beside theirs: smoothing or fairing times the penalty, over the data's)."""
-"""Largest residual of a fit's solve, relative to its matrix times its solution plus its
-right-hand side, taken as a solution (LU's are ~1e-15 of that)."""
 
 
 def fit(
@@ -588,8 +588,9 @@ def fit(
             # (the finite check of the motion's pieces named `origin[2]` or `quaternions`)
             raise ValueError(
                 f"Expected `times` and {names} within the fit's double precision: its system"
-                f" overflowed or is singular at that precision (times span {t[-1] - t[0]:.3g}; smoothing={short(smoothing)},"
-                f" fairing={short(fairing)}, scale_weight={short(scale_weight)})."
+                f" overflowed or is singular at that precision (times span"
+                f" {t[-1] - t[0]:.3g}; smoothing={short(smoothing)}, fairing={short(fairing)},"
+                f" scale_weight={short(scale_weight)})."
             )
     if np.any(np.einsum("ij,ij->i", a @ cq, q) <= 0):
         raise MotionError(
