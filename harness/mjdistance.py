@@ -6,7 +6,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from motions.quaternion import quat_from_matrix
+from motions.quaternion import quat_from_matrix, rotation_matrix
 
 from .errors import ShapeError
 from .shapes import HalfSpace, Shape, parts
@@ -108,20 +108,44 @@ class MujocoDistance:
         self, rotations: np.ndarray, positions: np.ndarray, distmax: float = 1e6
     ) -> np.ndarray:
         """Signed distances (T, body parts, obstacle parts) at poses (T, 3, 3), (T, 3)."""
-        m, d = self.model, self.data
         quats = quat_from_matrix(rotations)
+        return self.distances_at(quats, positions, distmax, rotations=rotations)[0]
+
+    def distances_at(
+        self,
+        quats: np.ndarray,
+        positions: np.ndarray,
+        distmax: float = 1e6,
+        *,
+        directions: bool = False,
+        rotations: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Signed distances (T, body parts, obstacle parts) at poses given as unit
+        quaternions (T, 4) and positions (T, 3), and with `directions` MuJoCo's vectors
+        (T, body parts, obstacle parts, 3) from the body's witness point to the obstacle's
+        (zero where the harness's GJK answered, see :meth:`_gjk`); `rotations`: the
+        poses' matrices where the caller has them."""
+        m, d = self.model, self.data
         out = np.empty((len(positions), len(self.body_parts), len(self.obst_parts)))
         flat = out.reshape(len(positions), -1)
+        vec = np.zeros((*out.shape, 3)) if directions else None
+        vflat = None if vec is None else vec.reshape(len(positions), -1, 3)
+        ft = np.zeros(6) if directions else None
         for t in range(len(positions)):
             d.mocap_pos[0] = positions[t]
             d.mocap_quat[0] = quats[t]
             mujoco.mj_kinematics(m, d)
             for k, (g1, g2) in enumerate(self._pairs):
-                flat[t, k] = mujoco.mj_geomDistance(m, d, g1, g2, distmax, None)
+                flat[t, k] = mujoco.mj_geomDistance(m, d, g1, g2, distmax, ft)
+                if directions:
+                    vflat[t, k] = ft[3:] - ft[:3]
         failed = np.argwhere(out >= distmax)
         if failed.size:
-            out[tuple(failed.T)] = self._gjk(rotations, positions, failed)
-        return out
+            rot = rotation_matrix(quats) if rotations is None else rotations
+            out[tuple(failed.T)] = self._gjk(rot, positions, failed)
+            if directions:
+                vec[tuple(failed.T)] = 0.0
+        return out, vec
 
     def _gjk(self, rotations: np.ndarray, positions: np.ndarray, at: np.ndarray) -> np.ndarray:
         """The harness's float64 GJK distance (its closest pair, as exact as MuJoCo's

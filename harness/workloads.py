@@ -28,7 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 import motions
-from motions.quaternion import qexp, qmul, rotation_matrix
+from motions.quaternion import qexp, qmul
 
 from .certification import certify, certify_many
 from .mjdistance import MujocoDistance
@@ -107,42 +107,13 @@ def _distances(
 def _pose_distances(
     md: MujocoDistance, p: np.ndarray, quats: np.ndarray, directions: bool = False
 ) -> tuple[np.ndarray, np.ndarray | None]:
-    import mujoco
-
-    d = np.empty(len(p))
-    n = np.zeros((len(p), 3)) if directions else None
-    data, model = md.data, md.model
-    pairs = md.pairs
-    ft = np.zeros(6) if directions else None
-    failed = []  # (pose, pair) where MuJoCo answered DISTMAX (see below)
-    for i in range(len(p)):
-        data.mocap_pos[0] = p[i]
-        data.mocap_quat[0] = quats[i]
-        mujoco.mj_kinematics(model, data)
-        best = math.inf
-        for k, (g1, g2) in enumerate(pairs):
-            v = mujoco.mj_geomDistance(model, data, g1, g2, DISTMAX, ft)
-            if v >= DISTMAX:
-                failed.append((i, k))
-            elif v < best:
-                best = v
-                if directions:
-                    n[i] = ft[3:] - ft[:3]
-        d[i] = best
-    if failed:
-        # MuJoCo's DISTMAX means "none below it", which it also answers for some
-        # penetrating pairs (a capsule of half length ~1e-9 at a box's edge): those
-        # pairs' distances from the harness's GJK (MujocoDistance._gjk; no direction)
-        i, k = np.array(failed).T
-        no = len(md.obst_parts)
-        at = np.stack([np.arange(len(i)), k // no, k % no], axis=1)
-        rot = rotation_matrix(np.asarray(quats)[i])
-        for j, v in zip(i.tolist(), md._gjk(rot, np.asarray(p)[i], at).tolist(), strict=True):
-            if v < d[j]:
-                d[j] = v
-                if directions:
-                    n[j] = 0.0
-    return d, n
+    """The smallest signed distance (T,) over the pairs at each pose, and with `directions`
+    MuJoCo's vector of that pair (T, 3)."""
+    d, vec = md.distances_at(np.asarray(quats), np.asarray(p), DISTMAX, directions=directions)
+    flat = d.reshape(len(p), -1)
+    k = flat.argmin(axis=1)  # (the first of equal distances, as the loop had it)
+    rows = np.arange(len(p))
+    return flat[rows, k], None if vec is None else vec.reshape(len(p), -1, 3)[rows, k]
 
 
 MIN_SAMPLES = 800  # grid samples of the minimum search
