@@ -403,10 +403,9 @@ def kernel_cache_entries() -> set[str] | None:
         import warp as wp
 
         if wp.config.kernel_cache_dir is None:
-            from .certification.device import quiet
+            from .certification.device import warp
 
-            quiet(wp)
-            wp.init()
+            warp()  # (quiet, without the missing-driver notice)
         folder = wp.config.kernel_cache_dir
         return {p.name for p in Path(folder).iterdir() if p.name.startswith("wp_")}
     except Exception:  # a missing or unreadable cache: state unknown, never fatal

@@ -561,3 +561,23 @@ def test_a_query_prints_nothing_of_warps_own_on_stdout():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout == "collision\n"
+    # nor, on stderr, the native notice of a machine without an NVIDIA driver (this one)
+    assert "CUDA driver" not in proc.stderr
+
+
+def test_warp_start_up_passes_on_its_other_stderr_lines():
+    # only the missing-driver notice is dropped; whatever else Warp's native code writes
+    # during wp.init() still reaches stderr, in order, after it (fd 2 written directly)
+    code = (
+        "import os, types\n"
+        "from harness.certification.device import init_without_driver_notice\n"
+        "def init():\n"
+        "    os.write(2, b'Warp CUDA warning: Could not find or load the NVIDIA CUDA driver."
+        " GPU execution will not be available.\\n')\n"
+        "    os.write(2, b'first other line\\nsecond other line\\n')\n"
+        "init_without_driver_notice(types.SimpleNamespace(init=init))\n"
+        "os.write(2, b'after\\n')\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stderr == "first other line\nsecond other line\nafter\n"

@@ -50,9 +50,43 @@ def warp():
             import warp as wp
 
             quiet(wp)
-            wp.init()
+            init_without_driver_notice(wp)
             _wp = wp
     return _wp
+
+
+NO_DRIVER_NOTICE = b"Could not find or load the NVIDIA CUDA driver"
+"""Warp's native start-up prints this line to the process's stderr on every machine
+without an NVIDIA driver, whatever its log level: on this project's CPU machines it is
+the normal case, not something a user can act on (an absent CUDA device asked for by
+name is a :class:`DeviceError`)."""
+
+
+def init_without_driver_notice(wp) -> None:
+    """``wp.init()``, with whatever its native code writes to stderr passed on except
+    the line of :data:`NO_DRIVER_NOTICE` (file descriptor 2 is redirected to a temporary
+    file for the call, then restored)."""
+    import sys
+    import tempfile
+
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no usable fd 2 (an embedding host): as Warp does
+        wp.init()
+        return
+    with tempfile.TemporaryFile() as captured:
+        try:
+            os.dup2(captured.fileno(), 2)
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        captured.seek(0)
+        kept = [ln for ln in captured.read().splitlines(True) if NO_DRIVER_NOTICE not in ln]
+    out = b"".join(kept)
+    while out:
+        out = out[os.write(2, out) :]
 
 
 def quiet(wp) -> None:
