@@ -346,6 +346,10 @@ def test_bad_input():
         certify(m, box, [box], tolerance=0.0)
     with pytest.raises(TypeError, match="body"):
         certify(m, "box", [box])
+    # a list is certify_many's (one body per motion), even a list of one
+    for query in (certify, harness.clearance):
+        with pytest.raises(TypeError, match=r"`body` to be a harness shape, got a list of 1"):
+            query(m, [box], [box])
     with pytest.raises(TypeError, match="obstacles"):
         certify(m, box, [box, 3])
     with pytest.raises(ValueError, match="lipschitz"):

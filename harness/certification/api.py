@@ -373,6 +373,7 @@ def certify(
     """
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    one_body(body)
     try:
         out = certify_many(
             [motion],
@@ -391,6 +392,18 @@ def certify(
             f"Bound {short(bound)} cannot answer this query: {out.reason.rstrip('.')}."
         )
     return out
+
+
+def one_body(body: Any) -> Shape:
+    """The body of a single query: one shape (a list is :func:`certify_many`'s, one body
+    per motion; a new user's ``certify(m, [body], ...)`` was answered as that batch)."""
+    if isinstance(body, (list, tuple)):
+        raise TypeError(
+            f"Expected `body` to be a harness shape, got a {type(body).__name__} of"
+            f" {len(body)}: a single query moves one body (parts of one body make a"
+            " harness.Compound; certify_many takes a list of one body per motion)."
+        )
+    return as_shape(body)
 
 
 @contextmanager

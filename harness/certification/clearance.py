@@ -27,6 +27,7 @@ from .api import (
     cover_half_spaces,
     naming,
     obstacle_lists,
+    one_body,
     single_query,
 )
 from .refine import MOTIONS_PER_CHUNK, clearance_chunk, packed_all
@@ -93,6 +94,7 @@ def clearance(
     """
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    one_body(body)
     try:
         return clearance_many(
             [motion], body, obstacles, tolerance=tolerance, max_depth=max_depth, **options
