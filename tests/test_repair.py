@@ -17,6 +17,7 @@ import motions
 from harness import Box, RepairError, Sphere, certify_many, ground_truth, repair
 from harness.avoid import colliding_cases, sampled_repair
 from harness.avoid.cuts import least_distance
+from harness.avoid.offset import OffsetSpline
 from harness.avoid.repair import keyframe_margin
 
 CASES = 40
@@ -334,6 +335,42 @@ def test_two_staggered_posts_are_passed_on_one_side():
     few = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01, max_iterations=4)
     check_repaired(case, few, 0.01)
     assert few.iterations <= 4
+
+
+def test_a_post_just_after_a_keyframe_is_passed_by_decimetres_not_metres():
+    # A new user's trial: a 3 cm post across the README's path 0.21 after a keyframe
+    # pose (2 mm clear there) and a cube elsewhere on the path. The cuts ask for a steep
+    # rise next to the keyframe, where the offset vanishes; three knots between keyframes
+    # meet them only with a wide swing: the path moved by 6.73 m. Searched again with
+    # twice the knots where they shrink the offset: ~0.25 m (the body's half-length
+    # and the post's radius), and a path that bends less than the wide one.
+    q = np.array([[1, 0, 0, 0], [0.9, 0.4, 0, 0], [0.7, 0.5, 0.5, 0], [0.6, 0, 0.8, 0], [0.5] * 4])
+    p = np.array([[0, 0, 0], [1, 0.5, 0], [2, 1, 0.5], [3, 0.5, 1], [4, 0, 1]])
+    m = motions.interpolate(q, p)
+    body = Box([0.2, 0.1, 0.05])
+    span = m.domain[1] - m.domain[0]
+    case = type("Case", (), {"motion": m, "body": body})()
+    case.obstacles = [
+        harness.Capsule(0.03, 0.5, center=m.pose(0.5 * sum(m.domain))[1]),
+        Box([0.05] * 3, center=m.pose(0.3 * span)[1] + [0, 0, 0.24]),
+    ]
+    for clearance in (0.0, 0.004):
+        r = repair(m, body, case.obstacles, tolerance=TOL, clearance=clearance)
+        check_repaired(case, r, clearance)
+        assert r.moved.max_deviation < 0.5
+
+
+def test_bending_is_the_integral_of_the_squared_second_derivative():
+    # against second differences of the offset's values on a fine grid
+    rng = np.random.default_rng(3)
+    anchors = np.array([0.0, 0.7, 2.0])
+    spline = OffsetSpline.on(np.array([0.2, 0.7, 1.1, 1.5]), (0.0, 2.0), anchors)
+    delta = spline.basis_null @ rng.normal(size=(spline.basis_null.shape[1], 3))
+    t = np.linspace(0.0, 2.0, 200_001)
+    h = t[1] - t[0]
+    acc = np.diff(spline.basis(t) @ delta, n=2, axis=0) / h**2
+    want = np.sum(acc**2) * h
+    np.testing.assert_allclose(spline.bending(delta), want, rtol=1e-3)
 
 
 def test_a_keyframe_pose_inside_the_repairs_margin_is_refused():

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -110,7 +111,8 @@ class Repair:
             least the requested clearance (the proof of the margin).
         moved: what changed, and by how much.
         iterations: certify-and-move rounds until this motion was found, those that
-            shrank a found repair's detour included (0 when the input was already clear).
+            shrank a found repair's detour included, and a first search's when a second
+            one found it (0 when the input was already clear).
         seconds: wall time.
     """
 
@@ -204,6 +206,10 @@ def _check_keyframes(motion, dm: DistanceModel, anchors, c, tol, obst) -> None:
 # ----------------------------------------------------------------------------- the repair
 POLISH_ROUNDS = 8
 """Certify-and-move rounds a found repair may spend shrinking its detour (:func:`repair`)."""
+WIDE = 3.0
+"""A repair whose path moves by more than this multiple of the push its input needed
+(``target - d`` at the closest pose) is searched again with more knots (:func:`repair`);
+no cube of ``docs/repair_detours.py`` moves it by more than 2.13 times."""
 SHRINK = 0.95
 """A polished offset is tried only while its deviation is below this share of the best
 repair's."""
@@ -230,8 +236,8 @@ def _deviation(spline: OffsetSpline, delta: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class _Found:
-    """A certified repair: its motion, proofs, offset (and its :func:`_deviation`) and the
-    rounds it took."""
+    """A certified repair: its motion, proofs, offset (and its :func:`_deviation`), the
+    repair's rounds until it was found and the cuts it meets."""
 
     motion: RationalMotion
     certificate: Certificate
@@ -240,6 +246,7 @@ class _Found:
     delta: np.ndarray
     deviation: float
     iterations: int
+    cuts: Constraints
 
 
 def _no_offset(dm: DistanceModel, anchors, target: float, cons, close) -> RepairError:
@@ -301,6 +308,108 @@ def _moved(motion, new, spline, delta, anchors, dev: float = 0.0) -> Moved:
     )
 
 
+@dataclass
+class _Job:
+    """What stays fixed over a repair's rounds: the input, its search, the proof
+    (``proven(m)``: certified free with the clearance, the clearance bracket and the
+    certificate), the arguments, and the rounds spent so far (``rounds``)."""
+
+    motion: RationalMotion
+    search: Search
+    proven: Callable[[RationalMotion], tuple[bool, Clearance, Certificate | None]]
+    clearance: float
+    tolerance: float
+    cert_opts: dict
+    n_obst: int
+    max_iterations: int
+    rounds: int = 0
+
+
+def _search(job: _Job, cl: Clearance, widen: bool) -> tuple[_Found, float]:
+    """Certify-and-move rounds from the input (certified clearance bracket `cl`) until a
+    repair is proven, at most ``max_iterations``: that repair, and the push the input
+    needed (``target - d`` at its closest pose found). `widen`: see ``Search.move``.
+
+    Raises:
+        RepairError: no repair found.
+    """
+    search = job.search
+    cons = Constraints()
+    spline = OffsetSpline.on(search.anchors[1:-1], job.motion.domain, search.anchors)
+    delta = np.zeros((spline.size, 3))
+    current = job.motion
+    boost = need = 0.0
+    for _ in range(job.max_iterations):
+        job.rounds += 1
+        close = search.close_poses(current, boost, cl.time)
+        if not close[0].size:
+            if not cl.width_ok and not cl.penetrating:
+                # (with cuts already made, this branch went on to cut at no pose and
+                # failed inside scipy: max_nodes=1, max_depth=0)
+                reach = search.target + boost + search.step
+                raise _limited(cl, reach, job.cert_opts, job.n_obst)
+            # the grid saw no close pose but the certifier is not satisfied: ask for more
+            # room where the certifier's bracket is tightest
+            boost += job.tolerance
+            if not cons.t:
+                break
+            continue
+        if not need:
+            need = search.target + boost - float(close[1].min())
+        best = search.move(current, close, boost, cons, spline, delta, widen)
+        if best is None:
+            raise _no_offset(search.dm, search.anchors, search.target, cons, close)
+        cons, spline, delta = best
+        current = offset_motion(job.motion, spline, delta)
+        ok, cl, cert = job.proven(current)
+        if ok:
+            dev = _deviation(spline, delta)
+            return _Found(current, cert, cl, spline, delta, dev, job.rounds, cons), need
+    owners = sorted({int(x) for x in cons.owner}) or list(range(job.n_obst))
+    raise RepairError(
+        f"Cannot repair within `max_iterations` = {job.max_iterations}: the certified"
+        f" clearance is {cl.lower:.3g} < {job.clearance:.3g} near t = {cl.time:.6g}"
+        f" (obstacles{owners}).",
+        tuple(owners),
+    )
+
+
+def _polish(job: _Job, found: _Found, left: int) -> _Found:
+    """`found` with its detour shrunk, within `left` rounds (at most POLISH_ROUNDS).
+
+    The cuts were linearised where the path was, and a round's choice stays with its
+    cuts; cut the poses met so far anew where the repaired path runs (along the exact
+    directions there: the way it found around) and solve again while the detour shrinks
+    (two posts staggered across the path: 3.59 -> 0.52 m)."""
+    search = job.search
+    used = 0
+    budget = min(POLISH_ROUNDS, left)
+    cons = found.cuts
+    while used < budget:
+        cons = search.relinearised(found.motion, found.spline, found.delta, cons)
+        spline, delta = found.spline, solve(found.spline, cons)
+        better = None
+        while delta is not None and (dev := _deviation(spline, delta)) < SHRINK * found.deviation:
+            used += 1
+            job.rounds += 1
+            current = offset_motion(job.motion, spline, delta)
+            ok, cl, cert = job.proven(current)
+            if ok:
+                better = _Found(current, cert, cl, spline, delta, dev, job.rounds, cons)
+                break
+            close = search.close_poses(current, 0.0, cl.time)
+            if used >= budget or not close[0].size:
+                break
+            moved = search.move(current, close, 0.0, cons, spline, delta)
+            if moved is None:
+                break
+            cons, spline, delta = moved
+        if better is None:
+            break
+        found = better
+    return found
+
+
 def repair(
     motion: RationalMotion,
     body: Shape,
@@ -323,6 +432,8 @@ def repair(
         clearance: the minimum distance the result keeps from every obstacle, proven.
         max_iterations: certify-and-move rounds before giving up; those left once a
             repair is found (at most :data:`POLISH_ROUNDS`) go to shrinking its detour.
+            A repair that moves the path by more than :data:`WIDE` times the push the
+            input needed is searched again with more knots, with as many rounds.
         options: ``max_depth``, ``max_nodes``, ``threads``, ``device`` for the certifier.
 
     Returns:
@@ -375,72 +486,33 @@ def repair(
     # distance dips by at most step / 2 below theirs: cuts ask for that much more, plus
     # 1.5 tolerances so that a bracket of width `tol` proves the clearance
     step = tol
-    target = keyframe_margin(c, tol)  # = c + 1.5 tol + step / 2
-    search = Search(dm, anchors, body.bounding_radius, step, target)
-    cons = Constraints()
-    spline = OffsetSpline.on(anchors[1:-1], motion.domain, anchors)
-    delta = np.zeros((spline.size, 3))
-    current = motion
-    boost = 0.0
-    found = None
-    for it in range(1, max_iterations + 1):
-        close = search.close_poses(current, boost, cl.time)
-        if not close[0].size:
-            if not cl.width_ok and not cl.penetrating:
-                # (with cuts already made, this branch went on to cut at no pose and
-                # failed inside scipy: max_nodes=1, max_depth=0)
-                raise _limited(cl, target + boost + step, cert_opts, len(obst))
-            # the grid saw no close pose but the certifier is not satisfied: ask for more
-            # room where the certifier's bracket is tightest
-            boost += tol
-            if not cons.t:
-                break
-            continue
-        best = search.move(current, close, boost, cons, spline, delta)
-        if best is None:
-            raise _no_offset(dm, anchors, target, cons, close)
-        cons, spline, delta = best
-        current = offset_motion(motion, spline, delta)
-        ok, cl, cert = proven(current)
-        if ok:
-            found = _Found(current, cert, cl, spline, delta, _deviation(spline, delta), it)
-            break
-    if found is None:
-        owners = sorted({int(x) for x in cons.owner}) or list(range(len(obst)))
-        raise RepairError(
-            f"Cannot repair within `max_iterations` = {max_iterations}: the certified"
-            f" clearance is {cl.lower:.3g} < {c:.3g} near t = {cl.time:.6g}"
-            f" (obstacles{owners}).",
-            tuple(owners),
-        )
-    # polishing: the cuts were linearised where the path was, and a round's choice stays
-    # with its cuts; cut the poses met so far anew where the repaired path runs (along the
-    # exact directions there: the way it found around) and solve again while the detour
-    # shrinks (two posts staggered across the path: 3.59 -> 0.52 m), within the rounds
-    # `max_iterations` leaves
-    rounds = 0
-    budget = min(POLISH_ROUNDS, max_iterations - it)
-    while rounds < budget:
-        cons = search.relinearised(found.motion, found.spline, found.delta, cons)
-        spline, delta = found.spline, solve(found.spline, cons)
-        better = None
-        while delta is not None and (dev := _deviation(spline, delta)) < SHRINK * found.deviation:
-            rounds += 1
-            current = offset_motion(motion, spline, delta)
-            ok, cl, cert = proven(current)
-            if ok:
-                better = _Found(current, cert, cl, spline, delta, dev, it + rounds)
-                break
-            close = search.close_poses(current, 0.0, cl.time)
-            if rounds >= budget or not close[0].size:
-                break
-            moved = search.move(current, close, 0.0, cons, spline, delta)
-            if moved is None:
-                break
-            cons, spline, delta = moved
-        if better is None:
-            break
-        found = better
+    search = Search(dm, anchors, body.bounding_radius, step, keyframe_margin(c, tol))
+    job = _Job(motion, search, proven, c, tol, cert_opts, len(obst), max_iterations)
+
+    def attempt(widen: bool) -> tuple[_Found, float]:
+        spent = job.rounds
+        found, need = _search(job, cl, widen)
+        return _polish(job, found, max_iterations - (job.rounds - spent)), need
+
+    found, need = attempt(False)
+    if found.deviation > WIDE * need:
+        # a wide swing for the push the input needs: cuts next to a keyframe, where the
+        # offset vanishes, that few knots meet only that way (a 3 cm post across the
+        # README's path 0.21 after a keyframe, a cube elsewhere on it: 6.73 m); search
+        # again, with twice the knots where that shrinks an offset (0.245 m there), and
+        # keep its repair if it moves the path less and bends it no more (∫|Δ''|²: the
+        # second search can buy a smaller detour with a jerky path: 0.135 m against
+        # 0.475 m, with 33 times the jerk, for a small body just beyond a keyframe margin)
+        try:
+            wide, _ = attempt(True)
+        except RepairError:
+            wide = None
+        if (
+            wide is not None
+            and wide.deviation < found.deviation
+            and wide.spline.bending(wide.delta) <= found.spline.bending(found.delta)
+        ):
+            found = wide
     return Repair(
         found.motion,
         found.certificate,
