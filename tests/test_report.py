@@ -734,3 +734,45 @@ def test_a_report_refuses_another_runs_folder_and_a_second_writer(tmp_path):
     with OutputLock(run), pytest.raises(OutputLocked, match="in use by another rsmbench run"):
         write_report(run)
     assert not (run / "report.md").exists()
+
+
+def _repair_rows(tol: float, clearance: float) -> list[dict]:
+    # two repaired motions (CPU 0.1 s, moved 0.1 and 0.3 m) and four refused (1 ms) per
+    # method: the medians over repaired motions differ from those over all of them
+    rows = []
+    for method in ("certified", "sampled"):
+        for i in range(6):
+            done = i < 2
+            rows.append(
+                {
+                    "study": "repair", "bound": None, "tolerance": tol, "clearance": clearance,
+                    "method": method, "case": i, "repairable": True,
+                    "status": "repaired" if done else "refused",
+                    "truth": "free" if done else None,
+                    "max_deviation": [0.1, 0.3][i] if done else np.nan,
+                    "iterations": 1 + i if done else np.nan,
+                    "cpu_seconds": 0.1 if done else 0.001, "seconds": 0.2 if done else 0.002,
+                }
+            )  # fmt: skip
+    return rows
+
+
+def test_a_repair_sweep_keeps_its_tolerances_apart_and_times_repaired_motions():
+    # a new user's sweep over two tolerances was pooled into one row per clearance
+    # ("colliding 60" for two studies of 30), and the CPU time per repaired motion was a
+    # median over refusals too
+    from harness.report.avoid import _summary
+
+    df = pd.DataFrame(_repair_rows(1e-3, 0.0) + _repair_rows(1e-2, 0.0))
+    s = _summary(df)
+    assert len(s) == 4 and set(s["tolerance"]) == {1e-3, 1e-2}
+    assert (s["colliding"] == 6).all() and (s["claimed_all"] == 2).all()
+    np.testing.assert_allclose(s["median_cpu_ms_repaired"], 100.0)
+    np.testing.assert_allclose(s["median_cpu_ms_refused"], 1.0)
+    np.testing.assert_allclose(s["max_deviation_m"], 0.3)
+    np.testing.assert_allclose(s["max_rounds"], 2.0)
+    lines = headline(df)
+    repair = [r for r in lines if "repair (" in r["figure"]]
+    assert len(repair) == 4
+    assert any("tolerance 0.01 m" in r["figure"] and "certified" in r["figure"] for r in repair)
+    assert all("at most 0.3 m" in r["spread"] for r in repair)

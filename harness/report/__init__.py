@@ -221,7 +221,7 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
             "headline",
         )
     else:
-        doc.p("(This run has no certify or workload study: no headline figures.)")
+        doc.p("(This run has no certify, workload, corpus or repair study: no headline figures.)")
     startup_section(doc, df)
     certify_section(doc, df, plt)
     workload_section(doc, df, plt)

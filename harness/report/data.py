@@ -185,6 +185,43 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
         )
     out += _workload_headline(df, meta)
     out += _corpus_headline(df)
+    out += _repair_headline(df)
+    return out
+
+
+def _repair_headline(df: pd.DataFrame) -> list[dict[str, str]]:
+    """Per (tolerance, clearance) of a repair study: the certified repair's proofs and
+    the ground truth's check of them, against the sampled repair's claims."""
+    from .avoid import _summary
+
+    rep = study_rows(df, "repair")
+    if not len(rep) or "method" not in rep:
+        return []
+    out = []
+    s = _summary(rep)
+    for _, r in s.iterrows():
+        where = f"clearance {r['clearance']:g} m, tolerance {r['tolerance']:g} m"
+        if r["method"] == "certified":
+            value = (
+                f"proved free {r['claimed']}/{r['repairable']} repairable;"
+                f" still collide {r['still_collides']}, below clearance {r['below_clearance']}"
+            )
+            basis = (
+                f"of {r['colliding']} colliding motions; the ground truth confirms"
+                f" {r['truly_free']} and cannot decide {r['truth_undecided']}; must collide 0"
+            )
+        else:
+            value = f"claimed free {r['claimed_all']}, still collide {r['still_collides']}"
+            basis = f"of {r['colliding']} colliding motions; its free is what a 256-sample grid saw"
+        out.append(
+            dict(
+                figure=f"{r['method']} repair ({where})",
+                value=value,
+                spread=f"path moved by a median of {r['median_deviation_m']:.3g} m, at most"
+                f" {r['max_deviation_m']:.3g} m",
+                basis=basis,
+            )
+        )
     return out
 
 
