@@ -124,6 +124,11 @@ def test_clear_motion_is_returned_unchanged():
     r = repair(m, Sphere(0.1), [Box([0.5, 0.5, 0.5], center=[1.5, 2.0, 0.0])], clearance=0.5)
     assert r.motion is m and r.iterations == 0 and r.moved.deviation_bound == 0.0
     assert r.clearance.lower >= 0.5
+    # no obstacle at all: clear too (it was refused; its docstring says clear motions come
+    # back), with the exact bracket [inf, inf]
+    r = repair(m, Sphere(0.1), [], clearance=0.5)
+    assert r.motion is m and r.iterations == 0 and r.certificate.verdict == "free"
+    assert r.clearance.lower == r.clearance.upper == np.inf and r.clearance.width_ok
 
 
 def test_keyframe_inside_an_obstacle_is_refused():
@@ -158,8 +163,6 @@ def test_bad_input():
         repair(rebuilt, body, obst)
     with pytest.raises(TypeError, match="`motion`"):
         repair("motion", body, obst)
-    with pytest.raises(RepairError, match="at least one obstacle"):
-        repair(m, body, [])
 
 
 def test_least_distance_programme():

@@ -145,9 +145,7 @@ def _check(motion, body, obstacles, tolerance, clearance_) -> tuple:
             " RationalMotion.from_preimage), got one rebuilt from control matrices."
         )
     body = as_shape(body)
-    obst = as_obstacles(obstacles)
-    if not obst:
-        raise RepairError("Expected at least one obstacle in `obstacles`, got none.")
+    obst = as_obstacles(obstacles)  # (none: the input is clear, and returned)
     tol = _number(tolerance, "tolerance")
     if not math.isfinite(tol) or tol <= 0:
         raise RepairError(f"Expected `tolerance` > 0 (a length), got {short(tolerance)}.")

@@ -158,7 +158,8 @@ def clearance_many(
                 lower=lo,
                 upper=up,
                 time=float(t[i, 2]),
-                width_ok=bool(n[i, 3] == 0 and up - lo <= o["tol"]),
+                # (no obstacle: lower = upper = inf, an exact bracket)
+                width_ok=bool(n[i, 3] == 0 and (up == lo or up - lo <= o["tol"])),
                 nodes=int(n[i, 0]),
                 pose_tests=int(n[i, 1]),
                 depth=int(n[i, 2]),
