@@ -488,3 +488,15 @@ def test_a_certifier_held_by_its_limits_is_named(limit):
         RepairError, match=rf"stopped at its limits \(`{name}` = .*raise the limits"
     ):
         repair(m, Box([0.05] * 3), [Sphere(0.05, center=[1.5, 0.05, 0])], **limit)
+
+
+def test_a_repair_study_goes_out_one_clearance_at_a_time():
+    # a new user's `rsmbench run avoid --scheduler` ran both clearances on one worker
+    from pathlib import Path
+
+    from harness.run.studies import STUDIES
+
+    kind = STUDIES["repair"]
+    st = kind.parse({"cases": 4, "clearances": [0.0, 0.01]}, Path("s.toml"), "study[0]")
+    units = {kind.group(c) for c in kind.expand(st)}
+    assert len(units) == 2

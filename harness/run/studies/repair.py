@@ -57,8 +57,9 @@ def expand(st: dict) -> list[dict]:
 
 
 def group(case: dict) -> tuple:
-    """Every clearance runs on the same colliding cases: build them once."""
-    return ()
+    """Each requested clearance is one unit of work: two workers repair two clearances at
+    once (a worker builds the colliding cases once, for every clearance it runs)."""
+    return (case["clearance"],)
 
 
 def _colliding(ctx: Context, st: dict):
