@@ -776,3 +776,22 @@ def test_a_repair_sweep_keeps_its_tolerances_apart_and_times_repaired_motions():
     assert len(repair) == 4
     assert any("tolerance 0.01 m" in r["figure"] and "certified" in r["figure"] for r in repair)
     assert all("at most 0.3 m" in r["spread"] for r in repair)
+
+
+def test_a_run_of_repairs_alone_has_no_filmstrip_of_the_cube_scene(tmp_path, monkeypatch):
+    # the cube scene's motion has nothing to do with an `avoid` run (a new user's trial)
+    import harness.report as report
+
+    monkeypatch.setattr(report, "repair_section", lambda *a: None)  # (its figures: slow)
+    folder = tmp_path / "run"
+    folder.mkdir()
+    pd.DataFrame(_repair_rows(1e-3, 0.0)).to_parquet(folder / "results.parquet", index=False)
+    (folder / "meta.json").write_text(json.dumps(META))
+    md = write_report(folder).read_text()
+    assert "## Headline" in md and "Filmstrip" not in md
+    assert not list((folder / "figures").glob("filmstrip*"))
+
+
+def test_a_run_with_scenes_keeps_its_filmstrip(written):
+    md, _, _ = written
+    assert "Filmstrip" in md.read_text() or "(No filmstrip:" in md.read_text()

@@ -232,7 +232,11 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
     corpus_section(doc, df, plt)
     memory_section(doc, df)
     warnings_section(doc, df)
-    filmstrip(doc)
+    studies = set(df["study"].dropna()) if "study" in df else set()
+    if not studies or studies - {"repair", "corpus"}:
+        # (the cube scene's motion: nothing to do with a run of repairs or corpus cases
+        # alone, which move other bodies; a new user's trial of `rsmbench run avoid`)
+        filmstrip(doc)
     (dest / "report.md").write_text("\n".join(doc.md))
     body = "\n".join(doc.html)
     (dest / "report.html").write_text(
