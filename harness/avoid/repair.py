@@ -336,7 +336,8 @@ def _search(job: _Job, cl: Clearance, widen: bool) -> tuple[_Found, float]:
     spline = OffsetSpline.on(search.anchors[1:-1], job.motion.domain, search.anchors)
     delta = np.zeros((spline.size, 3))
     current = job.motion
-    boost = need = 0.0
+    boost = 0.0
+    need = None
     for _ in range(job.max_iterations):
         job.rounds += 1
         close = search.close_poses(current, boost, cl.time)
@@ -352,8 +353,8 @@ def _search(job: _Job, cl: Clearance, widen: bool) -> tuple[_Found, float]:
             if not cons.t:
                 break
             continue
-        if not need:
-            need = search.target + boost - float(close[1].min())
+        if need is None:  # (at least a grid step: poses just inside the reach need ~0)
+            need = max(search.target + boost - float(close[1].min()), search.step)
         best = search.move(current, close, boost, cons, spline, delta, widen)
         if best is None:
             raise _no_offset(search.dm, search.anchors, search.target, cons, close)
