@@ -377,3 +377,48 @@ def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
     # are allowed (an injected 2x measured up to 3.06x on a short group of this loaded
     # machine, so "allow 3x" would be flaky)
     assert compare(tmp_path / "base", tmp_path / "slow", time_threshold=9.0).exit_code == 0
+
+
+REPAIR = """
+[suite]
+name = "repair-pair"
+seed = 0
+
+[[study]]
+kind = "repair"
+cases = 4
+clearances = [0.0, 0.01]
+"""
+
+
+@pytest.mark.slow
+def test_runs_of_a_repair_study_compare(tmp_path):
+    """A new user's trial: `rsmbench compare` of an avoid run against itself exited 2 ("two
+    rows have the same key"): the key left out `case`, the colliding case a repair row
+    belongs to (one case_id holds every colliding case of a clearance). Two real runs of
+    a small repair study of the same seed now match row for row."""
+    from harness.run import load_suite, run_suite
+
+    suite_file = tmp_path / "repair.toml"
+    suite_file.write_text(REPAIR)
+    suite = load_suite(suite_file)
+    a = run_suite(suite, tmp_path / "a", progress=False)
+    run_suite(suite, tmp_path / "b", progress=False)
+    # the rows the old key could not tell apart are really there
+    assert a["case"].nunique() > 1 and a["clearance"].nunique() == 2
+    assert a.duplicated(["case_id", "method"]).any()
+    same = compare(tmp_path / "a", tmp_path / "a")
+    assert same.exit_code == 0, same.text()
+    assert same.lines[0].startswith(f"{len(a)} matched rows, 0 only in the base, 0 only in")
+    res = compare(tmp_path / "a", tmp_path / "b")
+    assert res.lines[0].startswith(f"{len(a)} matched rows, 0 only in the base, 0 only in")
+    # verdicts of one seed are deterministic; only timing may move between two runs
+    assert all(r.startswith("timing:") for r in res.regressions), res.text()
+    # one repair row lost from the new run is found and fails the gate
+    df = pd.read_parquet(tmp_path / "b" / "results.parquet")
+    drop = (df["method"] == "certified") & (df["case"] == df["case"].max())
+    df[~drop].to_parquet(tmp_path / "b" / "results.parquet")
+    lost = compare(tmp_path / "a", tmp_path / "b")
+    assert lost.exit_code == 1
+    n = int(drop.sum())
+    assert f"missing: {n} row(s) of the base are not in the new run" in lost.text()

@@ -27,11 +27,13 @@ TOI_SLACK = 1e-9
 """Absolute slack (motion parameter units) before a larger |TOI error| counts: the
 certified times are deterministic, so only round-off may move them."""
 _GROUP = ("study", "scheme", "bound", "mode")
-_ROW_KEY = ("study", "case_id", "keyframes", "scheme", "pair", "bound", "method", "mode")
+_ROW_KEY = ("study", "case_id", "keyframes", "scheme", "pair", "bound", "method", "mode", "case")
 """Columns that identify a row within one run, for every study kind: a certify row by its
 ``case_id``; a workload row by ``pair``, ``bound`` and ``mode`` (one case holds every pair);
 a scaling row by ``method``; a corpus row by ``keyframes`` (the corpus case id, e.g.
-``thin-wall-000-rational``) and ``bound`` (its ``case_id`` names a chunk of cases)."""
+``thin-wall-000-rational``) and ``bound`` (its ``case_id`` names a chunk of cases); a repair
+row by ``case`` (the index of its colliding case) and ``method`` (its ``case_id`` names one
+clearance and tolerance, and holds every colliding case)."""
 
 
 def _load_run(p: Path) -> tuple[pd.DataFrame, dict]:
