@@ -75,6 +75,33 @@ def test_rows_missing_from_the_new_run_fail_the_gate(tmp_path, capsys):
     assert r.returncode == 0 and "0 only in the base, 8 only in the new run" in r.stdout
 
 
+def test_benchmarks_missing_from_the_new_file_fail_the_gate(tmp_path, capsys):
+    # a new user's trial: a benchmark dropped from the new file passed silently ("19
+    # benchmarks in both files", exit 0); rows of runs already failed (above)
+    rounds = {f"b{k}": [1e-3 * (1 + 0.01 * j) for j in range(7)] for k in range(9)}
+    base = _bench_file(tmp_path / "base.json", **rounds)
+    cut = {k: v for k, v in rounds.items() if k not in ("b0", "b1", "b2", "b3", "b4", "b5", "b6")}
+    new = _bench_file(tmp_path / "new.json", **cut, fresh=rounds["b0"])
+    r = _quiet_cli(capsys, "compare", base, new)
+    assert r.returncode == 1 and r.stderr == "", r.stdout
+    assert "2 benchmarks in both files, 7 only in the base, 1 only in the new file" in r.stdout
+    table = {line.split()[0]: line for line in r.stdout.splitlines() if line[:1] in ("b", "f")}
+    for name in cut:
+        assert table[name].endswith("ok"), table[name]
+    for name in set(rounds) - set(cut):  # each lost one has its row, with its base time
+        assert table[name].endswith("missing from the new file") and " 1.03 ms " in table[name]
+    assert table["fresh"].endswith("new: not gated")
+    summary = r.stdout[r.stdout.index("1 regression(s):") :]
+    assert "missing: 7 benchmark(s) of the base are not in the new file" in summary
+    assert "(b0, b1, b2, b3, b4, b5, and 1 more)" in summary and "fresh" not in summary
+    # only new benchmarks: named, not gated, the gate passes
+    more = _bench_file(tmp_path / "more.json", **rounds, fresh=rounds["b0"])
+    r = _quiet_cli(capsys, "compare", new, more)
+    assert r.returncode == 0 and "0 regression(s)." in r.stdout
+    assert "3 benchmarks in both files, 0 only in the base, 7 only in the new file" in r.stdout
+    assert sum(line.endswith("new: not gated") for line in r.stdout.splitlines()) == 7
+
+
 def test_a_figure_no_longer_timed_in_the_new_run_fails(tmp_path, capsys):
     rows = _rows(np.random.default_rng(21))
     base = _run(tmp_path / "base", rows)

@@ -30,7 +30,9 @@ quiet machine use ``--time-threshold 15%``.
 
 **Rows.** Two runs of one suite and seed hold the same rows, so a row of BASE missing from
 NEW (a case that stopped running) is a regression, and so is a figure timed in BASE that
-has no rounds in NEW; a row only in NEW is a new case, and fine.
+has no rounds in NEW; a row only in NEW is a new case, and fine. Likewise a benchmark of
+the BASE file missing from the NEW file is a regression, named; a benchmark only in NEW is
+named as new and not gated.
 
 **Accuracy** (runs only; verdicts are deterministic for a suite and seed, so any change
 is real): a row that is a false free (truth collision, verdict free) in NEW but not in

@@ -119,8 +119,17 @@ def _thin(a: np.ndarray) -> np.ndarray:
     return np.quantile(a, (np.arange(MAX_SAMPLE) + 0.5) / MAX_SAMPLE)
 
 
-def _timing_lines(out: Comparison, rows: list[TimingRow], thr: float, what: str) -> None:
-    width = max([len(r.name) for r in rows] + [len(what)])
+def _timing_lines(
+    out: Comparison,
+    rows: list[TimingRow],
+    thr: float,
+    what: str,
+    absent: tuple[tuple[str, float, float, str], ...] = (),
+) -> None:
+    """The timing table: a line per row of `rows` (gated or not), then a line per group of
+    one side only (`absent`: name, base cost, new cost (NaN on the side that lacks it) and
+    status), which is printed only: the caller decides what it means."""
+    width = max([len(r.name) for r in rows] + [len(a[0]) for a in absent] + [len(what)])
     out.lines.append(
         f"{what:{width}s} {'base':>10s} {'new':>10s} {'ratio':>7s} {'95% interval':>17s}  status"
     )
@@ -136,6 +145,10 @@ def _timing_lines(out: Comparison, rows: list[TimingRow], thr: float, what: str)
                 f"timing: {r.name} takes {r.ratio:.2f}x the base (95% interval [{r.lo:.2f}, {r.hi:.2f}],"
                 f" threshold {1 + thr:.2f}x)"
             )
+    for name, base, new, status in absent:
+        out.lines.append(
+            f"{name:{width}s} {_fmt_s(base):>10s} {_fmt_s(new):>10s} {'–':>7s} {'–':>17s}  {status}"
+        )
     out.lines.append(
         f"(a regression: the ratio exceeds {1 + thr:.2f} and its 95% bootstrap interval lies above 1)"
     )

@@ -117,18 +117,35 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
     common = sorted(set(base) & set(new))
     if not common:
         raise CompareError(f"No benchmark appears in both {b} and {n}.")
+    # as for the rows of runs: a benchmark of the base that the new file lacks stopped
+    # running (or was renamed, or crashed), and fails the gate; one only in NEW is new
+    lost, added = sorted(set(base) - set(new)), sorted(set(new) - set(base))
     out = Comparison()
-    out.lines.append(f"{len(common)} benchmarks in both files (wall time per round)")
+    out.lines.append(
+        f"{len(common)} benchmarks in both files, {len(lost)} only in the base, {len(added)}"
+        " only in the new file (wall time per round)"
+    )
     rows = [
         _decide(name, [_benchmark_sample(base[name])], [_benchmark_sample(new[name])], thr, 0.0)
         for name in common
     ]
-    _timing_lines(out, rows, thr, "benchmark")
-    for label, names in (
-        ("only in the base", sorted(set(base) - set(new))),
-        ("only in the new file", sorted(set(new) - set(base))),
-    ):
-        if names:
-            more = " ..." if len(names) > 5 else ""
-            out.lines.append(f"(benchmarks {label}: {names[:5]}{more})")
+    absent = tuple(
+        (name, _median(base[name]), math.nan, "missing from the new file") for name in lost
+    ) + tuple((name, math.nan, _median(new[name]), "new: not gated") for name in added)
+    _timing_lines(out, rows, thr, "benchmark", absent)
+    if lost:
+        out.regressions.append(
+            f"missing: {len(lost)} benchmark(s) of the base are not in the new file"
+            f" ({_names(lost)})"
+        )
     return out
+
+
+def _median(stats: dict) -> float:
+    return float(np.median(_benchmark_sample(stats)))
+
+
+def _names(names: list[str], limit: int = 6) -> str:
+    """'a, b, c' for the first `limit` names, then how many more there are."""
+    text = ", ".join(names[:limit])
+    return text + (f", and {len(names) - limit} more" if len(names) > limit else "")
