@@ -102,6 +102,43 @@ def test_benchmarks_missing_from_the_new_file_fail_the_gate(tmp_path, capsys):
     assert sum(line.endswith("new: not gated") for line in r.stdout.splitlines()) == 7
 
 
+def _timed_file(path: Path, **timers: str | None) -> str:
+    """A pytest-benchmark JSON file of one benchmark per keyword, recorded with that timer
+    (its `options.timer`, as pytest-benchmark writes it; None: no `options`)."""
+    doc = {
+        "benchmarks": [
+            {"fullname": k, "stats": {"data": [1e-3] * 7}}
+            | ({} if t is None else {"options": {"timer": t, "min_rounds": 5}})
+            for k, t in timers.items()
+        ]
+    }
+    path.write_text(json.dumps(doc))
+    return str(path)
+
+
+def test_the_benchmark_table_names_the_timer_the_files_recorded(tmp_path, capsys):
+    # a new user's trial: files recorded with --benchmark-timer time.process_time were
+    # headed "(wall time per round)"
+    for timer, said in (
+        ("process_time", "timer: process_time (CPU time per round)"),
+        ("perf_counter", "timer: perf_counter (wall time per round)"),
+        (None, "timer: not recorded"),
+    ):
+        f = _timed_file(tmp_path / f"{timer}.json", a=timer, b=timer)
+        r = _quiet_cli(capsys, "compare", f, f)
+        assert r.returncode == 0 and r.stdout.splitlines()[0].endswith(f"; {said}"), r.stdout
+        assert timer == "perf_counter" or "wall" not in r.stdout
+    mixed = _timed_file(tmp_path / "mixed.json", a="process_time", b="perf_counter")
+    r = _quiet_cli(capsys, "compare", mixed, mixed)
+    assert r.returncode == 0
+    assert "timers by benchmark: perf_counter (wall time), process_time (CPU time)" in r.stdout
+    # CPU time against wall time is no comparison of the code: refused, naming both timers
+    cpu = _timed_file(tmp_path / "cpu.json", a="process_time", b="process_time")
+    wall = _timed_file(tmp_path / "wall.json", a="process_time", b="perf_counter")
+    r = _quiet_cli(capsys, "compare", cpu, wall)
+    _one_line_error(r, "timed differently: 'b' with `process_time` in the base, `perf_counter`")
+
+
 def test_a_figure_no_longer_timed_in_the_new_run_fails(tmp_path, capsys):
     rows = _rows(np.random.default_rng(21))
     base = _run(tmp_path / "base", rows)

@@ -146,11 +146,13 @@ def compare(
         time_threshold: allowed slowdown as a fraction (0.15: 15 %), >= 0.
         fp_threshold: allowed increase in false collisions, an integer >= 0.
         unknown_threshold: allowed increase of a group's unknown rate (a fraction), >= 0.
-        timer: "cpu" (process CPU time) or "wall"; benchmark files hold wall time only.
+        timer: "cpu" (process CPU time) or "wall", for runs; benchmark files are compared in
+            the timer they were recorded with (each benchmark's ``options.timer``, printed).
 
     Raises:
         CompareError: a threshold or the timer is invalid, an input cannot be read, or the
-            two do not match (a ValueError).
+            two do not match (a ValueError): benchmark files recorded with different timers
+            do not.
     """
     thr = _check_threshold(time_threshold, "time_threshold", most=MAX_TIME_THRESHOLD)
     fpt = int(_check_threshold(fp_threshold, "fp_threshold", integer=True))

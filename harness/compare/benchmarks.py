@@ -1,5 +1,5 @@
 """Reading and comparing two pytest-benchmark JSON files: one timing group per benchmark,
-wall time per round (see :mod:`harness.compare`)."""
+in the timer the files were recorded with (see :mod:`harness.compare`)."""
 
 from __future__ import annotations
 
@@ -22,8 +22,21 @@ from ._common import (
     _timing_lines,
 )
 
+TIMER_KINDS = {
+    "perf_counter": "wall",
+    "monotonic": "wall",
+    "time": "wall",
+    "process_time": "CPU",
+    "thread_time": "CPU",
+}
+"""What pytest-benchmark's timers measure, by the name it writes to a benchmark's
+``options.timer`` (``perf_counter`` by default; ``--benchmark-timer time.process_time``
+writes ``process_time``)."""
 
-def _load_benchmarks(p: Path) -> dict[str, dict]:
+
+def _load_benchmarks(p: Path) -> tuple[dict[str, dict], dict[str, str | None]]:
+    """The `stats` of each benchmark of `p` by its `fullname`, and the name of its timer
+    (``options.timer``; None when the file does not say)."""
     try:
         doc = json.loads(p.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as e:
@@ -38,7 +51,8 @@ def _load_benchmarks(p: Path) -> dict[str, dict]:
             f"{p}: not a pytest-benchmark JSON file: expected `benchmarks` to be a list,"
             f" got {type(doc['benchmarks']).__name__}."
         )
-    out = {}
+    out: dict[str, dict] = {}
+    timers: dict[str, str | None] = {}
     for i, bm in enumerate(doc["benchmarks"]):
         where = f"{p}: benchmarks[{i}]"
         if not isinstance(bm, dict) or not isinstance(bm.get("fullname"), str):
@@ -78,7 +92,10 @@ def _load_benchmarks(p: Path) -> dict[str, dict]:
                 " benchmark once (one pytest-benchmark run per file)."
             )
         out[bm["fullname"]] = stats
-    return out
+        options = bm.get("options")
+        timer = options.get("timer") if isinstance(options, dict) else None
+        timers[bm["fullname"]] = timer if isinstance(timer, str) else None
+    return out, timers
 
 
 def _count(x: Any) -> bool:
@@ -106,7 +123,7 @@ def _normal_quantiles(n: int) -> np.ndarray:
 
 
 def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
-    base, new = _load_benchmarks(b), _load_benchmarks(n)
+    (base, tb), (new, tn) = _load_benchmarks(b), _load_benchmarks(n)
     # Two empty files are identical, yet a gate that compared nothing has no evidence to
     # pass on: an empty file is what a benchmark step that collected nothing writes.
     for p, d in ((b, base), (n, new)):
@@ -117,13 +134,20 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
     common = sorted(set(base) & set(new))
     if not common:
         raise CompareError(f"No benchmark appears in both {b} and {n}.")
+    for name in common:  # CPU time against wall time measures no change of the code
+        if tb[name] is not None and tn[name] is not None and tb[name] != tn[name]:
+            raise CompareError(
+                f"{b} and {n} were timed differently: {_clip(name)} with `{_plain(tb[name])}`"
+                f" in the base, `{_plain(tn[name])}` in the new file; record both with the same"
+                " `--benchmark-timer`."
+            )
     # as for the rows of runs: a benchmark of the base that the new file lacks stopped
     # running (or was renamed, or crashed), and fails the gate; one only in NEW is new
     lost, added = sorted(set(base) - set(new)), sorted(set(new) - set(base))
     out = Comparison()
     out.lines.append(
         f"{len(common)} benchmarks in both files, {len(lost)} only in the base, {len(added)}"
-        " only in the new file (wall time per round)"
+        f" only in the new file; {_timer_label({tb[k] for k in base} | {tn[k] for k in new})}"
     )
     rows = [
         _decide(name, [_benchmark_sample(base[name])], [_benchmark_sample(new[name])], thr, 0.0)
@@ -139,6 +163,28 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
             f" ({_names(lost)})"
         )
     return out
+
+
+def _timer_label(timers: set[str | None]) -> str:
+    """'timer: process_time (CPU time per round)', or every timer the files name."""
+    parts = [
+        f"{t} ({TIMER_KINDS[t]} time{' per round' if len(timers) == 1 else ''})"
+        if t in TIMER_KINDS
+        else _plain(t)
+        for t in sorted(t for t in timers if t is not None)
+    ]
+    if None in timers:
+        parts.append("not recorded")
+    if len(parts) == 1:
+        return f"timer: {parts[0]}"
+    return f"timers by benchmark: {', '.join(parts)}"
+
+
+def _plain(text: str) -> str:
+    """`text` on one line (white space, line breaks included, as one space), at most 60
+    characters, without quotes."""
+    text = " ".join(text.split())
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _median(stats: dict) -> float:
