@@ -256,36 +256,56 @@ def _report(args) -> int:
     return 0
 
 
-def _fraction(text: str, option: str, most: float) -> float:
-    """A fraction in [0, `most`] given as "15%" or "0.15". Beyond `most`, a gate that could
-    never fail: most likely a percentage without its sign ("75" is 7500 %)."""
+def _fraction(text: str, option: str, most: float, below: bool = False) -> float:
+    """A fraction in [0, `most`] (in [0, `most`) if `below`) given as "15%" or "0.15".
+    Beyond, a gate that could never fail: most likely a percentage without its sign ("75"
+    is 7500 %); an unknown rate rises by 100 % at most, so a threshold of 100 % on it too."""
     t = text.strip()
     try:
         value = float(t[:-1]) / 100 if t.endswith("%") else float(t)
     except ValueError:
         value = float("nan")
     if not np.isfinite(value) or value < 0:
-        raise UsageError(f"Expected `{option}` >= 0, like 15% or 0.15, got {text!r}.")
-    if value > most:
+        raise UsageError(f"Expected `{option}` >= 0, like 15% or 0.15, got {_arg(text)}.")
+    if value > most or (below and value == most):
         hint = f" (for {t} %, write {t}%)" if not t.endswith("%") else ""
         raise UsageError(
-            f"Expected `{option}` at most {most:.0%} (a fraction like 0.15, or 15%), got"
-            f" {text!r}, {value:.0%}: a gate that never fails{hint}."
+            f"Expected `{option}` {'below' if below else 'at most'} {most:.0%} (a fraction like"
+            f" 0.15, or 15%), got {_arg(text)}, {value:.0%}: a gate that never fails{hint}."
         )
     return value
+
+
+def _whole(text: str, option: str, what: str) -> int:
+    """A whole number >= 0 given as text ("2"), or a UsageError naming `option` and `what`
+    it counts ("1.5" was argparse's "invalid int value")."""
+    try:
+        value = int(text.strip())
+    except ValueError:  # not an integer, or one of more than 4300 digits
+        value = -1
+    if value < 0:
+        raise UsageError(
+            f"Expected `{option}` to be a whole number >= 0 ({what}), got {_arg(text)}."
+        )
+    return value
+
+
+def _arg(text: str) -> str:
+    """A command-line value quoted for a one-line message, clipped to 60 characters."""
+    return repr(text) if len(text) <= 60 else repr(text[:57]) + "..."
 
 
 def _compare(args) -> int:
     from harness.compare import MAX_TIME_THRESHOLD, compare
 
-    if args.fp_threshold < 0:
-        raise UsageError(f"Expected `--fp-threshold` >= 0, got {args.fp_threshold}.")
     result = compare(
         args.base,
         args.new,
         time_threshold=_fraction(args.time_threshold, "--time-threshold", MAX_TIME_THRESHOLD),
-        fp_threshold=args.fp_threshold,
-        unknown_threshold=_fraction(args.unknown_threshold, "--unknown-threshold", 1.0),
+        fp_threshold=_whole(
+            args.fp_threshold, "--fp-threshold", "the false collisions allowed beyond the base's"
+        ),
+        unknown_threshold=_fraction(args.unknown_threshold, "--unknown-threshold", 1.0, below=True),
         timer=args.timer,
     )
     print(result.text())
@@ -360,7 +380,55 @@ def _corpus(args) -> int:
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with the CLI's one-line errors (exit 2), for its subcommands too."""
+    """argparse with the CLI's one-line errors (exit 2), for its subcommands too, and with
+    options whose values may start with "-"."""
+
+    signed: tuple[str, ...] = ()
+    """Options whose value may start with "-" ("-5%"), which argparse takes for an option
+    of its own ("expected one argument"): given as ``OPTION VALUE`` (OPTION or an
+    abbreviation argparse accepts for it), they are read as ``OPTION=VALUE``, so that the
+    option's own check answers."""
+
+    def __init__(self, *args, **kwargs):
+        self.long_options: list[str] = []  # every "--name" of the parser, for abbreviations
+        super().__init__(*args, **kwargs)
+
+    def add_argument(self, *args, **kwargs):
+        action = super().add_argument(*args, **kwargs)
+        self.long_options += [s for s in action.option_strings if s.startswith("--")]
+        return action
+
+    def parse_known_args(self, args=None, namespace=None):
+        if self.signed and args is not None:  # a subcommand's parser gets its args as a list
+            args = self._attach_signed_values(list(args))
+        return super().parse_known_args(args, namespace)
+
+    def _attach_signed_values(self, args: list[str]) -> list[str]:
+        out: list[str] = []
+        i = 0
+        while i < len(args):
+            a = args[i]
+            if a == "--":  # what follows is positional
+                return out + args[i:]
+            value = args[i + 1] if i + 1 < len(args) else ""
+            if self._is_signed(a) and value.startswith("-") and not value.startswith("--"):
+                if value != "-h":
+                    out.append(f"{a}={value}")
+                    i += 2
+                    continue
+            out.append(a)
+            i += 1
+        return out
+
+    def _is_signed(self, arg: str) -> bool:
+        if arg in self.signed:
+            return True
+        if not (self.allow_abbrev and arg.startswith("--") and "=" not in arg):
+            return False
+        if arg in self.long_options:  # another option, spelt out
+            return False
+        named = [o for o in self.long_options if o.startswith(arg)]
+        return len(named) == 1 and named[0] in self.signed
 
     def error(self, message: str):
         print(f"{self.prog}: error: {message} (see {self.prog} --help)", file=sys.stderr)
@@ -411,11 +479,16 @@ def parser() -> argparse.ArgumentParser:
         " unchanged code on a shared 2-core machine); a slowdown must also be significant",
     )
     c.add_argument(
-        "--fp-threshold", type=int, default=0, help="allowed increase in false collisions"
+        "--fp-threshold", default="0", help="allowed increase in false collisions (a count)"
     )
     c.add_argument(
-        "--unknown-threshold", default="0", help="allowed rise of a group's unknown rate"
+        "--unknown-threshold",
+        default="0",
+        help="allowed rise of a group's unknown rate (below 100%%)",
     )
+    # "--time-threshold -5%" reaches the threshold's own check ("expected >= 0"), not
+    # argparse's "expected one argument"
+    c.signed = ("--time-threshold", "--fp-threshold", "--unknown-threshold")
     c.add_argument(
         "--timer",
         choices=["cpu", "wall"],

@@ -333,13 +333,68 @@ def test_a_threshold_that_would_turn_the_gate_off_is_refused(tmp_path, capsys):
     r = _cli(capsys, "compare", base, base, "--time-threshold", "75")
     _one_line_error(r, "`--time-threshold` at most 1000%", "7500%", "write 75%")
     r = _cli(capsys, "compare", base, base, "--unknown-threshold", "5")
-    _one_line_error(r, "`--unknown-threshold` at most 100%", "write 5%")
+    _one_line_error(r, "`--unknown-threshold` below 100%", "write 5%")
     assert _cli(capsys, "compare", base, base, "--time-threshold", "75%").returncode == 0
     assert _cli(capsys, "compare", base, base, "--time-threshold", "10").returncode == 0
     with pytest.raises(ValueError, match=r"`time_threshold` at most 10 .* got 75"):
         compare(base, base, time_threshold=75)
-    with pytest.raises(ValueError, match=r"`unknown_threshold` at most 1 .* got 5"):
+    with pytest.raises(ValueError, match=r"`unknown_threshold` below 1 .* got 5"):
         compare(base, base, unknown_threshold=5)
+
+
+def test_an_unknown_threshold_of_100_percent_is_refused(tmp_path, capsys):
+    # a new user's trial: an unknown rate rises by 100 % at most, so a threshold of 100 %
+    # was a gate that never fails, and was accepted
+    base = str(_run(tmp_path / "base", _rows(np.random.default_rng(27))))
+    for text in ("100%", "1", "1.0", "100.0%"):
+        r = _cli(capsys, "compare", base, base, "--unknown-threshold", text)
+        _one_line_error(r, "`--unknown-threshold` below 100%", f"got {text!r}, 100%")
+        assert ("write 1%" in r.stderr) == (text == "1")
+    with pytest.raises(ValueError, match=r"`unknown_threshold` below 1 .* got 1: a gate that nev"):
+        compare(base, base, unknown_threshold=1)
+    # just below, a gate that a group whose every row became unknown still fails
+    unknown = _rows(np.random.default_rng(27))
+    for row in unknown:
+        row["verdict"] = "unknown"
+    new = str(_run(tmp_path / "new", unknown))
+    r = _cli(capsys, "compare", base, new, "--unknown-threshold", "99%")
+    assert r.returncode == 1 and "accuracy: unknown rate of certify/rational/hull rose" in r.stdout
+
+
+def test_negative_thresholds_get_their_own_message_not_argparses(tmp_path, capsys):
+    # a new user's trial: `--time-threshold -5%` read "expected one argument" (argparse
+    # took "-5%" for an option); the value now reaches the threshold's check
+    base = str(_run(tmp_path / "base", _rows(np.random.default_rng(28))))
+    for option, text in (
+        ("--time-threshold", "-5%"),
+        ("--time-threshold", "-0.5"),
+        ("--time-thr", "-5%"),  # an abbreviation argparse accepts
+        ("--unknown-threshold", "-1%"),
+        ("--unknown-threshold", "-inf"),
+    ):
+        r = _cli(capsys, "compare", base, base, option, text)
+        full = "--time-threshold" if option.startswith("--time") else option
+        _one_line_error(r, f"Expected `{full}` >= 0, like 15% or 0.15, got {text!r}.")
+    # the other options and the positionals are read as before
+    r = _cli(capsys, "compare", base, base, "--time-threshold", "15%", "--fp-threshold", "1")
+    assert r.returncode == 0, r.stderr
+    r = _cli(capsys, "compare", base, base, "--time", "-5%")  # --time-threshold or --timer?
+    _one_line_error(r, "ambiguous option: --time could match")
+    r = _cli(capsys, "compare", base, base, "--timer", "-5%")
+    _one_line_error(r, "--timer: expected one argument")
+
+
+def test_fp_threshold_must_be_a_whole_number(tmp_path, capsys):
+    # a new user's trial: `--fp-threshold 1.5` read argparse's "invalid int value"
+    base = str(_run(tmp_path / "base", _rows(np.random.default_rng(29))))
+    for text in ("1.5", "-1", "two", ""):
+        r = _cli(capsys, "compare", base, base, "--fp-threshold", text)
+        _one_line_error(
+            r,
+            "Expected `--fp-threshold` to be a whole number >= 0 (the false collisions",
+            repr(text),
+        )
+    assert _cli(capsys, "compare", base, base, "--fp-threshold", "2").returncode == 0
 
 
 def test_the_false_free_line_says_how_many_are_certified(tmp_path, capsys):

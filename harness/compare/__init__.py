@@ -90,12 +90,15 @@ for _public in (CompareError, Comparison, TimingRow):
 del _public
 
 
-def _check_threshold(value: Any, name: str, integer: bool = False, most: float = math.inf) -> float:
+def _check_threshold(
+    value: Any, name: str, integer: bool = False, most: float = math.inf, below: bool = False
+) -> float:
     """`value` as a float, or a CompareError (a ValueError, and what the CLI reports in one
-    line) when it is not a finite number in [0, `most`] (an integer if `integer`): an
-    integer too large for a float (``--fp-threshold`` with 401 digits) counts as not
-    finite, and a fraction beyond `most` (``time_threshold=75``: 7500 %) makes a gate
-    that never fails."""
+    line) when it is not a finite number in [0, `most`] (in [0, `most`) if `below`; an
+    integer if `integer`): an integer too large for a float (``--fp-threshold`` with 401
+    digits) counts as not finite, and a fraction beyond `most` (``time_threshold=75``:
+    7500 %; an unknown rate may rise by 1 at most, so ``unknown_threshold=1`` too) makes a
+    gate that never fails."""
     x = math.nan
     if not isinstance(value, bool) and isinstance(value, int | float | np.integer | np.floating):
         try:
@@ -105,10 +108,10 @@ def _check_threshold(value: Any, name: str, integer: bool = False, most: float =
     if not (math.isfinite(x) and x >= 0 and (x.is_integer() or not integer)):
         what = "a finite integer >= 0" if integer else "a finite number >= 0"
         raise CompareError(f"Expected `{name}` to be {what}, got {_clip(value)}.")
-    if x > most:
+    if x > most or (below and x == most):
         raise CompareError(
-            f"Expected `{name}` at most {most:g} (a fraction: 0.15 is 15 %), got {_clip(value)}:"
-            " a gate that never fails."
+            f"Expected `{name}` {'below' if below else 'at most'} {most:g} (a fraction: 0.15 is"
+            f" 15 %), got {_clip(value)}: a gate that never fails."
         )
     return x
 
@@ -145,7 +148,8 @@ def compare(
         base, new: run folders or pytest-benchmark JSON files (both of one kind).
         time_threshold: allowed slowdown as a fraction (0.15: 15 %), >= 0.
         fp_threshold: allowed increase in false collisions, an integer >= 0.
-        unknown_threshold: allowed increase of a group's unknown rate (a fraction), >= 0.
+        unknown_threshold: allowed increase of a group's unknown rate (a fraction), >= 0
+            and below 1 (a rate rises by 1 at most: 1 is a gate that never fails).
         timer: "cpu" (process CPU time) or "wall", for runs; benchmark files are compared in
             the timer they were recorded with (each benchmark's ``options.timer``, printed).
 
@@ -156,7 +160,7 @@ def compare(
     """
     thr = _check_threshold(time_threshold, "time_threshold", most=MAX_TIME_THRESHOLD)
     fpt = int(_check_threshold(fp_threshold, "fp_threshold", integer=True))
-    ut = _check_threshold(unknown_threshold, "unknown_threshold", most=1.0)
+    ut = _check_threshold(unknown_threshold, "unknown_threshold", most=1.0, below=True)
     if timer not in TIMERS:
         raise CompareError(f"Unknown `timer` {short(timer)}; expected one of {list(TIMERS)}.")
     b, n = Path(base), Path(new)
