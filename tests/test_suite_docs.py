@@ -83,3 +83,30 @@ def test_sweep_example_expands_as_the_doc_says(tmp_path):
     f.write_text(block)
     assert len(expand(load_suite(f))) == 28
     assert "It expands to 28 cases" in DOC.read_text()
+
+
+def _allowed(kind: str, key: str) -> str:
+    """The `allowed` cell of `key`'s row in `kind`'s section."""
+    row = next(r for r in SECTIONS[f'kind = "{kind}"'].splitlines() if r.startswith(f"| `{key}` |"))
+    return row.split(" | ")[3]
+
+
+def test_documented_names_are_the_valid_ones():
+    """The lists of valid names in the doc are the registries the parsers check against."""
+    import motions
+    import scenes
+    from harness.certification import ENGINE_BOUNDS
+    from harness.corpus import FAMILIES
+    from harness.corpus.methods import METHODS
+    from harness.workloads import EXTERNAL
+
+    def listed(cell: str) -> list[str]:
+        return re.findall(r"`([a-z0-9_-]+)`", cell)
+
+    assert listed(_allowed("certify", "scenes")) == list(scenes.SCENES)
+    assert listed(_allowed("certify", "schemes")) == list(motions.SCHEMES)
+    for kind in ("certify", "workload"):
+        assert listed(_allowed(kind, "bounds")) == list(ENGINE_BOUNDS)
+    assert listed(_allowed("workload", "external")) == list(EXTERNAL)
+    assert listed(_allowed("corpus", "families")) == list(FAMILIES)
+    assert listed(_allowed("corpus", "methods")) == list(METHODS)
