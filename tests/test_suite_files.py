@@ -15,6 +15,7 @@ from harness.run import MAX_CASES, expand, load_suite
 CERTIFY = '[[study]]\nkind = "certify"\n'
 WORKLOAD = '[[study]]\nkind = "workload"\n'
 SCALING = '[[study]]\nkind = "scaling"\n'
+CORPUS = '[[study]]\nkind = "corpus"\n'
 
 # (suite text, the key the error must name, what the message must say)
 BAD = [
@@ -57,6 +58,13 @@ BAD = [
     (f"[suite]\nseed = {2**63}\n" + SCALING, r"suite\.seed", f"got {2**63}"),
     ('[suite]\nscheduler = ""\n' + SCALING, r"suite\.scheduler", "Dask scheduler address"),
     (CERTIFY + "repeats = 1000\nkeyframes = 'both'\nrandom_sets = 100", r"study\[0\]", f"more than {MAX_CASES:,} cases"),
+    # a corpus's seed, size and rounds failed only when the suite loaded, inside numpy or
+    # the generator, naming neither file nor key; a list of sizes used its first entry
+    (CORPUS + "seed = -1", r"study\[0\]\.seed", "expected an integer >= 0, got -1"),
+    (CORPUS + "size = 1000", r"study\[0\]\.size", r"in \(0, 100\], got 1000"),
+    (CORPUS + "size = [0.05, 1.0]", r"study\[0\]\.size", "expected one number"),
+    (CORPUS + "round_seconds = [0.1, 0.2]", r"study\[0\]\.round_seconds", "expected one number"),
+    (CORPUS + "rounds = 5000", r"study\[0\]\.rounds", r"in \[1, 1000\]"),
 ]  # fmt: skip
 
 

@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 
 from ..fields import names, need, numbers
-from .context import Context, accuracy_cols, cert_cols
+from .context import Context, accuracy_cols, cert_cols, rounds_key
 
 KEYS = frozenset(
     {
@@ -33,22 +33,36 @@ KEYS = frozenset(
 
 
 def parse(st: dict, file: Path, where: str) -> dict:
-    from ...corpus import FAMILIES
+    from ...corpus import FAMILIES, MAX_SIZE
     from ...corpus.methods import METHODS
 
     out: dict = {}
     seed = st.get("seed", 0)
     need(
-        isinstance(seed, int) and not isinstance(seed, bool),
+        isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0,
         file,
         f"{where}.seed",
-        f"expected an integer, got {seed!r}",
+        f"expected an integer >= 0, got {seed!r}",
     )
     out["seed"] = seed
-    out["size"] = numbers(st.get("size", 1.0), file, f"{where}.size")[0]
+    size = st.get("size", 1.0)
+    need(
+        not isinstance(size, list),
+        file,
+        f"{where}.size",
+        f"expected one number (a corpus has one size), got {size!r}",
+    )
+    out["size"] = numbers(size, file, f"{where}.size")[0]
+    need(
+        out["size"] <= MAX_SIZE,
+        file,
+        f"{where}.size",
+        f"expected a number in (0, {MAX_SIZE:g}], got {size!r}",
+    )
     out["families"] = names(st.get("families", "all"), file, f"{where}.families", FAMILIES)
     out["methods"] = names(st.get("methods", "all"), file, f"{where}.methods", METHODS)
-    for key, default in (("rounds", 5), ("chunk", 25), ("max_nodes", 20_000)):
+    out["rounds"] = rounds_key(st, file, f"{where}.rounds")
+    for key, default in (("chunk", 25), ("max_nodes", 20_000)):
         v = st.get(key, default)
         need(
             isinstance(v, int) and not isinstance(v, bool) and v >= 1,
@@ -57,7 +71,14 @@ def parse(st: dict, file: Path, where: str) -> dict:
             f"expected an integer >= 1, got {v!r}",
         )
         out[key] = v
-    out["round_seconds"] = numbers(st.get("round_seconds", 0.5), file, f"{where}.round_seconds")[0]
+    rs = st.get("round_seconds", 0.5)
+    need(
+        not isinstance(rs, list),
+        file,
+        f"{where}.round_seconds",
+        f"expected one number (seconds per timed round), got {rs!r}",
+    )
+    out["round_seconds"] = numbers(rs, file, f"{where}.round_seconds")[0]
     mem = st.get("memory", True)
     need(isinstance(mem, bool), file, f"{where}.memory", f"expected true or false, got {mem!r}")
     out["memory"] = mem
