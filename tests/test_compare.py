@@ -422,3 +422,43 @@ def test_runs_of_a_repair_study_compare(tmp_path):
     assert lost.exit_code == 1
     n = int(drop.sum())
     assert f"missing: {n} row(s) of the base are not in the new run" in lost.text()
+
+
+def _repair_rows(override: dict | None = None) -> list[dict]:
+    """Repair rows of two methods on four colliding cases (no timing rounds)."""
+    out = []
+    for method in ("certified", "sampled"):
+        for case in range(4):
+            row = dict(
+                study="repair", scene="random", scheme="rational", bound="repair",
+                keyframes="random", tolerance=1e-3, clearance=0.01, case_id="r0",
+                case=case, method=method, repairable=True, status="repaired",
+                still_collides=method == "sampled" and case == 0, below_clearance=False,
+                seconds=0.1, cpu_seconds=0.1,
+            )  # fmt: skip
+            row.update((override or {}).get((method, case), {}))
+            out.append(row)
+    return out
+
+
+def test_a_repair_that_collides_or_is_refused_where_the_base_did_not_fails_the_gate(tmp_path):
+    # repair rows had no accuracy gate: a certified repair found colliding by the ground
+    # truth passed, as did one refused where the base had repaired it
+    base = _run(tmp_path / "base", _repair_rows())
+    same = compare(base, _run(tmp_path / "same", _repair_rows()))
+    assert same.exit_code == 0, same.text()
+    assert (
+        "repairs that still collide: certified base 0, new 0; sampled base 1, new 1" in same.text()
+    )
+    bad = _run(tmp_path / "bad", _repair_rows({("certified", 2): {"still_collides": True}}))
+    res = compare(base, bad)
+    assert res.exit_code == 1
+    assert "the result of repair case 2 (certified, clearance 0.01) still collides" in res.text()
+    low = _run(tmp_path / "low", _repair_rows({("sampled", 1): {"below_clearance": True}}))
+    assert "repair case 1 (sampled, clearance 0.01) is below it" in compare(base, low).text()
+    refused = {("certified", c): {"status": "refused"} for c in (1, 3)}
+    res = compare(base, _run(tmp_path / "refused", _repair_rows(refused)))
+    assert res.exit_code == 1
+    assert (
+        "refusal rate of repairable cases of repair certified/0.01 rose from 0 to 0.5" in res.text()
+    )

@@ -297,6 +297,8 @@ def _run_accuracy(
                     f"accuracy: unknown rate of {'/'.join(map(str, g))} rose from {ub[g]:.3g}"
                     f" ({int(cb[g])} rows) to {un[g]:.3g} ({int(cn[g])} rows)"
                 )
+    if "still_collides" in bi or "still_collides" in ni:
+        _repair_accuracy(out, bi, ni, unknown_threshold)
     if "toi_error" in bi:
         eb = pd.to_numeric(bi["toi_error"], errors="coerce").abs()
         en = pd.to_numeric(ni["toi_error"], errors="coerce").abs()
@@ -314,3 +316,41 @@ def _run_accuracy(
                     out.regressions.append(
                         f"accuracy: scheme {scheme} measured C{int(cn[scheme])}, the base C{int(cb[scheme])}"
                     )
+
+
+def _repair_accuracy(
+    out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame, unknown_threshold: float
+) -> None:
+    """Repair rows: a result that the ground truth finds colliding or closer than its
+    clearance where the base's was not is a regression (the certified repair's never is
+    expected), and so is a refusal rate of repairable cases (per method and clearance)
+    that rose by more than `unknown_threshold`."""
+
+    def where(r: pd.Series) -> str:
+        return f"repair case {r.get('case')} ({r.get('method')}, clearance {r.get('clearance')})"
+
+    for col, what in (("still_collides", "still collides"), ("below_clearance", "is below it")):
+        b, n = _flag(bi, col), _flag(ni, col)
+        for key in bi.index[(n & ~b).to_numpy()]:
+            out.regressions.append(
+                f"accuracy: the result of {where(ni.loc[key])} {what} where the base's did not"
+            )
+    rep = _flag(bi, "repairable") & (bi.get("study") == "repair")
+    if not rep.any() or "status" not in ni:
+        return
+    keys = [k for k in ("method", "clearance") if k in bi]
+    rb = (bi[rep]["status"] != "repaired").groupby([bi[rep][k] for k in keys]).mean()
+    rn = (ni[rep]["status"] != "repaired").groupby([ni[rep][k] for k in keys]).mean()
+    counts = []
+    for method in sorted(set(bi["method"].dropna()) if "method" in bi else []):
+        cb = int((_flag(bi, "still_collides") & (bi["method"] == method)).sum())
+        cn = int((_flag(ni, "still_collides") & (ni["method"] == method)).sum())
+        counts.append(f"{method} base {cb}, new {cn}")
+    out.lines.append(f"repairs that still collide: {'; '.join(counts)}")
+    for g in rb.index:
+        if g in rn.index and rn[g] - rb[g] > unknown_threshold + 1e-12:
+            name = "/".join(map(str, g if isinstance(g, tuple) else (g,)))
+            out.regressions.append(
+                f"accuracy: refusal rate of repairable cases of repair {name} rose from"
+                f" {rb[g]:.3g} to {rn[g]:.3g}"
+            )
