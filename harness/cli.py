@@ -543,7 +543,15 @@ def main(argv: list[str] | None = None) -> int:
     from harness.compare import CompareError
 
     try:
-        return handlers[args.command](args)
+        code = handlers[args.command](args)
+        sys.stdout.flush()  # (a closed pipe shows here, not in the interpreter's exit)
+        return code
+    except BrokenPipeError:
+        # the reader went away (`rsmbench compare A B | head -1`): no error message for
+        # what it chose not to read, and nothing more into the closed pipe; the exit code
+        # of a process whose pipe closed (128 + SIGPIPE), as other command-line tools
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except (HarnessError, SceneError, CompareError, FileNotFoundError, UsageError) as e:
         print(f"rsmbench {args.command}: error: {e}", file=sys.stderr)
         return 2

@@ -462,3 +462,16 @@ def test_a_repair_that_collides_or_is_refused_where_the_base_did_not_fails_the_g
     assert (
         "refusal rate of repairable cases of repair certified/0.01 rose from 0 to 0.5" in res.text()
     )
+
+
+def test_a_reader_that_closes_the_pipe_gets_no_error_message(tmp_path):
+    # `rsmbench compare A B | head -1` printed "error: [Errno 32] Broken pipe", exit 2
+    base = _run(tmp_path / "base", _repair_rows())
+    code = (
+        "import os, sys\n"
+        "r, w = os.pipe(); os.close(r); os.dup2(w, 1)\n"
+        "from harness.cli import main\n"
+        f"sys.exit(main(['compare', {str(base)!r}, {str(base)!r}]))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 141 and proc.stderr == "", proc.stderr
