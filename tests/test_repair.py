@@ -211,6 +211,7 @@ def test_repair_study_rows(tmp_path):
     (case,) = kind.expand(st)
     rows = kind.run({**case, "study": "repair"}, st, Context(None, 0))
     assert {r["method"] for r in rows} == {"certified", "sampled"}
+    assert all(r["samples"] == st["samples"] and r["truth_resolution"] > 0 for r in rows)
     for r in rows:
         if r["method"] == "certified" and r["status"] == "repaired":
             assert r["verdict"] == "free" and r["truth"] in ("free", "unknown")

@@ -752,6 +752,7 @@ def _repair_rows(tol: float, clearance: float) -> list[dict]:
                     "max_deviation": [0.1, 0.3][i] if done else np.nan,
                     "iterations": 1 + i if done else np.nan,
                     "cpu_seconds": 0.1 if done else 0.001, "seconds": 0.2 if done else 0.002,
+                    "samples": 64, "truth_resolution": 2e-3,
                 }
             )  # fmt: skip
     return rows
@@ -776,6 +777,9 @@ def test_a_repair_sweep_keeps_its_tolerances_apart_and_times_repaired_motions():
     assert len(repair) == 4
     assert any("tolerance 0.01 m" in r["figure"] and "certified" in r["figure"] for r in repair)
     assert all("at most 0.3 m" in r["spread"] for r in repair)
+    # the sampled repair's grid as the study ran it (the text said 256 whatever it was)
+    sampled = [r for r in repair if r["figure"].startswith("sampled")]
+    assert sampled and all("its 64-sample grid" in r["basis"] for r in sampled)
 
 
 def test_a_run_of_repairs_alone_has_no_filmstrip_of_the_cube_scene(tmp_path, monkeypatch):

@@ -71,8 +71,27 @@ def _example(rep: pd.DataFrame):
     return (
         case,
         repair(case.motion, case.body, case.obstacles, tolerance=tol),
-        sampled_repair(case.motion, case.body, case.obstacles),
+        sampled_repair(case.motion, case.body, case.obstacles, **_samples(done)),
     )
+
+
+def _samples(rep: pd.DataFrame) -> dict:
+    """The sampled repair's ``samples`` of the rows (runs before rows kept it: default)."""
+    s = rep["samples"].dropna().unique() if "samples" in rep else ()
+    return {"samples": int(s[0])} if len(s) == 1 else {}
+
+
+def grid_text(rep: pd.DataFrame) -> str:
+    """The sampled repair's grid, as the rows say ("its 256-sample grid")."""
+    s = sorted({int(x) for x in rep["samples"].dropna()}) if "samples" in rep else []
+    if not s:
+        return "its sample grid"
+    return f"its {'/'.join(map(str, s))}-sample grid"
+
+
+def _resolution_text(rep: pd.DataFrame) -> str:
+    r = sorted(set(rep["truth_resolution"].dropna())) if "truth_resolution" in rep else []
+    return " or ".join(f"{x * 1e3:g} mm" for x in r) if r else "the study's truth_resolution"
 
 
 def _window(before, after) -> tuple[float, float]:
@@ -108,13 +127,13 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
         " repairable means every keyframe pose keeps clearance + 2 tolerances, the repair's margin"
         " (keyframes are kept); claimed: repairable cases the method called repaired; truly_free:"
         " of those, proven free by the ground truth (dense mj_geomDistance sampling with the"
-        " Lipschitz margin at 1 mm); success_rate = truly_free / the repairable cases the truth"
+        f" Lipschitz margin at {_resolution_text(rep)}); success_rate = truly_free / the repairable cases the truth"
         " decides (truth_undecided: clearance under the truth's resolution, or more than 5 M"
         " samples needed; a certified repair there is still proven free by its certificate);"
         " over all claims (claimed_all), still_collides and below_clearance (proven closer than"
         " requested, or not proven free). Deviation (the origin path's largest move), rounds and"
         " CPU time are over the repaired motions; refusals' CPU time apart. The certified"
-        " repair's free is a proof; the sampled repair's is what its 256-sample grid saw.",
+        f" repair's free is a proof; the sampled repair's is what {grid_text(rep)} saw.",
     )
     ex = _example(rep)
     if ex is not None:

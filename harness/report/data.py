@@ -192,7 +192,7 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
 def _repair_headline(df: pd.DataFrame) -> list[dict[str, str]]:
     """Per (tolerance, clearance) of a repair study: the certified repair's proofs and
     the ground truth's check of them, against the sampled repair's claims."""
-    from .avoid import _summary
+    from .avoid import _summary, grid_text
 
     rep = study_rows(df, "repair")
     if not len(rep) or "method" not in rep:
@@ -212,7 +212,7 @@ def _repair_headline(df: pd.DataFrame) -> list[dict[str, str]]:
             )
         else:
             value = f"claimed free {r['claimed_all']}, still collide {r['still_collides']}"
-            basis = f"of {r['colliding']} colliding motions; its free is what a 256-sample grid saw"
+            basis = f"of {r['colliding']} colliding motions; its free is what {grid_text(rep)} saw"
         out.append(
             dict(
                 figure=f"{r['method']} repair ({where})",

@@ -104,6 +104,8 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
         for k in ("study", "scene", "keyframes", "scheme", "bound", "clearance", "tolerance")
     }
     base["seed"] = ctx.seed
+    # (the report's captions and picture say what these were)
+    base["samples"], base["truth_resolution"] = st["samples"], st["truth_resolution"]
     rows = []
     for idx, k in _colliding(ctx, st):
         common = {
