@@ -62,8 +62,8 @@ BAD = [
     # the generator, naming neither file nor key; a list of sizes used its first entry
     (CORPUS + "seed = -1", r"study\[0\]\.seed", "expected an integer >= 0, got -1"),
     (CORPUS + "size = 1000", r"study\[0\]\.size", r"in \(0, 100\], got 1000"),
-    (CORPUS + "size = [0.05, 1.0]", r"study\[0\]\.size", "expected one number"),
-    (CORPUS + "round_seconds = [0.1, 0.2]", r"study\[0\]\.round_seconds", "expected one number"),
+    (CORPUS + "size = [0.05, 1.0]", r"study\[0\]\.size", r"expected a positive number, got \[0.05"),
+    (CORPUS + "round_seconds = [0.1, 0.2]", r"study\[0\]\.round_seconds", "expected a positive number, got"),
     (CORPUS + "rounds = 5000", r"study\[0\]\.rounds", r"in \[1, 1000\]"),
 ]  # fmt: skip
 

@@ -13,7 +13,7 @@ import functools
 import math
 from pathlib import Path
 
-from ..fields import names, need, numbers
+from ..fields import integer, names, need, number
 from .context import Context, accuracy_cols, cert_cols, rounds_key
 
 KEYS = frozenset(
@@ -37,22 +37,9 @@ def parse(st: dict, file: Path, where: str) -> dict:
     from ...corpus.methods import METHODS
 
     out: dict = {}
-    seed = st.get("seed", 0)
-    need(
-        isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0,
-        file,
-        f"{where}.seed",
-        f"expected an integer >= 0, got {seed!r}",
-    )
-    out["seed"] = seed
+    out["seed"] = integer(st.get("seed", 0), file, f"{where}.seed", lo=0)
     size = st.get("size", 1.0)
-    need(
-        not isinstance(size, list),
-        file,
-        f"{where}.size",
-        f"expected one number (a corpus has one size), got {size!r}",
-    )
-    out["size"] = numbers(size, file, f"{where}.size")[0]
+    out["size"] = number(size, file, f"{where}.size")  # (one number: a list is refused)
     need(
         out["size"] <= MAX_SIZE,
         file,
@@ -63,22 +50,8 @@ def parse(st: dict, file: Path, where: str) -> dict:
     out["methods"] = names(st.get("methods", "all"), file, f"{where}.methods", METHODS)
     out["rounds"] = rounds_key(st, file, f"{where}.rounds")
     for key, default in (("chunk", 25), ("max_nodes", 20_000)):
-        v = st.get(key, default)
-        need(
-            isinstance(v, int) and not isinstance(v, bool) and v >= 1,
-            file,
-            f"{where}.{key}",
-            f"expected an integer >= 1, got {v!r}",
-        )
-        out[key] = v
-    rs = st.get("round_seconds", 0.5)
-    need(
-        not isinstance(rs, list),
-        file,
-        f"{where}.round_seconds",
-        f"expected one number (seconds per timed round), got {rs!r}",
-    )
-    out["round_seconds"] = numbers(rs, file, f"{where}.round_seconds")[0]
+        out[key] = integer(st.get(key, default), file, f"{where}.{key}", lo=1)
+    out["round_seconds"] = number(st.get("round_seconds", 0.5), file, f"{where}.round_seconds")
     mem = st.get("memory", True)
     need(isinstance(mem, bool), file, f"{where}.memory", f"expected true or false, got {mem!r}")
     out["memory"] = mem
