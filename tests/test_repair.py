@@ -335,7 +335,8 @@ def test_two_staggered_posts_are_passed_on_one_side():
     r = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01)
     check_repaired(case, r, 0.01)
     assert r.moved.max_deviation < 0.8
-    # the re-cutting rounds count against `max_iterations`, as the search's do
+    # the re-cutting rounds count against `max_iterations`, as the search's do (this
+    # case never needs the second search, which would have as many again)
     few = repair(m, body, case.obstacles, tolerance=TOL, clearance=0.01, max_iterations=4)
     check_repaired(case, few, 0.01)
     assert few.iterations <= 4

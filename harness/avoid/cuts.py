@@ -29,7 +29,7 @@ MAX_KNOTS = 48
 """Most knots between two keyframes before the repair gives up there."""
 KNOT_GAIN = 0.8
 """A widened search's feasible offset gets twice the knots when that shrinks its largest
-control vector to at most this share (:func:`_smallest_offset`)."""
+control coordinate to at most this share (:func:`_smallest_offset`)."""
 COARSE_STEPS = 64.0
 """The coarse grid's spacing, in dense steps."""
 MAX_CONSTRAINTS = 4000
@@ -104,11 +104,12 @@ def _smallest_offset(
 ) -> tuple[OffsetSpline, np.ndarray | None]:
     """The smallest offset meeting every cut: keyframe intervals with new trouble
     (`new_t`) get their first knots, more while the programme is infeasible; when
-    `widen`, twice as many once more if that shrinks the offset's largest control
-    vector by :data:`KNOT_GAIN` (few knots meet cuts that ask for a steep rise next to a
-    keyframe, where the offset vanishes, only with a wide swing; doubling for as long as
-    it shrinks bends the path ever harder: on the README's path past a post, 0.245 m
-    with jerk energy 8e4 after one doubling, 0.239 m with 1e6 after all)."""
+    `widen`, twice as many once more (in this call; a search makes many) if that shrinks
+    the offset's largest control coordinate by :data:`KNOT_GAIN` (few knots meet cuts
+    that ask for a steep rise next to a keyframe, where the offset vanishes, only with a
+    wide swing; doubling for as long as it shrinks bent the path ever harder: on the
+    README's path past a post, 0.245 m with the whole motion's jerk energy 8e4 this way,
+    0.239 m with 1e6)."""
     spline = (_refine(spline, anchors, new_t, 1) if new_t.size else None) or spline
     times = np.array(cons.t)
     while (delta := solve(spline, cons)) is None:
@@ -116,9 +117,10 @@ def _smallest_offset(
         if grown is None:
             return spline, None
         spline = grown
-    if widen and (grown := _refine(spline, anchors, times, 2)) is not None:
+    size = np.abs(delta).max()
+    if widen and size > 0 and (grown := _refine(spline, anchors, times, 2)) is not None:
         smaller = solve(grown, cons)
-        if smaller is not None and np.abs(smaller).max() <= KNOT_GAIN * np.abs(delta).max():
+        if smaller is not None and np.abs(smaller).max() <= KNOT_GAIN * size:
             return grown, smaller
     return spline, delta
 
