@@ -581,3 +581,16 @@ def test_warp_start_up_passes_on_its_other_stderr_lines():
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stderr == "first other line\nsecond other line\nafter\n"
+    # also when wp.init() raises: its native lines are often the only explanation
+    failing = code.replace(
+        "    os.write(2, b'first other line\\nsecond other line\\n')\n",
+        "    os.write(2, b'first other line\\nsecond other line\\n')\n"
+        "    raise RuntimeError('init failed')\n",
+    )
+    assert failing != code
+    proc = subprocess.run(
+        [sys.executable, "-c", failing], capture_output=True, text=True, timeout=120
+    )
+    assert proc.returncode == 1
+    assert proc.stderr.startswith("first other line\nsecond other line\nTraceback")
+    assert "RuntimeError: init failed" in proc.stderr and "CUDA driver" not in proc.stderr

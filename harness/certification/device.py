@@ -65,15 +65,16 @@ name is a :class:`DeviceError`)."""
 def init_without_driver_notice(wp) -> None:
     """``wp.init()``, with whatever its native code writes to stderr passed on except
     the line of :data:`NO_DRIVER_NOTICE` (file descriptor 2 is redirected to a temporary
-    file for the call, then restored)."""
+    file for the call, then restored and the rest written to it, also when ``wp.init()``
+    raises). A process that dies inside ``wp.init()`` loses what it wrote there."""
     import sys
     import tempfile
 
     try:
         sys.stderr.flush()
         saved = os.dup(2)
-    except (OSError, ValueError):  # no usable fd 2 (an embedding host): as Warp does
-        wp.init()
+    except (AttributeError, OSError, ValueError):  # no stderr (``2>&-``, an embedding
+        wp.init()  # host): as Warp does
         return
     with tempfile.TemporaryFile() as captured:
         try:
@@ -82,11 +83,14 @@ def init_without_driver_notice(wp) -> None:
         finally:
             os.dup2(saved, 2)
             os.close(saved)
-        captured.seek(0)
-        kept = [ln for ln in captured.read().splitlines(True) if NO_DRIVER_NOTICE not in ln]
-    out = b"".join(kept)
-    while out:
-        out = out[os.write(2, out) :]
+            captured.seek(0)
+            kept = [ln for ln in captured.read().splitlines(True) if NO_DRIVER_NOTICE not in ln]
+            out = b"".join(kept)
+            try:
+                while out:
+                    out = out[os.write(2, out) :]
+            except OSError:  # a stderr that closed meanwhile: as fprintf, say nothing
+                pass
 
 
 def quiet(wp) -> None:
