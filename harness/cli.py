@@ -526,6 +526,18 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _stdout_closed() -> bool:
+    """Whether stdout is a pipe whose reader has gone (poll reports an error on it)."""
+    import select
+
+    try:
+        poll = select.poll()
+        poll.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(ev & select.POLLERR for _, ev in poll.poll(0))
+    except (AttributeError, OSError, ValueError):  # no fd (replaced stdout), no poll
+        return False
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
         args = parser().parse_args(argv)
@@ -546,7 +558,10 @@ def main(argv: list[str] | None = None) -> int:
         code = handlers[args.command](args)
         sys.stdout.flush()  # (a closed pipe shows here, not in the interpreter's exit)
         return code
-    except BrokenPipeError:
+    except BrokenPipeError as e:
+        if not _stdout_closed():  # (another pipe: a worker's, a closed stderr)
+            print(f"rsmbench {args.command}: error: {e}", file=sys.stderr)
+            return 2
         # the reader went away (`rsmbench compare A B | head -1`): no error message for
         # what it chose not to read, and nothing more into the closed pipe; the exit code
         # of a process whose pipe closed (128 + SIGPIPE), as other command-line tools

@@ -460,7 +460,8 @@ def test_a_repair_that_collides_or_is_refused_where_the_base_did_not_fails_the_g
     res = compare(base, _run(tmp_path / "refused", _repair_rows(refused)))
     assert res.exit_code == 1
     assert (
-        "refusal rate of repairable cases of repair certified/0.01 rose from 0 to 0.5" in res.text()
+        "refusal rate of repairable cases of repair certified/0.001/0.01 rose from 0 to 0.5"
+        in res.text()
     )
 
 

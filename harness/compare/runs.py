@@ -323,8 +323,8 @@ def _repair_accuracy(
 ) -> None:
     """Repair rows: a result that the ground truth finds colliding or closer than its
     clearance where the base's was not is a regression (the certified repair's never is
-    expected), and so is a refusal rate of repairable cases (per method and clearance)
-    that rose by more than `unknown_threshold`."""
+    expected), and so is a refusal rate of repairable cases (per method, tolerance and
+    clearance) that rose by more than `unknown_threshold`."""
 
     def where(r: pd.Series) -> str:
         return f"repair case {r.get('case')} ({r.get('method')}, clearance {r.get('clearance')})"
@@ -338,7 +338,7 @@ def _repair_accuracy(
     rep = _flag(bi, "repairable") & (bi.get("study") == "repair")
     if not rep.any() or "status" not in ni:
         return
-    keys = [k for k in ("method", "clearance") if k in bi]
+    keys = [k for k in ("method", "tolerance", "clearance") if k in bi]
     rb = (bi[rep]["status"] != "repaired").groupby([bi[rep][k] for k in keys]).mean()
     rn = (ni[rep]["status"] != "repaired").groupby([ni[rep][k] for k in keys]).mean()
     counts = []

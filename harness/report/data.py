@@ -208,7 +208,7 @@ def _repair_headline(df: pd.DataFrame) -> list[dict[str, str]]:
             )
             basis = (
                 f"of {r['colliding']} colliding motions; the ground truth confirms"
-                f" {r['truly_free']} and cannot decide {r['truth_undecided']}; must collide 0"
+                f" {r['truly_free']} and cannot decide {r['truth_undecided']}; none may still collide"
             )
         else:
             value = f"claimed free {r['claimed_all']}, still collide {r['still_collides']}"
