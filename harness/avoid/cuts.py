@@ -346,7 +346,7 @@ class Search:
         """`cons` with cuts at the `close` poses of `current` (offset `delta` on `spline`)
         along the choice (:func:`_cut_choices`) whose smallest offset is smallest:
         (constraints, spline, offset), or None when no choice has an offset. `widen`:
-        each choice's offset gets more knots while they shrink it
+        each choice's offset gets twice the knots once more where that shrinks it
         (:func:`_smallest_offset`)."""
         t, d, n, b, o = close
         goal = self.target + boost
