@@ -424,11 +424,11 @@ def test_runs_of_a_repair_study_compare(tmp_path):
     assert f"missing: {n} row(s) of the base are not in the new run" in lost.text()
 
 
-def _repair_rows(override: dict | None = None) -> list[dict]:
-    """Repair rows of two methods on four colliding cases (no timing rounds)."""
+def _repair_rows(override: dict | None = None, cases: int = 4) -> list[dict]:
+    """Repair rows of two methods on `cases` colliding cases (no timing rounds)."""
     out = []
     for method in ("certified", "sampled"):
-        for case in range(4):
+        for case in range(cases):
             row = dict(
                 study="repair", scene="random", scheme="rational", bound="repair",
                 keyframes="random", tolerance=1e-3, clearance=0.01, case_id="r0",
@@ -476,3 +476,18 @@ def test_a_reader_that_closes_the_pipe_gets_no_error_message(tmp_path):
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 141 and proc.stderr == "", proc.stderr
+
+
+def test_a_repair_studys_methods_are_timed_apart(tmp_path):
+    # certified and sampled repairs were one timing group: the certified one 3x slower
+    # hid among the sampled one's unchanged rows
+    rows = lambda f: _repair_rows(  # noqa: E731
+        {("certified", c): {"seconds": 0.1 * f * (1 + 0.01 * c)} for c in range(6)}
+        | {("sampled", c): {"seconds": 0.4 * (1 + 0.01 * c)} for c in range(6)},
+        cases=6,
+    )
+    base = _run(tmp_path / "base", rows(1.0))
+    res = compare(base, _run(tmp_path / "new", rows(3.0)), timer="wall")
+    text = res.text()
+    assert "repair/rational/repair/certified" in text and "repair/rational/repair/sampled" in text
+    assert res.exit_code == 1 and any("certified" in r for r in res.regressions), text

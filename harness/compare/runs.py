@@ -203,8 +203,11 @@ def _count_groups(names: list[str], limit: int = 6) -> str:
 
 
 def _group_name(row: pd.Series) -> str:
+    keys = _GROUP + (("method",) if row.get("study") == "repair" else ())
+    # (a repair study's two methods, certified and sampled, are timed apart: pooled, a
+    # slowdown of one was hidden by the other)
     parts = [
-        str(row.get(k)) for k in _GROUP if k in row and str(row.get(k)) not in ("", "None", "nan")
+        str(row.get(k)) for k in keys if k in row and str(row.get(k)) not in ("", "None", "nan")
     ]
     return "/".join(parts)
 
