@@ -260,18 +260,20 @@ def _fraction(text: str, option: str, most: float, below: bool = False) -> float
     """A fraction in [0, `most`] (in [0, `most`) if `below`) given as "15%" or "0.15".
     Beyond, a gate that could never fail: most likely a percentage without its sign ("75"
     is 7500 %); an unknown rate rises by 100 % at most, so a threshold of 100 % on it too."""
+    from harness.compare._common import _clip
+
     t = text.strip()
     try:
         value = float(t[:-1]) / 100 if t.endswith("%") else float(t)
     except ValueError:
         value = float("nan")
     if not np.isfinite(value) or value < 0:
-        raise UsageError(f"Expected `{option}` >= 0, like 15% or 0.15, got {_arg(text)}.")
+        raise UsageError(f"Expected `{option}` >= 0, like 15% or 0.15, got {_clip(text)}.")
     if value > most or (below and value == most):
         hint = f" (for {t} %, write {t}%)" if not t.endswith("%") else ""
         raise UsageError(
             f"Expected `{option}` {'below' if below else 'at most'} {most:.0%} (a fraction like"
-            f" 0.15, or 15%), got {_arg(text)}, {value:.0%}: a gate that never fails{hint}."
+            f" 0.15, or 15%), got {_clip(text)}, {value:.0%}: a gate that never fails{hint}."
         )
     return value
 
@@ -279,20 +281,17 @@ def _fraction(text: str, option: str, most: float, below: bool = False) -> float
 def _whole(text: str, option: str, what: str) -> int:
     """A whole number >= 0 given as text ("2"), or a UsageError naming `option` and `what`
     it counts ("1.5" was argparse's "invalid int value")."""
+    from harness.compare._common import _clip
+
     try:
         value = int(text.strip())
     except ValueError:  # not an integer, or one of more than 4300 digits
         value = -1
     if value < 0:
         raise UsageError(
-            f"Expected `{option}` to be a whole number >= 0 ({what}), got {_arg(text)}."
+            f"Expected `{option}` to be a whole number >= 0 ({what}), got {_clip(text)}."
         )
     return value
-
-
-def _arg(text: str) -> str:
-    """A command-line value quoted for a one-line message, clipped to 60 characters."""
-    return repr(text) if len(text) <= 60 else repr(text[:57]) + "..."
 
 
 def _compare(args) -> int:
@@ -389,15 +388,6 @@ class _Parser(argparse.ArgumentParser):
     abbreviation argparse accepts for it), they are read as ``OPTION=VALUE``, so that the
     option's own check answers."""
 
-    def __init__(self, *args, **kwargs):
-        self.long_options: list[str] = []  # every "--name" of the parser, for abbreviations
-        super().__init__(*args, **kwargs)
-
-    def add_argument(self, *args, **kwargs):
-        action = super().add_argument(*args, **kwargs)
-        self.long_options += [s for s in action.option_strings if s.startswith("--")]
-        return action
-
     def parse_known_args(self, args=None, namespace=None):
         if self.signed and args is not None:  # a subcommand's parser gets its args as a list
             args = self._attach_signed_values(list(args))
@@ -425,9 +415,10 @@ class _Parser(argparse.ArgumentParser):
             return True
         if not (self.allow_abbrev and arg.startswith("--") and "=" not in arg):
             return False
-        if arg in self.long_options:  # another option, spelt out
+        # (argparse's own table of the option strings: the abbreviations it accepts)
+        if arg in self._option_string_actions:  # another option, spelt out
             return False
-        named = [o for o in self.long_options if o.startswith(arg)]
+        named = [o for o in self._option_string_actions if o.startswith(arg)]
         return len(named) == 1 and named[0] in self.signed
 
     def error(self, message: str):

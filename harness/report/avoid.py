@@ -75,22 +75,26 @@ def _example(rep: pd.DataFrame):
     )
 
 
+def _values(rep: pd.DataFrame, col: str) -> list:
+    """The distinct values of column `col` of the rows, sorted (none: runs before rows
+    kept it)."""
+    return sorted(set(rep[col].dropna())) if col in rep else []
+
+
 def _samples(rep: pd.DataFrame) -> dict:
-    """The sampled repair's ``samples`` of the rows (runs before rows kept it: default)."""
-    s = rep["samples"].dropna().unique() if "samples" in rep else ()
+    """The sampled repair's ``samples`` of the rows (several, or none: its default)."""
+    s = _values(rep, "samples")
     return {"samples": int(s[0])} if len(s) == 1 else {}
 
 
 def grid_text(rep: pd.DataFrame) -> str:
     """The sampled repair's grid, as the rows say ("its 256-sample grid")."""
-    s = sorted({int(x) for x in rep["samples"].dropna()}) if "samples" in rep else []
-    if not s:
-        return "its sample grid"
-    return f"its {'/'.join(map(str, s))}-sample grid"
+    s = _values(rep, "samples")
+    return f"its {'/'.join(str(int(x)) for x in s)}-sample grid" if s else "its sample grid"
 
 
 def _resolution_text(rep: pd.DataFrame) -> str:
-    r = sorted(set(rep["truth_resolution"].dropna())) if "truth_resolution" in rep else []
+    r = _values(rep, "truth_resolution")
     return " or ".join(f"{x * 1e3:g} mm" for x in r) if r else "the study's truth_resolution"
 
 
