@@ -290,3 +290,36 @@ def test_unwritable_output_and_foreign_folder(tiny, tmp_path):
         run_suite(load_suite(other), out, progress=False)
     r = rsmbench("run", str(tiny), "--out", str(out), "--seed", "9", "--quiet", check=False)
     assert r.returncode == 2 and "belongs to suite" in r.stderr
+
+
+def test_a_run_that_fails_before_its_first_case_leaves_no_folder(tiny, tmp_path, monkeypatch):
+    """An unreachable scheduler (20 s to time out, so here a stand-in error at the same
+    point) left meta.json and suite.toml, and the next run "resumed" a run that never
+    started. A run failing before it journals a case removes what it created; a folder
+    of a run already started keeps everything."""
+    from harness.run import orchestrate
+    from harness.run.journal import RunError
+
+    def no_cluster(*a, **k):
+        raise RunError("Cannot reach the Dask scheduler 'tcp://127.0.0.1:9'")
+        yield
+
+    monkeypatch.setattr(orchestrate, "_execute", no_cluster)
+    out = tmp_path / "new" / "run"
+    with pytest.raises(RunError, match="Cannot reach"):
+        run_suite(load_suite(tiny), out, progress=False)
+    assert not out.exists() and (tmp_path / "new").exists()
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("the user's")
+    with pytest.raises(RunError):
+        run_suite(load_suite(tiny), mine, progress=False)
+    assert sorted(p.name for p in mine.iterdir()) == ["notes.txt"]
+    monkeypatch.undo()
+    started = tmp_path / "started"
+    run_suite(load_suite(tiny), started, progress=False)
+    before = sorted(p.name for p in started.iterdir())
+    monkeypatch.setattr(orchestrate, "_execute", no_cluster)
+    with pytest.raises(RunError):
+        run_suite(load_suite(tiny), started, progress=False)
+    assert sorted(p.name for p in started.iterdir()) == before

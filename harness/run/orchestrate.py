@@ -134,14 +134,44 @@ def run_suite(
     out = Path(out)
     if scheduler is not None:
         scheduler_target(scheduler)
+    ours = _unstarted_files(out)  # what a failure before the first case removes
     check_writable(out)
-    with OutputLock(out) as lock:
-        df = _run_locked(suite, out, seed, jobs, scheduler, progress, lock)
-        if report:
-            from ..report import write_report
+    try:
+        with OutputLock(out) as lock:
+            df = _run_locked(suite, out, seed, jobs, scheduler, progress, lock)
+            if report:
+                from ..report import write_report
 
-            write_report(out, lock=False)
-        return df
+                write_report(out, lock=False)
+            return df
+    except RunInterrupted:
+        raise
+    except Exception:
+        _discard_unstarted(out, ours)
+        raise
+
+
+def _unstarted_files(out: Path) -> list[Path]:
+    """The paths a run into `out` creates that do not exist yet (the folder itself last),
+    or none when `out` holds a run already (its meta.json): a resume keeps everything."""
+    if (out / "meta.json").exists():
+        return []
+    made = [out / "meta.json", out / "suite.toml", out / ".lock", Journal(out).path, out]
+    return [p for p in made if not p.exists()]
+
+
+def _discard_unstarted(out: Path, ours: list[Path]) -> None:
+    """Remove what a run that failed before it journalled a case created (an unreachable
+    scheduler, a cluster without workers): its meta.json and suite.toml alone made the
+    next run into the folder a "resume" of a run that never started."""
+    rows = Journal(out).path
+    if rows.exists() and rows.stat().st_size > 0:
+        return
+    for p in ours:
+        try:
+            p.rmdir() if p == out else p.unlink(missing_ok=True)
+        except OSError:  # a folder holding something else: not only ours
+            pass
 
 
 def _run_locked(
