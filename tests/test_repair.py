@@ -9,6 +9,9 @@ comparison with the sampling-based repair is the `repair` study (README).
 
 from __future__ import annotations
 
+import math
+import re
+
 import numpy as np
 import pytest
 
@@ -163,6 +166,28 @@ def test_bad_input():
         repair(rebuilt, body, obst)
     with pytest.raises(TypeError, match="`motion`"):
         repair("motion", body, obst)
+
+
+@pytest.mark.parametrize(
+    ("kw", "err", "words"),
+    [
+        ({"samples": 1}, RepairError, "`samples` to be an integer in [2, 1,000,000], got 1"),
+        ({"samples": 10**10}, RepairError, "`samples` to be an integer in [2,"),
+        ({"samples": 2.5}, TypeError, "`samples` to be an integer, got 2.5"),
+        ({"clearance": math.nan}, RepairError, "`clearance` >= 0"),
+        ({"clearance": "1 mm"}, TypeError, "`clearance`"),
+        ({"margin": -1e-3}, RepairError, "`margin` >= 0"),
+        ({"margin": math.inf}, RepairError, "`margin` >= 0"),
+        ({"max_iterations": -1}, RepairError, "`max_iterations` to be an integer >= 0"),
+        ({"max_iterations": 1.5}, TypeError, "`max_iterations` to be an integer"),
+    ],
+)
+def test_sampled_repair_bad_input(kw, err, words):
+    """Each bad argument is named (these went to numpy: "cannot reshape array of size 0",
+    a 74.5 GiB allocation, NaN positions; a negative count returned a result)."""
+    case = colliding_cases(1, seed=3)[0]
+    with pytest.raises(err, match=re.escape(words)):
+        sampled_repair(case.motion, case.body, case.obstacles, **kw)
 
 
 def test_least_distance_programme():

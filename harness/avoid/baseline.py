@@ -10,6 +10,7 @@ keyframe changes the rotation spline too.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -18,14 +19,19 @@ import numpy as np
 
 import motions
 from motions import RationalMotion
+from motions._checks import short
 
 from ..shapes import Shape, as_obstacles, as_shape
 from .distance import DistanceModel
+from .repair import RepairError, _number
 
 __all__ = ["SampledRepair", "sampled_repair"]
 
 MIN_KEY_GAP = 1e-3
 """Smallest distance (fraction of the domain) between a via-keyframe and a keyframe."""
+MAX_SAMPLES = 1_000_000
+"""Largest grid: its poses and their distances to every obstacle part are arrays held at
+once (a million poses of a 10-part body among 10 obstacle parts: ~2 GB)."""
 
 
 @dataclass(frozen=True)
@@ -66,15 +72,22 @@ def sampled_repair(
         motion: a motion built by ``motions.interpolate``.
         body, obstacles: as for :func:`harness.certify`.
         clearance: distance the samples must keep.
-        samples: grid size over the domain.
-        margin: extra push beyond the missing distance.
-        max_iterations: via-keyframes before giving up.
+        samples: grid size over the domain, in [2, MAX_SAMPLES].
+        margin: extra push beyond the missing distance (>= 0).
+        max_iterations: via-keyframes before giving up (>= 0).
+
+    Raises:
+        TypeError: an argument of the wrong type, or a motion without keyframes.
+        RepairError: a number out of its range (named, with what was expected).
     """
     start = time.perf_counter()
     if not isinstance(motion, RationalMotion) or motion.recipe is None:
         raise TypeError(
             "Expected `motion` to be built by motions.interpolate (it needs keyframes)."
         )
+    samples = _count(samples, "samples", 2, MAX_SAMPLES)
+    max_iterations = _count(max_iterations, "max_iterations", 0, None)
+    clearance, margin = _length(clearance, "clearance"), _length(margin, "margin")
     body = as_shape(body)
     obst = as_obstacles(obstacles)
     rec = motion.recipe
@@ -115,3 +128,19 @@ def sampled_repair(
         except motions.MotionError:
             return SampledRepair(current, False, it + 1, time.perf_counter() - start, "degenerate")
     return SampledRepair(current, False, max_iterations, time.perf_counter() - start, "iterations")
+
+
+def _count(x: Any, name: str, lo: int, hi: int | None) -> int:
+    if isinstance(x, bool) or not isinstance(x, int | np.integer):
+        raise TypeError(f"Expected `{name}` to be an integer, got {short(x)}.")
+    if x < lo or (hi is not None and x > hi):
+        rng = f">= {lo}" if hi is None else f"in [{lo}, {hi:,}]"
+        raise RepairError(f"Expected `{name}` to be an integer {rng}, got {short(x)}.")
+    return int(x)
+
+
+def _length(x: Any, name: str) -> float:
+    v = _number(x, name)
+    if not math.isfinite(v) or v < 0:
+        raise RepairError(f"Expected `{name}` >= 0 (a finite length), got {short(x)}.")
+    return v

@@ -16,6 +16,7 @@ import motions
 
 from ...certification import ENGINE_BOUNDS as BOUNDS
 from ...certification import certify_many
+from ...certification.api import MAX_SAMPLES
 from ...timing import repeat
 from ..fields import choice, integer, names, number, numbers, scene_names
 from .context import (
@@ -63,7 +64,9 @@ def parse(st: dict, file: Path, where: str) -> dict:
     # certify_many takes any depth >= 0; past 60 the pieces are below float64 resolution
     out["max_depth"] = integer(st.get("max_depth", 24), file, key("max_depth"), lo=0, hi=60)
     samples = st.get("samples")
-    out["samples"] = None if samples is None else integer(samples, file, key("samples"), lo=2)
+    out["samples"] = (
+        None if samples is None else integer(samples, file, key("samples"), lo=2, hi=MAX_SAMPLES)
+    )
     out["repeats"] = integer(st.get("repeats", 1), file, key("repeats"), lo=1, hi=1000)
     out["truth_resolution"] = number(
         st.get("truth_resolution", 1e-3), file, key("truth_resolution")

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ...avoid.baseline import MAX_SAMPLES as SAMPLED_REPAIR_MAX
 from ..fields import integer, need, number, numbers
 from .context import Context
 
@@ -37,7 +38,9 @@ def parse(st: dict, file: Path, where: str) -> dict:
         "seed": integer(st.get("seed", 0), file, key("seed"), lo=0),
         "clearances": clearances,
         "tolerance": number(st.get("tolerance", 1e-3), file, key("tolerance")),
-        "samples": integer(st.get("samples", 256), file, key("samples"), lo=2),
+        "samples": integer(
+            st.get("samples", 256), file, key("samples"), lo=2, hi=SAMPLED_REPAIR_MAX
+        ),
         "truth_resolution": number(st.get("truth_resolution", 1e-3), file, key("truth_resolution")),
     }
 
