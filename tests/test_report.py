@@ -799,3 +799,27 @@ def test_a_run_of_repairs_alone_has_no_filmstrip_of_the_cube_scene(tmp_path, mon
 def test_a_run_with_scenes_keeps_its_filmstrip(written):
     md, _, _ = written
     assert "Filmstrip" in md.read_text() or "(No filmstrip:" in md.read_text()
+
+
+def test_studies_that_differ_only_in_a_setting_are_told_apart(written):
+    """Two [[study]] entries sweeping max_depth had rows of one identity, and the report's
+    tables pooled them without a word. Rows carry `study_index`: the report says which
+    studies pool and labels their methods in the accuracy tables; other studies' rows,
+    and runs written before the column, keep their plain labels."""
+    from harness.report import pooled_studies
+    from harness.report.data import method_labels
+
+    df = pd.DataFrame(synthetic_rows())
+    assert pooled_studies(df) == []  # (no study_index: an older run)
+    assert "Pooled" not in written[0].read_text()
+    df["study_index"] = 0
+    slot = df[(df["study"] == "certify") & (df["scene"] == "slot")]
+    swept = slot.assign(study_index=1, nodes=slot["nodes"] * 2)
+    other = df[df["study"] == "workload"].assign(study_index=2, tolerance=5e-2)
+    both = pd.concat([df, swept, other], ignore_index=True)
+    assert pooled_studies(both) == ["study[0] and study[1] (certify)"]
+    labels = method_labels(both)
+    pooled = both["study"].eq("certify") & both["scene"].eq("slot")
+    assert labels[pooled & both["study_index"].eq(1)].str.endswith(" (study[1])").all()
+    assert labels[pooled & both["study_index"].eq(0)].str.endswith(" (study[0])").all()
+    assert not labels[~pooled].str.contains("study").any()

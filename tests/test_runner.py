@@ -86,6 +86,14 @@ def test_smoke_suite_end_to_end(smoke_run):
     assert set(cert["bound"]) == {"hull", "aabb", "lipschitz", "sampled"}
     assert not (cert["false_negative"] & cert["certified"].fillna(False).astype(bool)).any()
     assert set(df["study"]) == {"certify", "workload", "scaling", "simulate", "startup"}
+    # every row says which [[study]] of the file it came from
+    kinds = {i: set(g) for i, g in df.groupby("study_index")["study"]}
+    assert kinds == {
+        0: {"startup", "certify"},
+        1: {"startup", "workload"},
+        2: {"scaling"},
+        3: {"simulate"},
+    }
     meta = json.loads((smoke_run / "meta.json").read_text())
     for key in ("suite_hash", "versions", "cpu", "git_revision", "seed"):
         assert key in meta

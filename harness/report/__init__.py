@@ -31,7 +31,7 @@ from ..errors import HarnessError
 from ..run.journal import OutputLock, atomic_json
 from .avoid import repair_section
 from .corpus import corpus_section
-from .data import format_headline, headline, scaling_slopes
+from .data import format_headline, headline, pooled_counts, scaling_slopes
 from .document import Document, latex_table, pyplot
 from .sections import (
     cache_text,
@@ -201,6 +201,22 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
     return dest / "report.md"
 
 
+def pooled_studies(df: pd.DataFrame) -> list[str]:
+    """'study[1] and study[2] (certify)' for each set of [[study]] entries whose rows share
+    their identity columns (a sweep of a setting that is not a column): the report's
+    tables group by those columns and would pool them. Runs written before rows carried
+    ``study_index`` have nothing to tell."""
+    n = pooled_counts(df)
+    shared = df[n > 1]
+    out = []
+    for kind, g in shared.groupby("study", sort=True):
+        if kind == "startup":  # (a first call per study and bound: rows of their own)
+            continue
+        ids = sorted({int(i) for i in g["study_index"].dropna()})
+        out.append(" and ".join(f"study[{i}]" for i in ids) + f" ({kind})")
+    return out
+
+
 def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
     plt = pyplot()
     doc = Document(dest)
@@ -212,6 +228,18 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
         + " (the chapter's §6.3 gives the affine control structure that the hull bound uses)."
     )
     how_to_read(doc)
+    pooled = pooled_studies(df)
+    if pooled:
+        doc.p(
+            "**Pooled studies.** "
+            + "; ".join(pooled)
+            + ": their rows have the same identity (scene, keyframes, scheme, bound, tolerance,"
+            " clearance, ...) and differ only in settings that are not columns (`max_depth`,"
+            " `max_nodes`, `samples`, `truth_resolution`, `rounds`). The certification"
+            " accuracy tables label their methods with the study; the other tables pool them."
+            " Tell them apart by the `study_index` column of results.parquet, or run them as"
+            " separate suites."
+        )
     rows = headline(df, meta)
     doc.h("Headline")
     if rows:

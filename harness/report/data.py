@@ -102,8 +102,31 @@ def timing_rows(df: pd.DataFrame) -> pd.DataFrame:
     return df[df["cpu_rounds"].notna()]
 
 
+IDENTITY = (
+    "study", "scene", "keyframes", "scheme", "bound", "tolerance", "repeat", "clearance",
+    "delta", "case", "pair", "method", "mode", "workload",
+)  # fmt: skip
+"""Columns that tell a row's case apart within its kind (those a run has)."""
+
+
+def pooled_counts(df: pd.DataFrame) -> pd.Series:
+    """Per row, how many [[study]] entries have rows of its identity (the IDENTITY
+    columns): above 1 where a sweep of a setting that is not a column would pool rows.
+    1 for runs written before rows carried ``study_index``."""
+    if "study_index" not in df or df["study_index"].nunique() < 2:
+        return pd.Series(1, index=df.index)
+    key = df[[c for c in IDENTITY if c in df]].map(str).agg("|".join, axis=1)
+    return df.groupby(key)["study_index"].transform("nunique")
+
+
 def method_labels(df: pd.DataFrame) -> pd.Series:
-    return column(df, "scheme", "").astype(str) + "/" + column(df, "bound", "").astype(str)
+    """'scheme/bound', with '(study[i])' where studies of one identity would pool."""
+    out = column(df, "scheme", "").astype(str) + "/" + column(df, "bound", "").astype(str)
+    pooled = pooled_counts(df) > 1
+    if pooled.any():
+        idx = df["study_index"].astype("Int64").astype(str)
+        out = out.where(~pooled, out + " (study[" + idx + "])")
+    return out
 
 
 def rates(g: pd.DataFrame, label_ok: pd.Series | None = None) -> dict[str, Any]:

@@ -365,6 +365,7 @@ def _tag(case: dict, rows: list[dict], where: str) -> list[dict]:
     host = socket.gethostname()
     for r in rows:  # memory is measured per case by run_case
         r["case_id"] = case["case_id"]
+        r["study_index"] = case["block"]  # which [[study]] of the file (study[i] in errors)
         r["host"] = host
         r["worker"] = where
     return rows
