@@ -99,6 +99,10 @@ def test_smoke_suite_end_to_end(smoke_run):
         assert key in meta
     md = (smoke_run / "report.md").read_text()
     assert md.startswith("# rsmbench report") and "## Certification accuracy" in md
+    # the suite's one-line description reaches its readers (it was parsed, then dropped)
+    said = load_suite("smoke").description
+    assert meta["description"] == said and f"Suite description: {said}" in md
+    assert "Pooled studies:" not in md  # (its studies are of different kinds)
     pngs = list((smoke_run / "figures").glob("*.png"))
     assert len(pngs) >= 5
     for png in pngs:

@@ -221,6 +221,8 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
     plt = pyplot()
     doc = Document(dest)
     doc.h(f"rsmbench report: suite {meta.get('suite', '?')}", 1)
+    if isinstance(meta.get("description"), str) and meta["description"].strip():
+        doc.p(f"Suite description: {meta['description'].strip()}")
     doc.p(machine_text(meta, len(df)) + cache_text(df))
     doc.p(
         "Rational spline motions after "
@@ -231,7 +233,7 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
     pooled = pooled_studies(df)
     if pooled:
         doc.p(
-            "**Pooled studies.** "
+            "Pooled studies: "
             + "; ".join(pooled)
             + ": their rows have the same identity (scene, keyframes, scheme, bound, tolerance,"
             " clearance, ...) and differ only in settings that are not columns (`max_depth`,"

@@ -265,6 +265,7 @@ def _start_meta(
     if old is None:
         meta = {
             "suite": suite.name,
+            "description": suite.description,
             "suite_hash": suite.digest,
             "seed": seed,
             "cases": cases,
