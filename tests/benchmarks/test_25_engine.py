@@ -350,6 +350,49 @@ def test_kernel_time_per_evaluation(benchmark, workload):
     benchmark.pedantic(lambda: None, rounds=1, iterations=1)
 
 
+def test_kernel_parts(benchmark, workload):
+    """Where the kernel's time goes: each numerical part timed alone (``kernel_parts``: hot
+    caches, learnt branches, so lower bounds), times how often the workload runs it, against
+    the whole kernel's CPU time. The remainder is the glue: the stack's loads and stores,
+    branches, the piece images and the broad phase. Halvings are at most nodes / 2 (each
+    split makes two nodes), so the sum is an upper estimate of the parts' share there."""
+    from harness.certification.refine import refine_many
+    from tests.benchmarks.kernel_parts import part_times
+
+    w = workload
+    out, _ = refine_many(
+        w.motions, w.bodies, w.obstacles, aabb=False, tol=TOL, max_depth=24,
+        max_nodes=200_000, max_iter=32, threads=1, device="cpu",
+    )  # fmt: skip
+    cmd = list(buffers("cpu", "refine")._launches.values())[-1].cmds[0]
+    parts = part_times()
+    times = []
+    for _ in range(ROUNDS):
+        c = time.process_time()
+        cmd.launch()
+        times.append(time.process_time() - c)
+    kernel = float(np.median(times))
+    nodes, tests, supports = int(out.nodes.sum()), int(out.tests.sum()), int(out.supports.sum())
+    use = {
+        "prepare": nodes * parts["prepare_ns"],
+        "supports": supports * parts["support_ns"],
+        "halvings (at most)": nodes / 2 * parts["halve_ns"],
+        "pose tests": tests * (parts["prepare_pose_ns"] + parts["gjk_pose_ns"]),
+    }
+    total = sum(use.values()) * 1e-9
+    info = {
+        "parts_ns": parts,
+        "parts_ms_in_workload": {k: v * 1e-6 for k, v in use.items()},
+        "kernel_ms": kernel * 1e3,
+        "parts_share_of_kernel": total / kernel,
+        "parts_ns_per_evaluation": total / (nodes + tests) * 1e9,
+        "kernel_ns_per_evaluation": kernel / (nodes + tests) * 1e9,
+    }
+    benchmark.extra_info.update(info)
+    print("\n" + json.dumps(info, indent=1))
+    benchmark.pedantic(lambda: None, rounds=1, iterations=1)
+
+
 _BATCH_SCRIPT = """
 import pickle, resource, sys, time, numpy as np, harness, motions
 w = pickle.loads(open(sys.argv[1], 'rb').read())
