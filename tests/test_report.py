@@ -823,3 +823,28 @@ def test_studies_that_differ_only_in_a_setting_are_told_apart(written):
     assert labels[pooled & both["study_index"].eq(1)].str.endswith(" (study[1])").all()
     assert labels[pooled & both["study_index"].eq(0)].str.endswith(" (study[0])").all()
     assert not labels[~pooled].str.contains("study").any()
+
+
+def test_two_workload_tolerances_are_not_pooled():
+    """Two workload studies of the same pairs at 1 mm and 10 mm were reported as one of
+    twice the pairs ("unknown 72/120" for 60 pairs), their verdicts mixed: the headline
+    and the section keep each (workload, tolerance) apart, with its own denominators."""
+    from harness.report.data import workload_groups
+
+    df = pd.DataFrame(synthetic_rows())
+    wl = df[df["study"] == "workload"]
+    loose = wl.assign(tolerance=1e-2, verdict="unknown")  # every pair unknown at 10 mm
+    both = pd.concat([df, loose], ignore_index=True)
+    lines = [r for r in headline(both) if r["figure"].startswith("workload verdicts of hull")]
+    n = int(((wl["mode"] == "pair") & (wl["bound"] == "hull")).sum())
+    assert [r["figure"] for r in lines] == [
+        "workload verdicts of hull (workload-0 at tolerance 1 mm)",
+        "workload verdicts of hull (workload-0 at tolerance 10 mm)",
+    ]
+    assert lines[0]["value"].endswith(f"unknown 0/{n}")
+    assert lines[1]["value"].endswith(f"unknown {n}/{n}")
+    groups = workload_groups(both[(both["study"] == "workload") & (both["mode"] == "pair")])
+    assert [k for k, _ in groups] == [("workload-0", 1e-3), ("workload-0", 1e-2)]
+    # one workload: the lines keep their plain names
+    plain = [r["figure"] for r in headline(df) if r["figure"].startswith("workload verdicts")]
+    assert "workload verdicts of hull" in plain

@@ -195,17 +195,20 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
                 )
             )
     wl = study_rows(df, "workload")
-    pairs = wl[column(wl, "mode", "") == "pair"]
-    for method, g in pairs.groupby("bound", sort=True):
-        r = rates(g, column(g, "label", "") == "proven")
-        out.append(
-            dict(
-                figure=f"workload verdicts of {method}",
-                value=f"false free {r['false free']}/{r['of truth collision']}, false collision {r['false collision']}/{r['of truth free']}, unknown {r['unknown']}/{r['ran']}",
-                spread="exact counts",
-                basis=f"every pair of the workload; false verdicts counted against proven labels only ({r['truth not proven']} pairs whose label is not proven not counted)",
+    groups = workload_groups(wl[column(wl, "mode", "") == "pair"])
+    for (name, tol), pairs in groups:
+        at = f"{name} at tolerance {tol * 1e3:g} mm" if math.isfinite(tol) else name
+        which = f" ({at})" if len(groups) > 1 else ""
+        for method, g in pairs.groupby("bound", sort=True):
+            r = rates(g, column(g, "label", "") == "proven")
+            out.append(
+                dict(
+                    figure=f"workload verdicts of {method}{which}",
+                    value=f"false free {r['false free']}/{r['of truth collision']}, false collision {r['false collision']}/{r['of truth free']}, unknown {r['unknown']}/{r['ran']}",
+                    spread="exact counts",
+                    basis=f"every pair of {at}; false verdicts counted against proven labels only ({r['truth not proven']} pairs whose label is not proven not counted)",
+                )
             )
-        )
     out += _workload_headline(df, meta)
     out += _corpus_headline(df)
     out += _repair_headline(df)
@@ -269,6 +272,18 @@ def _corpus_headline(df: pd.DataFrame) -> list[dict[str, str]]:
             )
         )
     return out
+
+
+def workload_groups(rows: pd.DataFrame) -> list[tuple[tuple[str, float], pd.DataFrame]]:
+    """Workload rows per (workload, tolerance), in order of appearance: a suite with two
+    workload studies (two tolerances of the same pairs, say) must not count its pairs
+    twice or mix the tolerances' verdicts."""
+    if not len(rows) or "keyframes" not in rows or "tolerance" not in rows:
+        return [(("workload", math.nan), rows)] if len(rows) else []
+    return [
+        ((str(name), float(tol)), g)
+        for (name, tol), g in rows.groupby(["keyframes", "tolerance"], sort=False, dropna=False)
+    ]
 
 
 def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:

@@ -22,6 +22,7 @@ from .data import (
     series_basis,
     study_rows,
     workload_costs,
+    workload_groups,
 )
 from .document import Document, cell
 
@@ -281,6 +282,28 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
         column(wl, "mode", "pair").astype(str).isin(["pair", ""]) | column(wl, "mode").isna()
     ]
     pairs = pairs[column(pairs, "pair").notna()]
+    groups = workload_groups(pairs)
+    for (name, tol), g in groups:
+        if len(groups) > 1:  # (each workload and tolerance apart: the same pairs twice)
+            doc.h(f"{name} at tolerance {tol * 1e3:g} mm", 3)
+        _workload_pairs(doc, g, plt)
+    costs = workload_costs(wl)
+    if len(costs):
+        table = costs.drop(columns=["_cpu"])
+        table["tolerance"] = table["tolerance"] * 1e3
+        doc.table(
+            table.rename(columns={"tolerance": "tolerance (mm)"}),
+            "Cost per pair: medians over rounds of the whole set of pairs (batch: one certify_many call; single: one call per pair), divided by the number of pairs; every method on the same pairs.",
+            "workload_cost",
+        )
+        _cost_figure(doc, costs, plt)
+    elif "batch_seconds" in wl:
+        doc.p("(This run predates repeated rounds: no cost table. Rerun the suite.)")
+
+
+def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt) -> None:
+    """The verdicts and the hull's cost against clearance on the pairs of one workload at
+    one tolerance."""
     if len(pairs):
         lab = column(pairs, "label", "measured").astype(str)
         first = pairs[pairs["bound"] == pairs["bound"].iloc[0]]
@@ -323,16 +346,6 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
             label_ok=ok,
             what="per method on the workload (truth: proven labels only)",
         )
-    costs = workload_costs(wl)
-    if len(costs):
-        doc.table(
-            costs.drop(columns=["_cpu"]),
-            "Cost per pair: medians over rounds of the whole set of pairs (batch: one certify_many call; single: one call per pair), divided by the number of pairs; every method on the same pairs.",
-            "workload_cost",
-        )
-        _cost_figure(doc, costs, plt)
-    elif "batch_seconds" in wl:
-        doc.p("(This run predates repeated rounds: no cost table. Rerun the suite.)")
     hull = (
         pairs[(pairs["bound"] == "hull") & (numeric(pairs, "clearance") > 0)]
         if len(pairs)
@@ -354,8 +367,10 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
 
 
 def _cost_figure(doc: Document, costs: pd.DataFrame, plt) -> None:
+    several = costs[["workload", "tolerance"]].drop_duplicates().shape[0] > 1
     labels = [
-        f"{r.method}\n{r.mode}"
+        (f"{r.tolerance * 1e3:g} mm\n" if several else "")
+        + f"{r.method}\n{r.mode}"
         + ("\n(external)" if str(r.implementation).startswith(EXTERNAL_PREFIX) else "")
         + f"\nn={r.rounds} rounds\n{r.pairs} pairs"
         for r in costs.itertuples()
