@@ -86,6 +86,10 @@ def test_smoke_suite_end_to_end(smoke_run):
     assert set(cert["bound"]) == {"hull", "aabb", "lipschitz", "sampled"}
     assert not (cert["false_negative"] & cert["certified"].fillna(False).astype(bool)).any()
     assert set(df["study"]) == {"certify", "workload", "scaling", "simulate", "startup"}
+    # certify rows say how they were certified (a depth sweep's rows were alike)
+    st = load_suite("smoke").studies[0]
+    assert (cert["max_depth"] == st["max_depth"]).all()
+    assert (cert["max_nodes"] == st["max_nodes"]).all()
     # every row says which [[study]] of the file it came from
     kinds = {i: set(g) for i, g in df.groupby("study_index")["study"]}
     assert kinds == {

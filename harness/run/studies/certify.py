@@ -114,6 +114,10 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
         for k in ("study", "scene", "keyframes", "scheme", "bound", "tolerance", "repeat")
     }
     row["seed"] = ctx.seed
+    # the study's settings that are not identity columns: a row says how it was certified
+    row["max_depth"], row["max_nodes"] = st["max_depth"], st["max_nodes"]
+    if bound == "sampled" and st["samples"] is not None:
+        row["samples"] = st["samples"]
     try:
         m = ctx.motion(scene, kf, scheme)
     except motions.MotionError as e:
