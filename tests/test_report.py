@@ -848,3 +848,19 @@ def test_two_workload_tolerances_are_not_pooled():
     # one workload: the lines keep their plain names
     plain = [r["figure"] for r in headline(df) if r["figure"].startswith("workload verdicts")]
     assert "workload verdicts of hull" in plain
+
+
+def test_latex_tables_are_ascii(written):
+    """`corpus_fcl_hazards.tex` failed to compile ("Unicode character Δ"): every table's
+    LaTeX is ASCII, its symbols as LaTeX commands."""
+    from harness.report.document import latex_table
+
+    _, run, _ = written
+    texs = list((run / "tables").glob("*.tex"))
+    assert texs
+    for tex in texs:
+        assert tex.read_text().isascii(), tex.name
+    t = latex_table(pd.DataFrame({"Δt (µs)": ["1.5·10⁻³ … λ"]}), "ω ≥ 2°, Α")
+    assert t.isascii()
+    assert r"$\Delta$t ($\mu$s)" in t and r"1.5$\cdot$10$^{-}$$^{3}$ \ldots{} $\lambda$" in t
+    assert r"\caption{$\omega$ $\geq$ 2$^\circ$, [U+0391]}" in t

@@ -7,6 +7,7 @@ import base64
 import html
 import math
 import re
+import unicodedata
 from pathlib import Path
 from typing import Any
 
@@ -76,11 +77,51 @@ _TEX = {
     "≥": r"$\geq$",
     "≤": r"$\leq$",
     "²": r"$^2$",
+    "·": r"$\cdot$",
+    "°": r"$^\circ$",
+    "…": r"\ldots{}",
+    "—": "---",
+    "−": "$-$",
+    "→": r"$\rightarrow$",
+    "≈": r"$\approx$",
 }
+_GREEK_CAPITALS = {
+    "GAMMA",
+    "DELTA",
+    "THETA",
+    "LAMBDA",
+    "XI",
+    "PI",
+    "SIGMA",
+    "UPSILON",
+    "PHI",
+    "PSI",
+    "OMEGA",
+}
+"""Capital Greek letters that LaTeX names (the others look like Latin ones)."""
+_SUPERSCRIPTS = dict(zip("⁰¹²³⁴⁵⁶⁷⁸⁹⁻", "0123456789-", strict=True))
 
 
 def _tex(s: str) -> str:
-    return "".join(_TEX.get(c, c) for c in s)
+    """`s` as LaTeX that compiles with any input encoding: specials escaped, every other
+    character ASCII (a Greek letter as its math command, a superscript digit raised, any
+    other character as its code point)."""
+    return "".join(_tex_char(c) for c in s)
+
+
+def _tex_char(c: str) -> str:
+    if c in _TEX:
+        return _TEX[c]
+    if c.isascii():
+        return c
+    if c in _SUPERSCRIPTS:
+        return f"$^{{{_SUPERSCRIPTS[c]}}}$"
+    name = unicodedata.name(c, "").replace("LAMDA", "LAMBDA").split()
+    if name[:2] == ["GREEK", "SMALL"] and len(name) == 4 and name[3] != "OMICRON":
+        return f"$\\{name[3].lower()}$"
+    if name[:2] == ["GREEK", "CAPITAL"] and len(name) == 4 and name[3] in _GREEK_CAPITALS:
+        return f"$\\{name[3].capitalize()}$"
+    return f"[U+{ord(c):04X}]"
 
 
 def latex_table(df: pd.DataFrame, caption: str) -> str:
