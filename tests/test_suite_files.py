@@ -135,6 +135,9 @@ def test_bad_run_arguments_exit_2_with_one_line(tmp_path, capsys):
         # a bad address printed a traceback from Client.__del__ and hung 40 s; a scheduler
         # file without an address raised AssertionError (a hunt)
         (["--scheduler", "foo://bar"], "address like tcp://host:8786"),
+        # a malformed host:port hung 40 s the same way (a new user's trial)
+        (["--scheduler", "garbage::"], "address like tcp://host:8786"),
+        (["--scheduler", "tcp://host:99999"], "address like tcp://host:8786"),
         (["--scheduler", str(f)], "address like tcp://host:8786"),
         (["--scheduler", str(empty_json)], "holds no `address`"),
         # a hunt: a seed beyond int64 ran every case, then failed inside pyarrow

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import signal
 import socket
 import sys
@@ -489,6 +490,9 @@ def _on_processes(
 
 _PROTOCOLS = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 """The address schemes of dask.distributed's communications."""
+_HOST_PORT_SCHEMES = ("tcp", "tls", "ws", "wss")
+_HOST_PORT = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[^:/\[\]\s]+)(:(?P<port>\d{1,5}))?")
+"""``host[:port]`` of those schemes: a name or IPv4 address, or an IPv6 one in brackets."""
 
 
 def scheduler_target(scheduler: str) -> dict:
@@ -520,7 +524,16 @@ def scheduler_target(scheduler: str) -> dict:
     scheme, sep, rest = scheduler.partition("://")
     if not sep:  # host:port: distributed's default scheme (tcp)
         scheme, rest = "tcp", scheduler if ":" in scheduler else ""
-    if scheme not in _PROTOCOLS or not rest or any(c.isspace() for c in rest):
+    host_port = _HOST_PORT.fullmatch(rest)
+    if (
+        scheme not in _PROTOCOLS
+        or not rest
+        or any(c.isspace() for c in rest)
+        # (a malformed host:port, such as "garbage::", hung 40 s in distributed, then a
+        # traceback from Client.__del__)
+        or (scheme in _HOST_PORT_SCHEMES and not host_port)
+        or (host_port and host_port["port"] and not 0 < int(host_port["port"]) < 65536)
+    ):
         raise RunError(
             f"Expected `scheduler` to be an address like tcp://host:8786 (schemes"
             f" {list(_PROTOCOLS)}) or a scheduler JSON file, got {scheduler!r}."
