@@ -339,3 +339,35 @@ def test_a_run_that_fails_before_its_first_case_leaves_no_folder(tiny, tmp_path,
     with pytest.raises(RunError):
         run_suite(load_suite(tiny), started, progress=False)
     assert sorted(p.name for p in started.iterdir()) == before
+
+
+STUCK = """
+import hashlib, sys
+from harness.run.orchestrate import _Stop
+with _Stop():
+    print("ready", flush=True)
+    hashlib.pbkdf2_hmac("sha256", b"x", b"y", 10**9)  # minutes in C, no signal checks
+print("finished", flush=True)
+"""
+
+
+def test_a_second_ctrl_c_stops_a_run_stuck_in_a_long_call():
+    """A kernel launch of 10^8 samples ran on through two Ctrl-C and a SIGTERM (Python
+    handles signals only between bytecodes): the second signal now ends the process
+    within a second or so, exit 130, saying the finished cases are kept."""
+    proc = subprocess.Popen(
+        [sys.executable, "-c", STUCK], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.3)
+        start = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=20)
+        took = time.monotonic() - start
+    finally:
+        proc.kill()
+    err = proc.stderr.read()
+    assert code == 130 and took < 10, (code, took, err)
+    assert "stopped now" in err and "finished" not in proc.stdout.read()

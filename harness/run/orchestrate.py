@@ -311,20 +311,47 @@ def _bar(progress: bool, suite: Suite, total: int, done: int):
 
 class _Stop:
     """Ctrl-C (SIGINT) asks the run to stop after the cases in progress; a second Ctrl-C
-    stops it at once (a case cut in the middle is not journalled and runs again)."""
+    (or SIGTERM) stops it at once (a case cut in the middle is not journalled and runs
+    again).
+
+    "At once" holds inside a long call into C too (a kernel launch of 10^8 samples ran for
+    minutes through two Ctrl-C and a SIGTERM): Python runs its signal handlers only
+    between bytecodes, so a watchdog thread reads the signals from the interpreter's
+    wakeup file descriptor, and when the main thread has not stopped within GRACE seconds
+    of the second one it ends the process (exit 130). Finished cases are journalled
+    already; a resume runs the rest."""
+
+    GRACE = 1.0
 
     def __init__(self):
         self.requested = False
         self._previous = None
+        self._wakeup: tuple[int, int] | None = None
+        self._old_fd = -1
+        self._done = threading.Event()
 
     def __enter__(self) -> _Stop:
         if threading.current_thread() is threading.main_thread():
             self._previous = signal.signal(signal.SIGINT, self._handle)
+            r, w = os.pipe()
+            os.set_blocking(w, False)
+            try:
+                self._old_fd = signal.set_wakeup_fd(w, warn_on_full_buffer=False)
+            except ValueError:  # (not the main interpreter)
+                os.close(r)
+                os.close(w)
+            else:
+                self._wakeup = (r, w)
+                threading.Thread(target=self._watch, args=(r,), daemon=True).start()
         return self
 
     def __exit__(self, *exc) -> None:
+        self._done.set()
         if self._previous is not None:
             signal.signal(signal.SIGINT, self._previous)
+        if self._wakeup is not None:
+            signal.set_wakeup_fd(self._old_fd)
+            os.close(self._wakeup[1])  # the watchdog's read ends: it returns
 
     def _handle(self, signum, frame) -> None:
         if self.requested:
@@ -335,6 +362,24 @@ class _Stop:
             2,
             b"\nrsmbench: stopping after the case(s) in progress; Ctrl-C again to stop now.\n",
         )
+
+    def _watch(self, r: int) -> None:
+        seen = 0
+        try:
+            while True:
+                got = os.read(r, 64)
+                if not got:  # the run left the block
+                    return
+                seen += sum(b in (signal.SIGINT, signal.SIGTERM) for b in got)
+                if seen >= 2 and not self._done.wait(self.GRACE):
+                    os.write(
+                        2,
+                        b"\nrsmbench: stopped now; the finished cases are journalled: run the"
+                        b" same command again to resume.\n",
+                    )
+                    os._exit(130)
+        finally:
+            os.close(r)
 
 
 # ----------------------------------------------------------------------------- executors
