@@ -216,8 +216,17 @@ def test_resume_after_sigkill(tiny, tmp_path):
     assert not (out / "results.parquet").exists()
     # the lock file still names the dead run; it does not block the resume
     assert f"pid {proc.pid} " in (out / ".lock").read_text()
+    last_write = journal.stat().st_mtime
     rsmbench("run", str(tiny), "--out", str(out), "--quiet")
     df = pd.read_parquet(out / "results.parquet")
+    # meta.json, saved every few seconds, said fewer cases and less time than the killed
+    # leg ran: the resume mends them from the journal
+    from datetime import datetime
+
+    killed = json.loads((out / "meta.json").read_text())["legs"][0]
+    assert killed["cases_done"] == done
+    ran = last_write - datetime.fromisoformat(killed["started"]).timestamp()
+    assert killed["wall_seconds"] >= ran - 1e-3
     assert df["case_id"].nunique() == expected
     assert not df.duplicated(["case_id"]).any()
     clean = tmp_path / "clean"

@@ -193,6 +193,8 @@ def _run_locked(
         )
     cases = expand(suite)
     journal = Journal(out)
+    # (read before load(), which truncates a line cut by a kill and so touches the file)
+    last_case = journal.path.stat().st_mtime if journal.path.exists() else None
     done = journal.load()
     for note in journal.notes:
         print(f"rsmbench: {note}", file=sys.stderr)
@@ -203,7 +205,7 @@ def _run_locked(
             f" {suite.digest}) does not have: the folder belongs to another suite. Use another"
             " --out folder."
         )
-    meta, leg = _start_meta(old, suite, seed, len(cases), len(done), jobs, scheduler)
+    meta, leg = _start_meta(old, suite, seed, len(cases), len(done), jobs, scheduler, last_case)
     meta_path = out / "meta.json"
     start = time.perf_counter()
 
@@ -250,7 +252,10 @@ def _start_meta(
     done: int,
     jobs: int,
     scheduler: str | None,
+    last_case: float | None = None,
 ) -> tuple[dict, dict]:
+    """meta.json's content for a run starting (`old` None) or resuming, and this run's
+    leg in it; `last_case` is when the journal was last written (a POSIX time)."""
     now = datetime.now(UTC).isoformat()
     leg = {
         "started": now,
@@ -287,8 +292,28 @@ def _start_meta(
             raise JournalError(
                 f"meta.json: key `legs`: expected a list of objects, got {short(legs)}."
             )
+        if legs:
+            _mend_killed_leg(legs[-1], done, last_case)
     meta["legs"].append(leg)
     return meta, leg
+
+
+def _mend_killed_leg(last: dict, done: int, last_case: float | None) -> None:
+    """A leg killed outright (SIGKILL, a power cut) saved meta.json last up to META_EVERY
+    seconds before it died: its `cases_done` and `wall_seconds` fall short (99 cases said,
+    114 journalled). The journal is the truth: the leg ran at least until its last case
+    was journalled (the journal's modification time)."""
+    before = last.get("cases_before", 0)
+    if isinstance(last.get("cases_done"), int) and last["cases_done"] < done:
+        last["cases_done"] = done
+        last["mended"] = "killed: cases_done and wall_seconds from the journal"
+        if last_case is not None and isinstance(last.get("started"), str) and done > before:
+            try:
+                start = datetime.fromisoformat(last["started"]).timestamp()
+            except ValueError:
+                return
+            wall = float(last.get("wall_seconds", 0.0) or 0.0)
+            last["wall_seconds"] = max(wall, last_case - start)
 
 
 class _NoBar:
