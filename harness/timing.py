@@ -449,6 +449,7 @@ def machine_info() -> dict[str, Any]:
         load = None
     device = os.environ.get("RSMBENCH_DEVICE", "cpu")
     threads = inspect.signature(harness.certify_many).parameters.get("threads")
+    modules = sorted(kernel_cache_entries() or [])  # (initialises Warp: its cache is set)
     cache = None
     with contextlib.suppress(Exception):
         import warp as wp
@@ -463,7 +464,7 @@ def machine_info() -> dict[str, Any]:
         "certify_threads": None if threads is None else threads.default,
         "load_average": load,
         "kernel_cache_dir": cache,
-        "kernel_cache_modules": sorted(kernel_cache_entries() or []),
+        "kernel_cache_modules": modules,
     }
 
 

@@ -104,6 +104,22 @@ def test_machine_info_names_the_machine():
     assert isinstance(info["kernel_cache_modules"], list)
 
 
+def test_machine_info_names_warps_kernel_cache_in_a_fresh_process():
+    """meta.json's `kernel_cache_dir` was always null: it was read before Warp started.
+    In a process that has not started Warp, it names the folder of the modules listed."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = "import json; from harness.timing import machine_info; print(json.dumps(machine_info()))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    info = json.loads(out.stdout.strip().splitlines()[-1])
+    folder = Path(info["kernel_cache_dir"])
+    assert folder.is_dir()
+    assert all((folder / name).exists() for name in info["kernel_cache_modules"])
+
+
 def test_rounds_run_without_the_garbage_collector_and_restore_it():
     """Like timeit: a collection's cost depends on the heap earlier code left, not on the
     timed function, so timed calls run with the collector off; the caller's setting comes
