@@ -864,3 +864,16 @@ def test_latex_tables_are_ascii(written):
     assert t.isascii()
     assert r"$\Delta$t ($\mu$s)" in t and r"1.5$\cdot$10$^{-}$$^{3}$ \ldots{} $\lambda$" in t
     assert r"\caption{$\omega$ $\geq$ 2$^\circ$, [U+0391]}" in t
+
+
+def test_a_suites_own_scene_is_named_by_its_file():
+    """A suite's MJCF scene put its absolute path in headings, and its table's file name
+    lost the tolerance to the length limit (certify_tmp_trial20_mysuite_post_scene_2)."""
+    from harness.report.document import slug
+    from harness.report.sections import scene_label
+
+    assert scene_label("slot") == "slot"
+    assert scene_label("/tmp/trial20/mysuite/post_scene.xml") == "post_scene.xml"
+    assert scene_label("/home/u/robots/arm.xml#gripper") == "arm.xml#gripper"
+    name = slug(f"certify_{scene_label('/tmp/trial20/mysuite/post_scene.xml')}_0.1mm")
+    assert name == "certify_post_scene_xml_0_1mm"

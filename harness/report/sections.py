@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -163,11 +164,13 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
         )
     per = pd.DataFrame(per)
     for (scene, tol), g in per.groupby(["scene", "tolerance (mm)"], sort=True):
-        doc.h(f"{scene}, tolerance {tol:g} mm", 3)
+        name = scene_label(scene)
+        where = name if name == scene else f"{name} ({scene})"
+        doc.h(f"{name}, tolerance {tol:g} mm", 3)
         doc.table(
             g.drop(columns=["scene", "tolerance (mm)"]),
-            f"Scene {scene} at tolerance {tol:g} mm, every keyframe set: verdicts, accuracy with denominators, median bound evaluations and median CPU time per single certify call (median over the rows of their per-row median over rounds).",
-            f"certify_{scene}_{tol:g}mm",
+            f"Scene {where} at tolerance {tol:g} mm, every keyframe set: verdicts, accuracy with denominators, median bound evaluations and median CPU time per single certify call (median over the rows of their per-row median over rounds).",
+            f"certify_{name}_{tol:g}mm",
         )
     na = (
         cert[column(cert, "verdict", "") == "n/a"].groupby("method")["reason"].first().reset_index()
@@ -271,6 +274,16 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
         "toi_error",
         f"Time-of-contact error of collision verdicts whose truth is a proven collision: |toi_lo minus the ground truth's first intersecting sample|, {'as a fraction of the motion duration' if relative else 'in motion parameter units'}, log scale; n per box. A certified toi_lo never lies after the true contact: {late} row(s) had toi_lo later than the ground truth's first intersecting sample.",
     )
+
+
+def scene_label(scene: str) -> str:
+    """A scene's name for headings and file names: a registered scene's own, an MJCF
+    file's name (with its ``#BODY``) rather than its whole path (a suite's own scene
+    filled headings with /tmp/... and cut the tolerance off its table's file name)."""
+    path, hash_, body = str(scene).partition("#")
+    if "/" not in path and not path.endswith(".xml"):
+        return str(scene)
+    return Path(path).name + hash_ + body
 
 
 def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
