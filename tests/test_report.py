@@ -877,3 +877,23 @@ def test_a_suites_own_scene_is_named_by_its_file():
     assert scene_label("/home/u/robots/arm.xml#gripper") == "arm.xml#gripper"
     name = slug(f"certify_{scene_label('/tmp/trial20/mysuite/post_scene.xml')}_0.1mm")
     assert name == "certify_post_scene_xml_0_1mm"
+
+
+def test_first_calls_of_two_studies_of_one_kind_say_which(tmp_path):
+    """The start-up table had two identical 'first call: hull (certify study)' rows."""
+    from harness.report.sections import startup_section
+
+    rows = [
+        dict(study="startup", bound="hull", method="first call: hull (certify study)",
+             kernel_cache=c, warmup_wall=w, warmup_cpu=w, study_index=i)
+        for i, (c, w) in enumerate([("cold", 20.0), ("warm", 0.001)])
+    ] + [
+        dict(study="startup", bound="hull", method="first call: hull (workload study)",
+             kernel_cache="warm", warmup_wall=0.1, warmup_cpu=0.1, study_index=2)
+    ]  # fmt: skip
+    doc = Document(tmp_path)
+    startup_section(doc, pd.DataFrame(rows))
+    text = "\n".join(doc.md)
+    assert "| first call: hull (certify study[0]) | cold |" in text
+    assert "| first call: hull (certify study[1]) | warm |" in text
+    assert "| first call: hull (workload study) | warm |" in text

@@ -105,6 +105,16 @@ def startup_section(doc: Document, df: pd.DataFrame) -> None:
     t = st[cols].rename(
         columns={"warmup_wall": "first call wall (s)", "warmup_cpu": "first call CPU (s)"}
     )
+    if "method" in t and "study_index" in st:  # two studies of one kind: say which
+        again = t["method"].duplicated(keep=False)
+        t.loc[again, "method"] = [
+            f"{m[:-7]} study[{i}])" if m.endswith(" study)") else f"{m} (study[{i}])"
+            for m, i in zip(
+                t.loc[again, "method"].astype(str),
+                st.loc[again, "study_index"].astype("Int64").astype(str),
+                strict=True,
+            )
+        ]
     doc.table(
         t,
         "The first certification call of each method in this process: Warp kernel compile (cache 'cold': a module was compiled) or cache load ('warm'), plus start-up. Measured once, before any case, and charged to none.",
