@@ -897,3 +897,19 @@ def test_first_calls_of_two_studies_of_one_kind_say_which(tmp_path):
     assert "| first call: hull (certify study[0]) | cold |" in text
     assert "| first call: hull (certify study[1]) | warm |" in text
     assert "| first call: hull (workload study) | warm |" in text
+
+
+def test_a_run_without_the_cube_scene_has_no_filmstrip_of_it(tmp_path, monkeypatch):
+    """The filmstrip drew the cube scene in runs that never ran it (a suite of its own
+    scenes; a new user's trial)."""
+    import harness.report as report
+
+    for name in ("certify_section", "workload_section", "corpus_section", "continuity_section"):
+        monkeypatch.setattr(report, name, lambda *a: None)  # (their figures: slow)
+    folder = tmp_path / "run"
+    folder.mkdir()
+    rows = [r for r in synthetic_rows() if r.get("scene") != "cube_keyframes"]
+    pd.DataFrame(rows).to_parquet(folder / "results.parquet", index=False)
+    (folder / "meta.json").write_text(json.dumps(META))
+    md = write_report(folder).read_text()
+    assert "## Headline" in md and "Filmstrip" not in md

@@ -262,10 +262,9 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
     corpus_section(doc, df, plt)
     memory_section(doc, df)
     warnings_section(doc, df)
-    studies = set(df["study"].dropna()) if "study" in df else set()
-    if not studies or studies - {"repair", "corpus"}:
-        # (the cube scene's motion: nothing to do with a run of repairs or corpus cases
-        # alone, which move other bodies; a new user's trial of `rsmbench run avoid`)
+    if "scene" in df and df["scene"].eq("cube_keyframes").any():
+        # the cube scene's motion: only in a run of that scene (runs of repairs, corpus
+        # cases or a suite's own scenes showed a scene they never ran; new users' trials)
         filmstrip(doc)
     (dest / "report.md").write_text("\n".join(doc.md))
     body = "\n".join(doc.html)
