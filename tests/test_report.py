@@ -913,3 +913,13 @@ def test_a_run_without_the_cube_scene_has_no_filmstrip_of_it(tmp_path, monkeypat
     (folder / "meta.json").write_text(json.dumps(META))
     md = write_report(folder).read_text()
     assert "## Headline" in md and "Filmstrip" not in md
+
+
+def test_continuity_bars_of_nearly_equal_height_keep_readable_ticks(written):
+    """Equal jumps (1.77e-5 m/s² for every scheme) made a log axis a sliver of a decade,
+    every tick reading 1.77195×10⁻⁵: the axis spans at least two decades."""
+    _, _, seen = written
+    fig = next(f for name, f, _ in seen if name == "continuity_jumps")
+    for ax in fig.axes:
+        lo, hi = ax.get_ylim()
+        assert hi / lo >= 100, (lo, hi)

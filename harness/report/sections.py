@@ -518,12 +518,18 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         for xi in x[~ok]:
             ax.text(xi, 1, "0" if np.isfinite(vals[xi]) else "n/a", ha="center", fontsize=7)
         ax.set_yscale("log")
+        if ok.any():  # at least two decades: bars of nearly equal height had one tick
+            lo, hi = float(vals[ok].min()), float(vals[ok].max())
+            ax.set_ylim(min(lo, hi / 100) / 3, max(hi, lo * 100) * 3)
         ax.set_xticks(x, series.index, rotation=45, ha="right", fontsize=7)
         ax.set_ylabel(label)
         ax.set_xlabel("scheme")
     counts = gg.size()
+    scenes = gg["scene"].agg(lambda v: tuple(sorted(set(map(str, v)))))
+    same = scenes.nunique() <= 1
     fig.suptitle(
-        f"largest one-sided jump at interior knots; motions per scheme: {int(counts.min())}–{int(counts.max())}",
+        f"largest one-sided jump at interior knots; motions per scheme: {int(counts.min())}–{int(counts.max())}"
+        + ("" if same else "; the schemes ran on different scenes (see the table)"),
         fontsize=8,
     )
     doc.figure(
