@@ -179,6 +179,7 @@ def synthetic_rows() -> list[dict]:
                     censored=cens,
                     verdicts="free",
                     case_id=f"scaling-{delta}",
+                    pairs=6,
                 )
             )
     for scene, carried in (("payload", 1), ("mesh_tool", 0)):
@@ -575,6 +576,7 @@ def test_scaling_caption_and_legend_say_what_was_measured(written, tmp_path):
     assert "uniform sampling (measured)" in legend
     assert "not run" not in caption and "dashed" not in caption
     assert "censored" in caption  # the synthetic aabb series is censored
+    assert fig.axes[0].get_title() == "n = 6 pairs per point"  # (it had no n)
     # a run from before uniform sampling was run (no verdicts): a dashed formula line
     from harness.report.document import pyplot
     from harness.report.sections import scaling_section

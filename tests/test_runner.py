@@ -90,6 +90,9 @@ def test_smoke_suite_end_to_end(smoke_run):
     st = load_suite("smoke").studies[0]
     assert (cert["max_depth"] == st["max_depth"]).all()
     assert (cert["max_nodes"] == st["max_nodes"]).all()
+    # a scaling point says over how many pairs its cost was summed
+    sc = df[df["study"] == "scaling"]
+    assert len(sc) and (sc["pairs"] == load_suite("smoke").studies[2]["motions"]).all()
     # every row says which [[study]] of the file it came from
     kinds = {i: set(g) for i, g in df.groupby("study_index")["study"]}
     assert kinds == {

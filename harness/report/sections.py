@@ -447,6 +447,10 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
         )
     ax.set_xlabel("resolution δ (mm); pairs with clearance 2δ")
     ax.set_ylabel("cost (poses or bound evaluations, all pairs)")
+    n = numeric(sc, "pairs").dropna().unique()
+    if len(n):  # (runs from before rows said it: no n)
+        each = f"{int(n[0])}" if len(n) == 1 else f"{int(n.min())}–{int(n.max())}"
+        ax.set_title(f"n = {each} pairs per point", fontsize=8)
     ax.legend(fontsize=7)
     caption = [
         "Cost to certify pairs with clearance 2δ at resolution δ, log-log.",

@@ -37,4 +37,5 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
 
     base = {k: case[k] for k in ("study", "scene", "keyframes", "scheme", "bound", "delta")}
     base["seed"] = ctx.seed
-    return [{**base, **r} for r in scaling_costs(case["delta"], st["motions"], st["seed"])]
+    n = st["motions"]  # (each point's n: its cost sums over these pairs)
+    return [{**base, **r, "pairs": n} for r in scaling_costs(case["delta"], n, st["seed"])]
