@@ -41,7 +41,9 @@ BAD = [
     (WORKLOAD + "pairs = 2.9", r"study\[0\]\.pairs", "got 2.9"),
     (WORKLOAD + 'seed = "x"', r"study\[0\]\.seed", "got 'x'"),
     (WORKLOAD + "max_nodes = -1", r"study\[0\]\.max_nodes", ">= 1, got -1"),
-    (WORKLOAD + "single_pairs = -1", r"study\[0\]\.single_pairs", ">= 0, got -1"),
+    (WORKLOAD + "single_pairs = -1", r"study\[0\]\.single_pairs", r"in \[0, 300\], got -1"),
+    # more single queries than pairs was cut to `pairs` without a word
+    (WORKLOAD + "pairs = 10\nsingle_pairs = 20", r"study\[0\]\.single_pairs", r"in \[0, 10\], got 20"),
     (WORKLOAD + "chunk_pairs = 0", r"study\[0\]\.chunk_pairs", "got 0"),
     (WORKLOAD + 'labels = "guess"', r"study\[0\]\.labels", r"expected one of \['measured', 'none', 'proven'\], got 'guess'"),
     (WORKLOAD + "labels = [1]", r"study\[0\]\.labels", r"got \[1\]"),

@@ -85,9 +85,9 @@ def parse(st: dict, file: Path, where: str) -> dict:
     out["max_nodes"] = integer(st.get("max_nodes", 20_000), file, key("max_nodes"), lo=1)
     out["seed"] = integer(st.get("seed", 0), file, key("seed"), lo=0)
     out["rounds"] = rounds_key(st, file, key("rounds"))
-    out["single_pairs"] = min(
-        integer(st.get("single_pairs", out["pairs"]), file, key("single_pairs"), lo=0),
-        out["pairs"],
+    # (a count above `pairs` was silently cut to it: a typo, or a misread suite)
+    out["single_pairs"] = integer(
+        st.get("single_pairs", out["pairs"]), file, key("single_pairs"), lo=0, hi=out["pairs"]
     )
     ext = st.get("external", [])
     need(
