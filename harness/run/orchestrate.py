@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 import signal
@@ -312,7 +313,8 @@ def _mend_killed_leg(last: dict, done: int, last_case: float | None) -> None:
                 start = datetime.fromisoformat(last["started"]).timestamp()
             except ValueError:
                 return
-            wall = float(last.get("wall_seconds", 0.0) or 0.0)
+            wall = last.get("wall_seconds")
+            wall = float(wall) if isinstance(wall, int | float) and math.isfinite(wall) else 0.0
             last["wall_seconds"] = max(wall, last_case - start)
 
 
