@@ -925,3 +925,17 @@ def test_continuity_bars_of_nearly_equal_height_keep_readable_ticks(written):
     for ax in fig.axes:
         lo, hi = ax.get_ylim()
         assert hi / lo >= 100, (lo, hi)
+
+
+def test_wide_latex_tables_are_scaled_to_the_line():
+    """The headline's table ran 1,468 pt past a page (workload_cost 389 pt): a table
+    estimated wider than the line is wrapped in graphicx's resizebox, a narrow one not."""
+    from harness.report.document import latex_table
+
+    narrow = latex_table(pd.DataFrame({"method": ["hull"], "n": [3]}), "narrow")
+    wide = latex_table(
+        pd.DataFrame({f"column {i}": ["a value of some width"] for i in range(8)}), "wide"
+    )
+    assert "resizebox" not in narrow and "graphicx" not in narrow
+    assert "\\resizebox{\\linewidth}{!}{%\n\\begin{tabular}" in wide
+    assert "\\end{tabular}}\n\\caption{wide}" in wide and "\\usepackage{graphicx}" in wide

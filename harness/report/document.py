@@ -124,20 +124,35 @@ def _tex_char(c: str) -> str:
     return f"[U+{ord(c):04X}]"
 
 
+LATEX_LINE_PT = 345.0
+r"""\linewidth of a one-column article at 10 pt: a table estimated wider is scaled to it."""
+
+
 def latex_table(df: pd.DataFrame, caption: str) -> str:
-    """A booktabs ``table`` environment of `df` (no pandas/jinja2 needed)."""
+    """A booktabs ``table`` environment of `df` (no pandas/jinja2 needed). A table
+    estimated wider than the line (~4.5 pt per character at \\small, 12 pt between
+    columns) is scaled down to it with graphicx's ``\\resizebox``: the widest ran 1,468 pt
+    past the page."""
     align = "".join("r" if pd.api.types.is_numeric_dtype(df[c]) else "l" for c in df.columns)
+    head = [str(c) for c in df.columns]
+    body = [[cell(v) for v in row] for row in df.itertuples(index=False)]
+    chars = sum(max(len(x) for x in col) for col in zip(head, *body, strict=True)) if head else 0
+    wide = 4.5 * chars + 12.0 * len(head) > LATEX_LINE_PT
     lines = [
+        "% rsmbench table: needs \\usepackage{booktabs}"
+        + (" and \\usepackage{graphicx} (scaled to the line width)" if wide else ""),
         r"\begin{table}[htbp]",
         r"\centering\small",
+        *([r"\resizebox{\linewidth}{!}{%"] if wide else []),
         rf"\begin{{tabular}}{{{align}}}",
         r"\toprule",
-        " & ".join(_tex(str(c)) for c in df.columns) + r" \\",
+        " & ".join(_tex(c) for c in head) + r" \\",
         r"\midrule",
     ]
-    for row in df.itertuples(index=False):
-        lines.append(" & ".join(_tex(cell(v)) for v in row) + r" \\")
-    lines += [r"\bottomrule", r"\end{tabular}", rf"\caption{{{_tex(caption)}}}", r"\end{table}"]
+    for row in body:
+        lines.append(" & ".join(_tex(v) for v in row) + r" \\")
+    lines += [r"\bottomrule", r"\end{tabular}" + ("}" if wide else "")]
+    lines += [rf"\caption{{{_tex(caption)}}}", r"\end{table}"]
     return "\n".join(lines) + "\n"
 
 
