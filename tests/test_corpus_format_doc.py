@@ -235,7 +235,10 @@ def support(shape: dict, d: np.ndarray) -> np.ndarray:
     if kind == "box":
         r = np.asarray(shape["rotation"])  # columns: the box's local axes
         local = d @ r  # R^T d
-        return np.asarray(shape["center"]) + (np.where(local >= 0, 1.0, -1.0) * shape["half_extents"]) @ r.T
+        return (
+            np.asarray(shape["center"])
+            + (np.where(local >= 0, 1.0, -1.0) * shape["half_extents"]) @ r.T
+        )
     if kind == "capsule":
         a = np.asarray(shape["rotation"])[:, 2]
         side = np.where(d @ a >= 0, 1.0, -1.0)[:, None]
@@ -440,7 +443,10 @@ def test_shape_frames_match_the_project(exported):
     kinds = set()
     for c in doc["cases"]:
         case = cases[c["id"]]
-        for ours, theirs in [(c["body"], case.body), *zip(c["obstacles"], case.obstacles, strict=True)]:
+        for ours, theirs in [
+            (c["body"], case.body),
+            *zip(c["obstacles"], case.obstacles, strict=True),
+        ]:
             kinds.add(ours["kind"])
             got, want = support(ours, d), theirs.support(d)
             scale = 1.0 + np.abs(want).max()
