@@ -50,10 +50,14 @@ class Truth:
     Attributes:
         verdict: "free" or "collision".
         distance: minimum over the motion of the signed distance (clearance > 0, minus the
-            penetration depth < 0); a proven lower bound (clearance) or proven depth for
-            method "ground-truth".
-        toi: first contact time (+inf when free).
-        toi_lo, toi_hi: bracket of the first contact (equal to toi when analytic).
+            deepest penetration depth < 0). Method "ground-truth": a proven lower bound of
+            the clearance, or a proven depth. Analytic: exact to round-off, except for
+            ``capsule-swing`` collisions, where it is minus a proven lower bound of the
+            depth (the true minimum lies at or below it).
+        toi: first contact time (+inf when free); where the first contact is only
+            bracketed (``capsule-swing``), the time of a proven contact, ``toi_hi``.
+        toi_lo, toi_hi: a proven lower bound of the first contact and the time of a pose
+            proven in contact (both ``toi`` where the first contact is known exactly).
         window: duration of the first contact window (NaN when free or unknown).
         method: "analytic" or "ground-truth".
         proof: one line: how the truth was proven.
