@@ -391,3 +391,27 @@ def test_corpus_suite_errors_name_the_key(tmp_path):
     bad.write_text("[[study]]\nkind = 'corpus'\nfile = 'nowhere.json'\n")
     with pytest.raises(SuiteError, match="no corpus file"):
         load_suite(bad)
+
+
+def test_a_case_must_be_stored_as_its_scheme_says(tmp_path, corpus):
+    """The loader passed any keyframe scheme to motions.build (a 'squad' or 'rational'
+    keyframes motion loaded though the schema's enum forbids it), never checked a case's
+    scheme against its motion, nor the truth's method against its enum (a docs helper)."""
+    kf = next(c for c in corpus if c.keyframes is not None)
+    bz = next(c for c in corpus if c.keyframes is None)
+    export([kf, bz], tmp_path / "ok")
+    doc = json.loads((tmp_path / "ok" / "corpus.json").read_text())
+    load(_write(tmp_path, doc))  # (the export itself loads)
+    for i, edit, says in (
+        (0, lambda d: d["motion"].update(scheme="squad"), r"motion\.scheme: expected one of \['sclerp', 'slerp', 'slerp-linear'\]"),
+        (0, lambda d: d.update(scheme="rational"), "a 'rational' case is stored as a bezier motion, got keyframes of"),
+        (1, lambda d: d.update(scheme=kf.scheme), f"a '{kf.scheme}' case is stored as keyframes of '{kf.scheme}', got a bezier motion"),
+        (0, lambda d: d["truth"].update(method="guess"), r"truth\.method: expected one of \['analytic', 'ground-truth'\], got 'guess'"),
+    ):  # fmt: skip
+        broken = json.loads(json.dumps(doc))
+        edit(broken["cases"][i])
+        with pytest.raises(CorpusFormatError, match=says):
+            load(_write(tmp_path, broken))
+    schema = json.loads((tmp_path / "ok" / "corpus.schema.json").read_text())
+    mesh = next(s for s in schema["$defs"]["shape"]["oneOf"] if "vertices" in s["required"])
+    assert mesh["properties"]["vertices"]["minItems"] == 4  # (the loader needs 4: it said 1)

@@ -264,6 +264,12 @@ def shape_from_dict(d: Any, where: str) -> Shape:
     )
 
 
+RATIONAL_SCHEMES = ("rational", "rational-bezier", "rational-special")
+"""Schemes stored as Bézier motions; the others of SCHEMES as keyframes of their scheme."""
+KEYFRAME_SCHEMES = tuple(s for s in SCHEMES if s not in RATIONAL_SCHEMES)
+TRUTH_METHODS = ("analytic", "ground-truth")
+
+
 def _motion_from_dict(d: Any, where: str):
     kind = _get(d, "type", where, str)
     try:
@@ -273,6 +279,11 @@ def _motion_from_dict(d: Any, where: str):
             return RationalMotion.from_bezier(breaks, ctrl), None
         if kind == "keyframes":
             scheme = _get(d, "scheme", where, str)
+            if scheme not in KEYFRAME_SCHEMES:  # (the schema's enum: others once loaded)
+                raise CorpusFormatError(
+                    f"{where}.scheme: expected one of {list(KEYFRAME_SCHEMES)} for a"
+                    f" keyframes motion, got {scheme!r}."
+                )
             kf = {
                 "scheme": scheme,
                 "rotations": _array(d, "rotations", where, (None, 4)),
@@ -305,6 +316,11 @@ def _truth(d: Any, where: str) -> Truth:
             f"{where}.verdict: expected 'free' or 'collision', got {verdict!r}."
         )
     window = d.get("window") if isinstance(d, dict) else None
+    method = _get(d, "method", where, str)
+    if method not in TRUTH_METHODS:
+        raise CorpusFormatError(
+            f"{where}.method: expected one of {list(TRUTH_METHODS)}, got {method!r}."
+        )
     return Truth(
         verdict,
         _finite(d, "distance", where),
@@ -312,7 +328,7 @@ def _truth(d: Any, where: str) -> Truth:
         _inf(d.get("toi_lo"), f"{where}.toi_lo"),
         _inf(d.get("toi_hi"), f"{where}.toi_hi"),
         math.nan if window is None else _inf(window, f"{where}.window"),
-        _get(d, "method", where, str),
+        method,
         _get(d, "proof", where, str),
     )
 
@@ -375,6 +391,12 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
                 f"{where}.scheme: unknown {scheme!r}; expected one of {list(SCHEMES)}."
             )
         motion, kf = _motion_from_dict(_get(d, "motion", where, dict), f"{where}.motion")
+        want = "a bezier motion" if scheme in RATIONAL_SCHEMES else f"keyframes of {scheme!r}"
+        got = "a bezier motion" if kf is None else f"keyframes of {kf['scheme']!r}"
+        if got != want:  # (the case's scheme must say how its motion was built)
+            raise CorpusFormatError(
+                f"{where}.motion: a {scheme!r} case is stored as {want}, got {got}."
+            )
         obstacles = tuple(
             shape_from_dict(o, f"{where}.obstacles[{j}]")
             for j, o in enumerate(_get(d, "obstacles", where, list))
