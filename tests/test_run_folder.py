@@ -263,7 +263,9 @@ def test_chunks_and_local_processes_give_the_same_rows(mini_clean, tmp_path):
     # chunk 0 is the unchunked workload's first pairs: a workload of two pairs in one
     # chunk has the same pairs and verdicts
     small = tmp_path / "small.toml"
-    small.write_text(MINI.replace("pairs = 5", "pairs = 2"))
+    small.write_text(
+        MINI.replace("pairs = 5", "pairs = 2").replace("single_pairs = 3", "single_pairs = 2")
+    )
     one = run_suite(load_suite(small), tmp_path / "small", progress=False)
     one = one[(one["study"] == "workload") & (one["mode"] == "pair") & (one["bound"] == "hull")]
     cols = ["pair", "clearance", "truth", "verdict", "nodes"]
