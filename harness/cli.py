@@ -228,6 +228,7 @@ def _run_suite(args) -> int:
             scheduler=scheduler,
             progress=not args.quiet,
             report=True,
+            hard_stop=True,  # (a second Ctrl-C ends this process, even inside a kernel)
         )
     except KeyboardInterrupt as e:
         done = f" ({e.done} of {e.total} cases done)" if isinstance(e, RunInterrupted) else ""

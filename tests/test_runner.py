@@ -219,7 +219,10 @@ def test_resume_after_sigkill(tiny, tmp_path):
     assert not (out / "results.parquet").exists()
     # the lock file still names the dead run; it does not block the resume
     assert f"pid {proc.pid} " in (out / ".lock").read_text()
-    last_write = journal.stat().st_mtime
+    # each record says when it was written: the killed leg ran at least until the last
+    whole = journal.read_text().split("\n")[:-1]  # (a line cut by the kill has no end)
+    last_write = max(json.loads(line)["written"] for line in whole)
+    resumed = time.time()
     rsmbench("run", str(tiny), "--out", str(out), "--quiet")
     df = pd.read_parquet(out / "results.parquet")
     # meta.json, saved every few seconds, said fewer cases and less time than the killed
@@ -228,8 +231,8 @@ def test_resume_after_sigkill(tiny, tmp_path):
 
     killed = json.loads((out / "meta.json").read_text())["legs"][0]
     assert killed["cases_done"] == done
-    ran = last_write - datetime.fromisoformat(killed["started"]).timestamp()
-    assert killed["wall_seconds"] >= ran - 1e-3
+    started = datetime.fromisoformat(killed["started"]).timestamp()
+    assert last_write - started <= killed["wall_seconds"] < resumed - started
     assert df["case_id"].nunique() == expected
     assert not df.duplicated(["case_id"]).any()
     clean = tmp_path / "clean"
@@ -320,11 +323,15 @@ def test_unwritable_output_and_foreign_folder(tiny, tmp_path):
     assert r.returncode == 2 and "belongs to suite" in r.stderr
 
 
-def test_a_run_that_fails_before_its_first_case_leaves_no_folder(tiny, tmp_path, monkeypatch):
+def test_a_run_that_fails_before_its_first_case_leaves_nothing_to_resume(
+    tiny, tmp_path, monkeypatch
+):
     """An unreachable scheduler (20 s to time out, so here a stand-in error at the same
     point) left meta.json and suite.toml, and the next run "resumed" a run that never
-    started. A run failing before it journals a case removes what it created; a folder
-    of a run already started keeps everything."""
+    started. A run failing before it journals a case removes the files it created (its
+    lock file stays: removing it could let two runs lock different files); a folder of a
+    run already started keeps everything, and a run refused by another's lock touches
+    nothing."""
     from harness.run import orchestrate
     from harness.run.journal import RunError
 
@@ -336,13 +343,23 @@ def test_a_run_that_fails_before_its_first_case_leaves_no_folder(tiny, tmp_path,
     out = tmp_path / "new" / "run"
     with pytest.raises(RunError, match="Cannot reach"):
         run_suite(load_suite(tiny), out, progress=False)
-    assert not out.exists() and (tmp_path / "new").exists()
+    assert [p.name for p in out.iterdir()] == [".lock"]
     mine = tmp_path / "mine"
     mine.mkdir()
     (mine / "notes.txt").write_text("the user's")
     with pytest.raises(RunError):
         run_suite(load_suite(tiny), mine, progress=False)
-    assert sorted(p.name for p in mine.iterdir()) == ["notes.txt"]
+    assert sorted(p.name for p in mine.iterdir()) == [".lock", "notes.txt"]
+    # another run holds the folder: the refused run removes nothing of its files
+    from harness.run.journal import OutputLock, OutputLocked
+
+    held = tmp_path / "held"
+    held.mkdir()
+    with OutputLock(held):
+        (held / "suite.toml").write_text("")  # (the holder's, before its meta.json)
+        with pytest.raises(OutputLocked):
+            run_suite(load_suite(tiny), held, progress=False)
+        assert sorted(p.name for p in held.iterdir()) == [".lock", "suite.toml"]
     monkeypatch.undo()
     started = tmp_path / "started"
     run_suite(load_suite(tiny), started, progress=False)
@@ -355,8 +372,8 @@ def test_a_run_that_fails_before_its_first_case_leaves_no_folder(tiny, tmp_path,
 
 STUCK = """
 import hashlib, sys
-from harness.run.orchestrate import _Stop
-with _Stop():
+from harness.run.stop import Stop
+with Stop(hard=True):
     print("ready", flush=True)
     hashlib.pbkdf2_hmac("sha256", b"x", b"y", 10**9)  # minutes in C, no signal checks
 print("finished", flush=True)
@@ -365,21 +382,21 @@ print("finished", flush=True)
 
 def test_a_second_ctrl_c_stops_a_run_stuck_in_a_long_call():
     """A kernel launch of 10^8 samples ran on through two Ctrl-C and a SIGTERM (Python
-    handles signals only between bytecodes): the second signal now ends the process
-    within a second or so, exit 130, saying the finished cases are kept."""
+    handles signals only between bytecodes): with `hard` (as `rsmbench run` sets it) the
+    second signal ends the process, exit 130, saying the finished cases are kept; the
+    call would take minutes."""
     proc = subprocess.Popen(
         [sys.executable, "-c", STUCK], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
     try:
         assert proc.stdout.readline().strip() == "ready"
+        time.sleep(1.0)  # (inside the long call by now)
         proc.send_signal(signal.SIGINT)
         time.sleep(0.3)
-        start = time.monotonic()
         proc.send_signal(signal.SIGINT)
-        code = proc.wait(timeout=20)
-        took = time.monotonic() - start
+        code = proc.wait(timeout=30)  # (TimeoutExpired: the signals were not heeded)
     finally:
         proc.kill()
     err = proc.stderr.read()
-    assert code == 130 and took < 10, (code, took, err)
+    assert code == 130, (code, err)
     assert "stopped now" in err and "finished" not in proc.stdout.read()

@@ -140,6 +140,7 @@ def test_bad_run_arguments_exit_2_with_one_line(tmp_path, capsys):
         # a malformed host:port hung 40 s the same way (a new user's trial)
         (["--scheduler", "garbage::"], "address like tcp://host:8786"),
         (["--scheduler", "tcp://host:99999"], "address like tcp://host:8786"),
+        (["--scheduler", "tcp://127.0.0.1"], "address like tcp://host:8786"),  # (no port)
         (["--scheduler", str(f)], "address like tcp://host:8786"),
         (["--scheduler", str(empty_json)], "holds no `address`"),
         # a hunt: a seed beyond int64 ran every case, then failed inside pyarrow

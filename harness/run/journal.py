@@ -18,6 +18,7 @@ import platform
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterable
 from datetime import UTC, datetime
 from pathlib import Path
@@ -191,6 +192,9 @@ class Journal:
         index: case id -> (byte offset, length) of its record.
         columns: case id -> {column: value-kind bits} of its rows.
         notes: what loading repaired (a cut last record, duplicate records).
+        last_written: the latest time (POSIX seconds) a loaded record says it was
+            written at, or None (no record says so: journals written before records
+            carried ``written``).
     """
 
     def __init__(self, folder: Path):
@@ -199,6 +203,7 @@ class Journal:
         self.index: dict[str, tuple[int, int]] = {}
         self.columns: dict[str, dict[str, int]] = {}
         self.notes: list[str] = []
+        self.last_written: float | None = None
 
     def load(self) -> set[str]:
         """Read the journal; returns the ids of the finished cases.
@@ -209,6 +214,7 @@ class Journal:
         """
         self.index.clear()
         self.columns.clear()
+        self.last_written = None
         if not self.path.exists():
             return set()
         size = self.path.stat().st_size
@@ -234,6 +240,9 @@ class Journal:
                         " (every other finished case is kept), or run into a new --out folder."
                     )
                 if rec is not None:
+                    t = rec.get("written")
+                    if isinstance(t, int | float) and not isinstance(t, bool) and math.isfinite(t):
+                        self.last_written = max(t, self.last_written or -math.inf)
                     cid = rec["case_id"]
                     if cid in self.index:
                         dup += 1
@@ -246,10 +255,10 @@ class Journal:
         return set(self.index)
 
     def append(self, case_id: str, rows: list[dict]) -> None:
-        """Journal one finished case: one line, one write, fsync'd."""
-        data = (
-            json.dumps({"case_id": case_id, "rows": rows}, default=_json_default) + "\n"
-        ).encode()
+        """Journal one finished case: one line, one write, fsync'd; the record says when
+        it was written (``written``, POSIX seconds: a killed leg's last case)."""
+        rec = {"case_id": case_id, "written": time.time(), "rows": rows}
+        data = (json.dumps(rec, default=_json_default) + "\n").encode()
         with open(self.path, "ab") as f:
             offset = f.seek(0, os.SEEK_END)
             f.write(data)

@@ -40,6 +40,7 @@ from .journal import (
     machine_meta,
     read_meta,
 )
+from .stop import Stop
 from .studies import STUDIES, Context, run_case
 from .suite import MAX_SEED, Suite
 
@@ -104,6 +105,7 @@ def run_suite(
     scheduler: str | None = None,
     progress: bool = True,
     report: bool = False,
+    hard_stop: bool = False,
 ) -> pd.DataFrame:
     """Run (or resume) a suite into the folder `out`; returns the results table.
 
@@ -117,6 +119,9 @@ def run_suite(
         progress: show a progress bar on stderr.
         report: write the report (:func:`harness.report.write_report`) before the folder's
             lock is released, so that no other writer comes between.
+        hard_stop: a second Ctrl-C (or SIGTERM) ends the process within a second even
+            inside a long call into C (``rsmbench run`` sets it; a notebook or a test
+            calling this function keeps its process: see :class:`.stop.Stop`).
 
     Raises:
         OutputLocked: another run is writing `out`.
@@ -136,44 +141,43 @@ def run_suite(
     out = Path(out)
     if scheduler is not None:
         scheduler_target(scheduler)
-    ours = _unstarted_files(out)  # what a failure before the first case removes
     check_writable(out)
-    try:
-        with OutputLock(out) as lock:
-            df = _run_locked(suite, out, seed, jobs, scheduler, progress, lock)
-            if report:
-                from ..report import write_report
+    with OutputLock(out) as lock:
+        ours = _unstarted_files(out)  # (under the lock: no other run writes the folder)
+        try:
+            df = _run_locked(suite, out, seed, jobs, scheduler, progress, lock, hard_stop)
+        except RunInterrupted:
+            raise
+        except Exception:
+            _discard_unstarted(out, ours)
+            raise
+        if report:
+            from ..report import write_report
 
-                write_report(out, lock=False)
-            return df
-    except RunInterrupted:
-        raise
-    except Exception:
-        _discard_unstarted(out, ours)
-        raise
+            write_report(out, lock=False)
+        return df
 
 
 def _unstarted_files(out: Path) -> list[Path]:
-    """The paths a run into `out` creates that do not exist yet (the folder itself last),
-    or none when `out` holds a run already (its meta.json): a resume keeps everything."""
+    """The files a run into `out` creates that do not exist yet, or none when `out`
+    holds a run already (its meta.json): a resume keeps everything."""
     if (out / "meta.json").exists():
         return []
-    made = [out / "meta.json", out / "suite.toml", out / ".lock", Journal(out).path, out]
+    made = [out / "meta.json", out / "suite.toml", Journal(out).path]
     return [p for p in made if not p.exists()]
 
 
 def _discard_unstarted(out: Path, ours: list[Path]) -> None:
-    """Remove what a run that failed before it journalled a case created (an unreachable
-    scheduler, a cluster without workers): its meta.json and suite.toml alone made the
-    next run into the folder a "resume" of a run that never started."""
+    """Remove the files a run that failed before it journalled a case created (an
+    unreachable scheduler, a cluster without workers): its meta.json and suite.toml alone
+    made the next run into the folder a "resume" of a run that never started. Called with
+    the folder's lock held; the lock file stays (``OutputLock.release``: removing it would
+    let two runs lock different files)."""
     rows = Journal(out).path
     if rows.exists() and rows.stat().st_size > 0:
         return
     for p in ours:
-        try:
-            p.rmdir() if p == out else p.unlink(missing_ok=True)
-        except OSError:  # a folder holding something else: not only ours
-            pass
+        p.unlink(missing_ok=True)
 
 
 def _run_locked(
@@ -184,6 +188,7 @@ def _run_locked(
     scheduler: str | None,
     progress: bool,
     lock: OutputLock,
+    hard_stop: bool,
 ) -> pd.DataFrame:
     old = read_meta(out)
     if old is not None and (old.get("suite_hash") != suite.digest or old.get("seed") != seed):
@@ -194,8 +199,6 @@ def _run_locked(
         )
     cases = expand(suite)
     journal = Journal(out)
-    # (read before load(), which truncates a line cut by a kill and so touches the file)
-    last_case = journal.path.stat().st_mtime if journal.path.exists() else None
     done = journal.load()
     for note in journal.notes:
         print(f"rsmbench: {note}", file=sys.stderr)
@@ -206,7 +209,9 @@ def _run_locked(
             f" {suite.digest}) does not have: the folder belongs to another suite. Use another"
             " --out folder."
         )
-    meta, leg = _start_meta(old, suite, seed, len(cases), len(done), jobs, scheduler, last_case)
+    meta, leg = _start_meta(
+        old, suite, seed, len(cases), len(done), jobs, scheduler, journal.last_written
+    )
     meta_path = out / "meta.json"
     start = time.perf_counter()
 
@@ -222,7 +227,7 @@ def _run_locked(
     bar = _bar(progress, suite, len(cases), len(done))
     last = time.monotonic()
     try:
-        with _Stop() as stop:
+        with Stop(hard=hard_stop) as stop:
             results = _execute(units(todo), suite, seed, jobs, scheduler, stop, lock, leg)
             try:
                 for case, rows in results:
@@ -256,7 +261,8 @@ def _start_meta(
     last_case: float | None = None,
 ) -> tuple[dict, dict]:
     """meta.json's content for a run starting (`old` None) or resuming, and this run's
-    leg in it; `last_case` is when the journal was last written (a POSIX time)."""
+    leg in it; `last_case` is when the journal's last case was written (a POSIX time, as
+    its record says; None when no record says)."""
     now = datetime.now(UTC).isoformat()
     leg = {
         "started": now,
@@ -303,7 +309,8 @@ def _mend_killed_leg(last: dict, done: int, last_case: float | None) -> None:
     """A leg killed outright (SIGKILL, a power cut) saved meta.json last up to META_EVERY
     seconds before it died: its `cases_done` and `wall_seconds` fall short (99 cases said,
     114 journalled). The journal is the truth: the leg ran at least until its last case
-    was journalled (the journal's modification time)."""
+    was journalled (the time its record was written at, by the clock that timed the
+    leg's start: a copied folder or another host's clock do not enter)."""
     before = last.get("cases_before", 0)
     if isinstance(last.get("cases_done"), int) and last["cases_done"] < done:
         last["cases_done"] = done
@@ -336,79 +343,6 @@ def _bar(progress: bool, suite: Suite, total: int, done: int):
     )
 
 
-class _Stop:
-    """Ctrl-C (SIGINT) asks the run to stop after the cases in progress; a second Ctrl-C
-    (or SIGTERM) stops it at once (a case cut in the middle is not journalled and runs
-    again).
-
-    "At once" holds inside a long call into C too (a kernel launch of 10^8 samples ran for
-    minutes through two Ctrl-C and a SIGTERM): Python runs its signal handlers only
-    between bytecodes, so a watchdog thread reads the signals from the interpreter's
-    wakeup file descriptor, and when the main thread has not stopped within GRACE seconds
-    of the second one it ends the process (exit 130). Finished cases are journalled
-    already; a resume runs the rest."""
-
-    GRACE = 1.0
-
-    def __init__(self):
-        self.requested = False
-        self._previous = None
-        self._wakeup: tuple[int, int] | None = None
-        self._old_fd = -1
-        self._done = threading.Event()
-
-    def __enter__(self) -> _Stop:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._handle)
-            r, w = os.pipe()
-            os.set_blocking(w, False)
-            try:
-                self._old_fd = signal.set_wakeup_fd(w, warn_on_full_buffer=False)
-            except ValueError:  # (not the main interpreter)
-                os.close(r)
-                os.close(w)
-            else:
-                self._wakeup = (r, w)
-                threading.Thread(target=self._watch, args=(r,), daemon=True).start()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self._done.set()
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-        if self._wakeup is not None:
-            signal.set_wakeup_fd(self._old_fd)
-            os.close(self._wakeup[1])  # the watchdog's read ends: it returns
-
-    def _handle(self, signum, frame) -> None:
-        if self.requested:
-            raise KeyboardInterrupt
-        self.requested = True
-        # os.write, not print: the handler may interrupt a print to stderr
-        os.write(
-            2,
-            b"\nrsmbench: stopping after the case(s) in progress; Ctrl-C again to stop now.\n",
-        )
-
-    def _watch(self, r: int) -> None:
-        seen = 0
-        try:
-            while True:
-                got = os.read(r, 64)
-                if not got:  # the run left the block
-                    return
-                seen += sum(b in (signal.SIGINT, signal.SIGTERM) for b in got)
-                if seen >= 2 and not self._done.wait(self.GRACE):
-                    os.write(
-                        2,
-                        b"\nrsmbench: stopped now; the finished cases are journalled: run the"
-                        b" same command again to resume.\n",
-                    )
-                    os._exit(130)
-        finally:
-            os.close(r)
-
-
 # ----------------------------------------------------------------------------- executors
 def _execute(
     work: list[list[dict]],
@@ -416,7 +350,7 @@ def _execute(
     seed: int,
     jobs: int,
     scheduler: str | None,
-    stop: _Stop,
+    stop: Stop,
     lock: OutputLock,
     leg: dict,
 ) -> Iterator[tuple[dict, list[dict]]]:
@@ -521,7 +455,7 @@ def _on_processes(
     suite: Suite,
     seed: int,
     jobs: int,
-    stop: _Stop,
+    stop: Stop,
     lock: OutputLock,
 ) -> Iterator[tuple[dict, list[dict]]]:
     import multiprocessing
@@ -564,7 +498,8 @@ _PROTOCOLS = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 """The address schemes of dask.distributed's communications."""
 _HOST_PORT_SCHEMES = ("tcp", "tls", "ws", "wss")
 _HOST_PORT = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[^:/\[\]\s]+)(:(?P<port>\d{1,5}))?")
-"""``host[:port]`` of those schemes: a name or IPv4 address, or an IPv6 one in brackets."""
+"""``host:port`` of those schemes: a name or IPv4 address, or an IPv6 one in brackets
+(the port is required: distributed has no default for an address)."""
 
 
 def scheduler_target(scheduler: str) -> dict:
@@ -601,10 +536,12 @@ def scheduler_target(scheduler: str) -> dict:
         scheme not in _PROTOCOLS
         or not rest
         or any(c.isspace() for c in rest)
-        # (a malformed host:port, such as "garbage::", hung 40 s in distributed, then a
-        # traceback from Client.__del__)
-        or (scheme in _HOST_PORT_SCHEMES and not host_port)
-        or (host_port and host_port["port"] and not 0 < int(host_port["port"]) < 65536)
+        # (a malformed or port-less host:port, such as "garbage::" or tcp://host, hung
+        # 40 s in distributed, then a traceback from Client.__del__)
+        or (
+            scheme in _HOST_PORT_SCHEMES
+            and not (host_port and host_port["port"] and 0 < int(host_port["port"]) < 65536)
+        )
     ):
         raise RunError(
             f"Expected `scheduler` to be an address like tcp://host:8786 (schemes"
@@ -618,7 +555,7 @@ def _on_dask(
     suite: Suite,
     seed: int,
     scheduler: str,
-    stop: _Stop,
+    stop: Stop,
     leg: dict,
 ) -> Iterator[tuple[dict, list[dict]]]:
     try:
