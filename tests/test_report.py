@@ -846,7 +846,18 @@ def test_two_workload_tolerances_are_not_pooled():
     assert lines[0]["value"].endswith(f"unknown 0/{n}")
     assert lines[1]["value"].endswith(f"unknown {n}/{n}")
     groups = workload_groups(both[(both["study"] == "workload") & (both["mode"] == "pair")])
-    assert [k for k, _ in groups] == [("workload-0", 1e-3), ("workload-0", 1e-2)]
+    assert [k for k, _ in groups] == [
+        "workload-0 at tolerance 1 mm",
+        "workload-0 at tolerance 10 mm",
+    ]
+    # two studies of the same workload and tolerance (other labels, say) stay apart too
+    twice = pd.concat([wl.assign(study_index=1), wl.assign(study_index=4)], ignore_index=True)
+    groups = workload_groups(twice[twice["mode"] == "pair"])
+    assert [k for k, _ in groups] == [
+        "workload-0 at tolerance 1 mm (study[1])",
+        "workload-0 at tolerance 1 mm (study[4])",
+    ]
+    assert sum(len(g) for _, g in groups) == int((twice["mode"] == "pair").sum())
     # one workload: the lines keep their plain names
     plain = [r["figure"] for r in headline(df) if r["figure"].startswith("workload verdicts")]
     assert "workload verdicts of hull" in plain

@@ -236,9 +236,11 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
             "Pooled studies: "
             + "; ".join(pooled)
             + ": their rows have the same identity (scene, keyframes, scheme, bound, tolerance,"
-            " clearance, ...) and differ only in settings that are not columns (`max_depth`,"
-            " `max_nodes`, `samples`, `truth_resolution`, `rounds`). The certification"
-            " accuracy tables label their methods with the study; the other tables pool them."
+            " clearance, ...) and differ only in settings the tables do not group by"
+            " (`max_depth`, `max_nodes`, `samples`, `truth_resolution`, `rounds`). The"
+            " certification"
+            " accuracy tables label their methods with the study, the workload's sections are"
+            " apart; the other tables pool them."
             " Tell them apart by the `study_index` column of results.parquet, or run them as"
             " separate suites."
         )

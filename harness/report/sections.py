@@ -306,10 +306,11 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
     ]
     pairs = pairs[column(pairs, "pair").notna()]
     groups = workload_groups(pairs)
-    for (name, tol), g in groups:
-        if len(groups) > 1:  # (each workload and tolerance apart: the same pairs twice)
-            doc.h(f"{name} at tolerance {tol * 1e3:g} mm", 3)
-        _workload_pairs(doc, g, plt)
+    for label, g in groups:
+        several = len(groups) > 1  # (each apart: the same pairs twice, say)
+        if several:
+            doc.h(label, 3)
+        _workload_pairs(doc, g, plt, f" ({label})" if several else "")
     costs = workload_costs(wl)
     if len(costs):
         table = costs.drop(columns=["_cpu"])
@@ -324,9 +325,9 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
         doc.p("(This run predates repeated rounds: no cost table. Rerun the suite.)")
 
 
-def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt) -> None:
+def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt, which: str) -> None:
     """The verdicts and the hull's cost against clearance on the pairs of one workload at
-    one tolerance."""
+    one tolerance (`which` names it in captions where a run has several)."""
     if len(pairs):
         lab = column(pairs, "label", "measured").astype(str)
         first = pairs[pairs["bound"] == pairs["bound"].iloc[0]]
@@ -357,7 +358,7 @@ def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt) -> None:
         )
         doc.table(
             acc,
-            "Verdicts per method on every pair of the workload; false free and false collision out of the pairs whose label is proven.",
+            f"Verdicts per method on every pair of the workload{which}; false free and false collision out of the pairs whose label is proven.",
             "workload_accuracy",
         )
         _rate_figure(
@@ -367,7 +368,7 @@ def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt) -> None:
             name="workload_rates",
             xlabel="method",
             label_ok=ok,
-            what="per method on the workload (truth: proven labels only)",
+            what=f"per method on the workload{which} (truth: proven labels only)",
         )
     hull = (
         pairs[(pairs["bound"] == "hull") & (numeric(pairs, "clearance") > 0)]
@@ -385,7 +386,7 @@ def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt) -> None:
         doc.figure(
             fig,
             "workload_nodes",
-            "Bound evaluations of the adaptive hull subdivision per free pair against its clearance label: the cost grows only slowly as the clearance shrinks towards the tolerance.",
+            f"Bound evaluations of the adaptive hull subdivision per free pair{which} against its clearance label: the cost grows only slowly as the clearance shrinks towards the tolerance.",
         )
 
 
