@@ -23,7 +23,7 @@ from motions._checks import short
 
 from ..shapes import Shape, as_obstacles, as_shape
 from .distance import DistanceModel
-from .repair import RepairError, _number
+from .repair import RepairError
 
 __all__ = ["SampledRepair", "sampled_repair"]
 
@@ -140,7 +140,9 @@ def _count(x: Any, name: str, lo: int, hi: int | None) -> int:
 
 
 def _length(x: Any, name: str) -> float:
-    v = _number(x, name)
+    if isinstance(x, bool) or not isinstance(x, int | float | np.integer | np.floating):
+        raise TypeError(f"Expected `{name}` to be a number (a length), got {short(x)}.")
+    v = float(x)
     if not math.isfinite(v) or v < 0:
         raise RepairError(f"Expected `{name}` >= 0 (a finite length), got {short(x)}.")
     return v

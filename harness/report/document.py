@@ -102,11 +102,23 @@ _GREEK_CAPITALS = {
 _SUPERSCRIPTS = dict(zip("⁰¹²³⁴⁵⁶⁷⁸⁹⁻", "0123456789-", strict=True))
 
 
+_ACCENTS = {"\u0301": "'", "\u0300": "`", "\u0302": "^", "\u0308": '"', "\u0303": "~",
+            "\u0327": "c", "\u030a": "r", "\u030c": "v"}  # fmt: skip
+"""Combining marks as LaTeX accent commands (é is \\'{e}: a user's path may have one)."""
+
+
 def _tex(s: str) -> str:
     """`s` as LaTeX that compiles with any input encoding: specials escaped, every other
-    character ASCII (a Greek letter as its math command, a superscript digit raised, any
-    other character as its code point)."""
-    return "".join(_tex_char(c) for c in s)
+    character ASCII (a Greek letter as its math command, a run of superscripts raised as
+    one, an accented Latin letter with its accent command, any other character as its
+    code point)."""
+    out = re.sub(
+        f"[{''.join(_SUPERSCRIPTS)}]+",
+        lambda m: "\x00" + "".join(_SUPERSCRIPTS[c] for c in m.group()) + "\x01",
+        s,
+    )
+    text = "".join(_tex_char(c) for c in out)
+    return text.replace("\x00", "$^{").replace("\x01", "}$")
 
 
 def _tex_char(c: str) -> str:
@@ -114,8 +126,9 @@ def _tex_char(c: str) -> str:
         return _TEX[c]
     if c.isascii():
         return c
-    if c in _SUPERSCRIPTS:
-        return f"$^{{{_SUPERSCRIPTS[c]}}}$"
+    base, *marks = unicodedata.normalize("NFD", c)
+    if base.isascii() and base.isalpha() and len(marks) == 1 and marks[0] in _ACCENTS:
+        return f"\\{_ACCENTS[marks[0]]}{{{base}}}"
     name = unicodedata.name(c, "").replace("LAMDA", "LAMBDA").split()
     if name[:2] == ["GREEK", "SMALL"] and len(name) == 4 and name[3] != "OMICRON":
         return f"$\\{name[3].lower()}$"
@@ -137,13 +150,13 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
     head = [str(c) for c in df.columns]
     body = [[cell(v) for v in row] for row in df.itertuples(index=False)]
     chars = sum(max(len(x) for x in col) for col in zip(head, *body, strict=True)) if head else 0
-    wide = 4.5 * chars + 12.0 * len(head) > LATEX_LINE_PT
+    wide = 4.5 * chars + 12.0 * len(head) > LATEX_LINE_PT  # (then only ever shrunk)
     lines = [
         "% rsmbench table: needs \\usepackage{booktabs}"
         + (" and \\usepackage{graphicx} (scaled to the line width)" if wide else ""),
         r"\begin{table}[htbp]",
         r"\centering\small",
-        *([r"\resizebox{\linewidth}{!}{%"] if wide else []),
+        *([r"\resizebox{\ifdim\width>\linewidth\linewidth\else\width\fi}{!}{%"] if wide else []),
         rf"\begin{{tabular}}{{{align}}}",
         r"\toprule",
         " & ".join(_tex(c) for c in head) + r" \\",
