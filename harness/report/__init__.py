@@ -203,9 +203,8 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
 
 def pooled_studies(df: pd.DataFrame) -> list[str]:
     """'study[1] and study[2] (certify)' for each set of [[study]] entries whose rows share
-    their identity columns (a sweep of a setting that is not a column): the report's
-    tables group by those columns and would pool them. Runs written before rows carried
-    ``study_index`` have nothing to tell."""
+    their identity columns (a sweep of a setting the tables do not group by): they would
+    pool them. Runs written before rows carried ``study_index`` have nothing to tell."""
     n = pooled_counts(df)
     shared = df[n > 1]
     out = []
@@ -238,11 +237,9 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
             + ": their rows have the same identity (scene, keyframes, scheme, bound, tolerance,"
             " clearance, ...) and differ only in settings the tables do not group by"
             " (`max_depth`, `max_nodes`, `samples`, `truth_resolution`, `rounds`). The"
-            " certification"
-            " accuracy tables label their methods with the study, the workload's sections are"
-            " apart; the other tables pool them."
-            " Tell them apart by the `study_index` column of results.parquet, or run them as"
-            " separate suites."
+            " certification accuracy tables label their methods with the study and each"
+            " workload study has its own section; the other tables pool them. Tell them apart"
+            " by the `study_index` column of results.parquet, or run them as separate suites."
         )
     rows = headline(df, meta)
     doc.h("Headline")

@@ -111,7 +111,7 @@ IDENTITY = (
 
 def pooled_counts(df: pd.DataFrame) -> pd.Series:
     """Per row, how many [[study]] entries have rows of its identity (the IDENTITY
-    columns): above 1 where a sweep of a setting that is not a column would pool rows.
+    columns): above 1 where a sweep of a setting the tables do not group by pools rows.
     1 for runs written before rows carried ``study_index``."""
     if "study_index" not in df or df["study_index"].nunique() < 2:
         return pd.Series(1, index=df.index)
