@@ -10,6 +10,7 @@ do not depend on where or in which order the units ran.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
@@ -177,7 +178,8 @@ def _discard_unstarted(out: Path, ours: list[Path]) -> None:
     if rows.exists() and rows.stat().st_size > 0:
         return
     for p in ours:
-        p.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # (the run's own error is the one to report)
+            p.unlink(missing_ok=True)
 
 
 def _run_locked(
