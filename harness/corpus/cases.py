@@ -40,6 +40,11 @@ SCHEMES = ("rational", "rational-bezier", "rational-special", "sclerp", "slerp",
 """Case schemes: "rational" is ``motions.interpolate`` (C², degree 9), "rational-bezier"
 ``RationalMotion.from_preimage`` of degree 1, "rational-special" Darboux/elliptic motions;
 the rest are ``motions.build`` baselines."""
+RATIONAL_SCHEMES = ("rational", "rational-bezier", "rational-special")
+"""Schemes of SCHEMES stored as Bézier motions; the others as keyframes of their scheme."""
+KEYFRAME_SCHEMES = tuple(s for s in SCHEMES if s not in RATIONAL_SCHEMES)
+TRUTH_METHODS = ("analytic", "ground-truth")
+"""How a :class:`Truth` was proven."""
 ROOT_XTOL = 1e-15
 
 

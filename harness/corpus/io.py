@@ -42,7 +42,7 @@ from motions import RationalMotion
 
 from ..errors import HarnessError
 from ..shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
-from .cases import CLASSES, SCHEMES, Case, Truth
+from .cases import CLASSES, KEYFRAME_SCHEMES, RATIONAL_SCHEMES, SCHEMES, TRUTH_METHODS, Case, Truth
 
 __all__ = [
     "FORMAT",
@@ -262,12 +262,6 @@ def shape_from_dict(d: Any, where: str) -> Shape:
     raise CorpusFormatError(
         f"{where}.kind: unknown shape kind {kind!r}; expected box, sphere, capsule, mesh or compound."
     )
-
-
-RATIONAL_SCHEMES = ("rational", "rational-bezier", "rational-special")
-"""Schemes stored as Bézier motions; the others of SCHEMES as keyframes of their scheme."""
-KEYFRAME_SCHEMES = tuple(s for s in SCHEMES if s not in RATIONAL_SCHEMES)
-TRUTH_METHODS = ("analytic", "ground-truth")
 
 
 def _motion_from_dict(d: Any, where: str):

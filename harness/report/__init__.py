@@ -31,7 +31,7 @@ from ..errors import HarnessError
 from ..run.journal import OutputLock, atomic_json
 from .avoid import repair_section
 from .corpus import corpus_section
-from .data import format_headline, headline, pooled_counts, scaling_slopes
+from .data import format_headline, headline, pooled_studies, scaling_slopes
 from .document import Document, latex_table, pyplot
 from .sections import (
     cache_text,
@@ -199,21 +199,6 @@ def _write(df: pd.DataFrame, meta: dict, dest: Path) -> Path:
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     return dest / "report.md"
-
-
-def pooled_studies(df: pd.DataFrame) -> list[str]:
-    """'study[1] and study[2] (certify)' for each set of [[study]] entries whose rows share
-    their identity columns (a sweep of a setting the tables do not group by): they would
-    pool them. Runs written before rows carried ``study_index`` have nothing to tell."""
-    n = pooled_counts(df)
-    shared = df[n > 1]
-    out = []
-    for kind, g in shared.groupby("study", sort=True):
-        if kind == "startup":  # (a first call per study and bound: rows of their own)
-            continue
-        ids = sorted({int(i) for i in g["study_index"].dropna()})
-        out.append(" and ".join(f"study[{i}]" for i in ids) + f" ({kind})")
-    return out
 
 
 def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:

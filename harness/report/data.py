@@ -121,6 +121,21 @@ def pooled_counts(df: pd.DataFrame) -> pd.Series:
     return df.groupby(cols, dropna=False, sort=False)["study_index"].transform("nunique")
 
 
+def pooled_studies(df: pd.DataFrame) -> list[str]:
+    """'study[1] and study[2] (certify)' for each set of [[study]] entries whose rows share
+    their identity columns (a sweep of a setting the tables do not group by): they would
+    pool them. Runs written before rows carried ``study_index`` have nothing to tell."""
+    n = pooled_counts(df)
+    shared = df[n > 1]
+    out = []
+    for kind, g in shared.groupby("study", sort=True):
+        if kind == "startup":  # (a first call per study and bound: rows of their own)
+            continue
+        ids = sorted({int(i) for i in g["study_index"].dropna()})
+        out.append(" and ".join(f"study[{i}]" for i in ids) + f" ({kind})")
+    return out
+
+
 def method_labels(df: pd.DataFrame) -> pd.Series:
     """'scheme/bound', with '(study[i])' where studies of one identity would pool."""
     out = column(df, "scheme", "").astype(str) + "/" + column(df, "bound", "").astype(str)

@@ -76,7 +76,6 @@ _TEX = {
     "∞": r"$\infty$",
     "≥": r"$\geq$",
     "≤": r"$\leq$",
-    "²": r"$^2$",
     "·": r"$\cdot$",
     "°": r"$^\circ$",
     "…": r"\ldots{}",
@@ -112,13 +111,13 @@ def _tex(s: str) -> str:
     character ASCII (a Greek letter as its math command, a run of superscripts raised as
     one, an accented Latin letter with its accent command, any other character as its
     code point)."""
-    out = re.sub(
-        f"[{''.join(_SUPERSCRIPTS)}]+",
-        lambda m: "\x00" + "".join(_SUPERSCRIPTS[c] for c in m.group()) + "\x01",
-        s,
+    parts = re.split(f"([{''.join(_SUPERSCRIPTS)}]+)", s)  # (odd parts: superscript runs)
+    return "".join(
+        "$^{" + "".join(_SUPERSCRIPTS[c] for c in part) + "}$"
+        if i % 2
+        else "".join(_tex_char(c) for c in part)
+        for i, part in enumerate(parts)
     )
-    text = "".join(_tex_char(c) for c in out)
-    return text.replace("\x00", "$^{").replace("\x01", "}$")
 
 
 def _tex_char(c: str) -> str:

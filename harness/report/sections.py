@@ -108,7 +108,9 @@ def startup_section(doc: Document, df: pd.DataFrame) -> None:
     if "method" in t and "study_index" in st:  # two studies of one kind: say which
         again = t["method"].duplicated(keep=False)
         t.loc[again, "method"] = [
-            f"{m[:-7]} study[{i}])" if m.endswith(" study)") else f"{m} (study[{i}])"
+            f"{m.removesuffix(' study)')} study[{i}])"
+            if m.endswith(" study)")
+            else f"{m} (study[{i}])"
             for m, i in zip(
                 t.loc[again, "method"].astype(str),
                 st.loc[again, "study_index"].astype("Int64").astype(str),

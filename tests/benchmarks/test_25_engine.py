@@ -306,25 +306,31 @@ FLOPS_SPLIT_PER_PAIR = 32  # one mat44 average (16 adds, 16 multiplies)
 FLOPS_POSE_TEST = 1000  # prepare one matrix + about four single-pose GJK iterations
 
 
-def test_kernel_time_per_evaluation(benchmark, workload):
-    """Kernel CPU time (the launch alone, one thread) per bound evaluation and pose test,
-    and its floating-point rate from an operation count of the kernel's code (constants
-    above, counted by hand from _refine_kernels/_geometry; an estimate, stated as such)."""
+def _kernel_alone(w) -> tuple[tuple[int, int, int], float]:
+    """The workload's (nodes, pose tests, supports) from one refinement on one thread, and
+    the median CPU time of its recorded launch alone (seconds, ROUNDS replays)."""
     from harness.certification.refine import refine_many
 
-    w = workload
     out, _ = refine_many(
         w.motions, w.bodies, w.obstacles, aabb=False, tol=TOL, max_depth=24,
         max_nodes=200_000, max_iter=32, threads=1, device="cpu",
     )  # fmt: skip
-    buf = buffers("cpu", "refine")
-    cmds = list(buf._launches.values())[-1].cmds
+    cmd = list(buffers("cpu", "refine")._launches.values())[-1].cmds[0]
     times = []
     for _ in range(ROUNDS):
         c = time.process_time()
-        cmds[0].launch()
+        cmd.launch()
         times.append(time.process_time() - c)
-    nodes, tests, supports = int(out.nodes.sum()), int(out.tests.sum()), int(out.supports.sum())
+    counts = int(out.nodes.sum()), int(out.tests.sum()), int(out.supports.sum())
+    return counts, float(np.median(times))
+
+
+def test_kernel_time_per_evaluation(benchmark, workload):
+    """Kernel CPU time (the launch alone, one thread) per bound evaluation and pose test,
+    and its floating-point rate from an operation count of the kernel's code (constants
+    above, counted by hand from _refine_kernels/_geometry; an estimate, stated as such)."""
+    w = workload
+    (nodes, tests, supports), sec = _kernel_alone(w)
     k = 10  # control matrices per piece (degree 9, the cubic translation mode)
     pairs = len(w.motions) * 5  # pieces x obstacles entering refinement, at most
     splits = max(0, (nodes - pairs) // 2)
@@ -334,7 +340,6 @@ def test_kernel_time_per_evaluation(benchmark, workload):
         + splits * FLOPS_SPLIT_PER_PAIR * k * (k - 1) // 2
         + tests * FLOPS_POSE_TEST
     )
-    sec = float(np.median(times))
     info = {
         "kernel_cpu_s": sec,
         "nodes": nodes,
@@ -356,23 +361,10 @@ def test_kernel_parts(benchmark, workload):
     the whole kernel's CPU time. The remainder is the glue: the stack's loads and stores,
     branches, the piece images and the broad phase. Halvings are at most nodes / 2 (each
     split makes two nodes), so the sum is an upper estimate of the parts' share there."""
-    from harness.certification.refine import refine_many
     from tests.benchmarks.kernel_parts import part_times
 
-    w = workload
-    out, _ = refine_many(
-        w.motions, w.bodies, w.obstacles, aabb=False, tol=TOL, max_depth=24,
-        max_nodes=200_000, max_iter=32, threads=1, device="cpu",
-    )  # fmt: skip
-    cmd = list(buffers("cpu", "refine")._launches.values())[-1].cmds[0]
     parts = part_times()
-    times = []
-    for _ in range(ROUNDS):
-        c = time.process_time()
-        cmd.launch()
-        times.append(time.process_time() - c)
-    kernel = float(np.median(times))
-    nodes, tests, supports = int(out.nodes.sum()), int(out.tests.sum()), int(out.supports.sum())
+    (nodes, tests, supports), kernel = _kernel_alone(workload)
     use = {
         "prepare": nodes * parts["prepare_ns"],
         "supports": supports * parts["support_ns"],
