@@ -952,3 +952,38 @@ def test_wide_latex_tables_are_scaled_to_the_line():
     shrink = "\\resizebox{\\ifdim\\width>\\linewidth\\linewidth\\else\\width\\fi}{!}{%"
     assert shrink + "\n\\begin{tabular}" in wide
     assert "\\end{tabular}}\n\\caption{wide}" in wide and "\\usepackage{graphicx}" in wide
+
+
+def test_continuity_zero_and_missing_jumps_are_labelled_inside_the_axis(tmp_path):
+    """A scheme whose jump is 0 (or not measured) has no bar on the log axis, only a label;
+    the label sat at y = 1, outside an axis of jumps 1e2 to 1e4 (limits set from the
+    bars): it is placed at the axis' foot, inside whatever the limits are."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from harness.report.document import Document
+    from harness.report.sections import continuity_section
+
+    rows = [
+        {"study": "certify", "scene": "s", "keyframes": "scene", "scheme": name,
+         "continuity": "C2", "jump_acceleration": a, "jump_angular_acceleration": a,
+         "jump_angular_velocity": 0.0, "invariance_world": 0.0, "invariance_body": 0.0}
+        for name, a in (("big", 1e4), ("mid", 1e2), ("zero", 0.0), ("missing", np.nan))
+    ]  # fmt: skip
+    seen = []
+    doc = Document(tmp_path)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Document, "figure", lambda self, fig, name, caption: seen.append(fig))
+        continuity_section(doc, pd.DataFrame(rows), plt)
+    (fig,) = seen
+    fig.canvas.draw()
+    for ax in fig.axes:
+        labels = {t.get_text(): t for t in ax.texts}
+        assert set(labels) == {"0", "n/a"}
+        box = ax.get_window_extent()
+        for t in labels.values():
+            ext = t.get_window_extent()
+            assert box.y0 <= ext.y0 and ext.y1 <= box.y1, (t.get_text(), ext, box)
+    plt.close(fig)

@@ -522,8 +522,11 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         x = np.arange(len(vals))
         ok = np.isfinite(vals) & (vals > 0)
         ax.bar(x[ok], vals[ok])
-        for xi in x[~ok]:
-            ax.text(xi, 1, "0" if np.isfinite(vals[xi]) else "n/a", ha="center", fontsize=7)
+        for xi in x[~ok]:  # at the axis' foot (x in data, y in axes units): inside any limits
+            ax.text(
+                xi, 0.02, "0" if np.isfinite(vals[xi]) else "n/a", ha="center", va="bottom",
+                fontsize=7, transform=ax.get_xaxis_transform(),
+            )  # fmt: skip
         ax.set_yscale("log")
         if ok.any():  # at least two decades: bars of nearly equal height had one tick
             lo, hi = float(vals[ok].min()), float(vals[ok].max())
