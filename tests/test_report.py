@@ -892,6 +892,24 @@ def test_a_suites_own_scene_is_named_by_its_file():
     assert name == "certify_post_scene_xml_0_1mm"
 
 
+def test_two_scene_files_of_one_name_get_apart():
+    """Two MJCF files of one base name shared one heading (their tables stayed apart, only
+    the caption named the path): each takes as many folders as tell it apart."""
+    from harness.report.sections import scene_labels
+
+    got = scene_labels(
+        ["slot", "/r/a/arm.xml", "/r/b/arm.xml#hand", "/r/b/arm.xml", "/q/a/arm.xml", "x/y.xml"]
+    )
+    assert got == {
+        "slot": "slot",
+        "/r/a/arm.xml": "r/a/arm.xml",
+        "/q/a/arm.xml": "q/a/arm.xml",
+        "/r/b/arm.xml": "b/arm.xml",
+        "/r/b/arm.xml#hand": "arm.xml#hand",
+        "x/y.xml": "y.xml",
+    }
+
+
 def test_first_calls_of_two_studies_of_one_kind_say_which(tmp_path):
     """The start-up table had two identical 'first call: hull (certify study)' rows."""
     from harness.report.sections import startup_section

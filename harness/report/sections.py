@@ -175,8 +175,9 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
             }
         )
     per = pd.DataFrame(per)
+    labels = scene_labels(per["scene"].unique()) if len(per) else {}
     for (scene, tol), g in per.groupby(["scene", "tolerance (mm)"], sort=True):
-        name = scene_label(scene)
+        name = labels[str(scene)]
         where = name if name == scene else f"{name} ({scene})"
         doc.h(f"{name}, tolerance {tol:g} mm", 3)
         doc.table(
@@ -292,10 +293,35 @@ def scene_label(scene: str) -> str:
     """A scene's name for headings and file names: a registered scene's own, an MJCF
     file's name (with its ``#BODY``) rather than its whole path (a suite's own scene
     filled headings with /tmp/... and cut the tolerance off its table's file name)."""
-    path, hash_, body = str(scene).partition("#")
-    if "/" not in path and not path.endswith(".xml"):
-        return str(scene)
-    return Path(path).name + hash_ + body
+    return scene_labels([scene])[str(scene)]
+
+
+def scene_labels(scenes) -> dict[str, str]:
+    """:func:`scene_label` of each scene, where two MJCF files of one name (``a/arm.xml``,
+    ``b/arm.xml``) take as many of their folders as tell them apart (``a/arm.xml``): the
+    same label would put both under one heading."""
+
+    def label(scene: str, k: int) -> str:
+        path, hash_, body = scene.partition("#")
+        return "/".join(Path(path).parts[-k:]) + hash_ + body
+
+    files = {
+        s
+        for s in map(str, scenes)
+        if "/" in s.partition("#")[0] or s.partition("#")[0].endswith(".xml")
+    }
+    depth = dict.fromkeys(files, 1)
+    while True:
+        seen: dict[str, list[str]] = {}
+        for s in files:
+            seen.setdefault(label(s, depth[s]), []).append(s)
+        grow = [s for same in seen.values() if len(same) > 1 for s in same
+                if depth[s] < len(Path(s.partition("#")[0]).parts)]  # fmt: skip
+        if not grow:
+            break
+        for s in grow:
+            depth[s] += 1
+    return {str(s): label(str(s), depth[str(s)]) if str(s) in files else str(s) for s in scenes}
 
 
 def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
