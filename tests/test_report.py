@@ -1005,3 +1005,14 @@ def test_continuity_zero_and_missing_jumps_are_labelled_inside_the_axis(tmp_path
             ext = t.get_window_extent()
             assert box.y0 <= ext.y0 and ext.y1 <= box.y1, (t.get_text(), ext, box)
     plt.close(fig)
+
+
+def test_the_machine_line_says_what_its_wall_time_covers():
+    """A trial's report said 'total wall time 43 s' of a 52 s shell run: meta.json times
+    the cases of each leg, not the start-up nor the report's drawing, and the line says so."""
+    from harness.report.sections import machine_text
+
+    text = machine_text({"wall_seconds": 43.4, "legs": [{}, {}]}, 7)
+    assert "wall time running the cases 43 s over 2 legs (resumed)" in text
+    assert "(start-up and this report's drawing not included); 7 rows." in text
+    assert "total wall time" not in text

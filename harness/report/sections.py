@@ -64,7 +64,8 @@ def machine_text(meta: dict, rows: int) -> str:
         f" ({meta.get('usable_cpus') or meta.get('cores', '?')} usable CPUs{ram_txt}{load_txt}),"
         f" device {meta.get('device', 'cpu')}, certify threads {meta.get('certify_threads', '?')};"
         f" git {str(meta.get('git_revision'))[:10]}{' (dirty)' if meta.get('git_dirty') else ''};"
-        f" total wall time {wall_txt}; {rows} rows."
+        f" wall time running the cases {wall_txt} (start-up and this report's drawing not"
+        f" included); {rows} rows."
         f" Versions: {', '.join(f'{k} {v}' for k, v in meta.get('versions', {}).items())}."
     )
 
