@@ -400,3 +400,42 @@ def test_a_second_ctrl_c_stops_a_run_stuck_in_a_long_call():
     err = proc.stderr.read()
     assert code == 130, (code, err)
     assert "stopped now" in err and "finished" not in proc.stdout.read()
+
+
+CLEANING = """
+import sys, time
+from harness.run.stop import Stop
+with Stop(hard=True, grace=float(sys.argv[1])):
+    print("ready", flush=True)
+    try:
+        while True:
+            time.sleep(0.01)
+    except KeyboardInterrupt:  # the second signal: clean up (a cluster's cancel) for 2 s
+        time.sleep(2.0)
+        print("cleaned", flush=True)
+print("left", flush=True)
+"""
+
+
+@pytest.mark.parametrize("grace, cleaned", [(1.0, False), (6.0, True)])
+def test_the_grace_after_a_second_ctrl_c_lets_cleanup_finish(grace, cleaned):
+    """A run on a Dask cluster cancels its cases there after the second Ctrl-C; the
+    watchdog's one second could cut that short: its grace is a parameter (a cluster run
+    gets Stop.CLUSTER_GRACE), and a cleanup shorter than it finishes."""
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CLEANING, str(grace)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=30)
+    finally:
+        proc.kill()
+    out = proc.stdout.read()
+    assert (code, "cleaned" in out, "left" in out) == (
+        (0, True, True) if cleaned else (130, False, False)
+    )

@@ -229,7 +229,8 @@ def _run_locked(
     bar = _bar(progress, suite, len(cases), len(done))
     last = time.monotonic()
     try:
-        with Stop(hard=hard_stop) as stop:
+        grace = Stop.GRACE if scheduler is None else Stop.CLUSTER_GRACE
+        with Stop(hard=hard_stop, grace=grace) as stop:
             results = _execute(units(todo), suite, seed, jobs, scheduler, stop, lock, leg)
             try:
                 for case, rows in results:

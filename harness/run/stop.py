@@ -19,17 +19,22 @@ class Stop:
     10^8 samples ran for minutes through two Ctrl-C and a SIGTERM): Python runs its signal
     handlers only between bytecodes, so a watchdog thread reads the signals from the
     interpreter's wakeup file descriptor and, when the main thread has not left the block
-    within GRACE seconds of the second one, ends the process (exit 130; the finished cases
+    within `grace` seconds of the second one, ends the process (exit 130; the finished cases
     are journalled already). That needs the call to release the GIL, as Warp's launches
     do. ``rsmbench run`` sets it; a notebook or a test that calls ``run_suite`` does not,
     so two interrupts never end its process.
     """
 
     GRACE = 1.0
+    CLUSTER_GRACE = 10.0
+    """The grace of a run on a Dask cluster: its main thread, waiting in Python, heeds the
+    second signal at once, then cancels its cases on the cluster over the network (one
+    second could cut that short and leave them running there)."""
 
-    def __init__(self, hard: bool = False):
+    def __init__(self, hard: bool = False, grace: float = GRACE):
         self.requested = False
         self.hard = hard
+        self.grace = grace
         self._previous = None
         self._wakeup: tuple[int, int] | None = None
         self._old_fd = -1
@@ -81,7 +86,7 @@ class Stop:
                 if not got:  # the run left the block
                     return
                 seen += sum(b in (signal.SIGINT, signal.SIGTERM) for b in got)
-                if seen >= 2 and not self._done.wait(self.GRACE):
+                if seen >= 2 and not self._done.wait(self.grace):
                     os.write(
                         2,
                         b"\nrsmbench: stopped now; the finished cases are journalled: run the"
