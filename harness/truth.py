@@ -32,22 +32,21 @@ MESH_EPS = 1e-6  # relative ε of MuJoCo distances involving meshes (float32 ver
 def sample_distances(
     motion: Motion, body: Shape, obstacles: list[Shape], t: np.ndarray, method: str = "mujoco"
 ) -> tuple[np.ndarray, np.ndarray, float]:
-    """Signed-distance bracket (lo, hi) (T,) to the nearest obstacle at times t, and ε.
+    """Signed-distance bracket (lo, hi) (T,) to the nearest obstacle at times t, and ε:
+    the exact distance d satisfies ``lo - ε <= d <= hi + ε`` (a pose with ``hi < -ε``
+    intersects).
 
-    "mujoco": ``mj_geomDistance`` (lo = hi, ε = its ccd tolerance scaled by the scene);
-    "gjk": the harness's float64 GJK (lo: separating plane, hi: closest pair).
+    "mujoco": ``mj_geomDistance`` of each (body part, obstacle part) pair widened by that
+    pair's own ε (:func:`_pair_eps`), the bracket its nearest pair's (ε = 0: in the
+    bracket already); "gjk": the harness's float64 GJK (lo: separating plane, hi: closest
+    pair).
     """
     r, p = motion.pose(t)
     if method == "mujoco":
         md = MujocoDistance(body, obstacles)
-        d = md.distances(r, p).reshape(len(t), -1).min(axis=1)
-        # MuJoCo rounds to the size of the geoms too: a plane's cube can be far larger
-        # than the motion (at 1e9, distances came in steps of 3.7e-9)
-        scale = 1.0 + np.abs(p).max() + body.bounding_radius
-        scale += max((o.bounding_radius for o in obstacles), default=0.0)
-        # MuJoCo stores mesh vertices in float32: their distances are good to ~1e-7 relative
-        has_mesh = any(q.kind == "mesh" for q in md.body_parts + md.obst_parts)
-        return d, d, (MESH_EPS if has_mesh else CCD_TOLERANCE) * scale
+        d = md.distances(r, p).reshape(len(t), -1)
+        eps = _pair_eps(md, 1.0 + np.abs(p).max() + body.bounding_radius)
+        return (d - eps).min(axis=1), (d + eps).min(axis=1), 0.0
     if method == "gjk":
         table = ShapeTable.build([body, *obstacles])
         bparts = np.arange(table.offsets[0], table.offsets[1])
@@ -65,6 +64,29 @@ def sample_distances(
         scale = 1.0 + np.abs(p).max() + body.bounding_radius
         return lb, ub, 1e-12 * scale
     raise ValueError(f"Unknown `method` {short(method)}; expected one of {list(METHODS)}.")
+
+
+def _pair_eps(md: MujocoDistance, reach: float) -> np.ndarray:
+    """ε of each (body part, obstacle part) distance of `md` (body parts outer), for a body
+    within `reach` of the origin: MuJoCo's ccd tolerance scaled by the pair's size (it
+    rounds to the size of the geoms too: a plane's cube can be far larger than the motion;
+    at 1e9, distances came in steps of 3.7e-9), plus for each mesh in the pair
+    :data:`MESH_EPS` of the mesh's own diameter (MuJoCo keeps a mesh's vertices in float32
+    about its centre, good to ~6e-8 of their distance from it). A pair's ε is its own: a
+    floor's cube of radius 2,733 made every distance of a gripper with mesh pads good to
+    only 2.7 mm, and its truth late or unknown."""
+
+    def mesh_size(q: Shape) -> float:
+        if q.kind != "mesh":
+            return 0.0
+        v = np.asarray(q.vertices_, dtype=float)
+        return 2.0 * float(np.linalg.norm(v - v.mean(axis=0), axis=1).max())
+
+    b_mesh = np.array([mesh_size(q) for q in md.body_parts])
+    o_mesh = np.array([mesh_size(q) for q in md.obst_parts])
+    o_size = np.array([q.bounding_radius for q in md.obst_parts])
+    eps = CCD_TOLERANCE * (reach + o_size)[None, :] + MESH_EPS * (b_mesh[:, None] + o_mesh)
+    return eps.reshape(-1)
 
 
 def ground_truth(

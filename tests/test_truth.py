@@ -10,6 +10,7 @@ import pytest
 import harness
 import motions
 from harness import Box, ConvexMesh, Sphere, ground_truth
+from harness.shapes import HalfSpace
 
 from .cases import translation
 
@@ -75,3 +76,27 @@ def test_a_thin_capsule_into_a_box_edge_is_not_free_to_the_mujoco_truth():
     assert c.verdict == "collision" and c.certified
     exact_first = 1 - (math.sqrt(0.1**2 - 0.09**2) - 0.02) / 0.48  # the edge first touched
     assert c.toi_lo <= exact_first + 1e-9
+
+
+def test_a_floor_far_from_the_motion_leaves_the_truth_of_a_mesh_body_as_it_was():
+    """A robot trial: a floor plane (a cube of radius ~2,733 for the certifier) made one ε,
+    1e-6 of that size, for every distance of a gripper with mesh pads: 2.7 mm, so the
+    truth's first contact came 0.05 s late and a 1.5 mm graze was 'unknown'. Each pair
+    has its own ε now: the far floor changes neither the contact time nor the clearance."""
+    pad = ConvexMesh(np.array([[x, y, z] for x in (0.1, 0.12) for y in (-0.02, 0.02)
+                               for z in (-0.02, 0.03)]))  # fmt: skip
+    body = harness.Compound([Box([0.05, 0.05, 0.05]), pad])
+    floor = HalfSpace([0.0, 0.0, -1.0])
+    m = translation(Q, [-1.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    # the pad leads (front face x = 0.12 + s, the motion's s from -1 to 1 over t in [0, 1])
+    for post_x, verdict in ((0.5, "collision"), (1.1715, "free")):  # (free: 1.5 mm at t = 1)
+        post = Box([0.05, 0.05, 0.5], center=[post_x, 0.0, 0.0])
+        alone = ground_truth(m, body, [post], resolution=1e-4)
+        both = ground_truth(m, body, [floor, post], resolution=1e-4)
+        assert alone.verdict == both.verdict == verdict
+        if verdict == "collision":
+            # the pad meets the post's face x = 0.45 at s = 0.33: t = (0.33 + 1) / 2
+            assert both.toi_hi == alone.toi_hi and abs(both.toi_hi - 0.665) <= 1e-4
+        else:
+            assert both.clearance == pytest.approx(alone.clearance, abs=1e-9)
+            assert 0.0015 - 1e-4 <= both.clearance <= 0.0015
