@@ -370,7 +370,8 @@ def obstacles_from_model(
     non-zero or in an explicit contact pair; nothing that moves. Planes become
     :class:`HalfSpace` cubes below their surface, which the engine enlarges for a motion
     that could leave them.
-    `groups` (MuJoCo geom groups) selects some.
+    `groups` (MuJoCo geom groups) selects some; a HarnessError when it selects none of
+    the model's (an empty list would make every motion free).
 
     Colliding geoms on bodies that joints move (a free block, a door) are not obstacles:
     a :class:`MovingGeomsWarning` names their bodies, except those in `carried` (bodies
@@ -393,6 +394,14 @@ def obstacles_from_model(
     _warn_moving(model, groups, set(carried))
     _warn_mocaps(model, groups)
     _warn_flexes(model)
+    if geoms.size == 0 and groups is not None:
+        # (an empty list would certify every motion free, as body_from_model refuses it)
+        every = obstacle_geoms(model)
+        if every.size:
+            raise HarnessError(
+                f"No static colliding geom is in `groups` {short(groups)}; the model's are in"
+                f" groups {sorted(set(model.geom_group[every].tolist()))}."
+            )
     out = []
     for g, shape in _static_shapes(model, geoms):
         if isinstance(shape, UnsupportedGeomError):  # (its message names the geom)

@@ -310,7 +310,11 @@ def test_geom_groups_select_what_is_certified():
             body_from_model(model, "hand", groups=bad)
     # obstacles likewise
     assert len(obstacles_from_model(model, groups=[0])) == 3
-    assert obstacles_from_model(model, groups=[1]) == []
+    # none selected: refused, as for the body (an empty list certified every motion free)
+    with pytest.raises(
+        harness.HarnessError, match=r"No static colliding geom is in `groups` \[1\]; .*groups \[0\]"
+    ):
+        obstacles_from_model(model, groups=[1])
 
 
 # ----------------------------------------------------------------------------- files
@@ -507,13 +511,14 @@ def test_geom_groups_outside_mujocos_six_are_never_selected():
         <geom name="tip" type="sphere" size=".02" pos="0 0 -.2" group="{group}"/></body>
         </worldbody></mujoco>"""
         model = mujoco.MjModel.from_xml_string(xml)
-        obst = obstacles_from_model(model, groups=[5])
-        assert len(obst) == int(selected)
         if selected:
+            assert len(obstacles_from_model(model, groups=[5])) == 1
             assert body_from_model(model, "hand", groups=np.array(5)).kind == "sphere"
         else:
             with pytest.raises(harness.HarnessError, match="no geoms to certify"):
                 body_from_model(model, "hand", groups=[5])
+            with pytest.raises(harness.HarnessError, match="No static colliding geom"):
+                obstacles_from_model(model, groups=[5])
 
 
 def test_unsupported_geoms_on_the_mover_list_what_it_takes():
@@ -618,7 +623,10 @@ def test_colliding_geoms_that_joints_move_are_named_not_dropped_silently(tmp_pat
     assert len(obst) == 1 and obst[0].half_extents[2] == pytest.approx(0.05)
     with pytest.warns(harness.sim.MovingGeomsWarning, match=r"2 colliding .*\['door'\]"):
         obstacles_from_model(model, carried=["block", "lid"])  # its knob is in a pair
-    with pytest.warns(harness.sim.MovingGeomsWarning, match=r"1 colliding .*\['door'\]"):
+    with (
+        pytest.warns(harness.sim.MovingGeomsWarning, match=r"1 colliding .*\['door'\]"),
+        pytest.raises(harness.HarnessError, match=r"No static .* `groups` \[2\]"),
+    ):
         obstacles_from_model(model, groups=[2], carried=["block", "lid"])
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # nothing moving outside the bodies carried
