@@ -1016,3 +1016,29 @@ def test_the_machine_line_says_what_its_wall_time_covers():
     assert "wall time running the cases 43 s over 2 legs (resumed)" in text
     assert "(start-up and this report's drawing not included); 7 rows." in text
     assert "total wall time" not in text
+
+
+def test_the_physics_table_names_a_suites_own_scene_by_its_file(tmp_path):
+    """The simulation table showed a suite's scene as /tmp/myrobot/robot.xml where the
+    certify headings said robot.xml#ee (a robot trial)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from harness.report.document import Document
+    from harness.report.sections import physics_section
+
+    rows = [
+        {"study": "simulate", "scene": "/tmp/myrobot/robot.xml", "scheme": s, "carried": 1,
+         "force_jump": 2.0, "force_rate_jump": 30.0 * (i + 1), "jerk_jump": 1.0,
+         "min_distance": -0.01, "verdict": "collision", "crosscheck_ok": True}
+        for i, s in enumerate(("rational", "slerp"))
+    ]  # fmt: skip
+    tables = []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Document, "table", lambda self, t, caption, name: tables.append(t))
+        mp.setattr(Document, "figure", lambda self, fig, name, caption: plt.close(fig))
+        physics_section(Document(tmp_path), pd.DataFrame(rows), plt)
+    (t,) = tables
+    assert list(t["scene"]) == ["robot.xml", "robot.xml"]

@@ -598,6 +598,9 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
         if c in sim
     ]
     t = sim[cols].copy()
+    if "scene" in t:  # (a suite's own file by its name, as in the certify headings)
+        labels = scene_labels(t["scene"].astype(str).unique())
+        t["scene"] = t["scene"].astype(str).map(labels)
     carried = numeric(sim, "carried")
     for c in ("force_jump", "force_rate_jump", "jerk_jump"):
         if c in t:
@@ -627,7 +630,7 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
                 [schemes.index(s) for s in g["scheme"]],
                 numeric(g, "force_rate_jump"),
                 "o",
-                label=scene,
+                label=scene_label(scene),
             )
         ax.set_xticks(range(len(schemes)), schemes, rotation=40, ha="right", fontsize=8)
         ax.set_ylabel("force rate jump (N/s)")
