@@ -374,16 +374,17 @@ def physics_smoothness(
 
     Returns:
         dict with ``force_jump``, ``force_rate_jump``, ``acceleration_jump``,
-        ``jerk_jump`` (max over knots and carried bodies) and ``peak_jerk``.
+        ``jerk_jump`` (max over knots and carried bodies) and ``peak_jerk``; NaN each
+        when nothing is carried or the recording is shorter than two windows (nothing was
+        measured: 0.0 read as perfectly smooth).
     """
     tau = _check_smoothness_args(frame, motion, carried, window)
     t = tau + motion.domain[0]
     knots = motion.knots[1:-1]
-    out = dict(
-        force_jump=0.0, force_rate_jump=0.0, acceleration_jump=0.0, jerk_jump=0.0, peak_jerk=0.0
-    )
-    if len(t) < 2 * window + 2:
-        return out
+    keys = ("force_jump", "force_rate_jump", "acceleration_jump", "jerk_jump", "peak_jerk")
+    if not len(carried) or len(t) < 2 * window + 2:
+        return dict.fromkeys(keys, math.nan)
+    out = dict.fromkeys(keys, 0.0)
 
     def sided(y: np.ndarray, i: int, kt: float):
         """values and slopes at the knot of lines fitted before and after it."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import mujoco
@@ -230,6 +231,9 @@ def test_physics_smoothness_checks_its_arguments():
     with pytest.raises(ValueError, match=r"`frame\['time'\]` to be finite and strictly"):
         physics_smoothness(df.iloc[::-1], m, sc.carried)
     assert set(physics_smoothness(df, m, list(sc.carried))) >= {"force_jump", "peak_jerk"}
+    # nothing carried, or too short a recording: nothing measured, NaN (0.0 read as smooth)
+    for got in (physics_smoothness(df, m, []), physics_smoothness(df.iloc[:10], m, sc.carried)):
+        assert len(got) == 5 and all(math.isnan(v) for v in got.values()), got
 
 
 def test_procedural_scene_parameters_are_checked():

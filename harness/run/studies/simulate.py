@@ -9,7 +9,6 @@ cost, ``steps_per_second``, comes from ``rounds`` timed simulations without reco
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
@@ -21,7 +20,6 @@ from ..fields import names, need, number, scene_names
 from .context import Context, rounds_key, smoothness_cols
 
 KEYS = frozenset({"scenes", "schemes", "dt", "rounds"})
-FORCE_COLUMNS = ("force_jump", "force_rate_jump", "acceleration_jump", "jerk_jump", "peak_jerk")
 
 
 DT_RANGE = (1e-6, 1.0)
@@ -76,10 +74,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     row["min_distance"] = float(df["min_distance"].min())
     row["max_contacts"] = int(df["ncon"].max())
     row["carried"] = len(sc.carried)
-    physics = physics_smoothness(df, m, sc.carried)
-    if not sc.carried:  # nothing carried: these figures cannot be non-zero
-        physics = {k: (math.nan if k in FORCE_COLUMNS else v) for k, v in physics.items()}
-    row.update(physics)
+    row.update(physics_smoothness(df, m, sc.carried))  # (NaN when nothing is carried)
     row.update(
         smoothness_cols(
             ctx.memo(
