@@ -408,6 +408,8 @@ def obstacles_from_model(
             raise UnsupportedGeomError(str(shape))
         if isinstance(shape, ShapeError):
             raise type(shape)(f"{_geom(model, g)}: {shape}")
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, int(g))
+        object.__setattr__(shape, "name", name or f"geom #{int(g)}")
         out.append(shape)
     return out
 

@@ -144,6 +144,9 @@ class Shape:
     """Base class: a convex set given by its support function."""
 
     kind: str = ""
+    name = None
+    """The MuJoCo geom a shape came from (:func:`harness.obstacles_from_model` sets it), or
+    None; a label for messages, not part of the shape (not compared)."""
 
     def __setstate__(self, state: dict) -> None:
         # unpickled (the runner's worker processes), its arrays read-only again
@@ -274,6 +277,7 @@ class HalfSpace(Box):
                 ("center", _frozen(self.point - half * self.rotation[:, 2])),
                 ("rotation", self.rotation),
                 ("point", self.point),
+                ("name", self.name),
             ):
                 object.__setattr__(hit, name, value)
             kept[half] = hit

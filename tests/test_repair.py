@@ -527,3 +527,24 @@ def test_a_repair_study_goes_out_one_clearance_at_a_time():
     st = kind.parse({"cases": 4, "clearances": [0.0, 0.01]}, Path("s.toml"), "study[0]")
     units = {kind.group(c) for c in kind.expand(st)}
     assert len(units) == 2
+
+
+def test_a_refusal_names_the_models_geom():
+    """A robot trial: 'obstacles[1] (Box) contains the keyframe pose' left the user to find
+    which of the model's geoms that was. Obstacles from a model carry their geom's name
+    (unnamed geoms their id), and the refusal says it."""
+    import mujoco
+
+    xml = """<mujoco><worldbody>
+    <geom name="table" type="box" size="1 1 .05" pos="0 0 -.05"/>
+    <geom type="sphere" size=".05" pos="-1 1 .5"/>
+    <geom name="post" type="box" size=".05 .05 .5" pos=".5 0 .5"/>
+    </worldbody></mujoco>"""
+    obst = harness.obstacles_from_model(mujoco.MjModel.from_xml_string(xml))
+    assert [o.name for o in obst] == ["table", "geom #1", "post"]
+    import dataclasses
+
+    assert "name" not in {f.name for f in dataclasses.fields(obst[2])}  # (a label only)
+    m = motions.build("rational", [[1.0, 0, 0, 0]] * 3, [[0, 0, 0.3], [0.5, 0, 0.3], [1, 0, 0.3]])
+    with pytest.raises(RepairError, match=r"obstacles\[2\] \('post', Box\) contains the keyframe"):
+        repair(m, Sphere(0.05), obst, tolerance=TOL)

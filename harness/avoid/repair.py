@@ -196,7 +196,7 @@ def _check_keyframes(motion, dm: DistanceModel, anchors, c, tol, obst) -> None:
             f" `clearance` + 2 `tolerance` = {margin:.3g} (the repair's margin)"
         )
         raise RepairError(
-            f"Cannot repair: obstacles[{o}] ({type(obst[o]).__name__}) {what}; the repair keeps"
+            f"Cannot repair: obstacles[{o}] ({_label(obst[o])}) {what}; the repair keeps"
             " every keyframe pose.",
             tuple(sorted({int(x) for x in bad[:, 1]})),
         )
@@ -525,3 +525,9 @@ def repair(
         found.iterations,
         time.perf_counter() - start,
     )
+
+
+def _label(shape) -> str:
+    """A shape for messages: its kind, and its geom's name where it came from a model."""
+    kind = type(shape).__name__
+    return kind if shape.name is None else f"{shape.name!r}, {kind}"
