@@ -548,3 +548,44 @@ def test_a_refusal_names_the_models_geom():
     m = motions.build("rational", [[1.0, 0, 0, 0]] * 3, [[0, 0, 0.3], [0.5, 0, 0.3], [1, 0, 0.3]])
     with pytest.raises(RepairError, match=r"obstacles\[2\] \('post', Box\) contains the keyframe"):
         repair(m, Sphere(0.05), obst, tolerance=TOL)
+
+
+POST_XML = """<mujoco><worldbody>
+<geom name="table" type="box" size="1 1 .05" pos="0 0 -.05"/>
+<geom name="post" type="box" size=".05 .05 .5" pos="0 0 .5"/>
+<body name="hand" mocap="true" pos="-.6 0 .3"><geom name="palm" type="sphere" size=".05"/></body>
+</worldbody><keyframe>
+<key time="0" mpos="-.6 0 .3"/><key time="1" mpos="-.3 0 .3"/>
+<key time="2" mpos=".3 0 .3"/><key time="3" mpos=".6 0 .3"/>
+</keyframe></mujoco>"""
+
+
+def test_a_repair_study_repairs_a_users_own_scene(tmp_path):
+    """A robot trial: `[[study]] kind = "repair"` took no scenes ("unknown key"), so a
+    suite could not compare the two repairs on the user's own model. With `scenes`, the
+    scene's keyframe motion (through the post) is repaired against its obstacles at each
+    clearance, judged by the ground truth, and the report's summary names the scene."""
+    import pandas as pd
+
+    from harness.run import load_suite, run_suite
+
+    (tmp_path / "post_robot.xml").write_text(POST_XML)
+    suite = tmp_path / "suite.toml"
+    suite.write_text(
+        '[suite]\nname = "mine"\n[[study]]\nkind = "repair"\nscenes = ["post_robot.xml"]\n'
+        "clearances = [0.0, 0.004]\nsamples = 64\n"
+    )
+    run_suite(load_suite(suite), tmp_path / "out", progress=False)
+    df = pd.read_parquet(tmp_path / "out" / "results.parquet")
+    assert len(df) == 4 and set(df["keyframes"]) == {"scene"}  # no seeded cases asked
+    assert set(df["scene"]) == {str(tmp_path / "post_robot.xml")}
+    assert (df["before"] == "collision").all()
+    cert = df[df["method"] == "certified"].set_index("clearance")
+    assert (cert["status"] == "repaired").all() and (cert["truth"] == "free").all()
+    for c, row in cert.iterrows():
+        assert row["certified_clearance"] >= c
+        assert row["truth_clearance"] >= c - row["truth_resolution"]
+    from harness.report import write_report
+
+    md = write_report(tmp_path / "out").read_text()
+    assert "| post_robot.xml |" in md and "post_robot.xml, clearance 0.004 m" in md

@@ -30,6 +30,8 @@ BAD = [
     # a count the query refuses passed the parse; the run failed at the first case using it
     (CERTIFY + "samples = 1000000000", r"study\[0\]\.samples", r"in \[2, 100,000,000\]"),
     ('[[study]]\nkind = "repair"\nsamples = 10000000', r"study\[0\]\.samples", r"in \[2, 1,000,000\]"),
+    ('[[study]]\nkind = "repair"\ncases = 0', r"study\[0\]\.cases", r"expected >= 1 \(or `scenes`\), got 0"),
+    ('[[study]]\nkind = "repair"\nscenes = ["nope.xml"]', r"study\[0\]\.scenes", "nope.xml"),
     (CERTIFY + "truth_resolution = 0", r"study\[0\]\.truth_resolution", "positive number"),
     (CERTIFY + "tolerances = [1e-3, 1e-3]", r"study\[0\]\.tolerances", r"duplicate entries \[0.001\]"),
     (CERTIFY + 'scenes = ["slot", "slot"]', r"study\[0\]\.scenes", r"duplicate entries \['slot'\]"),

@@ -12,10 +12,17 @@ import pandas as pd
 __all__ = ["repair_section"]
 
 
+SEEDED = "repair"
+"""The `scene` of a repair study's seeded cases (``studies.repair.SEEDED``)."""
+
+
 def _summary(rep: pd.DataFrame) -> pd.DataFrame:
     """One row per (tolerance, clearance, method): a sweep's studies stay apart."""
+    from .sections import scene_labels
+
     rows = []
-    keys = [k for k in ("tolerance", "clearance", "method") if k in rep]
+    keys = [k for k in ("scene", "tolerance", "clearance", "method") if k in rep]
+    labels = scene_labels(rep["scene"].astype(str).unique()) if "scene" in rep else {}
     for key, g in rep.groupby(keys):
         ok = g[g["repairable"]]
         done = g[g["status"] == "repaired"]
@@ -23,9 +30,13 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
         ok_truth = truth[done["repairable"]]
         decided = len(ok) - int((ok_truth == "unknown").sum())
         row = dict(zip(keys, key, strict=True))
+        if "scene" in row:  # the seeded cases, or a scene's keyframes (a user's own file)
+            row["scene"] = "seeded cases" if row["scene"] == SEEDED else labels[str(row["scene"])]
+        before = g["before"] if "before" in g else pd.Series("collision", index=g.index)
         row.update(
             {
-                "colliding": len(g),
+                "motions": len(g),
+                "colliding": int((before == "collision").sum()),
                 "repairable": len(ok),
                 "claimed": int((ok["status"] == "repaired").sum()),
                 "truly_free": int((ok_truth == "free").sum()),
@@ -59,8 +70,12 @@ def _example(rep: pd.DataFrame):
     """Recompute one repaired case of the study for the picture (cases are seeded)."""
     from ..avoid import colliding_cases, repair, sampled_repair
 
+    seeded = rep["scene"] == SEEDED if "scene" in rep else True  # (a scene's: not re-made here)
     done = rep[
-        (rep["method"] == "certified") & (rep["status"] == "repaired") & (rep["clearance"] == 0)
+        seeded
+        & (rep["method"] == "certified")
+        & (rep["status"] == "repaired")
+        & (rep["clearance"] == 0)
     ]
     if not len(done):
         return None
@@ -127,7 +142,8 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
     doc.h("Collision avoidance: certified repair against sampling-based repair")
     doc.table(
         _summary(rep),
-        "Per tolerance, requested clearance and method, over the seeded colliding motions:"
+        "Per scene (the seeded colliding motions, or a scene's keyframe motion), tolerance,"
+        " requested clearance and method:"
         " repairable means every keyframe pose keeps clearance + 2 tolerances, the repair's margin"
         " (keyframes are kept); claimed: repairable cases the method called repaired; truly_free:"
         " of those, proven free by the ground truth (dense mj_geomDistance sampling with the"
@@ -139,6 +155,7 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
         " requested, or not proven free). Deviation (the origin path's largest move), rounds and"
         " CPU time are over the repaired motions; refusals' CPU time apart. The certified"
         f" repair's free is a proof; the sampled repair's is what {grid_text(rep)} saw.",
+        "repair_summary",
     )
     ex = _example(rep)
     if ex is not None:

@@ -243,18 +243,26 @@ def _repair_headline(df: pd.DataFrame) -> list[dict[str, str]]:
     s = _summary(rep)
     for _, r in s.iterrows():
         where = f"clearance {r['clearance']:g} m, tolerance {r['tolerance']:g} m"
+        scene = r.get("scene", "seeded cases")
+        if scene != "seeded cases":
+            where = f"{scene}, {where}"
+        motions = (
+            f"{r['colliding']} colliding motions"
+            if r["colliding"] == r["motions"]
+            else f"{r['motions']} motions ({r['colliding']} colliding)"
+        )
         if r["method"] == "certified":
             value = (
                 f"proved free {r['claimed']}/{r['repairable']} repairable;"
                 f" still collide {r['still_collides']}, below clearance {r['below_clearance']}"
             )
             basis = (
-                f"of {r['colliding']} colliding motions; the ground truth confirms"
+                f"of {motions}; the ground truth confirms"
                 f" {r['truly_free']} and cannot decide {r['truth_undecided']}; none may still collide"
             )
         else:
             value = f"claimed free {r['claimed_all']}, still collide {r['still_collides']}"
-            basis = f"of {r['colliding']} colliding motions; its free is what {grid_text(rep)} saw"
+            basis = f"of {motions}; its free is what {grid_text(rep)} saw"
         out.append(
             dict(
                 figure=f"{r['method']} repair ({where})",

@@ -1,5 +1,6 @@
 """The ``repair`` study: certified repair of colliding motions against the sampling-based
-repair, on seeded colliding cases (:func:`harness.avoid.colliding_cases`).
+repair, on seeded colliding cases (:func:`harness.avoid.colliding_cases`) and on the
+scene keyframes of the study's `scenes` (a user's own MJCF files: "move it off the post").
 
 One row per (case, method, clearance). ``method`` is ``"certified"`` (:func:`harness.repair`)
 or ``"sampled"`` (via-keyframes at sampled collisions). Every result is judged by the
@@ -16,10 +17,14 @@ from pathlib import Path
 import numpy as np
 
 from ...avoid.baseline import MAX_SAMPLES as SAMPLED_REPAIR_MAX
-from ..fields import integer, need, number, numbers
+from ..fields import integer, need, number, numbers, scene_names
 from .context import Context
 
-KEYS = frozenset({"cases", "seed", "clearances", "tolerance", "samples", "truth_resolution"})
+KEYS = frozenset(
+    {"cases", "seed", "clearances", "tolerance", "samples", "truth_resolution", "scenes"}
+)
+SEEDED = "repair"
+"""The `scene` of the seeded cases' rows."""
 
 
 def parse(st: dict, file: Path, where: str) -> dict:
@@ -33,8 +38,13 @@ def parse(st: dict, file: Path, where: str) -> dict:
         key("clearances"),
         f"expected numbers >= 0, got {st.get('clearances')!r}",
     )
+    scenes = scene_names(st["scenes"], file, key("scenes")) if "scenes" in st else []
+    # seeded cases by default; with `scenes`, only those unless `cases` asks for both
+    cases = integer(st.get("cases", 0 if scenes else 220), file, key("cases"), lo=0, hi=100_000)
+    need(cases > 0 or scenes, file, key("cases"), "expected >= 1 (or `scenes`), got 0")
     return {
-        "cases": integer(st.get("cases", 220), file, key("cases"), lo=1, hi=100_000),
+        "scenes": scenes,
+        "cases": cases,
         "seed": integer(st.get("seed", 0), file, key("seed"), lo=0),
         "clearances": clearances,
         "tolerance": number(st.get("tolerance", 1e-3), file, key("tolerance")),
@@ -46,23 +56,28 @@ def parse(st: dict, file: Path, where: str) -> dict:
 
 
 def expand(st: dict) -> list[dict]:
+    kinds = ([(SEEDED, f"repair-{st['seed']}")] if st.get("cases", 1) else []) + [
+        (scene, "scene") for scene in st.get("scenes", [])
+    ]
     return [
         dict(
-            scene="repair",
-            keyframes=f"repair-{st['seed']}",
+            scene=scene,
+            keyframes=kf,
             scheme="rational",
             bound="repair",
             clearance=c,
             tolerance=st["tolerance"],
         )
+        for scene, kf in kinds
         for c in st["clearances"]
     ]
 
 
 def group(case: dict) -> tuple:
-    """Each requested clearance is one unit of work: two workers repair two clearances at
-    once (a worker builds the colliding cases once, for every clearance it runs)."""
-    return (case["clearance"],)
+    """Each requested clearance (of the seeded cases, or of one scene) is one unit of
+    work: two workers repair two clearances at once (a worker builds the colliding cases
+    once, for every clearance it runs)."""
+    return (case["scene"], case["clearance"])
 
 
 def _colliding(ctx: Context, st: dict):
@@ -81,6 +96,24 @@ def _colliding(ctx: Context, st: dict):
         ]
 
     return ctx.memo(("repair-cases", st["cases"], st["seed"]), make)
+
+
+def _scene_case(ctx: Context, scene: str, tol: float):
+    """The scene's rational motion through its keyframes as an :class:`AvoidCase` (index
+    0): repaired whatever its verdict (a free motion may still be closer than asked)."""
+    from ...avoid.cases import AvoidCase
+    from ...truth import sample_distances
+
+    def make():
+        from ...certification import certify
+
+        m = ctx.motion(scene, "scene", "rational")
+        body, obst = ctx.geometry(scene)
+        lo = sample_distances(m, body, obst, np.asarray(m.keyframe_times, dtype=float))[0]
+        case = AvoidCase(m, body, list(obst), math.nan, math.nan, False, float(lo.min()))
+        return [(0, case, certify(m, body, obst, tolerance=tol).verdict)]
+
+    return ctx.memo(("repair-scene", scene, tol), make)
 
 
 def _deviation(a, b) -> float:
@@ -110,10 +143,17 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     # (the report's captions and picture say what these were)
     base["samples"], base["truth_resolution"] = st["samples"], st["truth_resolution"]
     rows = []
-    for idx, k in _colliding(ctx, st):
+    seeded = case["scene"] == SEEDED
+    items = (
+        [(i, k, "collision") for i, k in _colliding(ctx, st)]
+        if seeded
+        else _scene_case(ctx, case["scene"], tol)
+    )
+    for idx, k, before in items:
         common = {
             **base,
             "case": idx,
+            "before": before,
             "repairable": k.repairable(c, tol),
             "on_keyframe": k.on_keyframe,
             "obstacles": len(k.obstacles),
