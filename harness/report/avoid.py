@@ -17,7 +17,8 @@ SEEDED = "repair"
 
 
 def _summary(rep: pd.DataFrame) -> pd.DataFrame:
-    """One row per (tolerance, clearance, method): a sweep's studies stay apart."""
+    """One row per (scene, tolerance, clearance, method): a sweep's studies stay apart,
+    and a scene's keyframe motion apart from the seeded cases."""
     from .sections import scene_labels
 
     rows = []

@@ -43,7 +43,7 @@ def parse(st: dict, file: Path, where: str) -> dict:
     cases = integer(st.get("cases", 0 if scenes else 220), file, key("cases"), lo=0, hi=100_000)
     need(cases > 0 or scenes, file, key("cases"), "expected >= 1 (or `scenes`), got 0")
     return {
-        "scenes": scenes,
+        **({"scenes": scenes} if scenes else {}),  # (absent: a suite's hash as before)
         "cases": cases,
         "seed": integer(st.get("seed", 0), file, key("seed"), lo=0),
         "clearances": clearances,
@@ -56,7 +56,7 @@ def parse(st: dict, file: Path, where: str) -> dict:
 
 
 def expand(st: dict) -> list[dict]:
-    kinds = ([(SEEDED, f"repair-{st['seed']}")] if st.get("cases", 1) else []) + [
+    kinds = ([(SEEDED, f"repair-{st['seed']}")] if st["cases"] else []) + [
         (scene, "scene") for scene in st.get("scenes", [])
     ]
     return [
