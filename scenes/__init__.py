@@ -328,7 +328,8 @@ def suite_scenes(value: Any, relative_to: str | os.PathLike) -> list[str]:
     """The `scenes` of a suite: ``"all"`` (the registered scenes) or a non-empty list of
     registered names and MJCF paths (``"FILE.xml#BODY"`` names the mocap body of a file
     with several); a relative path is relative to `relative_to` (the suite file's folder). Paths come back absolute, and every file is compiled now, so a
-    missing mesh or keyframe is reported before any work.
+    missing mesh or keyframe is reported before any work. A file's only mocap body is not
+    named (``arm.xml#hand`` and ``arm.xml`` are one scene, under one name).
 
     Raises:
         SceneError: what is wrong and which entry.
@@ -353,7 +354,9 @@ def suite_scenes(value: Any, relative_to: str | os.PathLike) -> list[str]:
                 f"unknown scene {v!r}; valid: {list(SCENES)}, or the path of an MJCF file "
                 '(relative to the suite file; "FILE.xml#BODY" chooses its mocap body).'
             )
-        load(p, mocap_body=body)
+        sc = load(p, mocap_body=body)
+        if body is not None and len(mocap_bodies(sc.model)) == 1:
+            body = None  # the file's only mocap body: one name for one scene ("#ee" or not)
         out.append(str(p.resolve()) + ("" if body is None else f"#{body}"))
     return out
 

@@ -189,3 +189,28 @@ def test_a_suite_chooses_the_mocap_body_of_a_file_with_several(tmp_path):
     assert entry.endswith("two.xml#m2")
     sc = scenes.load(entry)
     assert sc.mocap_body == "m2" and sc.keyframes.positions[0][1] == pytest.approx(2.0)
+
+
+def test_a_files_only_mocap_body_is_one_scene_named_or_not(tmp_path):
+    """A robot trial named its file "robot.xml#ee" in a certify study and "robot.xml" in a
+    simulate study: one motion, two names, counted twice in the continuity table. The only
+    mocap body is not named; a file with several keeps the name it needs."""
+    (tmp_path / "one.xml").write_text(
+        """<mujoco><worldbody><geom type="box" size="1 1 .1" pos="0 0 -1"/>
+        <body name="ee" mocap="true"><geom type="box" size=".1 .1 .1"/></body>
+        </worldbody><keyframe><key time="0" mpos="0 0 0"/><key time="1" mpos="1 0 0"/>
+        </keyframe></mujoco>"""
+    )
+    text = (
+        '[[study]]\nkind = "certify"\nschemes = ["rational"]\nbounds = ["hull"]\n'
+        'scenes = ["one.xml#ee"]\n[[study]]\nkind = "simulate"\nschemes = ["rational"]\n'
+        'scenes = ["one.xml"]\n'
+    )
+    (tmp_path / "s.toml").write_text(text)
+    a, b = (st["scenes"] for st in load_suite(tmp_path / "s.toml").studies)
+    assert a == b == [str((tmp_path / "one.xml").resolve())]
+    (tmp_path / "d.toml").write_text(
+        '[[study]]\nkind = "simulate"\nschemes = ["rational"]\nscenes = ["one.xml", "one.xml#ee"]\n'
+    )
+    with pytest.raises(SuiteError, match="scenes"):  # the same scene twice
+        load_suite(tmp_path / "d.toml")
