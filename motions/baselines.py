@@ -57,7 +57,7 @@ __all__ = [
 ]
 
 CUMULATIVE_TOL = 1e-12  # interpolation residual (quaternion angle) of the cumulative solve
-CUMULATIVE_MAX_ITER = 200
+CUMULATIVE_MAX_ITER = 60  # Newton iterations of one solve, continuation included
 
 
 def spline_speed_bound(spline: BSpline, t0: float, t1: float) -> float:
@@ -357,8 +357,13 @@ class CumulativeBSplineMotion(_JetRotationMotion):
         The continuation solves for keyframes whose relative turns are scaled by s,
         ``q_i(s) = q_0 prod_l exp(s log(q_{l-1}⁻¹ q_l))``, from s = 0 (trivial) to s = 1,
         each step started from the last solution.
+
+        Iteration caps (12 from the keyframes, 8 a continuation step, 60 in all): every
+        accepted set of 160 random ones (3-8 keyframes, turns up to ~110°, chordal and
+        uniform times) converged in at most 9 iterations, the same sets and the same
+        controls as with caps of 30, 20 and 200, and a refusal takes ~0.9 s instead of ~3 s.
         """
-        c, total, res = self._newton(q.copy(), q, t, 30)
+        c, total, res = self._newton(q.copy(), q, t, 12)
         if res <= CUMULATIVE_TOL:
             return c, total, res
         logs = qlog(qmul(qconj(q[:-1]), q[1:]))
@@ -371,7 +376,7 @@ class CumulativeBSplineMotion(_JetRotationMotion):
             for st in steps:
                 qs.append(qmul(qs[-1], st))
             qs = np.array(qs)
-            c_try, it, res = self._newton(c.copy(), qs, t, 20)
+            c_try, it, res = self._newton(c.copy(), qs, t, 8)
             total += it
             if res <= CUMULATIVE_TOL:
                 s, c, ds = s_try, c_try, ds * 1.5

@@ -269,7 +269,7 @@ def _family_cases(scheme: str, n: int = 12) -> tuple[list, list]:
         try:
             # uniform times and turns of ~15-35°: with chordal times (from the positions
             # alone) and turns of up to ~70°, the cumulative B-spline's interpolation has no
-            # solution for half the sets, each refused after ~3 s of continuation
+            # solution for half the sets (each refused after ~1 s of continuation)
             ms.append(motions.build(scheme, q, p, np.arange(5.0)))
         except motions.MotionError:  # (the cumulative solve refuses some keyframe sets)
             continue
