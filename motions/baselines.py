@@ -359,7 +359,7 @@ class CumulativeBSplineMotion(_JetRotationMotion):
         each step started from the last solution.
 
         Iteration caps (12 from the keyframes, 8 a continuation step, 60 in all): every
-        accepted set of 160 random ones (3-8 keyframes, turns up to ~110°, chordal and
+        accepted set of 130 random ones (3-8 keyframes, small to large turns, chordal and
         uniform times) converged in at most 9 iterations, the same sets and the same
         controls as with caps of 30, 20 and 200, and a refusal takes ~0.9 s instead of ~3 s.
         """
