@@ -325,3 +325,83 @@ def test_relative_motions_round_off_bound_holds_in_exact_arithmetic(offset):
             assert np.all(blocks <= err[s]), (s, k, blocks, err[s])
             worst = max(worst, float((blocks / np.maximum(err[s], 1e-300)).max()))
     assert worst > 0  # (the bound is not vacuous: some entry rounds)
+
+
+def test_a_pair_whose_weights_span_three_decades_is_certified_not_refused():
+    """A hunt: two interpolated motions (translation "minimal", keyframe times ~1e3, a
+    weight from 0.5 to 1e3) gave PairError: their relative motion's control matrices, rigid
+    to within their computed error, missed from_bezier's fixed 1e-10 rigidity check (5e-10).
+    The check allows the error the matrices carry; the verdict is checked by sampling."""
+    t = np.array([1000.739428172273, 1003.0428146528335, 1003.184373339881, 1005.6065653434749])
+    ma = motions.interpolate(
+        np.array(
+            [
+                [
+                    -0.8640676655963699,
+                    0.09212859705420373,
+                    -0.44381398672348144,
+                    0.21892586887865365,
+                ],
+                [-0.5745300523378153, -0.2762117574033512, 0.6228778854432167, -0.4534814481967775],
+                [-0.4586581512756363, 0.6187819282061551, 0.30834015458948844, 0.5582723122828309],
+                [-0.8822931875778389, 0.15484553601854312, 0.4347972238361593, -0.0923740508651389],
+            ]
+        ),
+        np.array(
+            [
+                [5.397801238480848, -23.003098782029454, 26.401266380245435],
+                [0.5123910680051056, -11.239000682204498, 21.457296849830254],
+                [-2.677130359957133, 1.713686053314115, 29.817106675872942],
+                [-16.091370644666974, 6.758339701381325, 27.990381163042034],
+            ]
+        ),
+        t,
+        translation="minimal",
+    )
+    mb = motions.interpolate(
+        np.array(
+            [
+                [
+                    -0.1665921975737932,
+                    -0.23020889755410148,
+                    -0.7897576039725285,
+                    -0.5436302329359821,
+                ],
+                [
+                    -0.3246744176255661,
+                    -0.7090644750661739,
+                    -0.0619129451057361,
+                    -0.6228811122252502,
+                ],
+                [
+                    -0.19209868560402774,
+                    -0.7697373102000621,
+                    -0.04771633573553815,
+                    -0.6068984425578563,
+                ],
+                [
+                    -0.5655025370649966,
+                    -0.3909969356217486,
+                    -0.22120385226763312,
+                    0.6916625858389431,
+                ],
+            ]
+        ),
+        np.array(
+            [
+                [-15.233398877449492, 6.83340770324416, 29.87538925724317],
+                [-1.8191585927396536, 1.7887540551769503, 31.70211477007408],
+                [1.370362835222585, -11.163932680341661, 23.34230494403139],
+                [6.255773005698327, -22.92803078016662, 28.28627447444657],
+            ]
+        ),
+        t,
+        translation="minimal",
+    )
+    s = harness.Sphere(0.1)
+    c = harness.certify_pair(ma, s, mb, s)
+    print(c.verdict, c.certified, c.toi_lo)
+    c = harness.certify_pair(ma, s, mb, s)
+    tt = np.linspace(t[0], t[-1], 20001)
+    d = np.linalg.norm(ma.pose(tt)[1] - mb.pose(tt)[1], axis=1) - 0.2  # (sphere centres)
+    assert d.min() > 1.0 and c.verdict == "free" and c.certified
