@@ -112,7 +112,11 @@ def _smallest_offset(
     0.239 m with 1e6)."""
     spline = (_refine(spline, anchors, new_t, 1) if new_t.size else None) or spline
     times = np.array(cons.t)
+    checked = False
     while (delta := solve(spline, cons)) is None:
+        if not checked and _infeasible_at_one_time(cons):
+            return spline, None  # (no number of knots meets them: see there)
+        checked = True
         grown = _refine(spline, anchors, times, 2)
         if grown is None:
             return spline, None
@@ -123,6 +127,24 @@ def _smallest_offset(
         if smaller is not None and np.abs(smaller).max() <= KNOT_GAIN * size:
             return grown, smaller
     return spline, delta
+
+
+def _infeasible_at_one_time(cons: Constraints) -> bool:
+    """Whether the cuts at some single time contradict each other: the offset there is a
+    vector of R³ whatever the knots, so then no offset meets them. Three variables per
+    time instead of the whole programme's hundreds: a hunt's refusal spent 92 of its
+    108 s proving programmes of 17,000 cuts and 762 variables infeasible, knots doubling,
+    65 of 68 of them this way (each check 0.03-0.12 s)."""
+    t, n, rhs = cons.arrays()
+    if not t.size:
+        return False
+    _, at, counts = np.unique(t, return_inverse=True, return_counts=True)
+    at = at.reshape(-1)
+    for k in np.flatnonzero(counts >= 2):
+        sel = at == k
+        if least_distance(n[sel], rhs[sel]) is None:
+            return True
+    return False
 
 
 def solve(spline: OffsetSpline, cons: Constraints) -> np.ndarray | None:
