@@ -71,8 +71,10 @@ def _pair_eps(md: MujocoDistance, reach: float) -> np.ndarray:
     within `reach` of the origin: MuJoCo's ccd tolerance scaled by the pair's size (it
     rounds to the size of the geoms too: a plane's cube can be far larger than the motion;
     at 1e9, distances came in steps of 3.7e-9), plus for each mesh in the pair
-    :data:`MESH_EPS` of the mesh's own diameter (MuJoCo keeps a mesh's vertices in float32
-    about its centre, good to ~6e-8 of their distance from it). A pair's ε is its own: a
+    :data:`MESH_EPS` of the mesh's own diameter (MuJoCo keeps a mesh's vertices in float32,
+    and :func:`~harness.mjdistance.mesh_xml` gives them about their mean: good to ~6e-8
+    of the diameter, and as much again for MuJoCo's own recentring and turn to the
+    principal axes). A pair's ε is its own: a
     floor's cube of radius 2,733 made every distance of a gripper with mesh pads good to
     only 2.7 mm, and its truth late or unknown."""
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from motions.quaternion import quat_from_matrix
 
-from ..mjdistance import CCD_TOLERANCE, geom_xml
+from ..mjdistance import CCD_TOLERANCE, geom_xml, mesh_xml
 from ..shapes import Shape, parts
 
 __all__ = ["DistanceModel"]
@@ -43,8 +43,7 @@ class DistanceModel:
             if p.kind == "mesh":
                 mesh = f"mesh{k}"
                 k += 1
-                verts = " ".join(repr(float(x)) for x in np.ravel(p.vertices_))
-                assets.append(f'<mesh name="{mesh}" vertex="{verts}"/>')
+                assets.append(mesh_xml(mesh, p))
             return geom_xml(p, name, mesh, _NO_CONTACT)
 
         for i, ps in enumerate(self.moving):
