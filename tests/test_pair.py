@@ -400,8 +400,6 @@ def test_a_pair_whose_weights_span_three_decades_is_certified_not_refused():
     )
     s = harness.Sphere(0.1)
     c = harness.certify_pair(ma, s, mb, s)
-    print(c.verdict, c.certified, c.toi_lo)
-    c = harness.certify_pair(ma, s, mb, s)
     tt = np.linspace(t[0], t[-1], 20001)
     d = np.linalg.norm(ma.pose(tt)[1] - mb.pose(tt)[1], axis=1) - 0.2  # (sphere centres)
     assert d.min() > 1.0 and c.verdict == "free" and c.certified

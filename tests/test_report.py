@@ -1042,3 +1042,23 @@ def test_the_physics_table_names_a_suites_own_scene_by_its_file(tmp_path):
         physics_section(Document(tmp_path), pd.DataFrame(rows), plt)
     (t,) = tables
     assert list(t["scene"]) == ["robot.xml", "robot.xml"]
+
+
+def test_a_repair_summary_counts_rows_from_before_the_scenes_as_colliding():
+    """A review: rows journalled before repair studies took scenes have no `before`; mixed
+    with newer rows on a resume, they read NaN, and the summary said "6 motions (0
+    colliding)". Seeded rows are colliding motions, with or without the column."""
+    from harness.report.avoid import _summary
+
+    old = pd.DataFrame(_repair_rows(1e-3, 0.0))
+    new = pd.DataFrame(_repair_rows(1e-3, 0.004)).assign(before="collision", scene="repair")
+    s = _summary(pd.concat([old.assign(scene="repair"), new], ignore_index=True))
+    assert (s["colliding"] == s["motions"]).all() and (s["motions"] == 6).all()
+    assert set(s["scene"]) == {"seeded cases"}
+
+
+def test_scene_labels_of_files_at_the_root_keep_one_slash():
+    from harness.report.sections import scene_labels
+
+    got = scene_labels(["/a/arm.xml", "/b/a/arm.xml"])
+    assert got == {"/a/arm.xml": "/a/arm.xml", "/b/a/arm.xml": "b/a/arm.xml"}

@@ -24,6 +24,11 @@ from .repair import keyframe_margin
 __all__ = ["AvoidCase", "colliding_cases", "placed_obstacle"]
 
 
+SEEDED_SCENE = "repair"
+"""The `scene` of a repair study's rows on the seeded cases (:func:`colliding_cases`); a
+scene's own rows carry the scene."""
+
+
 @dataclass(frozen=True)
 class AvoidCase:
     """One colliding motion.

@@ -12,13 +12,10 @@ import pandas as pd
 __all__ = ["repair_section"]
 
 
-SEEDED = "repair"
-"""The `scene` of a repair study's seeded cases (``studies.repair.SEEDED``)."""
-
-
 def _summary(rep: pd.DataFrame) -> pd.DataFrame:
     """One row per (scene, tolerance, clearance, method): a sweep's studies stay apart,
     and a scene's keyframe motion apart from the seeded cases."""
+    from ..avoid.cases import SEEDED_SCENE as SEEDED  # (here: `harness.avoid` is heavy)
     from .sections import scene_labels
 
     rows = []
@@ -33,7 +30,12 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
         row = dict(zip(keys, key, strict=True))
         if "scene" in row:  # the seeded cases, or a scene's keyframes (a user's own file)
             row["scene"] = "seeded cases" if row["scene"] == SEEDED else labels[str(row["scene"])]
-        before = g["before"] if "before" in g else pd.Series("collision", index=g.index)
+        # (rows of a run from before `before` existed: seeded cases, all colliding)
+        before = (
+            g["before"].fillna("collision")
+            if "before" in g
+            else pd.Series("collision", index=g.index)
+        )
         row.update(
             {
                 "motions": len(g),
@@ -70,6 +72,7 @@ def _median(x: pd.Series) -> float:
 def _example(rep: pd.DataFrame):
     """Recompute one repaired case of the study for the picture (cases are seeded)."""
     from ..avoid import colliding_cases, repair, sampled_repair
+    from ..avoid.cases import SEEDED_SCENE as SEEDED
 
     seeded = rep["scene"] == SEEDED if "scene" in rep else True  # (a scene's: not re-made here)
     done = rep[

@@ -304,7 +304,7 @@ def scene_labels(scenes) -> dict[str, str]:
 
     def label(scene: str, k: int) -> str:
         path, hash_, body = scene.partition("#")
-        return "/".join(Path(path).parts[-k:]) + hash_ + body
+        return str(Path(*Path(path).parts[-k:])) + hash_ + body
 
     files = {
         s
@@ -598,6 +598,7 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
         if c in sim
     ]
     t = sim[cols].copy()
+    labels: dict = {}
     if "scene" in t:  # (a suite's own file by its name, as in the certify headings)
         labels = scene_labels(t["scene"].astype(str).unique())
         t["scene"] = t["scene"].astype(str).map(labels)
@@ -617,7 +618,7 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
                 "min_distance": "min distance (m)",
             }
         ),
-        "MuJoCo simulation of every scene and scheme: jumps of the net constraint force on carried bodies and of its rate at the knots (lines fitted over 8 steps each side; n/a where the scene carries nothing), the smallest simulated clearance, and for rational motions the certificate; crosscheck_ok is False only if a certified-free motion touched in simulation.",
+        "MuJoCo simulation of every scene and scheme: jumps of the net constraint force on carried bodies and of its rate at the knots (lines fitted over 8 steps each side; n/a where the scene carries nothing or the recording is shorter than two such windows), the smallest simulated clearance, and for rational motions the certificate; crosscheck_ok is False only if a certified-free motion touched in simulation.",
         "physics",
     )
     rate = numeric(sim, "force_rate_jump")
@@ -630,7 +631,7 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
                 [schemes.index(s) for s in g["scheme"]],
                 numeric(g, "force_rate_jump"),
                 "o",
-                label=scene_label(scene),
+                label=labels.get(str(scene), scene_label(scene)),
             )
         ax.set_xticks(range(len(schemes)), schemes, rotation=40, ha="right", fontsize=8)
         ax.set_ylabel("force rate jump (N/s)")

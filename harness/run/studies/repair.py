@@ -17,14 +17,13 @@ from pathlib import Path
 import numpy as np
 
 from ...avoid.baseline import MAX_SAMPLES as SAMPLED_REPAIR_MAX
+from ...avoid.cases import SEEDED_SCENE as SEEDED
 from ..fields import integer, need, number, numbers, scene_names
 from .context import Context
 
 KEYS = frozenset(
     {"cases", "seed", "clearances", "tolerance", "samples", "truth_resolution", "scenes"}
 )
-SEEDED = "repair"
-"""The `scene` of the seeded cases' rows."""
 
 
 def parse(st: dict, file: Path, where: str) -> dict:
