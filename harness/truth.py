@@ -41,6 +41,9 @@ def sample_distances(
     bracket already); "gjk": the harness's float64 GJK (lo: separating plane, hi: closest
     pair).
     """
+    if not obstacles:  # (the distance to nothing: numpy's minimum of an empty row failed)
+        far = np.full(np.shape(t), np.inf)
+        return far, far.copy(), 0.0
     r, p = motion.pose(t)
     if method == "mujoco":
         md = MujocoDistance(body, obstacles)

@@ -611,3 +611,18 @@ def test_cuts_that_contradict_at_one_time_are_found_without_the_whole_programme(
     assert not _infeasible_at_one_time(cons([0.5, 0.6], [x, minus_x], [0.01, 0.01]))
     assert not _infeasible_at_one_time(cons([0.5, 0.5], [x, y], [0.01, 0.01]))
     assert not _infeasible_at_one_time(Constraints())
+
+
+def test_no_obstacles_is_clear_for_both_repairs_and_the_truths_distances():
+    """A scene without static geoms in a repair study failed inside numpy (the minimum of
+    an empty row) in the sampled repair and in the keyframe distances: with nothing to keep
+    clear of, both repairs return the motion as it is, and the distances are +inf."""
+    from harness.truth import sample_distances
+
+    m = motions.interpolate([[1.0, 0, 0, 0]] * 3, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
+    s = sampled_repair(m, Sphere(0.1), [], clearance=0.004, samples=16)
+    assert s.sampled_free and s.motion is m and s.iterations == 0
+    r = repair(m, Sphere(0.1), [], clearance=0.004)
+    assert r.certificate.verdict == "free" and r.moved.max_deviation == 0.0
+    lo, hi, eps = sample_distances(m, Sphere(0.1), [], np.array([0.0, 0.5]))
+    assert np.all(np.isinf(lo)) and np.all(np.isinf(hi)) and eps == 0.0

@@ -95,6 +95,8 @@ def sampled_repair(
     p = np.array(rec.positions)
     t = np.array(motion.keyframe_times)
     opts = {"translation": rec.options.get("translation", "cubic")}
+    if not obst:  # nothing to keep clear of (numpy's minimum of an empty row failed)
+        return SampledRepair(motion, True, 0, time.perf_counter() - start, "clear")
     dm = DistanceModel([body], obst)
     grid = np.linspace(*motion.domain, samples)
     span = motion.domain[1] - motion.domain[0]
