@@ -352,9 +352,10 @@ class RationalMotion(Motion):
         cart = m[..., :3, :] / w[..., None, None]
         if c.shape[0] > 1:
             jump = np.abs(cart[1:, 0] - cart[:-1, -1]).max()
-            allowed = FROM_BEZIER_TOL * (1 + np.abs(cart).max())
+            size = np.abs(cart).max()
+            allowed = FROM_BEZIER_TOL * (1 + size)
             if e is not None:  # each side off by up to (E + |cart| E_w) / |w|, as above
-                off = (e[:, :2].max(axis=1)[:, None] + np.abs(cart).max() * e[:, 2:3]) / np.abs(w)
+                off = (e[:, :2].max(axis=1)[:, None] + size * e[:, 2:3]) / np.abs(w)
                 allowed += 2.0 * float(off.max())
             if jump > allowed:
                 raise ValueError(
