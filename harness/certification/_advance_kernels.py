@@ -323,6 +323,8 @@ def _advance(
         n_tol = wp.int32(0)
         n_depth = wp.int32(0)
         n_budget = wp.int32(0)
+        hit = wp.int32(-1)
+        wit_o = wp.int32(-1)
         stopped = wp.int32(0)
         pr = m_pieces[m]
         br = m_parts[m]
@@ -365,7 +367,9 @@ def _advance(
                         st_ctrl, lane, part, obst, verts, err, pre_m, pre_c, warm, max_iter
                     )
                     if x == 1:
-                        tcoll = wp.min(tcoll, t)
+                        if t < tcoll:  # (always: the track runs while t < tcoll)
+                            tcoll = t
+                            hit = oo - orng[0]
                         toi_lo = wp.min(toi_lo, t)
                         break
                     if (ub < tol or lb <= F0) and near == 0:
@@ -375,6 +379,7 @@ def _advance(
                         if t < wit_t:
                             wit_t = t
                             wit_d = ub
+                            wit_o = oo - orng[0]
                         if t < unk_t:
                             unk_t = t
                             unk_r = R_TOL
@@ -423,6 +428,9 @@ def _advance(
         out_n[m, 4] = n_tol
         out_n[m, 5] = n_depth
         out_n[m, 6] = n_budget
+        out_n[m, 7] = 0
+        out_n[m, 8] = hit
+        out_n[m, 9] = wit_o
         m += stride
 
 
@@ -479,6 +487,8 @@ def _sample(
         unk_r = wp.int32(0)
         n_tol = wp.int32(0)
         unproven = wp.int32(0)
+        hit = wp.int32(-1)
+        wit_o = wp.int32(-1)
         pr = m_pieces[m]
         br = m_parts[m]
         orng = m_obst[m]
@@ -552,7 +562,9 @@ def _sample(
                         st_ctrl, lane, part, obst, verts, err, pre_m, pre_c, warm, max_iter
                     )
                     if x == 1:
-                        tcoll = wp.min(tcoll, t)
+                        if t < tcoll:
+                            tcoll = t
+                            hit = oo - orng[0]
                         toi_lo = wp.min(toi_lo, c0)
                         done = 1
                         continue
@@ -565,6 +577,7 @@ def _sample(
                         if t < wit_t:
                             wit_t = t
                             wit_d = ub
+                            wit_o = oo - orng[0]
                         if c0 < unk_t:
                             unk_t = c0
                             unk_r = R_TOL
@@ -597,6 +610,9 @@ def _sample(
         out_n[m, 4] = n_tol
         out_n[m, 5] = unproven
         out_n[m, 6] = 0
+        out_n[m, 7] = 0
+        out_n[m, 8] = hit
+        out_n[m, 9] = wit_o
         m += stride
 
 

@@ -421,7 +421,9 @@ def _refine(
 
     out_t[m] = (toi_lo, toi_hi, witness time, witness distance, first unknown time);
     out_n[m] = (nodes, pose tests, deepest depth, first unknown reason, #tolerance,
-    #depth, #budget, support evaluations of the bound tests).
+    #depth, #budget, support evaluations of the bound tests, the obstacle part of the
+    contact at toi_hi and of the witness (positions in the motion's range of `o_idx`;
+    -1 for none)).
     """
     lane = first + wp.tid()
     pose_slot = st_ctrl.shape[2]
@@ -444,6 +446,8 @@ def _refine(
         n_depth = wp.int32(0)
         n_budget = wp.int32(0)
         supports = wp.int32(0)
+        hit = wp.int32(-1)
+        wit_o = wp.int32(-1)
         stopped = wp.int32(0)
         pr = m_pieces[m]
         br = m_parts[m]
@@ -653,10 +657,14 @@ def _refine(
                             carry_x = x1
                             carry_h = h1
                             carry_d = d1
-                        if x1 == 1:
-                            tcoll = wp.min(tcoll, t1)
+                        # (the first obstacle part found at the earliest contact names it)
+                        if x1 == 1 and t1 < tcoll:
+                            tcoll = t1
+                            hit = oo - orng[0]
                         if x0 == 1:  # (b) contact at the left end
-                            tcoll = wp.min(tcoll, t0)
+                            if t0 < tcoll:
+                                tcoll = t0
+                                hit = oo - orng[0]
                             toi_lo = wp.min(toi_lo, t0)
                             sp -= 1
                             continue
@@ -681,6 +689,7 @@ def _refine(
                                 if tmin < wit_t:
                                     wit_t = tmin
                                     wit_d = dmin
+                                    wit_o = oo - orng[0]
                                 if t0 < unk_t:
                                     unk_t = t0
                                     unk_r = R_TOL
@@ -751,6 +760,8 @@ def _refine(
         out_n[m, 5] = n_depth
         out_n[m, 6] = n_budget
         out_n[m, 7] = supports
+        out_n[m, 8] = hit
+        out_n[m, 9] = wit_o
         m += stride
 
 

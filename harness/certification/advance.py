@@ -30,11 +30,12 @@ from motions.baselines import (
 from motions.pieces import UNIT_ROUNDOFF, speed_bounds
 
 from ..shapes import Shape
-from .api import MAX_SAMPLES, Certificate, QueryError, assemble, motion_cache
+from .api import MAX_SAMPLES, Certificate, QueryError, assemble, motion_cache, obstacle_at
 from .device import buffers, is_cpu, warp
 from .refine import (
     GPU_LANES,
     MOTIONS_PER_CHUNK,
+    OUT_N,
     REACH_ROW,
     Outcome,
     Packed,
@@ -314,7 +315,7 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
             buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
             buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
             buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
-            buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
+            buf.out("out_n", (n, OUT_N), np.int32, wp.int32)[1],
         ]
         kernel = K._advance if kernel_name == "advance" else K._sample
         buf.launch(kernel, args, lanes)
@@ -339,7 +340,15 @@ def advance_many(ms, bodies, obst, o) -> list[Certificate]:
         mr = [ms[i] for i in kernel]
         for i, c in zip(
             kernel,
-            assemble(out, elapsed, "lipschitz", o["tol"], certified=True, motions=mr),
+            assemble(
+                out,
+                elapsed,
+                "lipschitz",
+                o["tol"],
+                certified=True,
+                motions=mr,
+                obstacles=[obst[i] for i in kernel],
+            ),
             strict=True,
         ):
             res[i] = c
@@ -361,7 +370,7 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
     start = time.perf_counter()
     tol, max_nodes = o["tol"], o["max_nodes"]
     table, m_parts, m_obst, o_idx, _ = pack_shapes(bodies, obst)
-    mt, bp, op = _tracks(m_parts, m_obst, o_idx)
+    mt, bp, op, pos = _tracks(m_parts, m_obst, o_idx)
     n_m = len(ms)
     lmax = max(len(k) for k, _ in speeds)
     knots_pad = np.full((n_m, lmax), np.inf)
@@ -377,6 +386,7 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
     toi_lo = np.full(n_m, np.inf)
     near_t = np.full(len(mt), np.inf)
     near_d = np.full(len(mt), np.nan)
+    hit_t = np.full(len(mt), np.inf)
     nodes = np.zeros(n_m, dtype=np.int64)
     steps = np.zeros(len(mt), dtype=np.int64)
     budget = np.zeros(n_m, dtype=np.int64)
@@ -404,6 +414,7 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
         np.add.at(nodes, mt[idx], 1)
         steps[idx] += 1
         hit = idx[x]
+        hit_t[hit] = t[hit]
         np.minimum.at(tcoll, mt[hit], t[hit])
         np.minimum.at(toi_lo, mt[hit], t[hit])
         live[hit] = False
@@ -439,11 +450,17 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
         t[g] = np.where(stuck, t[g], ahead)
         live[g[t[g] >= tend[g]]] = False
     # per-motion outcome
+    # (tracks in the kernel's order: the first at the earliest time names the obstacle)
     wit_t = np.full(n_m, np.inf)
     wit_d = np.full(n_m, np.nan)
+    wit_p = np.full(n_m, -1)
     for j in np.flatnonzero(np.isfinite(near_t)):
         if near_t[j] < wit_t[mt[j]]:
-            wit_t[mt[j]], wit_d[mt[j]] = near_t[j], near_d[j]
+            wit_t[mt[j]], wit_d[mt[j]], wit_p[mt[j]] = near_t[j], near_d[j], pos[j]
+    hit_p = np.full(n_m, -1)
+    for j in np.flatnonzero(np.isfinite(hit_t)):
+        if hit_t[j] == tcoll[mt[j]] and hit_p[mt[j]] < 0:
+            hit_p[mt[j]] = pos[j]
     n_tol = np.bincount(mt[np.isfinite(near_t)], minlength=n_m)
     unk_r = np.where(budget > 0, 4, np.where(depth > 0, 3, np.where(n_tol > 0, 2, 0)))
     both = (budget + depth > 0) & (n_tol > 0)
@@ -452,23 +469,25 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
     np.maximum.at(deepest, mt, steps)
     out = Outcome.from_fields(
         toi_lo, tcoll, wit_t, wit_d, unk_r, nodes, nodes, deepest,
-        np.stack([n_tol, depth, budget], axis=1),
+        np.stack([n_tol, depth, budget], axis=1), hit_p, wit_p,
     )  # fmt: skip
     return assemble(
         out, time.perf_counter() - start, "lipschitz", tol, certified=True,
-        motions=ms,
+        motions=ms, obstacles=obst,
     )  # fmt: skip
 
 
-def _tracks(m_parts, m_obst, o_idx) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(motion, body part, obstacle part) of every track."""
-    mt, bp, op = [], [], []
+def _tracks(m_parts, m_obst, o_idx) -> tuple[np.ndarray, ...]:
+    """(motion, body part, obstacle part, the obstacle part's position among its motion's)
+    of every track, in the kernels' order."""
+    mt, bp, op, pos = [], [], [], []
     for i, ((b0, b1), (o0, o1)) in enumerate(zip(m_parts, m_obst, strict=True)):
         for b in range(b0, b1):
             mt.extend([i] * (o1 - o0))
             bp.extend([b] * (o1 - o0))
             op.extend(o_idx[o0:o1])
-    return (np.asarray(x, dtype=np.int64) for x in (mt, bp, op))
+            pos.extend(range(o1 - o0))
+    return tuple(np.asarray(x, dtype=np.int64) for x in (mt, bp, op, pos))
 
 
 # ----------------------------------------------------------------------------- sampled
@@ -524,7 +543,8 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
         else:
             counts = np.full(len(rm), o["samples"], dtype=np.int64)
         out, elapsed = _kernel_run("sample", rm, rb, [obst[i] for i in kernel], o, samples=counts)
-        for i, c in zip(kernel, _sampled_certs(out, elapsed, tol, rm), strict=True):
+        ro = [obst[i] for i in kernel]
+        for i, c in zip(kernel, _sampled_certs(out, elapsed, tol, rm, ro), strict=True):
             res[i] = c
     if host:
         for i in host:
@@ -537,12 +557,13 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
     return res
 
 
-def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms) -> list[Certificate]:
+def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms, obst) -> list[Certificate]:
     """Sampling verdicts: collision at a proven contact; free and certified when every
     cell is proven; else unknown ("tolerance") when a sample came closer than `tol`, or
     free but not certified."""
     n = len(ms)
     nodes, tests, counts = out.nodes.tolist(), out.tests.tolist(), out.counts.tolist()
+    hit, wit = out.hit_part.tolist(), out.witness_part.tolist()
     toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
     wt, wd = out.witness_time.tolist(), out.witness_distance.tolist()
     total = max(1, sum(nodes))
@@ -559,7 +580,17 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms) -> list[Certifi
         )
         lo = toi_lo[i]
         if math.isfinite(toi_hi[i]):
-            res.append(Certificate("collision", "contact", lo, toi_hi[i], certified=True, **common))
+            res.append(
+                Certificate(
+                    "collision",
+                    "contact",
+                    lo,
+                    toi_hi[i],
+                    certified=True,
+                    obstacle=obstacle_at(obst[i], hit[i]),
+                    **common,
+                )
+            )
         elif all_proven:
             res.append(Certificate("free", "clear", math.inf, math.inf, certified=True, **common))
         elif counts[i][0] > 0:
@@ -573,6 +604,7 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms) -> list[Certifi
                     witness_time=wt[i],
                     witness_distance=wd[i],
                     unresolved={"tolerance": counts[i][0]},
+                    obstacle=obstacle_at(obst[i], wit[i]),
                     **common,
                 )
             )
@@ -595,9 +627,11 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
         (b0, b1), (o0, o1) = m_parts[i], m_obst[i]
         bp = np.repeat(np.arange(b0, b1), o1 - o0)
         op = np.tile(o_idx[o0:o1], b1 - b0)
+        pos = np.tile(np.arange(o1 - o0), b1 - b0)  # (the obstacle parts' positions)
         per = max(1, SAMPLE_ROWS // max(1, len(bp)))
         first_coll = first_near = math.inf
         near_d = math.nan
+        hit_p = near_p = -1
         for a in range(0, n, per):
             tc = t[a : a + per]
             poses = pose_matrices(*m.pose(tc))
@@ -609,19 +643,24 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
             nodes[i] += len(tc)
             tt = tc[rows_t]
             near = ~x & (ub < tol)
+            rows_p = np.tile(pos, len(tc))
             if np.any(near) and not math.isfinite(first_near):
                 j = np.flatnonzero(near)[np.argmin(tt[near])]
-                first_near, near_d = float(tt[j]), float(ub[j])
+                first_near, near_d, near_p = float(tt[j]), float(ub[j]), int(rows_p[j])
             if np.any(x):
-                first_coll = float(tt[x].min())
+                j = np.flatnonzero(x)[np.argmin(tt[x])]
+                first_coll, hit_p = float(tt[j]), int(rows_p[j])
                 break
         before = t[t < first_coll]
         results.append(
-            (first_coll, float(before.max()) if before.size else first_coll, first_near, near_d)
-        )
+            (
+                first_coll, float(before.max()) if before.size else first_coll, first_near,
+                near_d, hit_p, near_p,
+            )
+        )  # fmt: skip
     elapsed = time.perf_counter() - start
     out = []
-    for i, (tc, tb, tn, dn) in enumerate(results):
+    for i, (tc, tb, tn, dn, hp, np_) in enumerate(results):
         common = dict(
             nodes=int(nodes[i]),
             pose_tests=int(nodes[i]),
@@ -632,7 +671,11 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
             tolerance=tol,
         )
         if math.isfinite(tc):
-            out.append(Certificate("collision", "contact", tb, tc, **common))
+            out.append(
+                Certificate(
+                    "collision", "contact", tb, tc, obstacle=obstacle_at(obst[i], hp), **common
+                )
+            )
         elif math.isfinite(tn):
             out.append(
                 Certificate(
@@ -642,6 +685,7 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
                     math.inf,
                     witness_time=tn,
                     witness_distance=dn,
+                    obstacle=obstacle_at(obst[i], np_),
                     **common,
                 )
             )

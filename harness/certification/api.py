@@ -23,7 +23,7 @@ from motions._checks import short
 from motions.pieces import UNIT_ROUNDOFF, gamma
 
 from ..errors import HarnessError
-from ..shapes import HalfSpace, Shape, as_obstacles, as_shape
+from ..shapes import HalfSpace, Shape, as_obstacles, as_shape, parts
 from ..timing import collector_paused
 from .device import resolve_device
 from .refine import BIG
@@ -85,6 +85,11 @@ class Certificate:
         clearance: ground truth only: proven lower bound on the distance over the whole
             motion (when free), else NaN.
         penetration: ground truth only: largest proven penetration depth among samples.
+        obstacle: index in the motion's `obstacles` of the obstacle the pose at `toi_hi`
+            intersects ("collision"), or of the one the witness pose (`witness_time`) is
+            within `tolerance` of ("unknown"); where several are touched at that time,
+            one of them. None otherwise, and where the method does not say (ground
+            truth, the external comparators).
     """
 
     verdict: str
@@ -103,6 +108,7 @@ class Certificate:
     clearance: float = math.nan
     penetration: float = math.nan
     pose_tests: int = 0
+    obstacle: int | None = None
 
 
 class QueryError(HarnessError):
@@ -485,7 +491,9 @@ def _engine(ms, bodies, obst, o: dict) -> list[Certificate]:
             threads=o["threads"],
             device=o["device"],
         )
-        return assemble(out, elapsed, o["bound"], o["tol"], certified=True, motions=ms)
+        return assemble(
+            out, elapsed, o["bound"], o["tol"], certified=True, motions=ms, obstacles=obst
+        )
     from .advance import advance_many, sample_many
 
     if o["bound"] == "lipschitz":
@@ -512,11 +520,25 @@ def _comparators(bound, ms, bodies, obst, tol, options) -> list:
         raise TypeError(f"Bad `comparator_options` for {short(bound)}: {e}") from None
 
 
+def obstacle_at(obstacles: list[Shape], part: int) -> int | None:
+    """Index in `obstacles` of the obstacle owning convex part number `part` of the list's
+    parts in order (as the kernels number them; None for a negative `part`)."""
+    if part < 0:
+        return None
+    for j, o in enumerate(obstacles):
+        n = len(parts(o))
+        if part < n:
+            return j
+        part -= n
+    raise AssertionError(f"obstacle part {part} beyond the list's")  # (the kernels' own)
+
+
 def assemble(
-    out, elapsed: float, bound: str, tol: float, *, certified, motions
+    out, elapsed: float, bound: str, tol: float, *, certified, motions, obstacles
 ) -> list[Certificate]:
     """Certificates from per-motion outcome arrays (see :class:`.refine.Outcome`) of
-    `motions` (their domains are read where a time needs clamping to one).
+    `motions` (their domains are read where a time needs clamping to one) and their
+    `obstacles` (lists, whose parts the outcomes' obstacle columns number).
 
     `certified` is a bool or a per-motion bool array (sampling proves some and not others).
     """
@@ -547,7 +569,7 @@ def assemble(
         "verdict": "free", "reason": "clear", "toi_lo": inf, "toi_hi": inf, "nodes": 0,
         "depth": 0, "seconds": 0.0, "certified": True, "bound": bound, "tolerance": tol,
         "witness_time": nan, "witness_distance": nan, "unresolved": None, "clearance": nan,
-        "penetration": nan, "pose_tests": 0,
+        "penetration": nan, "pose_tests": 0, "obstacle": None,
     }  # fmt: skip
     new, put = object.__new__, object.__setattr__
     res = []
@@ -575,8 +597,10 @@ def assemble(
         d["toi_lo"] = lo
         if ti[1] <= BIG:
             d["verdict"], d["reason"], d["toi_hi"] = "collision", "contact", ti[1]
+            d["obstacle"] = obstacle_at(obstacles[i], int(c[i, 8]))
         else:
             d["verdict"], d["reason"] = "unknown", KERNEL_REASONS[int(c[i, 3])]
             if ti[2] <= BIG:
                 d["witness_time"], d["witness_distance"] = ti[2], ti[3]
+                d["obstacle"] = obstacle_at(obstacles[i], int(c[i, 9]))
     return res

@@ -27,7 +27,15 @@ from .device import buffers, is_cpu, record_dtype, warp
 from .scale import MAX_TIME, check_pieces, control_positions
 from .tables import ShapeTable
 
-__all__ = ["MOTIONS_PER_CHUNK", "REACH_ROW", "Outcome", "Packed", "pack_pieces", "refine_many"]
+__all__ = [
+    "MOTIONS_PER_CHUNK",
+    "OUT_N",
+    "REACH_ROW",
+    "Outcome",
+    "Packed",
+    "pack_pieces",
+    "refine_many",
+]
 
 MOTIONS_PER_CHUNK = 4096
 """Motions packed per launch: bounds the packed copies of their control matrices."""
@@ -38,6 +46,8 @@ GPU_LANES = 65536
 REASONS = {2: "tolerance", 3: "depth", 4: "budget"}
 
 
+OUT_N = 10
+"""Columns of the kernels' integer outputs (:attr:`Outcome.c`)."""
 BIG = 1e299
 """Kernel outputs above this are the kernels' HUGE sentinel (none / infinity)."""
 
@@ -49,9 +59,11 @@ class Outcome:
     Attributes:
         t: (M, 5) toi_lo, toi_hi, witness time, witness distance, first unknown time
             (values above :data:`BIG` mean infinity / none).
-        c: (M, 8) nodes, pose tests, deepest depth, first unknown reason (0 none,
+        c: (M, 10) nodes, pose tests, deepest depth, first unknown reason (0 none,
             2 tolerance, 3 depth, 4 budget), unresolved counts (tolerance, depth, budget),
-            support evaluations of the bound tests.
+            support evaluations of the bound tests, the obstacle part of the contact at
+            toi_hi and that of the witness (positions among the motion's obstacles'
+            parts in order, -1 for none).
 
     The named per-motion arrays below are views computed on demand.
     """
@@ -67,16 +79,17 @@ class Outcome:
 
     @classmethod
     def from_fields(cls, toi_lo, toi_hi, witness_time, witness_distance, unknown_reason,
-                    nodes, tests, depth, counts) -> Outcome:  # fmt: skip
-        """An outcome from named per-motion arrays (inf / NaN for none)."""
+                    nodes, tests, depth, counts, hit_parts, witness_parts) -> Outcome:  # fmt: skip
+        """An outcome from named per-motion arrays (inf / NaN / -1 for none)."""
         n = len(nodes)
         t = np.full((n, 5), 2 * BIG)
         for j, x in enumerate((toi_lo, toi_hi, witness_time, witness_distance, toi_lo)):
             x = np.asarray(x, dtype=float)
             t[:, j] = np.where(np.isfinite(x), x, 2 * BIG)
-        c = np.zeros((n, 8), dtype=np.int64)
+        c = np.zeros((n, OUT_N), dtype=np.int64)
         c[:, 0], c[:, 1], c[:, 2], c[:, 3] = nodes, tests, depth, unknown_reason
         c[:, 4:7] = counts
+        c[:, 8], c[:, 9] = hit_parts, witness_parts
         return cls(t, c)
 
     def _time(self, j: int) -> np.ndarray:
@@ -92,6 +105,8 @@ class Outcome:
     depth = property(lambda self: self.c[:, 2].astype(np.int64))
     counts = property(lambda self: self.c[:, 4:7].astype(np.int64))
     supports = property(lambda self: self.c[:, 7].astype(np.int64))
+    hit_part = property(lambda self: self.c[:, 8].astype(np.int64))
+    witness_part = property(lambda self: self.c[:, 9].astype(np.int64))
 
 
 class Packed(NamedTuple):
@@ -575,7 +590,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         n,
         *_stack(buf, "refine", lanes, slots, kmax),
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
-        buf.out("out_n", (n, 8), np.int32, wp.int32)[1],
+        buf.out("out_n", (n, OUT_N), np.int32, wp.int32)[1],
     ]
     buf.launch(_refine, args, lanes)
     return Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n))
