@@ -295,6 +295,24 @@ def _whole(text: str, option: str, what: str) -> int:
     return value
 
 
+_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6}
+
+
+def _duration(text: str, option: str) -> float:
+    """A duration >= 0 given in seconds ("0.005") or with a unit ("5ms", "500us")."""
+    from harness.compare._common import _clip
+
+    t = text.strip()
+    unit = next((u for u in ("ms", "us", "µs", "s") if t.endswith(u)), "s")
+    try:
+        value = float(t[: len(t) - len(unit)] if t.endswith(unit) else t) * _UNITS[unit]
+    except ValueError:
+        value = float("nan")
+    if not (np.isfinite(value) and value >= 0):
+        raise UsageError(f"Expected `{option}` >= 0, like 5ms or 0.005, got {_clip(text)}.")
+    return value
+
+
 def _compare(args) -> int:
     from harness.compare import MAX_TIME_THRESHOLD, compare
 
@@ -307,6 +325,7 @@ def _compare(args) -> int:
         ),
         unknown_threshold=_fraction(args.unknown_threshold, "--unknown-threshold", 1.0, below=True),
         timer=args.timer,
+        min_time=_duration(args.min_time, "--min-time"),
     )
     print(result.text())
     return result.exit_code
@@ -427,8 +446,15 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+def _version() -> str:
+    from harness.timing import package_version
+
+    return package_version()
+
+
 def parser() -> argparse.ArgumentParser:
     p = _Parser(prog="rsmbench", description="Benchmark harness for rational spline motions.")
+    p.add_argument("--version", action="version", version=f"rsmbench {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a benchmark suite and write its report")
     r.add_argument(
@@ -486,6 +512,12 @@ def parser() -> argparse.ArgumentParser:
         choices=["cpu", "wall"],
         default="cpu",
         help="gate runs on process CPU time (default) or wall time",
+    )
+    c.add_argument(
+        "--min-time",
+        default="5ms",
+        help="runs: groups whose base cost is below this are shown, not gated (default 5ms,"
+        " below which the drift between runs of unchanged code decides; 0 gates every group)",
     )
     cp = sub.add_parser("corpus", help="export or check the rigid-motion CCD corpus")
     cp.add_argument("action", choices=["export", "check"], help="export DIR, or check FILE")

@@ -433,6 +433,16 @@ def _ram_gb() -> float:
             return math.nan
 
 
+def package_version() -> str:
+    """rsmbench's installed version ("unknown" when run from a source tree not installed)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rsmbench")
+    except PackageNotFoundError:
+        return "unknown"
+
+
 def machine_info() -> dict[str, Any]:
     """Machine facts for meta.json: device, CPU model, RAM, threads, load, Warp cache."""
     import inspect

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -128,6 +129,11 @@ def test_accuracy_regressions(tmp_path):
     assert compare(base, fp, fp_threshold=1).exit_code == 0
     unk = _run(tmp_path / "unk", _rows(np.random.default_rng(6), **cases["unknown rate"]))
     assert compare(base, unk, unknown_threshold=0.5).exit_code == 0
+
+
+def _matched(res) -> str:
+    """The comparison's line counting the matched rows (after both runs' header)."""
+    return next(line for line in res.lines if "matched rows" in line)
 
 
 def _slug(s: str) -> str:
@@ -256,13 +262,13 @@ def test_every_study_kind_has_distinct_row_keys(tmp_path):
     (the corpus rows of one chunk share case_id and have no pair/method/mode)."""
     rows = _every_study_rows(np.random.default_rng(12))
     run = _run(tmp_path / "run", rows)
-    res = compare(run, run)
+    res = compare(run, shutil.copytree(run, tmp_path / "copy"))
     assert res.exit_code == 0, res.text()
-    assert res.lines[0].startswith(f"{len(rows)} matched rows, 0 only in the base, 0 only in")
+    assert _matched(res).startswith(f"{len(rows)} matched rows, 0 only in the base, 0 only in")
     # a row that really appears twice is refused, naming its key without 'nan'
     twice = _run(tmp_path / "twice", [*rows, rows[-1]])
     with pytest.raises(CompareError, match="same key") as e:
-        compare(twice, twice)
+        compare(twice, shutil.copytree(twice, tmp_path / "twice2"))
     msg = str(e.value)
     assert "nan" not in msg.lower() and "keyframes=thin-wall-005-slerp" in msg
     assert "study=corpus" in msg and "bound=fcl" in msg and "case_id=chunk-1" in msg
@@ -290,7 +296,9 @@ def test_cli_exit_codes_and_one_line_errors(tmp_path, capsys):
     rng = np.random.default_rng(10)
     a = _run(tmp_path / "a", _rows(rng))
     b = _run(tmp_path / "b", _rows(rng, factor=2.0))
-    ok = _cli(capsys, "compare", str(a), str(a))
+    same = _cli(capsys, "compare", str(a), str(a))  # (one folder twice: always green)
+    assert same.returncode == 2 and "the same run" in same.stderr
+    ok = _cli(capsys, "compare", str(a), str(shutil.copytree(a, tmp_path / "a2")))
     assert ok.returncode == 0 and "0 regression(s)." in ok.stdout
     slow = _cli(capsys, "compare", str(a), str(b))
     assert slow.returncode == 1 and "timing: certify/rational/hull" in slow.stdout
@@ -407,11 +415,11 @@ def test_runs_of_a_repair_study_compare(tmp_path):
     # the rows the old key could not tell apart are really there
     assert a["case"].nunique() > 1 and a["clearance"].nunique() == 2
     assert a.duplicated(["case_id", "method"]).any()
-    same = compare(tmp_path / "a", tmp_path / "a")
+    same = compare(tmp_path / "a", shutil.copytree(tmp_path / "a", tmp_path / "a2"))
     assert same.exit_code == 0, same.text()
-    assert same.lines[0].startswith(f"{len(a)} matched rows, 0 only in the base, 0 only in")
+    assert _matched(same).startswith(f"{len(a)} matched rows, 0 only in the base, 0 only in")
     res = compare(tmp_path / "a", tmp_path / "b")
-    assert res.lines[0].startswith(f"{len(a)} matched rows, 0 only in the base, 0 only in")
+    assert _matched(res).startswith(f"{len(a)} matched rows, 0 only in the base, 0 only in")
     # verdicts of one seed are deterministic; only timing may move between two runs
     assert all(r.startswith("timing:") for r in res.regressions), res.text()
     # one repair row lost from the new run is found and fails the gate
@@ -468,11 +476,12 @@ def test_a_repair_that_collides_or_is_refused_where_the_base_did_not_fails_the_g
 def test_a_reader_that_closes_the_pipe_gets_no_error_message(tmp_path):
     # `rsmbench compare A B | head -1` printed "error: [Errno 32] Broken pipe", exit 2
     base = _run(tmp_path / "base", _repair_rows())
+    new = shutil.copytree(base, tmp_path / "new")
     code = (
         "import os, sys\n"
         "r, w = os.pipe(); os.close(r); os.dup2(w, 1)\n"
         "from harness.cli import main\n"
-        f"sys.exit(main(['compare', {str(base)!r}, {str(base)!r}]))\n"
+        f"sys.exit(main(['compare', {str(base)!r}, {str(new)!r}]))\n"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 141 and proc.stderr == "", proc.stderr
@@ -491,3 +500,76 @@ def test_a_repair_studys_methods_are_timed_apart(tmp_path):
     text = res.text()
     assert "repair/rational/repair/certified" in text and "repair/rational/repair/sampled" in text
     assert res.exit_code == 1 and any("certified" in r for r in res.regressions), text
+
+
+def test_min_time_sets_which_groups_are_gated(tmp_path, capsys):
+    """Groups of a few milliseconds are shown, not gated, by default (the drift between
+    runs decides them); ``min_time=0`` gates them, and catches their 3x slowdown."""
+    rng = np.random.default_rng(13)
+    a = _run(tmp_path / "a", _rows(rng, factor=0.01))  # groups of 1.2, 3.2 and 8 ms
+    b = _run(tmp_path / "b", _rows(rng, factor=0.03))
+    res = compare(a, b)
+    status = {t.name: t.status for t in res.timing}
+    assert status["certify/rational/sampled"] == "regression"
+    assert status["certify/rational/hull"].startswith("not gated: base 1.")
+    assert any("--min-time 0 gates them" in line for line in res.lines)
+    every = compare(a, b, min_time=0)
+    assert {t.status for t in every.timing} == {"regression"}, every.text()
+    assert compare(a, b, min_time=0.1).exit_code == 0  # (nothing gated: 100 ms floor)
+    r = _cli(capsys, "compare", str(a), str(b), "--min-time", "0")
+    assert r.returncode == 1 and r.stdout.count("regression\n") == 3, r.stdout
+    r = _cli(capsys, "compare", str(a), str(b), "--min-time", "2ms")
+    assert r.returncode == 1 and "certify/rational/lipschitz" in r.stdout.split("regression(s)")[1]
+    for bad in ("-1ms", "5 min", "nan"):
+        r = _cli(capsys, "compare", str(a), str(b), f"--min-time={bad}")
+        assert r.returncode == 2 and "--min-time" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_header_names_the_runs_and_notes_what_differs_besides_the_code(tmp_path):
+    rng = np.random.default_rng(14)
+    machine = {"cpu_model": "AMD EPYC", "usable_cpus": 2, "device": "cpu", "python": "3.11.7",
+               "versions": {"numpy": "2.4.6", "warp": "1.19.0"}, "git_revision": "a" * 40}  # fmt: skip
+    a = _run(tmp_path / "a", _rows(rng), {**META, **machine})
+    other = {**machine, "usable_cpus": 1, "versions": {"numpy": "2.4.6", "warp": "1.20.0"},
+             "git_revision": "b" * 40, "git_dirty": True}  # fmt: skip
+    b = _run(tmp_path / "b", _rows(rng), {**META, **other})
+    res = compare(a, b)
+    head = res.lines[:2]
+    assert head[0].startswith(f"base: {a}: git aaaaaaaaaa; AMD EPYC, usable CPUs 2"), head
+    assert head[1].startswith(f"new:  {b}: git bbbbbbbbbb (uncommitted changes)"), head
+    notes = [line for line in res.lines if line.startswith("note:")]
+    assert notes == [
+        "note: the runs differ in usable_cpus: 2 -> 1",
+        "note: the runs differ in versions: warp 1.19.0 -> 1.20.0",
+    ]
+    same = _run(tmp_path / "c", _rows(rng), {**META, **machine})
+    assert not [line for line in compare(a, same).lines if line.startswith("note:")]
+
+
+def test_version_is_printed_and_recorded(capsys):
+    from importlib.metadata import version
+
+    from harness.run.journal import machine_meta
+
+    r = _cli(capsys, "--version")
+    assert r.returncode == 0 and r.stdout.strip() == f"rsmbench {version('rsmbench')}"
+    assert machine_meta()["versions"]["rsmbench"] == version("rsmbench")
+
+
+def test_a_table_without_meta_json_is_not_a_run(tmp_path, capsys):
+    rng = np.random.default_rng(15)
+    a = _run(tmp_path / "a", _rows(rng))
+    b = _run(tmp_path / "b", _rows(rng))
+    (b / "meta.json").unlink()  # (was compared, reading "suite: base 'synthetic' vs new None")
+    r = _cli(capsys, "compare", str(a), str(b))
+    assert r.returncode == 2 and "has results.parquet but no meta.json" in r.stderr
+    (b / "results.parquet").write_bytes(b"PAR1 not really")
+    r = _cli(capsys, "compare", str(a), str(b))
+    # pyarrow's reason whole (it was cut at 120 characters: "... Either the).")
+    with pytest.raises(Exception) as e:
+        pd.read_parquet(b / "results.parquet")
+    reason = str(e.value).strip().splitlines()[0]
+    assert (
+        r.returncode == 2
+        and f"not a readable parquet table ({type(e.value).__name__}: {reason})." in r.stderr
+    )

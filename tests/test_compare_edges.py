@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import resource
+import shutil
 import subprocess
 import sys
 import warnings
@@ -125,11 +126,13 @@ def test_the_benchmark_table_names_the_timer_the_files_recorded(tmp_path, capsys
         (None, "timer: not recorded"),
     ):
         f = _timed_file(tmp_path / f"{timer}.json", a=timer, b=timer)
-        r = _quiet_cli(capsys, "compare", f, f)
+        g = _timed_file(tmp_path / f"{timer}-again.json", a=timer, b=timer)
+        r = _quiet_cli(capsys, "compare", f, g)
         assert r.returncode == 0 and r.stdout.splitlines()[0].endswith(f"; {said}"), r.stdout
         assert timer == "perf_counter" or "wall" not in r.stdout
     mixed = _timed_file(tmp_path / "mixed.json", a="process_time", b="perf_counter")
-    r = _quiet_cli(capsys, "compare", mixed, mixed)
+    again = _timed_file(tmp_path / "mixed-again.json", a="process_time", b="perf_counter")
+    r = _quiet_cli(capsys, "compare", mixed, again)
     assert r.returncode == 0
     assert "timers by benchmark: perf_counter (wall time), process_time (CPU time)" in r.stdout
     # CPU time against wall time is no comparison of the code: refused, naming both timers
@@ -334,8 +337,9 @@ def test_a_threshold_that_would_turn_the_gate_off_is_refused(tmp_path, capsys):
     _one_line_error(r, "`--time-threshold` at most 1000%", "7500%", "write 75%")
     r = _cli(capsys, "compare", base, base, "--unknown-threshold", "5")
     _one_line_error(r, "`--unknown-threshold` below 100%", "write 5%")
-    assert _cli(capsys, "compare", base, base, "--time-threshold", "75%").returncode == 0
-    assert _cli(capsys, "compare", base, base, "--time-threshold", "10").returncode == 0
+    twin = str(shutil.copytree(base, tmp_path / "twin"))
+    assert _cli(capsys, "compare", base, twin, "--time-threshold", "75%").returncode == 0
+    assert _cli(capsys, "compare", base, twin, "--time-threshold", "10").returncode == 0
     with pytest.raises(ValueError, match=r"`time_threshold` at most 10 .* got 75"):
         compare(base, base, time_threshold=75)
     with pytest.raises(ValueError, match=r"`unknown_threshold` below 1 .* got 5"):
@@ -376,7 +380,8 @@ def test_negative_thresholds_get_their_own_message_not_argparses(tmp_path, capsy
         full = "--time-threshold" if option.startswith("--time") else option
         _one_line_error(r, f"Expected `{full}` >= 0, like 15% or 0.15, got {text!r}.")
     # the other options and the positionals are read as before
-    r = _cli(capsys, "compare", base, base, "--time-threshold", "15%", "--fp-threshold", "1")
+    twin = str(shutil.copytree(base, tmp_path / "twin"))
+    r = _cli(capsys, "compare", base, twin, "--time-threshold", "15%", "--fp-threshold", "1")
     assert r.returncode == 0, r.stderr
     r = _cli(capsys, "compare", base, base, "--time", "-5%")  # --time-threshold or --timer?
     _one_line_error(r, "ambiguous option: --time could match")
@@ -394,7 +399,8 @@ def test_fp_threshold_must_be_a_whole_number(tmp_path, capsys):
             "Expected `--fp-threshold` to be a whole number >= 0 (the false collisions",
             repr(text),
         )
-    assert _cli(capsys, "compare", base, base, "--fp-threshold", "2").returncode == 0
+    twin = str(shutil.copytree(base, tmp_path / "twin"))
+    assert _cli(capsys, "compare", base, twin, "--fp-threshold", "2").returncode == 0
 
 
 def test_the_false_free_line_says_how_many_are_certified(tmp_path, capsys):
@@ -408,6 +414,6 @@ def test_the_false_free_line_says_how_many_are_certified(tmp_path, capsys):
     for r in base:
         r.setdefault("certified", r["bound"] != "sampled")
     a = str(_run(tmp_path / "a", base))
-    r = _cli(capsys, "compare", a, a)
+    r = _cli(capsys, "compare", a, str(shutil.copytree(a, tmp_path / "a2")))
     assert r.returncode == 0, r.stdout
     assert "false free: base 1, new 1 (0 and 0 of them certified" in r.stdout

@@ -151,6 +151,9 @@ def test_smoke_on_a_dask_cluster_equals_the_local_run(smoke_run, tmp_path):
 
 def test_compare_exit_codes(smoke_run, tmp_path):
     same = rsmbench("compare", str(smoke_run), str(smoke_run), check=False)
+    assert same.returncode == 2 and "the same run" in same.stderr, same.stderr
+    copy = shutil.copytree(smoke_run, tmp_path / "copy")
+    same = rsmbench("compare", str(smoke_run), str(copy), check=False)
     assert same.returncode == 0, same.stdout
     # synthetic timing regression: one group four times as slow (a factor, not an added
     # 0.1 s: since slerp's sampling moved into the kernels its rounds take ~5 ms, and

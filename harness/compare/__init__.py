@@ -14,7 +14,8 @@ is the sum of its figures' medians. The ratio NEW / BASE gets a 95 % bootstrap i
 (figures resampled together, then each figure's rounds within each run: see
 :func:`harness.timing.ratio_interval`). A group is a **regression only when the slowdown
 is significant (the interval lies above 1) and larger than the threshold** (the ratio
-exceeds 1 + threshold). Groups below :data:`MIN_TIMING_SECONDS` (runs), with fewer than
+exceeds 1 + threshold). Groups below :data:`MIN_TIMING_SECONDS` (runs; ``min_time``,
+``--min-time``, sets this floor: 0 gates the small groups too), with fewer than
 :data:`MIN_ROUNDS` samples, or whose base or new cost is below :data:`TIMER_RESOLUTION`
 are printed as "not gated", with the reason.
 
@@ -141,6 +142,7 @@ def compare(
     fp_threshold: int = 0,
     unknown_threshold: float = 0.0,
     timer: str = "cpu",
+    min_time: float = MIN_TIMING_SECONDS,
 ) -> Comparison:
     """Compare two runs or two benchmark files (see the module docstring).
 
@@ -152,6 +154,8 @@ def compare(
             and below 1 (a rate rises by 1 at most: 1 is a gate that never fails).
         timer: "cpu" (process CPU time) or "wall", for runs; benchmark files are compared in
             the timer they were recorded with (each benchmark's ``options.timer``, printed).
+        min_time: runs only: groups whose base cost is below this many seconds are
+            printed, not gated (default :data:`MIN_TIMING_SECONDS`; 0 gates every group).
 
     Raises:
         CompareError: a threshold or the timer is invalid, an input cannot be read, or the
@@ -161,6 +165,7 @@ def compare(
     thr = _check_threshold(time_threshold, "time_threshold", most=MAX_TIME_THRESHOLD)
     fpt = int(_check_threshold(fp_threshold, "fp_threshold", integer=True))
     ut = _check_threshold(unknown_threshold, "unknown_threshold", most=1.0, below=True)
+    floor = _check_threshold(min_time, "min_time", most=MAX_ROUND_SECONDS)
     if timer not in TIMERS:
         raise CompareError(f"Unknown `timer` {short(timer)}; expected one of {list(TIMERS)}.")
     b, n = Path(base), Path(new)
@@ -168,5 +173,11 @@ def compare(
     if kb != kn:
         raise CompareError(f"Cannot compare a {kb} ({b}) with a {kn} ({n}).")
     if kb == "benchmark":
-        return _compare_benchmarks(b, n, thr)
-    return _compare_runs(b, n, thr, fpt, ut, timer)
+        out = _compare_benchmarks(b, n, thr)
+    else:
+        out = _compare_runs(b, n, thr, fpt, ut, timer, floor)
+    # (after reading: an input's own fault is named first) a pipeline pointing both
+    # arguments at one folder or file is always green
+    if b.resolve() == n.resolve():
+        raise CompareError(f"BASE and NEW are the same {kb} ({b}): a gate that never fails.")
+    return out

@@ -150,7 +150,8 @@ def _timing_lines(
             f"{name:{width}s} {_fmt_s(base):>10s} {_fmt_s(new):>10s} {'–':>7s} {'–':>17s}  {status}"
         )
     out.lines.append(
-        f"(a regression: the ratio exceeds {1 + thr:.2f} and its 95% bootstrap interval lies above 1)"
+        f"(gate rule: a group fails when its ratio exceeds {1 + thr:.2f} and its 95% bootstrap"
+        " interval lies above 1)"
     )
     loose = sum(r.status.startswith("not gated") for r in rows)
     if loose:

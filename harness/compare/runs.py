@@ -20,6 +20,7 @@ from ._common import (
     _bad_times,
     _clip,
     _decide,
+    _fmt_s,
     _timing_lines,
 )
 
@@ -41,19 +42,22 @@ def _load_run(p: Path) -> tuple[pd.DataFrame, dict]:
     try:
         df = pd.read_parquet(table)
     except Exception as e:  # pyarrow raises ArrowInvalid, OSError, ...: all mean unreadable
+        first = (str(e).strip().splitlines() or [""])[0]  # (its first line, whole)
+        first = first if len(first) <= 300 else first[:297] + "..."
         raise CompareError(
-            f"{table}: not a readable parquet table ({type(e).__name__}: {str(e)[:120]})."
+            f"{table}: not a readable parquet table ({type(e).__name__}: {first})."
         ) from None
-    meta: dict = {}
-    if (p / "meta.json").exists():
-        try:
-            meta = json.loads((p / "meta.json").read_text())
-        except (OSError, UnicodeDecodeError, ValueError) as e:
-            raise CompareError(f"{p / 'meta.json'}: not readable JSON ({e}).") from None
-        if not isinstance(meta, dict):
-            raise CompareError(
-                f"{p / 'meta.json'}: expected a JSON object, got {type(meta).__name__}."
-            )
+    if not (p / "meta.json").exists():
+        raise CompareError(
+            f"{p} has results.parquet but no meta.json: not a run folder (its suite, seed"
+            " and machine are unknown)."
+        )
+    try:
+        meta = json.loads((p / "meta.json").read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise CompareError(f"{p / 'meta.json'}: not readable JSON ({e}).") from None
+    if not isinstance(meta, dict):
+        raise CompareError(f"{p / 'meta.json'}: expected a JSON object, got {type(meta).__name__}.")
     missing = [c for c in ("study", "scheme", "bound") if c not in df.columns]
     if missing:
         raise CompareError(
@@ -134,7 +138,13 @@ def _rounds(df: pd.DataFrame, timer: str, table: Path) -> list[np.ndarray | None
 
 
 def _compare_runs(
-    b: Path, n: Path, thr: float, fp_threshold: int, unknown_threshold: float, timer: str
+    b: Path,
+    n: Path,
+    thr: float,
+    fp_threshold: int,
+    unknown_threshold: float,
+    timer: str,
+    floor: float = MIN_TIMING_SECONDS,
 ) -> Comparison:
     base, mb = _load_run(b)
     new, mn = _load_run(n)
@@ -155,6 +165,7 @@ def _compare_runs(
     bi = base.set_index("_key").loc[keys]
     ni = new.set_index("_key").loc[keys]
     out = Comparison()
+    _environments(out, (b, mb), (n, mn))
     # a row of the base that the new run lacks is a case that stopped running or crashed
     # (suite and seed match, so the rows are the same); a row only in NEW is a new case
     lost = base[~base["_key"].isin(kn)]
@@ -168,9 +179,49 @@ def _compare_runs(
             f"missing: {len(lost)} row(s) of the base are not in the new run"
             f" ({_count_groups([_group_name(r) for _, r in lost.iterrows()])})"
         )
-    _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"))
+    _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"), floor)
     _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
     return out
+
+
+_MACHINE = (
+    ("cpu_model", "cpu"),
+    ("usable_cpus", "cores"),
+    ("device", None),
+    ("python", None),
+    ("versions", None),
+    ("platform", None),
+)
+"""meta.json keys (with an older run's fallback) on which two runs' machines or software
+can differ: each difference is printed as a note (timings then compare more than code)."""
+
+
+def _environments(out: Comparison, *runs: tuple[Path, dict]) -> None:
+    """Name both runs (folder, git revision, machine) and note every difference of machine
+    or software between them: a gate compares code only where the rest is the same."""
+    for (p, meta), side in zip(runs, ("base", "new"), strict=True):
+        rev = meta.get("git_revision")
+        rev = "no git revision" if not rev else f"git {str(rev)[:10]}"
+        if meta.get("git_dirty"):
+            rev += " (uncommitted changes)"
+        cpus = meta.get("usable_cpus") or meta.get("cores")
+        out.lines.append(
+            f"{side + ':':5s} {p}: {rev}; {meta.get('cpu_model') or meta.get('cpu') or '?'},"
+            f" usable CPUs {cpus or '?'}, device {meta.get('device', 'cpu')}, Python"
+            f" {meta.get('python', '?')}; started {meta.get('started', '?')}"
+        )
+    (_, mb), (_, mn) = runs
+    for key, old in _MACHINE:
+        vb = mb.get(key, mb.get(old) if old else None)
+        vn = mn.get(key, mn.get(old) if old else None)
+        if vb is None or vn is None or vb == vn:
+            continue
+        if isinstance(vb, dict) and isinstance(vn, dict):
+            diff = sorted(k for k in set(vb) | set(vn) if vb.get(k) != vn.get(k))
+            text = ", ".join(f"{k} {vb.get(k)} -> {vn.get(k)}" for k in diff)
+        else:
+            text = f"{vb} -> {vn}"
+        out.lines.append(f"note: the runs differ in {key}: {text}")
 
 
 def _has_rounds(df: pd.DataFrame, timer: str) -> bool:
@@ -219,6 +270,7 @@ def _run_timing(
     thr: float,
     timer: str,
     tables: tuple[Path, Path],
+    floor: float = MIN_TIMING_SECONDS,
 ) -> None:
     rb, rn = _rounds(bi, timer, tables[0]), _rounds(ni, timer, tables[1])
     groups: dict[str, tuple[list, list]] = {}
@@ -241,10 +293,13 @@ def _run_timing(
     if not groups:
         out.lines.append("(no matched row is timed in both runs)")
         return
-    rows = [
-        _decide(name, gb, gn, thr, MIN_TIMING_SECONDS) for name, (gb, gn) in sorted(groups.items())
-    ]
+    rows = [_decide(name, gb, gn, thr, floor) for name, (gb, gn) in sorted(groups.items())]
     _timing_lines(out, rows, thr, "study/scheme/bound/mode")
+    if floor > 0 and any(r.status.startswith("not gated: base") for r in rows):
+        out.lines.append(
+            f"(groups below {_fmt_s(floor)} are not gated: --min-time 0 gates them too, at the"
+            " risk of the drift between runs that decides such few-millisecond figures)"
+        )
 
 
 def _flag(df: pd.DataFrame, col: str) -> pd.Series:
@@ -254,9 +309,18 @@ def _flag(df: pd.DataFrame, col: str) -> pd.Series:
 
 
 def _where(r: pd.Series) -> str:
-    bits = [f"{k} {r.get(k)}" for k in ("pair",) if r.get(k) is not None and not _isnan(r.get(k))]
+    bits = [
+        f"{k} {_plain(r.get(k))}"
+        for k in ("pair",)
+        if r.get(k) is not None and not _isnan(r.get(k))
+    ]
     scene = r.get("scene")
     return f"{scene}/{r.get('scheme')}/{r.get('bound')}" + (f" ({', '.join(bits)})" if bits else "")
+
+
+def _plain(v: Any) -> str:
+    """A number as written (a pair id read back as a float, 3.0, prints as 3)."""
+    return str(int(v)) if isinstance(v, float | np.floating) and float(v).is_integer() else str(v)
 
 
 def _isnan(v: Any) -> bool:
