@@ -336,3 +336,34 @@ def test_errors_of_the_machine_are_one_line(monkeypatch, capsys):
     assert harness.cli.main(["schemes"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "No space left on device" in err, err
+
+
+def test_a_run_of_another_revision_is_neither_resumed_nor_reused(mini_clean, tmp_path, capsys):
+    """A CI job rerunning into a fixed folder after a commit got the old results back, and
+    a resume after a commit mixed two versions' rows: both are refused; the folder of a
+    finished run at this revision says it has nothing to run."""
+    from harness.errors import SuiteError
+    from harness.run.journal import git_state
+
+    rev, _ = git_state()
+    if rev is None:
+        pytest.skip("not run from a git checkout: runs record no revision")
+    d, clean = mini_clean
+    suite = load_suite(d / "mini.toml")
+    out = tmp_path / "run"
+    shutil.copytree(d / "run", out)
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["legs"][-1]["git_revision"] == rev
+    same_rows(run_suite(suite, out, progress=False), clean)
+    assert "holds a finished run of these 10 cases: nothing to run" in capsys.readouterr().err
+    meta = json.loads((out / "meta.json").read_text())
+    meta["legs"][-1]["git_revision"] = "0123456789" * 4
+    (out / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises(SuiteError, match="a finished run at git revision 0123456789; this is"):
+        run_suite(suite, out, progress=False)
+    # a run started there and cut short (no `finished`): not resumed either
+    meta.pop("finished")
+    (out / "meta.json").write_text(json.dumps(meta))
+    (out / "results.parquet").unlink()
+    with pytest.raises(SuiteError, match="a run started at git revision 0123456789"):
+        run_suite(suite, out, progress=False)

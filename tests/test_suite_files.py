@@ -214,3 +214,20 @@ def test_a_files_only_mocap_body_is_one_scene_named_or_not(tmp_path):
     )
     with pytest.raises(SuiteError, match="scenes"):  # the same scene twice
         load_suite(tmp_path / "d.toml")
+
+
+def test_an_edited_scene_file_is_another_suite(tmp_path):
+    """A trial edited two keyframes of its own MJCF file between two runs: the hash stayed,
+    so the runs compared (verdicts free -> collision) and a resume would have mixed them."""
+    import scenes
+
+    mine = tmp_path / "mine.xml"
+    shutil.copy(scenes.path("slot"), mine)
+    f = tmp_path / "suite.toml"
+    f.write_text(CERTIFY + 'scenes = ["mine.xml"]\n')
+    before = load_suite(f).digest
+    assert load_suite(f).digest == before  # (the same file, the same suite)
+    mine.write_text(mine.read_text().replace("<mujoco", "<!-- edited -->\n<mujoco", 1))
+    assert load_suite(f).digest != before
+    mine.write_text(mine.read_text().replace("<!-- edited -->\n", "", 1))
+    assert load_suite(f).digest == before  # (its content, not its time, counts)

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import HarnessError, SuiteError
-from ..timing import machine_info
+from ..timing import machine_info, package_version
 
 try:
     import fcntl
@@ -389,6 +389,22 @@ def read_meta(folder: Path) -> dict | None:
     return meta
 
 
+def git_state() -> tuple[str | None, bool | None]:
+    """(revision, whether the tree has uncommitted changes) of the checkout this code runs
+    from; (None, None) outside one (an installed package)."""
+
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", *args], capture_output=True, text=True, cwd=Path(__file__).parent, timeout=5
+        ).stdout.strip()
+
+    try:
+        rev = git("rev-parse", "HEAD") or None
+        return rev, None if rev is None else bool(git("status", "--porcelain"))
+    except (OSError, subprocess.SubprocessError):
+        return None, None
+
+
 def machine_meta() -> dict:
     import mujoco
     import pyarrow
@@ -404,18 +420,11 @@ def machine_meta() -> dict:
     except OSError:
         pass
 
-    def git(*args: str) -> str:
-        return subprocess.run(
-            ["git", *args], capture_output=True, text=True, cwd=Path(__file__).parent, timeout=5
-        ).stdout.strip()
-
-    try:
-        rev, dirty = git("rev-parse", "HEAD") or None, bool(git("status", "--porcelain"))
-    except (OSError, subprocess.SubprocessError):
-        rev, dirty = None, None
+    rev, dirty = git_state()
     return {
         "python": sys.version.split()[0],
         "versions": {
+            "rsmbench": package_version(),
             "numpy": np.__version__,
             "scipy": scipy.__version__,
             "pandas": pd.__version__,

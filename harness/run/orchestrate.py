@@ -38,6 +38,7 @@ from .journal import (
     RunError,
     atomic_json,
     check_writable,
+    git_state,
     machine_meta,
     read_meta,
 )
@@ -199,6 +200,8 @@ def _run_locked(
             f" {old.get('seed')}); refusing to resume suite {suite.name!r} (hash {suite.digest}, seed {seed})."
             " Use another --out folder."
         )
+    rev, dirty = git_state()
+    _check_revision(old, out, rev)
     cases = expand(suite)
     journal = Journal(out)
     done = journal.load()
@@ -214,6 +217,13 @@ def _run_locked(
     meta, leg = _start_meta(
         old, suite, seed, len(cases), len(done), jobs, scheduler, journal.last_written
     )
+    leg["git_revision"], leg["git_dirty"] = rev, dirty
+    if old is not None and len(done) == len(cases):
+        print(
+            f"rsmbench: {out} holds a finished run of these {len(cases)} cases: nothing to"
+            " run; its tables are written again from its journal.",
+            file=sys.stderr,
+        )
     meta_path = out / "meta.json"
     start = time.perf_counter()
 
@@ -251,6 +261,24 @@ def _run_locked(
     meta.update(finished=datetime.now(UTC).isoformat(), rows=n_rows)
     save()
     return pd.read_parquet(out / "results.parquet")
+
+
+def _check_revision(old: dict | None, out: Path, rev: str | None) -> None:
+    """Refuse to resume (or reuse) a run made at another git revision than `rev` (a CI job
+    rerunning into a fixed folder after a commit got the old results back; a resumed run
+    mixed two commits' rows under the first's name). Outside a checkout, no check."""
+    if old is None or rev is None:
+        return
+    legs = old.get("legs")
+    last = legs[-1] if isinstance(legs, list) and legs and isinstance(legs[-1], dict) else {}
+    ran = last.get("git_revision", old.get("git_revision"))
+    if ran is not None and ran != rev:
+        what = "a finished run" if old.get("finished") else "a run started"
+        raise SuiteError(
+            f"Results folder {str(out)!r} holds {what} at git revision {str(ran)[:10]}; this"
+            f" is {rev[:10]}: resuming would mix two versions' results (a finished run's would"
+            " be reused as they are). Use another --out folder."
+        )
 
 
 def _start_meta(

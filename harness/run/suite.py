@@ -6,6 +6,7 @@ file and the key (``study[1].max_depth``), what was expected and what was got.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -55,6 +56,23 @@ class Suite:
     description: str = ""
     file: Path | None = None
     scheduler: str | None = None
+
+
+def _scene_files(studies: list[dict]) -> dict[str, str]:
+    """SHA-256 of every MJCF file the studies name (not the registered scenes, which the
+    git revision covers), by path: an edited scene is another benchmark, so the suite's
+    hash changes with it (a run resumed or compared across the edit mixed two scenes
+    under one hash). Meshes and includes the file loads are not covered."""
+    import scenes
+
+    out = {}
+    for st in studies:
+        for v in st.get("scenes") or []:
+            if isinstance(v, str) and v not in scenes.SCENES:
+                path = v.split("#", 1)[0]
+                with contextlib.suppress(OSError):  # (compiled at parse: it was readable)
+                    out[path] = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return out
 
 
 def suite_path(name_or_path: str | os.PathLike) -> Path:
@@ -163,7 +181,11 @@ def load_suite(name_or_path: str | os.PathLike) -> Suite:
                 f"the suite expands to more than {MAX_CASES:,} cases; lower repeats, lists or"
                 " pairs (or raise chunk_pairs)",
             )
-    canonical = json.dumps({"name": name, "seed": seed, "studies": parsed}, sort_keys=True)
+    content = {"name": name, "seed": seed, "studies": parsed}
+    files = _scene_files(parsed)
+    if files:  # (a suite of registered scenes only keeps the hash it always had)
+        content["scene_files"] = files
+    canonical = json.dumps(content, sort_keys=True)
     digest = hashlib.sha256(canonical.encode()).hexdigest()[:16]
     return Suite(
         name,
