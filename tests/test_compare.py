@@ -573,3 +573,32 @@ def test_a_table_without_meta_json_is_not_a_run(tmp_path, capsys):
         r.returncode == 2
         and f"not a readable parquet table ({type(e.value).__name__}: {reason})." in r.stderr
     )
+
+
+def test_interleaved_benchmarks_are_gated_per_contender(tmp_path, capsys):
+    """An interleaved benchmark is one pytest-benchmark round (never gated: 1 sample); its
+    contenders' CPU rounds in `extra_info` are gated one group each."""
+    rng = np.random.default_rng(16)
+
+    def doc(slow: float) -> dict:
+        info = {
+            "ours_cpu_rounds": (0.01 * slow * rng.lognormal(0, NOISE, 7)).tolist(),
+            "scipy_cpu_rounds": (0.02 * rng.lognormal(0, NOISE, 7)).tolist(),
+            "ours_cpu_s": 0.01,  # (medians and ratios stay as they were: not rounds)
+        }
+        bm = {"fullname": "t.py::test_x_interleaved", "stats": {"data": [0.2]}, "extra_info": info}
+        return {"benchmarks": [bm]}
+
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps(doc(1.0)))
+    b.write_text(json.dumps(doc(3.0)))
+    res = compare(a, b)
+    status = {t.name: t.status for t in res.timing}
+    assert status["t.py::test_x_interleaved [ours, CPU]"] == "regression", res.text()
+    assert status["t.py::test_x_interleaved [scipy, CPU]"] in ("ok", "faster")
+    assert status["t.py::test_x_interleaved"].startswith("not gated: 1 timing sample")
+    bad = doc(1.0)
+    bad["benchmarks"][0]["extra_info"]["ours_cpu_rounds"] = [0.1, "x"]
+    b.write_text(json.dumps(bad))
+    r = _cli(capsys, "compare", str(a), str(b))
+    assert r.returncode == 2 and "`extra_info.ours_cpu_rounds[1]` = 'x'" in r.stderr

@@ -34,6 +34,11 @@ TIMER_KINDS = {
 writes ``process_time``)."""
 
 
+ROUNDS_SUFFIX = "_cpu_rounds"
+"""``extra_info`` keys ``NAME_cpu_rounds``: an interleaved benchmark's per-round process
+CPU times of its contender NAME, gated as the benchmark ``FULLNAME [NAME, CPU]``."""
+
+
 def _load_benchmarks(p: Path) -> tuple[dict[str, dict], dict[str, str | None]]:
     """The `stats` of each benchmark of `p` by its `fullname`, and the name of its timer
     (``options.timer``; None when the file does not say)."""
@@ -95,6 +100,20 @@ def _load_benchmarks(p: Path) -> tuple[dict[str, dict], dict[str, str | None]]:
         options = bm.get("options")
         timer = options.get("timer") if isinstance(options, dict) else None
         timers[bm["fullname"]] = timer if isinstance(timer, str) else None
+        # an interleaved benchmark's one round holds its contenders' rounds (tests/
+        # benchmarks/interleave.py): each contender's CPU rounds are a group of their own
+        extra = bm.get("extra_info")
+        for key, rounds in extra.items() if isinstance(extra, dict) else ():
+            if not (isinstance(key, str) and key.endswith(ROUNDS_SUFFIX)):
+                continue
+            bad = _bad_times(rounds, f"extra_info.{key}")
+            if bad:
+                raise CompareError(
+                    f"{where} ({bm['fullname']}): expected `extra_info.{key}` to be a non-empty"
+                    f" list of round times in seconds, each in [0, {MAX_ROUND_SECONDS:g}], got {bad}."
+                )
+            name = f"{bm['fullname']} [{key[: -len(ROUNDS_SUFFIX)]}, CPU]"
+            out[name], timers[name] = {"data": rounds}, "process_time"
     return out, timers
 
 

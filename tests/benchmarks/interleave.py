@@ -19,7 +19,7 @@ def interleaved(contenders: dict[str, Callable[[], object]], rounds: int = 7) ->
 
     Returns:
         {name: {"cpu": median s, "wall": median s, "cpu_iqr": (q1, q3),
-        "wall_iqr": (q1, q3), "rounds": rounds}}.
+        "wall_iqr": (q1, q3), "rounds": rounds, "cpu_rounds": [s, ...]}}.
     """
     names = list(contenders)
     cpu: dict[str, list[float]] = {n: [] for n in names}
@@ -41,15 +41,20 @@ def interleaved(contenders: dict[str, Callable[[], object]], rounds: int = 7) ->
             "cpu_iqr": tuple(float(x) for x in np.percentile(c, [25, 75])),
             "wall_iqr": tuple(float(x) for x in np.percentile(w, [25, 75])),
             "rounds": rounds,
+            "cpu_rounds": [float(x) for x in c],
         }
     return out
 
 
 def record(benchmark, figures: dict[str, dict], ratios: dict[str, tuple[str, str]]) -> None:
-    """Put the medians and the ratios ``a / b`` (CPU and wall) into ``extra_info``."""
+    """Put the medians and the ratios ``a / b`` (CPU and wall) into ``extra_info``, and
+    each contender's CPU time per round (``NAME_cpu_rounds``: what ``rsmbench compare``
+    gates, one group per contender)."""
     for name, f in figures.items():
         for key in ("cpu", "wall"):
             benchmark.extra_info[f"{name}_{key}_s"] = f[key]
+        if "cpu_rounds" in f:
+            benchmark.extra_info[f"{name}_cpu_rounds"] = f["cpu_rounds"]
     for label, (a, b) in ratios.items():
         benchmark.extra_info[f"{label}_cpu"] = figures[a]["cpu"] / figures[b]["cpu"]
         benchmark.extra_info[f"{label}_wall"] = figures[a]["wall"] / figures[b]["wall"]
