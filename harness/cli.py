@@ -163,9 +163,25 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+def _done_so_far(out: Path) -> str:
+    """' (N of M cases done)' as the run's meta.json says after a stop now (SIGTERM, a
+    second Ctrl-C), where no RunInterrupted carries the counts; '' when it does not say."""
+    try:
+        meta = json.loads((out / "meta.json").read_text())
+        done, total = meta["legs"][-1]["cases_done"], meta["cases"]
+    except (OSError, ValueError, KeyError, IndexError, TypeError):
+        return ""
+    return (
+        f" ({done} of {total} cases done)"
+        if isinstance(done, int) and isinstance(total, int)
+        else ""
+    )
+
+
 def _run(args) -> int:
-    """`rsmbench run`: SIGTERM stops it as Ctrl-C does (the cases in progress finish and
-    are kept; it had left no message and up to 5 s of wall time out of meta.json)."""
+    """`rsmbench run`: SIGTERM stops it as a second Ctrl-C does, now (the finished cases
+    are kept, a case cut short runs again on resume; it had left no message and up to 5 s
+    of wall time out of meta.json)."""
     previous = signal.signal(signal.SIGTERM, _interrupt)
     try:
         return _run_suite(args)
@@ -231,7 +247,11 @@ def _run_suite(args) -> int:
             hard_stop=True,  # (a second Ctrl-C ends this process, even inside a kernel)
         )
     except KeyboardInterrupt as e:
-        done = f" ({e.done} of {e.total} cases done)" if isinstance(e, RunInterrupted) else ""
+        done = (
+            f" ({e.done} of {e.total} cases done)"
+            if isinstance(e, RunInterrupted)
+            else _done_so_far(out)
+        )
         print(
             f"rsmbench run: interrupted{done}; every finished case is kept in {out}."
             f" Resume with: {shlex.join(resume)}",

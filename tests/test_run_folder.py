@@ -315,6 +315,11 @@ def test_local_workers_die_with_a_killed_run_and_sigterm_stops_like_ctrl_c(mini,
         if sig == signal.SIGTERM:
             assert proc.returncode == 130 and "Resume with:" in err, err
             assert "Traceback" not in err
+            # the counts Ctrl-C gives, from the meta.json the stop wrote (a trial: SIGTERM
+            # said only "interrupted")
+            meta = json.loads((out / "meta.json").read_text())
+            said = f"interrupted ({meta['legs'][-1]['cases_done']} of {N_CASES} cases done)"
+            assert said in err, err
         deadline = time.time() + 30
         while time.time() < deadline and any(Path(f"/proc/{w}").exists() for w in workers):
             time.sleep(0.05)
