@@ -136,3 +136,36 @@ def test_single_query_and_order(scenes):
     rest = [o for j, o in enumerate(obst) if j != c.obstacle]
     c2 = certify(m, body, rest + [moved], tolerance=TOL)
     assert c2.toi_hi == c.toi_hi and c2.obstacle == len(rest)
+
+
+POST_XML = """<mujoco><worldbody>
+<geom name="table" type="box" size="1 1 .05" pos="0 0 -.05"/>
+<geom type="box" size=".05 .05 .05" pos="0 2 .5"/>
+<geom name="post" type="box" size=".05 .05 .5" pos="0 0 .5"/>
+<body name="hand" mocap="true" pos="-.6 0 .3"><geom name="palm" type="sphere" size=".05"/></body>
+</worldbody><keyframe>
+<key time="0" mpos="-.6 0 .3"/><key time="1" mpos="-.3 0 .3"/>
+<key time="2" mpos=".3 0 .3"/><key time="3" mpos=".6 0 .3"/>
+</keyframe></mujoco>"""
+
+
+def test_a_certify_studys_rows_name_the_obstacle(tmp_path):
+    """A user's scene whose keyframe motion runs through its post (third of three geoms,
+    after an unnamed one): every bound's collision row names the post."""
+    import pandas as pd
+
+    from harness.run import load_suite, run_suite
+
+    (tmp_path / "post_robot.xml").write_text(POST_XML)
+    suite = tmp_path / "suite.toml"
+    suite.write_text(
+        '[suite]\nname = "mine"\n[[study]]\nkind = "certify"\nscenes = ["post_robot.xml"]\n'
+        'keyframes = "scene"\nschemes = ["rational"]\nbounds = ["hull", "lipschitz", "sampled"]\n'
+        "truth_resolution = 1e-2\nrounds = 1\n"
+    )
+    run_suite(load_suite(suite), tmp_path / "out", progress=False)
+    df = pd.read_parquet(tmp_path / "out" / "results.parquet")
+    rows = df[df["verdict"].isin(["free", "collision", "unknown"]) & (df["keyframes"] == "scene")]
+    assert set(rows["bound"]) == {"hull", "lipschitz", "sampled"}
+    assert (rows["verdict"] == "collision").all(), rows[["bound", "verdict"]]
+    assert (rows["obstacle"] == "post").all(), rows[["bound", "obstacle"]]

@@ -157,6 +157,11 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     )
     cert = timed.result
     row.update(cert_cols(cert))
+    # which obstacle the collision (or the witness within tolerance) is about, by its
+    # geom's name where the scene names it
+    if cert.obstacle is not None:
+        o = obst[cert.obstacle]
+        row["obstacle"] = o.name if o.name else f"{type(o).__name__} #{cert.obstacle}"
     row.update(timed.columns())
     row["seconds"] = row["wall_median"]
     row.update(accuracy_cols(cert.verdict, row["truth"], cert.toi_lo, row["toi_true"]))
