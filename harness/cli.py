@@ -323,13 +323,16 @@ def _duration(text: str, option: str) -> float:
     from harness.compare._common import _clip
 
     t = text.strip()
-    unit = next((u for u in ("ms", "us", "µs", "s") if t.endswith(u)), "s")
+    unit = next((u for u in ("ms", "us", "µs", "s") if t.endswith(u)), "")
     try:
-        value = float(t[: len(t) - len(unit)] if t.endswith(unit) else t) * _UNITS[unit]
+        value = float(t[: len(t) - len(unit)]) * _UNITS[unit or "s"]
     except ValueError:
         value = float("nan")
-    if not (np.isfinite(value) and value >= 0):
-        raise UsageError(f"Expected `{option}` >= 0, like 5ms or 0.005, got {_clip(text)}.")
+    if not (np.isfinite(value) and 0 <= value <= 1e6):
+        raise UsageError(
+            f"Expected `{option}` to be a duration in [0 s, 1e6 s]: seconds (0.005) or a"
+            f" number with the unit s, ms or us (5ms), got {_clip(text)}."
+        )
     return value
 
 
@@ -467,9 +470,9 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _version() -> str:
-    from harness.timing import package_version
+    from harness.timing import rsmbench_version
 
-    return package_version()
+    return rsmbench_version()
 
 
 def parser() -> argparse.ArgumentParser:

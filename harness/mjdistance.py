@@ -9,7 +9,7 @@ import numpy as np
 from motions.quaternion import quat_from_matrix, rotation_matrix
 
 from .errors import ShapeError
-from .shapes import HalfSpace, Shape, parts
+from .shapes import HalfSpace, Shape, part_owners, parts
 
 __all__ = ["CCD_TOLERANCE", "MujocoDistance", "geom_xml", "mesh_xml"]
 
@@ -70,7 +70,6 @@ class MujocoDistance:
         assets, bgeoms, ogeoms = [], [], []
         self.body_parts = list(parts(body))
         self.obst_parts = []
-        self.obst_owner = []
         for i, p in enumerate(self.body_parts):
             mesh = None
             if p.kind == "mesh":
@@ -78,7 +77,7 @@ class MujocoDistance:
                 assets.append(mesh_xml(mesh, p))
             bgeoms.append(geom_xml(p, f"b{i}", mesh, 'contype="0" conaffinity="0"'))
         k = 0
-        for j, o in enumerate(obstacles):
+        for o in obstacles:
             for p in parts(o):
                 mesh = None
                 if p.kind == "mesh":
@@ -86,7 +85,6 @@ class MujocoDistance:
                     assets.append(mesh_xml(mesh, p))
                 ogeoms.append(geom_xml(p, f"o{k}", mesh, 'contype="0" conaffinity="0"'))
                 self.obst_parts.append(p)
-                self.obst_owner.append(j)
                 k += 1
         xml = (
             f'<mujoco><option ccd_tolerance="{CCD_TOLERANCE!r}" ccd_iterations="1000"/>'
@@ -102,7 +100,7 @@ class MujocoDistance:
                 f"{str(e).splitlines()[0]}"
             ) from None
         self.data = mujoco.MjData(self.model)
-        self.obst_owner = np.asarray(self.obst_owner)
+        self.obst_owner = part_owners(obstacles)
         gid = lambda name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731
         # geom ids follow body order (world geoms first): look them up by name
         self._pairs = [

@@ -8,6 +8,7 @@ the Warp kernels. Quaternions are scalar first ``(w, x, y, z)``.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -526,6 +527,13 @@ class Compound(Shape):
 def parts(shape: Shape) -> tuple[Shape, ...]:
     """The convex parts of a shape (itself unless a Compound)."""
     return shape.shapes if isinstance(shape, Compound) else (shape,)
+
+
+def part_owners(shapes: Sequence[Shape]) -> np.ndarray:
+    """For each convex part of `shapes` in order (the :func:`parts` of one shape after
+    another), the index of the shape it belongs to."""
+    counts = np.fromiter((len(parts(s)) for s in shapes), dtype=np.int64, count=len(shapes))
+    return np.repeat(np.arange(len(shapes)), counts)
 
 
 def as_shape(x: Any, name: str = "body") -> Shape:

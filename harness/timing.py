@@ -433,13 +433,23 @@ def _ram_gb() -> float:
             return math.nan
 
 
-def package_version() -> str:
-    """rsmbench's installed version ("unknown" when run from a source tree not installed)."""
-    from importlib.metadata import PackageNotFoundError, version
+def rsmbench_version() -> str:
+    """The version of the running rsmbench: the ``pyproject.toml`` of the source tree it was
+    imported from (an editable install's metadata keeps the version it was installed
+    with), else the installed package's metadata, else "unknown"."""
+    import importlib.metadata
+    import tomllib
 
+    pyproject = Path(__file__).resolve().parents[1] / "pyproject.toml"
     try:
-        return version("rsmbench")
-    except PackageNotFoundError:
+        project = tomllib.loads(pyproject.read_text()).get("project", {})
+        if project.get("name") == "rsmbench" and isinstance(project.get("version"), str):
+            return project["version"]
+    except (OSError, tomllib.TOMLDecodeError):
+        pass
+    try:
+        return importlib.metadata.version("rsmbench")
+    except importlib.metadata.PackageNotFoundError:
         return "unknown"
 
 

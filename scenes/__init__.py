@@ -31,6 +31,7 @@ __all__ = [
     "from_xml",
     "load",
     "mocap_bodies",
+    "split_body",
     "suite_scenes",
 ]
 
@@ -271,7 +272,7 @@ def load(name_or_path: str | os.PathLike, *, mocap_body: str | None = None, **pa
         )
     if isinstance(name_or_path, str) and name_or_path in _REGISTRY:
         return _load_registered(name_or_path, mocap_body, params)
-    name_or_path, mocap_body = _split_body(name_or_path, mocap_body)
+    name_or_path, mocap_body = split_body(name_or_path, mocap_body)
     p = Path(name_or_path).expanduser()
     if not p.exists() and not _looks_like_path(name_or_path):
         raise SceneError(
@@ -285,7 +286,7 @@ def load(name_or_path: str | os.PathLike, *, mocap_body: str | None = None, **pa
     return _scene(model, body, p.stem, xml=p.read_text(errors="replace"), path=p.resolve())
 
 
-def _split_body(x: str | os.PathLike, mocap_body: str | None) -> tuple:
+def split_body(x: str | os.PathLike, mocap_body: str | None) -> tuple:
     """``"file.xml#body"`` (how a suite names the mocap body of a file with several) as
     (file, body); anything else unchanged."""
     if isinstance(x, str) and "#" in x and mocap_body is None:
@@ -345,7 +346,7 @@ def suite_scenes(value: Any, relative_to: str | os.PathLike) -> list[str]:
         if v in _REGISTRY:
             out.append(v)
             continue
-        f, body = _split_body(v, None)
+        f, body = split_body(v, None)
         p = Path(f).expanduser()
         if not p.is_absolute():
             p = Path(relative_to) / p

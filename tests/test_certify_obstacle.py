@@ -169,3 +169,51 @@ def test_a_certify_studys_rows_name_the_obstacle(tmp_path):
     assert set(rows["bound"]) == {"hull", "lipschitz", "sampled"}
     assert (rows["verdict"] == "collision").all(), rows[["bound", "verdict"]]
     assert (rows["obstacle"] == "post").all(), rows[["bound", "obstacle"]]
+
+
+def test_slerp_family_and_host_paths_name_the_obstacle(scenes):
+    """The same check on the other paths: slerp stepped and sampled in the kernels from its
+    exponential pieces, squad sampled on the host, and slerp advanced on the host; a
+    single query names the obstacle its batch does."""
+    from harness.certification import advance
+
+    ms, bodies, obst = [], [], []
+    for m0, body, ob in scenes[:24]:
+        q = m0.quaternion(np.linspace(0.0, 1.0, 6))
+        _, p = m0.pose(np.linspace(0.0, 1.0, 6))
+        for scheme in ("slerp", "squad"):
+            ms.append(motions.build(scheme, q, p, np.linspace(0.0, 1.0, 6)))
+            bodies.append(body)
+            obst.append(ob)
+    slerp = [i for i in range(len(ms)) if i % 2 == 0]
+    runs = {
+        "lipschitz": (slerp, certify_many([ms[i] for i in slerp], [bodies[i] for i in slerp],
+                                          [obst[i] for i in slerp], bound="lipschitz", tolerance=TOL)),
+        "sampled": (range(len(ms)), certify_many(ms, bodies, obst, bound="sampled", tolerance=TOL)),
+    }  # fmt: skip
+    o = dict(tol=TOL, max_nodes=100_000, max_iter=64, threads=1, device="cpu")
+    speeds = [advance._interval_speeds(ms[i], bodies[i].bounding_radius, 0, "x") for i in slerp]
+    host = advance._advance_host(
+        [ms[i] for i in slerp], [bodies[i] for i in slerp], [obst[i] for i in slerp], speeds, o
+    )
+    runs["lipschitz on the host"] = (slerp, host)
+    for what, (idx, certs) in runs.items():
+        named = 0
+        for i, c in zip(idx, certs, strict=True):
+            if c.verdict == "collision":
+                d = _distance(
+                    _ball(ms[i], bodies[i], c.toi_hi), bodies[i].radius, obst[i][c.obstacle]
+                )
+                assert d <= 1e-9, (what, i, c.obstacle, d)
+                named += 1
+            elif np.isfinite(c.witness_time):
+                d = _distance(
+                    _ball(ms[i], bodies[i], c.witness_time), bodies[i].radius, obst[i][c.obstacle]
+                )
+                assert d <= c.witness_distance + 1e-9, (what, i, c.obstacle, d)
+            else:
+                assert c.obstacle is None
+        assert named >= 5, (what, named)
+    for j in (0, 2, 3):
+        alone = certify(ms[j], bodies[j], obst[j], bound="sampled", tolerance=TOL)
+        assert alone.obstacle == runs["sampled"][1][j].obstacle

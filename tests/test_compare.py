@@ -547,13 +547,17 @@ def test_header_names_the_runs_and_notes_what_differs_besides_the_code(tmp_path)
 
 
 def test_version_is_printed_and_recorded(capsys):
-    from importlib.metadata import version
+    """The source tree's version (an editable install's metadata keeps the one it was
+    installed with)."""
+    import tomllib
 
     from harness.run.journal import machine_meta
 
+    root = Path(__file__).resolve().parents[1]
+    version = tomllib.loads((root / "pyproject.toml").read_text())["project"]["version"]
     r = _cli(capsys, "--version")
-    assert r.returncode == 0 and r.stdout.strip() == f"rsmbench {version('rsmbench')}"
-    assert machine_meta()["versions"]["rsmbench"] == version("rsmbench")
+    assert r.returncode == 0 and r.stdout.strip() == f"rsmbench {version}"
+    assert machine_meta()["versions"]["rsmbench"] == version
 
 
 def test_a_table_without_meta_json_is_not_a_run(tmp_path, capsys):

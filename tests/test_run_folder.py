@@ -364,7 +364,9 @@ def test_a_run_of_another_revision_is_neither_resumed_nor_reused(mini_clean, tmp
     meta = json.loads((out / "meta.json").read_text())
     meta["legs"][-1]["git_revision"] = "0123456789" * 4
     (out / "meta.json").write_text(json.dumps(meta))
-    with pytest.raises(SuiteError, match="a finished run at git revision 0123456789; this is"):
+    with pytest.raises(
+        SuiteError, match="a finished run at git revision 0123456789; this checkout is at"
+    ):
         run_suite(suite, out, progress=False)
     # a run started there and cut short (no `finished`): not resumed either
     meta.pop("finished")
@@ -372,3 +374,40 @@ def test_a_run_of_another_revision_is_neither_resumed_nor_reused(mini_clean, tmp
     (out / "results.parquet").unlink()
     with pytest.raises(SuiteError, match="a run started at git revision 0123456789"):
         run_suite(suite, out, progress=False)
+
+
+def test_the_revision_is_rsmbenchs_own_not_a_surrounding_repositorys(tmp_path, monkeypatch):
+    """rsmbench installed into a virtual environment inside a user's own repository read
+    that repository's HEAD (and any commit there refused their resumes)."""
+    from harness.run import journal
+
+    if shutil.which("git") is None:
+        pytest.skip("no git")
+    repo = tmp_path / "project"
+    inside = repo / ".venv" / "lib" / "site-packages" / "harness" / "run" / "journal.py"
+    inside.parent.mkdir(parents=True)
+    inside.write_text("")
+    (repo / "notes.txt").write_text("x")
+
+    def git(*a):
+        subprocess.run(["git", *a], cwd=repo, check=True, capture_output=True)
+
+    git("init", "-q")
+    git("-c", "user.email=a@b", "-c", "user.name=a", "commit", "-q", "--allow-empty", "-m", "x")
+    monkeypatch.setattr(journal, "__file__", str(inside))
+    assert journal.git_state() == (None, None)
+    # a checkout of rsmbench itself: its HEAD; an untracked output folder is not a change
+    own = repo / "harness" / "run" / "journal.py"
+    own.parent.mkdir(parents=True)
+    own.write_text("")
+    git("add", "harness")
+    git("-c", "user.email=a@b", "-c", "user.name=a", "commit", "-q", "-m", "y")
+    (repo / "results").mkdir()
+    (repo / "results" / "meta.json").write_text("{}")
+    monkeypatch.setattr(journal, "__file__", str(own))
+    head = subprocess.run(
+        ["git", "rev-parse", "HEAD"], cwd=repo, capture_output=True, text=True, check=True
+    ).stdout.strip()
+    assert journal.git_state() == (head, False)
+    own.write_text("changed")
+    assert journal.git_state() == (head, True)

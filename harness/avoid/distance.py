@@ -14,7 +14,7 @@ import numpy as np
 from motions.quaternion import quat_from_matrix
 
 from ..mjdistance import CCD_TOLERANCE, geom_xml, mesh_xml
-from ..shapes import Shape, parts
+from ..shapes import Shape, part_owners, parts
 
 __all__ = ["DistanceModel"]
 
@@ -34,7 +34,6 @@ class DistanceModel:
         assets, bodies, static = [], [], []
         self.moving = [list(parts(s)) for s in moving]
         self.obstacle_parts: list[Shape] = []
-        owner = []
         k = 0
 
         def geom(p: Shape, name: str) -> str:
@@ -49,12 +48,11 @@ class DistanceModel:
         for i, ps in enumerate(self.moving):
             geoms = "".join(geom(p, f"m{i}_{j}") for j, p in enumerate(ps))
             bodies.append(f'<body name="mover{i}" mocap="true">{geoms}</body>')
-        for j, o in enumerate(obstacles):
+        for o in obstacles:
             for p in parts(o):
                 static.append(geom(p, f"o{len(self.obstacle_parts)}"))
                 self.obstacle_parts.append(p)
-                owner.append(j)
-        self.obstacle_owner = np.asarray(owner, dtype=np.int64)
+        self.obstacle_owner = part_owners(obstacles)
         xml = (
             f'<mujoco><option ccd_tolerance="{CCD_TOLERANCE!r}" ccd_iterations="1000"/>'
             f"<asset>{''.join(assets)}</asset><worldbody>{''.join(bodies)}{''.join(static)}"

@@ -62,7 +62,8 @@ def certify_pair(
 
     Returns:
         The :class:`Certificate` of body b moving by ``M_a^{-1} M_b`` against body a
-        held still; its times are the motions' common time.
+        held still; its times are the motions' common time, and its ``obstacle`` is 0
+        (body a, the one obstacle) where it names one.
 
     Raises:
         PairError: a motion that is not rational, or domains that differ.

@@ -30,7 +30,7 @@ from motions.baselines import (
 from motions.pieces import UNIT_ROUNDOFF, speed_bounds
 
 from ..shapes import Shape
-from .api import MAX_SAMPLES, Certificate, QueryError, assemble, motion_cache, obstacle_at
+from .api import MAX_SAMPLES, Certificate, Owners, QueryError, assemble, motion_cache
 from .device import buffers, is_cpu, warp
 from .refine import (
     GPU_LANES,
@@ -564,6 +564,7 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms, obst) -> list[C
     n = len(ms)
     nodes, tests, counts = out.nodes.tolist(), out.tests.tolist(), out.counts.tolist()
     hit, wit = out.hit_part.tolist(), out.witness_part.tolist()
+    owner = Owners(obst)
     toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
     wt, wd = out.witness_time.tolist(), out.witness_distance.tolist()
     total = max(1, sum(nodes))
@@ -587,7 +588,7 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms, obst) -> list[C
                     lo,
                     toi_hi[i],
                     certified=True,
-                    obstacle=obstacle_at(obst[i], hit[i]),
+                    obstacle=owner(i, hit[i]),
                     **common,
                 )
             )
@@ -604,7 +605,7 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms, obst) -> list[C
                     witness_time=wt[i],
                     witness_distance=wd[i],
                     unresolved={"tolerance": counts[i][0]},
-                    obstacle=obstacle_at(obst[i], wit[i]),
+                    obstacle=owner(i, wit[i]),
                     **common,
                 )
             )
@@ -660,6 +661,7 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
         )  # fmt: skip
     elapsed = time.perf_counter() - start
     out = []
+    owner = Owners(obst)
     for i, (tc, tb, tn, dn, hp, np_) in enumerate(results):
         common = dict(
             nodes=int(nodes[i]),
@@ -671,11 +673,7 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
             tolerance=tol,
         )
         if math.isfinite(tc):
-            out.append(
-                Certificate(
-                    "collision", "contact", tb, tc, obstacle=obstacle_at(obst[i], hp), **common
-                )
-            )
+            out.append(Certificate("collision", "contact", tb, tc, obstacle=owner(i, hp), **common))
         elif math.isfinite(tn):
             out.append(
                 Certificate(
@@ -685,7 +683,7 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
                     math.inf,
                     witness_time=tn,
                     witness_distance=dn,
-                    obstacle=obstacle_at(obst[i], np_),
+                    obstacle=owner(i, np_),
                     **common,
                 )
             )

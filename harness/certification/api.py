@@ -23,7 +23,7 @@ from motions._checks import short
 from motions.pieces import UNIT_ROUNDOFF, gamma
 
 from ..errors import HarnessError
-from ..shapes import HalfSpace, Shape, as_obstacles, as_shape, parts
+from ..shapes import Compound, HalfSpace, Shape, as_obstacles, as_shape, part_owners
 from ..timing import collector_paused
 from .device import resolve_device
 from .refine import BIG
@@ -520,17 +520,26 @@ def _comparators(bound, ms, bodies, obst, tol, options) -> list:
         raise TypeError(f"Bad `comparator_options` for {short(bound)}: {e}") from None
 
 
-def obstacle_at(obstacles: list[Shape], part: int) -> int | None:
-    """Index in `obstacles` of the obstacle owning convex part number `part` of the list's
-    parts in order (as the kernels number them; None for a negative `part`)."""
-    if part < 0:
-        return None
-    for j, o in enumerate(obstacles):
-        n = len(parts(o))
-        if part < n:
-            return j
-        part -= n
-    raise AssertionError(f"obstacle part {part} beyond the list's")  # (the kernels' own)
+class Owners:
+    """Which obstacle of a motion's list an obstacle part the kernels name belongs to:
+    ``owners(i, part)`` is the index in ``lists[i]`` of the obstacle owning convex part
+    number `part` of that list's parts in order (None for a negative `part`). Without
+    compounds a part is its obstacle; else each distinct list's owners are found once."""
+
+    def __init__(self, lists: Sequence[list[Shape]]):
+        self.lists = lists
+        self._owners: dict[int, np.ndarray | None] = {}
+
+    def __call__(self, i: int, part: int) -> int | None:
+        if part < 0:
+            return None
+        lst = self.lists[i]
+        key = id(lst)
+        if key not in self._owners:  # (a C loop over the types: thousands of obstacles)
+            compound = Compound in set(map(type, lst))
+            self._owners[key] = part_owners(lst) if compound else None
+        own = self._owners[key]
+        return part if own is None else int(own[part])
 
 
 def assemble(
@@ -563,6 +572,7 @@ def assemble(
     else:
         cert = [bool(x) for x in certified]
     inf, nan = math.inf, math.nan
+    owner = Owners(obstacles)
     # every certificate starts as a copy of this (fields in declaration order; a frozen
     # dataclass's __init__ costs ~2 us, copying a dict is cheaper than a dict display)
     free = {
@@ -597,10 +607,10 @@ def assemble(
         d["toi_lo"] = lo
         if ti[1] <= BIG:
             d["verdict"], d["reason"], d["toi_hi"] = "collision", "contact", ti[1]
-            d["obstacle"] = obstacle_at(obstacles[i], int(c[i, 8]))
+            d["obstacle"] = owner(i, int(c[i, 8]))
         else:
             d["verdict"], d["reason"] = "unknown", KERNEL_REASONS[int(c[i, 3])]
             if ti[2] <= BIG:
                 d["witness_time"], d["witness_distance"] = ti[2], ti[3]
-                d["obstacle"] = obstacle_at(obstacles[i], int(c[i, 9]))
+                d["obstacle"] = owner(i, int(c[i, 9]))
     return res

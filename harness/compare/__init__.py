@@ -44,6 +44,7 @@ of a row; a lower measured continuity class of a scheme.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from pathlib import Path
 from typing import Any
@@ -117,6 +118,21 @@ def _check_threshold(
     return x
 
 
+def _check_duration(value: Any) -> float:
+    """`min_time` as a float, or a CompareError: seconds, a finite number in [0,
+    MAX_ROUND_SECONDS]."""
+    x = math.nan
+    if not isinstance(value, bool) and isinstance(value, int | float | np.integer | np.floating):
+        with contextlib.suppress(OverflowError):
+            x = float(value)
+    if not (math.isfinite(x) and 0 <= x <= MAX_ROUND_SECONDS):
+        raise CompareError(
+            f"Expected `min_time` to be a duration in seconds in [0, {MAX_ROUND_SECONDS:g}],"
+            f" got {_clip(value)}."
+        )
+    return x
+
+
 def _kind(p: Path) -> str:
     if p.is_dir():
         if not (p / "results.parquet").exists():
@@ -165,7 +181,7 @@ def compare(
     thr = _check_threshold(time_threshold, "time_threshold", most=MAX_TIME_THRESHOLD)
     fpt = int(_check_threshold(fp_threshold, "fp_threshold", integer=True))
     ut = _check_threshold(unknown_threshold, "unknown_threshold", most=1.0, below=True)
-    floor = _check_threshold(min_time, "min_time", most=MAX_ROUND_SECONDS)
+    floor = _check_duration(min_time)
     if timer not in TIMERS:
         raise CompareError(f"Unknown `timer` {short(timer)}; expected one of {list(TIMERS)}.")
     b, n = Path(base), Path(new)

@@ -184,16 +184,10 @@ def _compare_runs(
     return out
 
 
-_MACHINE = (
-    ("cpu_model", "cpu"),
-    ("usable_cpus", "cores"),
-    ("device", None),
-    ("python", None),
-    ("versions", None),
-    ("platform", None),
-)
-"""meta.json keys (with an older run's fallback) on which two runs' machines or software
-can differ: each difference is printed as a note (timings then compare more than code)."""
+_MACHINE = ("cpu_model", "usable_cpus", "device", "python", "versions", "platform")
+"""meta.json keys on which two runs' machines or software can differ: each difference is
+printed as a note (timings then compare more than code); a key one run lacks (written
+by an older rsmbench) is not compared."""
 
 
 def _environments(out: Comparison, *runs: tuple[Path, dict]) -> None:
@@ -204,20 +198,25 @@ def _environments(out: Comparison, *runs: tuple[Path, dict]) -> None:
         rev = "no git revision" if not rev else f"git {str(rev)[:10]}"
         if meta.get("git_dirty"):
             rev += " (uncommitted changes)"
-        cpus = meta.get("usable_cpus") or meta.get("cores")
+        cpus = (
+            f"usable CPUs {meta['usable_cpus']}"
+            if meta.get("usable_cpus")
+            else f"{meta.get('cores', '?')} logical CPUs"
+        )
         out.lines.append(
             f"{side + ':':5s} {p}: {rev}; {meta.get('cpu_model') or meta.get('cpu') or '?'},"
-            f" usable CPUs {cpus or '?'}, device {meta.get('device', 'cpu')}, Python"
-            f" {meta.get('python', '?')}; started {meta.get('started', '?')}"
+            f" {cpus}, device {meta.get('device', 'cpu')}, Python {meta.get('python', '?')};"
+            f" started {meta.get('started', '?')}"
         )
     (_, mb), (_, mn) = runs
-    for key, old in _MACHINE:
-        vb = mb.get(key, mb.get(old) if old else None)
-        vn = mn.get(key, mn.get(old) if old else None)
+    for key in _MACHINE:
+        vb, vn = mb.get(key), mn.get(key)
         if vb is None or vn is None or vb == vn:
             continue
         if isinstance(vb, dict) and isinstance(vn, dict):
-            diff = sorted(k for k in set(vb) | set(vn) if vb.get(k) != vn.get(k))
+            diff = sorted(k for k in set(vb) & set(vn) if vb[k] != vn[k])
+            if not diff:
+                continue
             text = ", ".join(f"{k} {vb.get(k)} -> {vn.get(k)}" for k in diff)
         else:
             text = f"{vb} -> {vn}"

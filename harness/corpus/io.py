@@ -26,12 +26,10 @@ same control matrices (or the same keyframes) bit for bit and evaluates identica
 
 from __future__ import annotations
 
-import importlib.metadata
 import json
 import math
 import os
 import shutil
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +40,7 @@ from motions import RationalMotion
 
 from ..errors import HarnessError
 from ..shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
+from ..timing import rsmbench_version
 from .cases import CLASSES, KEYFRAME_SCHEMES, RATIONAL_SCHEMES, SCHEMES, TRUTH_METHODS, Case, Truth
 
 __all__ = [
@@ -133,23 +132,6 @@ def case_to_dict(c: Case) -> dict:
             "proof": t.proof,
         },
     }
-
-
-def rsmbench_version() -> str:
-    """The version of the running rsmbench: the ``pyproject.toml`` of the source tree it was
-    imported from (an editable install's metadata keeps the version it was installed
-    with), else the installed package's metadata, else "unknown"."""
-    pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
-    try:
-        project = tomllib.loads(pyproject.read_text()).get("project", {})
-        if project.get("name") == "rsmbench" and isinstance(project.get("version"), str):
-            return project["version"]
-    except (OSError, tomllib.TOMLDecodeError):
-        pass
-    try:
-        return importlib.metadata.version("rsmbench")
-    except importlib.metadata.PackageNotFoundError:
-        return "unknown"
 
 
 def export(cases: list[Case], folder: str | os.PathLike, generator: dict | None = None) -> Path:

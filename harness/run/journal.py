@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import HarnessError, SuiteError
-from ..timing import machine_info, package_version
+from ..timing import machine_info, rsmbench_version
 
 try:
     import fcntl
@@ -390,17 +390,24 @@ def read_meta(folder: Path) -> dict | None:
 
 
 def git_state() -> tuple[str | None, bool | None]:
-    """(revision, whether the tree has uncommitted changes) of the checkout this code runs
-    from; (None, None) outside one (an installed package)."""
+    """(revision, whether tracked files have uncommitted changes) of the rsmbench checkout
+    this code runs from; (None, None) outside one: an installed package, also one
+    installed into a virtual environment inside a user's own repository (whose revision
+    says nothing of this code; a review found it read). Untracked files (a run's output
+    folder in the checkout) do not count."""
+    here = Path(__file__).resolve()
 
     def git(*args: str) -> str:
         return subprocess.run(
-            ["git", *args], capture_output=True, text=True, cwd=Path(__file__).parent, timeout=5
+            ["git", *args], capture_output=True, text=True, cwd=here.parent, timeout=5
         ).stdout.strip()
 
     try:
+        top = git("rev-parse", "--show-toplevel")
+        if not top or Path(top).resolve() / "harness" / "run" / "journal.py" != here:
+            return None, None
         rev = git("rev-parse", "HEAD") or None
-        return rev, None if rev is None else bool(git("status", "--porcelain"))
+        return rev, None if rev is None else bool(git("status", "--porcelain", "-uno"))
     except (OSError, subprocess.SubprocessError):
         return None, None
 
@@ -424,7 +431,7 @@ def machine_meta() -> dict:
     return {
         "python": sys.version.split()[0],
         "versions": {
-            "rsmbench": package_version(),
+            "rsmbench": rsmbench_version(),
             "numpy": np.__version__,
             "scipy": scipy.__version__,
             "pandas": pd.__version__,

@@ -200,11 +200,12 @@ def _run_locked(
             f" {old.get('seed')}); refusing to resume suite {suite.name!r} (hash {suite.digest}, seed {seed})."
             " Use another --out folder."
         )
-    rev, dirty = git_state()
-    _check_revision(old, out, rev)
     cases = expand(suite)
     journal = Journal(out)
     done = journal.load()
+    rev, dirty = git_state()
+    if done:  # (a run that journalled nothing mixes nothing)
+        _check_revision(old, out, rev, dirty)
     for note in journal.notes:
         print(f"rsmbench: {note}", file=sys.stderr)
     foreign = done - {c["case_id"] for c in cases}
@@ -263,21 +264,31 @@ def _run_locked(
     return pd.read_parquet(out / "results.parquet")
 
 
-def _check_revision(old: dict | None, out: Path, rev: str | None) -> None:
+def _check_revision(old: dict | None, out: Path, rev: str | None, dirty: bool | None) -> None:
     """Refuse to resume (or reuse) a run made at another git revision than `rev` (a CI job
     rerunning into a fixed folder after a commit got the old results back; a resumed run
-    mixed two commits' rows under the first's name). Outside a checkout, no check."""
+    mixed two commits' rows under the first's name), and warn where uncommitted changes
+    make the revision say too little. Outside an rsmbench checkout, no check."""
     if old is None or rev is None:
         return
     legs = old.get("legs")
     last = legs[-1] if isinstance(legs, list) and legs and isinstance(legs[-1], dict) else {}
     ran = last.get("git_revision", old.get("git_revision"))
     if ran is not None and ran != rev:
-        what = "a finished run" if old.get("finished") else "a run started"
+        if old.get("finished"):
+            what, hint = "a finished run", f" (`rsmbench report {out}` writes its report again)"
+        else:
+            what, hint = "a run started", ""
         raise SuiteError(
             f"Results folder {str(out)!r} holds {what} at git revision {str(ran)[:10]}; this"
-            f" is {rev[:10]}: resuming would mix two versions' results (a finished run's would"
-            " be reused as they are). Use another --out folder."
+            f" checkout is at {rev[:10]}: resuming would mix two versions' results. Use"
+            f" another --out folder{hint}."
+        )
+    if ran is not None and (dirty or last.get("git_dirty", old.get("git_dirty"))):
+        print(
+            f"rsmbench: resuming {out} at git revision {rev[:10]} with uncommitted changes"
+            " (then or now): the results of the two legs may come from different code.",
+            file=sys.stderr,
         )
 
 

@@ -6,7 +6,6 @@ file and the key (``study[1].max_depth``), what was expected and what was got.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
 import os
@@ -69,9 +68,11 @@ def _scene_files(studies: list[dict]) -> dict[str, str]:
     for st in studies:
         for v in st.get("scenes") or []:
             if isinstance(v, str) and v not in scenes.SCENES:
-                path = v.split("#", 1)[0]
-                with contextlib.suppress(OSError):  # (compiled at parse: it was readable)
+                path = str(scenes.split_body(v, None)[0])
+                try:
                     out[path] = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+                except OSError as e:  # (compiled a moment ago: something took it away)
+                    raise SuiteError(f"Cannot read scene file {path!r} to hash it: {e}") from None
     return out
 
 
