@@ -662,7 +662,7 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
     elapsed = time.perf_counter() - start
     out = []
     owner = Owners(obst)
-    for i, (tc, tb, tn, dn, hp, np_) in enumerate(results):
+    for i, (tc, tb, tn, dn, hit_part, near_part) in enumerate(results):
         common = dict(
             nodes=int(nodes[i]),
             pose_tests=int(nodes[i]),
@@ -673,7 +673,9 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
             tolerance=tol,
         )
         if math.isfinite(tc):
-            out.append(Certificate("collision", "contact", tb, tc, obstacle=owner(i, hp), **common))
+            out.append(
+                Certificate("collision", "contact", tb, tc, obstacle=owner(i, hit_part), **common)
+            )
         elif math.isfinite(tn):
             out.append(
                 Certificate(
@@ -683,7 +685,7 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
                     math.inf,
                     witness_time=tn,
                     witness_distance=dn,
-                    obstacle=owner(i, np_),
+                    obstacle=owner(i, near_part),
                     **common,
                 )
             )
