@@ -333,6 +333,12 @@ def _duration(text: str, option: str) -> float:
             f"Expected `{option}` to be a duration in [0 s, 1e6 s]: seconds (0.005) or a"
             f" number with the unit s, ms or us (5ms), got {_clip(text)}."
         )
+    if not unit and value >= 1:  # (a trial's `--min-time 5`, meant as the 5 ms default,
+        # left every group of its runs ungated)
+        raise UsageError(
+            f"Expected `{option}` with a unit from 1 s on (5ms, 5s), got {_clip(text)}: a"
+            " bare number is seconds, and so long a floor leaves most groups ungated."
+        )
     return value
 
 

@@ -433,6 +433,23 @@ def _ram_gb() -> float:
             return math.nan
 
 
+def code_digest() -> str:
+    """SHA-256 (16 hex digits) of rsmbench's own code as it runs: every file of the
+    packages ``harness``, ``motions`` and ``scenes`` (sources, registry, scene files), by
+    path and content. The same for a checkout and an installed copy of the same code; it
+    changes with any edit, committed or not (~7 ms)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    root = Path(__file__).resolve().parents[1]
+    for pkg in ("harness", "motions", "scenes"):
+        for p in sorted((root / pkg).rglob("*")):
+            if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":
+                h.update(p.relative_to(root).as_posix().encode() + b"\0")
+                h.update(hashlib.sha256(p.read_bytes()).digest())
+    return h.hexdigest()[:16]
+
+
 def rsmbench_version() -> str:
     """The version of the running rsmbench: the ``pyproject.toml`` of the source tree it was
     imported from (an editable install's metadata keeps the version it was installed

@@ -27,6 +27,7 @@ __all__ = [
     "Keyframes",
     "Scene",
     "SceneError",
+    "asset_files",
     "compile_file",
     "from_xml",
     "load",
@@ -149,6 +150,53 @@ def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
             )
     quat = quat / big[:, None]
     return Keyframes(times, quat / np.linalg.norm(quat, axis=1, keepdims=True), pos)
+
+
+_ASSET_DIRS = {
+    "mesh": "meshdir",
+    "skin": "meshdir",
+    "texture": "texturedir",
+    "hfield": "texturedir",
+}
+
+
+def asset_files(path: str | os.PathLike) -> list[Path]:
+    """The files an MJCF file loads besides itself, as MuJoCo resolves them: `include`
+    files (relative to the main file's folder, followed), and the `file` of meshes and
+    skins (``meshdir``), textures and height fields (``texturedir``), each directory
+    under ``assetdir`` when unset, relative to the main file's folder. Files that cannot
+    be read or parsed are left out (compiling the file reports them)."""
+    import xml.etree.ElementTree as ET
+
+    main = Path(path).resolve()
+    base = main.parent
+    found: list[Path] = []
+    dirs = {"meshdir": None, "texturedir": None, "assetdir": None}
+    todo, seen = [main], {main}
+    elements = []
+    while todo:
+        f = todo.pop()
+        try:
+            root = ET.parse(f).getroot()
+        except (OSError, ET.ParseError):
+            continue
+        for el in root.iter():
+            if el.tag == "compiler":
+                for k in dirs:
+                    if el.get(k) is not None:
+                        dirs[k] = el.get(k)
+            elif el.tag == "include" and el.get("file"):
+                inc = (base / el.get("file")).resolve()
+                if inc not in seen:
+                    seen.add(inc)
+                    found.append(inc)
+                    todo.append(inc)
+            elif el.tag in _ASSET_DIRS and el.get("file"):
+                elements.append((el.tag, el.get("file")))
+    for tag, name in elements:  # (the compiler's directories hold wherever it is set)
+        d = dirs[_ASSET_DIRS[tag]] or dirs["assetdir"] or ""
+        found.append((base / d / name).resolve())
+    return found
 
 
 def compile_file(path: str | os.PathLike) -> mujoco.MjModel:

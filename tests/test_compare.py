@@ -520,7 +520,7 @@ def test_min_time_sets_which_groups_are_gated(tmp_path, capsys):
     assert r.returncode == 1 and r.stdout.count("regression\n") == 3, r.stdout
     r = _cli(capsys, "compare", str(a), str(b), "--min-time", "2ms")
     assert r.returncode == 1 and "certify/rational/lipschitz" in r.stdout.split("regression(s)")[1]
-    for bad in ("-1ms", "5 min", "nan"):
+    for bad in ("-1ms", "5 min", "nan", "5"):  # ("5": 5 s, not the 5 ms default)
         r = _cli(capsys, "compare", str(a), str(b), f"--min-time={bad}")
         assert r.returncode == 2 and "--min-time" in r.stderr and "Traceback" not in r.stderr
 
@@ -606,3 +606,28 @@ def test_interleaved_benchmarks_are_gated_per_contender(tmp_path, capsys):
     b.write_text(json.dumps(bad))
     r = _cli(capsys, "compare", str(a), str(b))
     assert r.returncode == 2 and "`extra_info.ours_cpu_rounds[1]` = 'x'" in r.stderr
+
+
+def test_benchmark_files_name_their_machines_and_note_differences(tmp_path):
+    """pytest-benchmark's own machine_info and commit_info, as a run's meta.json (a trial
+    edited one file to another CPU, Python and CPU count: nothing was said)."""
+
+    def doc(cpu: str, count: int, python: str) -> dict:
+        d = _bench({"x": [1.0, 1.1, 0.9, 1.0, 1.05]})
+        d["machine_info"] = {"python_version": python, "system": "Linux", "release": "6.1",
+                             "cpu": {"brand_raw": cpu, "count": count}}  # fmt: skip
+        d["commit_info"] = {"id": "c" * 40, "dirty": False}
+        return d
+
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps(doc("AMD EPYC", 2, "3.11.7")))
+    b.write_text(json.dumps(doc("Intel Xeon", 64, "3.12.0")))
+    res = compare(a, b)
+    assert res.lines[0].startswith(
+        f"base: {a}: git cccccccccc; AMD EPYC, 2 logical CPUs, Python 3.11.7"
+    )
+    assert [line for line in res.lines if line.startswith("note:")] == [
+        "note: the runs differ in cpu_model: AMD EPYC -> Intel Xeon",
+        "note: the runs differ in cores: 2 -> 64",
+        "note: the runs differ in python: 3.11.7 -> 3.12.0",
+    ]

@@ -343,36 +343,46 @@ def test_errors_of_the_machine_are_one_line(monkeypatch, capsys):
     assert err.count("\n") == 1 and "No space left on device" in err, err
 
 
-def test_a_run_of_another_revision_is_neither_resumed_nor_reused(mini_clean, tmp_path, capsys):
+def test_a_run_of_other_code_is_neither_resumed_nor_reused(mini_clean, tmp_path, capsys):
     """A CI job rerunning into a fixed folder after a commit got the old results back, and
-    a resume after a commit mixed two versions' rows: both are refused; the folder of a
-    finished run at this revision says it has nothing to run."""
+    a resume after a commit mixed two versions' rows: both are refused, by the digest of
+    the code (installed copies and uncommitted edits alike, where a git revision is not
+    always known: a trial resumed with a pip-installed copy); the folder of a finished run
+    of this code says it has nothing to run. A run from before digests were recorded is
+    told by its git revision."""
     from harness.errors import SuiteError
     from harness.run.journal import git_state
+    from harness.timing import code_digest
 
-    rev, _ = git_state()
-    if rev is None:
-        pytest.skip("not run from a git checkout: runs record no revision")
     d, clean = mini_clean
     suite = load_suite(d / "mini.toml")
     out = tmp_path / "run"
     shutil.copytree(d / "run", out)
     meta = json.loads((out / "meta.json").read_text())
-    assert meta["legs"][-1]["git_revision"] == rev
+    assert meta["legs"][-1]["code_digest"] == meta["code_digest"] == code_digest()
     same_rows(run_suite(suite, out, progress=False), clean)
     assert "holds a finished run of these 10 cases: nothing to run" in capsys.readouterr().err
     meta = json.loads((out / "meta.json").read_text())
-    meta["legs"][-1]["git_revision"] = "0123456789" * 4
+    meta["legs"][-1]["code_digest"] = "0123456789abcdef"
     (out / "meta.json").write_text(json.dumps(meta))
-    with pytest.raises(
-        SuiteError, match="a finished run at git revision 0123456789; this checkout is at"
-    ):
+    with pytest.raises(SuiteError, match=r"a finished run by other code \(code 0123456789abcdef"):
         run_suite(suite, out, progress=False)
     # a run started there and cut short (no `finished`): not resumed either
     meta.pop("finished")
     (out / "meta.json").write_text(json.dumps(meta))
     (out / "results.parquet").unlink()
-    with pytest.raises(SuiteError, match="a run started at git revision 0123456789"):
+    with pytest.raises(SuiteError, match="a run started by other code"):
+        run_suite(suite, out, progress=False)
+    # written before digests: its git revision decides where both are known
+    rev, _ = git_state()
+    if rev is None:
+        return
+    for leg in meta["legs"]:
+        leg.pop("code_digest")
+    meta.pop("code_digest")
+    meta["legs"][-1]["git_revision"] = "0123456789" * 4
+    (out / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises(SuiteError, match="at git revision 0123456789; this checkout is at"):
         run_suite(suite, out, progress=False)
 
 

@@ -238,3 +238,20 @@ def test_an_edited_scene_file_is_another_suite(tmp_path):
     before = load_suite(f).digest
     (tmp_path / "c#lab" / "mine.xml").write_text(mine.read_text() + "\n<!-- edited -->\n")
     assert load_suite(f).digest != before
+
+
+def test_an_edited_mesh_of_a_scene_file_is_another_suite(tmp_path):
+    """A trial scaled its gripper's finger mesh three times: the suite's hash stayed, so a
+    rerun into the old folder said "nothing to run" and compare went ahead."""
+    import scenes
+
+    src = scenes.path("gripper")
+    shutil.copytree(src.parent, tmp_path / "mjcf")
+    f = tmp_path / "suite.toml"
+    f.write_text(CERTIFY + 'scenes = ["mjcf/gripper.xml"]\n')
+    before = load_suite(f).digest
+    files = scenes.asset_files(tmp_path / "mjcf" / "gripper.xml")
+    finger = next(p for p in files if p.name == "gripper_finger.obj")
+    assert finger.is_file()
+    finger.write_text(finger.read_text() + "\n# edited\n")
+    assert load_suite(f).digest != before

@@ -190,6 +190,8 @@ def compare(
         raise CompareError(f"Cannot compare a {kb} ({b}) with a {kn} ({n}).")
     if kb == "benchmark":
         out = _compare_benchmarks(b, n, thr)
+        if floor != MIN_TIMING_SECONDS:  # (a trial set it and saw no effect)
+            out.lines.append("(`min_time` applies to runs only: every benchmark is gated)")
     else:
         out = _compare_runs(b, n, thr, fpt, ut, timer, floor)
     # (after reading: an input's own fault is named first) a pipeline pointing both

@@ -18,6 +18,7 @@ from ._common import (
     _bad_times,
     _clip,
     _decide,
+    _environments,
     _time,
     _timing_lines,
 )
@@ -37,6 +38,29 @@ writes ``process_time``)."""
 ROUNDS_SUFFIX = "_cpu_rounds"
 """``extra_info`` keys ``NAME_cpu_rounds``: an interleaved benchmark's per-round process
 CPU times of its contender NAME, gated as the benchmark ``FULLNAME [NAME, CPU]``."""
+
+
+def _environment(p: Path) -> dict:
+    """What a pytest-benchmark file says of its machine and commit (``machine_info``,
+    ``commit_info``), under the keys of a run's meta.json (those it does not say, left out)."""
+    try:
+        doc = json.loads(p.read_text())
+    except (OSError, UnicodeDecodeError, ValueError):
+        return {}
+    get = lambda d, k: d.get(k) if isinstance(d, dict) else None  # noqa: E731
+    mi, ci = get(doc, "machine_info"), get(doc, "commit_info")
+    cpu = get(mi, "cpu")
+    system = " ".join(str(x) for x in (get(mi, "system"), get(mi, "release")) if x)
+    env = {
+        "cpu_model": get(cpu, "brand_raw"),
+        "cores": get(cpu, "count"),
+        "python": get(mi, "python_version"),
+        "platform": system or None,
+        "git_revision": get(ci, "id"),
+        "git_dirty": get(ci, "dirty"),
+        "started": get(doc, "datetime"),
+    }
+    return {k: v for k, v in env.items() if v is not None}
 
 
 def _load_benchmarks(p: Path) -> tuple[dict[str, dict], dict[str, str | None]]:
@@ -164,6 +188,7 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
     # running (or was renamed, or crashed), and fails the gate; one only in NEW is new
     lost, added = sorted(set(base) - set(new)), sorted(set(new) - set(base))
     out = Comparison()
+    _environments(out, (b, _environment(b)), (n, _environment(n)))
     out.lines.append(
         f"{len(common)} benchmarks in both files, {len(lost)} only in the base, {len(added)}"
         f" only in the new file; {_timer_label({tb[k] for k in base} | {tn[k] for k in new})}"

@@ -20,6 +20,7 @@ from ._common import (
     _bad_times,
     _clip,
     _decide,
+    _environments,
     _fmt_s,
     _timing_lines,
 )
@@ -182,45 +183,6 @@ def _compare_runs(
     _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"), floor)
     _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
     return out
-
-
-_MACHINE = ("cpu_model", "usable_cpus", "device", "python", "versions", "platform")
-"""meta.json keys on which two runs' machines or software can differ: each difference is
-printed as a note (timings then compare more than code); a key one run lacks (written
-by an older rsmbench) is not compared."""
-
-
-def _environments(out: Comparison, *runs: tuple[Path, dict]) -> None:
-    """Name both runs (folder, git revision, machine) and note every difference of machine
-    or software between them: a gate compares code only where the rest is the same."""
-    for (p, meta), side in zip(runs, ("base", "new"), strict=True):
-        rev = meta.get("git_revision")
-        rev = "no git revision" if not rev else f"git {str(rev)[:10]}"
-        if meta.get("git_dirty"):
-            rev += " (uncommitted changes)"
-        cpus = (
-            f"usable CPUs {meta['usable_cpus']}"
-            if meta.get("usable_cpus")
-            else f"{meta.get('cores', '?')} logical CPUs"
-        )
-        out.lines.append(
-            f"{side + ':':5s} {p}: {rev}; {meta.get('cpu_model') or meta.get('cpu') or '?'},"
-            f" {cpus}, device {meta.get('device', 'cpu')}, Python {meta.get('python', '?')};"
-            f" started {meta.get('started', '?')}"
-        )
-    (_, mb), (_, mn) = runs
-    for key in _MACHINE:
-        vb, vn = mb.get(key), mn.get(key)
-        if vb is None or vn is None or vb == vn:
-            continue
-        if isinstance(vb, dict) and isinstance(vn, dict):
-            diff = sorted(k for k in set(vb) & set(vn) if vb[k] != vn[k])
-            if not diff:
-                continue
-            text = ", ".join(f"{k} {vb.get(k)} -> {vn.get(k)}" for k in diff)
-        else:
-            text = f"{vb} -> {vn}"
-        out.lines.append(f"note: the runs differ in {key}: {text}")
 
 
 def _has_rounds(df: pd.DataFrame, timer: str) -> bool:

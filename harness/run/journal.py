@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import HarnessError, SuiteError
-from ..timing import machine_info, rsmbench_version
+from ..timing import code_digest, machine_info, rsmbench_version
 
 try:
     import fcntl
@@ -444,6 +444,7 @@ def machine_meta() -> dict:
         "platform": platform.platform(),
         "git_revision": rev,
         "git_dirty": dirty,
+        "code_digest": code_digest(),
         **machine_info(),  # device, CPU model, RAM, threads, load, Warp kernel cache
     }
 

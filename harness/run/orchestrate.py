@@ -31,6 +31,7 @@ import pandas as pd
 from motions._checks import short
 
 from ..errors import SuiteError
+from ..timing import code_digest
 from .journal import (
     Journal,
     JournalError,
@@ -204,8 +205,9 @@ def _run_locked(
     journal = Journal(out)
     done = journal.load()
     rev, dirty = git_state()
+    code = code_digest()
     if done:  # (a run that journalled nothing mixes nothing)
-        _check_revision(old, out, rev, dirty)
+        _check_code(old, out, code, rev, dirty)
     for note in journal.notes:
         print(f"rsmbench: {note}", file=sys.stderr)
     foreign = done - {c["case_id"] for c in cases}
@@ -218,7 +220,7 @@ def _run_locked(
     meta, leg = _start_meta(
         old, suite, seed, len(cases), len(done), jobs, scheduler, journal.last_written
     )
-    leg["git_revision"], leg["git_dirty"] = rev, dirty
+    leg["git_revision"], leg["git_dirty"], leg["code_digest"] = rev, dirty, code
     if old is not None and len(done) == len(cases):
         print(
             f"rsmbench: {out} holds a finished run of these {len(cases)} cases: nothing to"
@@ -264,32 +266,48 @@ def _run_locked(
     return pd.read_parquet(out / "results.parquet")
 
 
-def _check_revision(old: dict | None, out: Path, rev: str | None, dirty: bool | None) -> None:
-    """Refuse to resume (or reuse) a run made at another git revision than `rev` (a CI job
-    rerunning into a fixed folder after a commit got the old results back; a resumed run
-    mixed two commits' rows under the first's name), and warn where uncommitted changes
-    make the revision say too little. Outside an rsmbench checkout, no check."""
-    if old is None or rev is None:
+def _check_code(
+    old: dict | None, out: Path, code: str, rev: str | None, dirty: bool | None
+) -> None:
+    """Refuse to resume (or reuse) a run made by other code than this (a CI job rerunning
+    into a fixed folder after a commit got the old results back; a resumed run mixed two
+    commits' rows under the first's name). The code is told by its digest
+    (:func:`~harness.timing.code_digest`: installed copies and uncommitted edits alike);
+    a run from before digests were recorded, by its git revision where both are known."""
+    if old is None:
         return
     legs = old.get("legs")
     last = legs[-1] if isinstance(legs, list) and legs and isinstance(legs[-1], dict) else {}
-    ran = last.get("git_revision", old.get("git_revision"))
-    if ran is not None and ran != rev:
-        if old.get("finished"):
-            what, hint = "a finished run", f" (`rsmbench report {out}` writes its report again)"
-        else:
-            what, hint = "a run started", ""
+    what = "a finished run" if old.get("finished") else "a run started"
+    hint = f" (`rsmbench report {out}` writes its report again)" if old.get("finished") else ""
+    ran = last.get("code_digest", old.get("code_digest"))
+    if ran is not None:
+        if ran != code:
+            then = last.get("git_revision", old.get("git_revision"))
+            now = f"code {code}" + (
+                f", git {rev[:10]}{' with changes' if dirty else ''}" if rev else ""
+            )
+            was = f"code {ran}" + (f", git {str(then)[:10]}" if then else "")
+            raise SuiteError(
+                f"Results folder {str(out)!r} holds {what} by other code ({was}) than this"
+                f" ({now}): resuming would mix two versions' results. Use another --out"
+                f" folder{hint}."
+            )
+        return
+    then = last.get("git_revision", old.get("git_revision"))
+    if then is not None and rev is not None:
+        if then == rev:
+            return
         raise SuiteError(
-            f"Results folder {str(out)!r} holds {what} at git revision {str(ran)[:10]}; this"
+            f"Results folder {str(out)!r} holds {what} at git revision {str(then)[:10]}; this"
             f" checkout is at {rev[:10]}: resuming would mix two versions' results. Use"
             f" another --out folder{hint}."
         )
-    if ran is not None and (dirty or last.get("git_dirty", old.get("git_dirty"))):
-        print(
-            f"rsmbench: resuming {out} at git revision {rev[:10]} with uncommitted changes"
-            " (then or now): the results of the two legs may come from different code.",
-            file=sys.stderr,
-        )
+    print(
+        f"rsmbench: {out} was written by an rsmbench that recorded no digest of its code:"
+        " the legs of this run may come from different code.",
+        file=sys.stderr,
+    )
 
 
 def _start_meta(

@@ -58,21 +58,28 @@ class Suite:
 
 
 def _scene_files(studies: list[dict]) -> dict[str, str]:
-    """SHA-256 of every MJCF file the studies name (not the registered scenes, which the
-    git revision covers), by path: an edited scene is another benchmark, so the suite's
-    hash changes with it (a run resumed or compared across the edit mixed two scenes
-    under one hash). Meshes and includes the file loads are not covered."""
+    """SHA-256 of every MJCF file the studies name and of the files it loads (includes,
+    meshes, textures: :func:`scenes.asset_files`), by path; not of the registered scenes,
+    which are rsmbench's code. An edited scene or mesh is another benchmark, so the
+    suite's hash changes with it (a run resumed or compared across the edit mixed two
+    scenes under one hash)."""
     import scenes
 
     out = {}
     for st in studies:
         for v in st.get("scenes") or []:
             if isinstance(v, str) and v not in scenes.SCENES:
-                path = str(scenes.split_body(v, None)[0])
-                try:
-                    out[path] = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-                except OSError as e:  # (compiled a moment ago: something took it away)
-                    raise SuiteError(f"Cannot read scene file {path!r} to hash it: {e}") from None
+                main = Path(scenes.split_body(v, None)[0])
+                # (an asset this reading resolves elsewhere than MuJoCo does is left out,
+                # never refused: the file compiled)
+                assets = [a for a in scenes.asset_files(main) if a.is_file()]
+                for path in [main, *assets]:
+                    try:
+                        out[str(path)] = hashlib.sha256(path.read_bytes()).hexdigest()
+                    except OSError as e:  # (compiled a moment ago: something took it away)
+                        raise SuiteError(
+                            f"Cannot read scene file {str(path)!r} to hash it: {e}"
+                        ) from None
     return out
 
 
