@@ -433,15 +433,15 @@ def _ram_gb() -> float:
             return math.nan
 
 
-def code_digest() -> str:
-    """SHA-256 (16 hex digits) of rsmbench's own code as it runs: every file of the
-    packages ``harness``, ``motions`` and ``scenes`` (sources, registry, scene files), by
-    path and content. The same for a checkout and an installed copy of the same code; it
-    changes with any edit, committed or not (~7 ms)."""
+def code_digest(root: Path | None = None) -> str:
+    """SHA-256 (16 hex digits) of rsmbench's own code as it runs (or as it lies in the
+    source tree `root`): every file of the packages ``harness``, ``motions`` and ``scenes``
+    (sources, registry, scene files), by path and content. The same for a checkout and an
+    installed copy of the same code; it changes with any edit, committed or not (~7 ms)."""
     import hashlib
 
     h = hashlib.sha256()
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[1] if root is None else Path(root)
     for pkg in ("harness", "motions", "scenes"):
         for p in sorted((root / pkg).rglob("*")):
             if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":

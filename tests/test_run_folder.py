@@ -405,6 +405,7 @@ def test_the_revision_is_rsmbenchs_own_not_a_surrounding_repositorys(tmp_path, m
     git("init", "-q")
     git("-c", "user.email=a@b", "-c", "user.name=a", "commit", "-q", "--allow-empty", "-m", "x")
     monkeypatch.setattr(journal, "__file__", str(inside))
+    monkeypatch.chdir(repo)  # (run from the user's project)
     assert journal.git_state() == (None, None)
     # a checkout of rsmbench itself: its HEAD; an untracked output folder is not a change
     own = repo / "harness" / "run" / "journal.py"
@@ -421,3 +422,23 @@ def test_the_revision_is_rsmbenchs_own_not_a_surrounding_repositorys(tmp_path, m
     assert journal.git_state() == (head, False)
     own.write_text("changed")
     assert journal.git_state() == (head, True)
+
+
+def test_a_copy_installed_from_the_checkout_it_runs_in_has_its_revision(tmp_path, monkeypatch):
+    """The README's quick start installs rsmbench (not editable) from the clone it runs
+    in: the run's revision is the clone's, whose files are the running code (it read
+    "git None" once the revision was rsmbench's own checkout's only)."""
+    from harness.run import journal
+
+    root = Path(__file__).resolve().parents[1]
+    head = subprocess.run(
+        ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True
+    ).stdout.strip()
+    if not head:
+        pytest.skip("not run from a git checkout")
+    elsewhere = tmp_path / "site-packages" / "harness" / "run" / "journal.py"
+    monkeypatch.setattr(journal, "__file__", str(elsewhere))
+    monkeypatch.chdir(root)
+    assert journal.git_state()[0] == head
+    monkeypatch.chdir(tmp_path)  # (run from elsewhere: no checkout to tell)
+    assert journal.git_state() == (None, None)

@@ -47,6 +47,15 @@ TOI_FLOOR = 1e-16
 cannot show 0."""
 
 
+def _code(meta: dict) -> str:
+    """'git 0123456789 (dirty), code 89ab...' as far as meta.json says (no 'git None')."""
+    rev = meta.get("git_revision")
+    parts = [f"git {str(rev)[:10]}{' (dirty)' if meta.get('git_dirty') else ''}"] if rev else []
+    if meta.get("code_digest"):
+        parts.append(f"code {meta['code_digest']}")
+    return ", ".join(parts) or "git revision unknown"
+
+
 def machine_text(meta: dict, rows: int) -> str:
     wall = meta.get("wall_seconds")
     legs = meta.get("legs")
@@ -63,7 +72,7 @@ def machine_text(meta: dict, rows: int) -> str:
         f"Run of {meta.get('started', '?')} on {meta.get('cpu_model') or meta.get('cpu', '?')}"
         f" ({meta.get('usable_cpus') or meta.get('cores', '?')} usable CPUs{ram_txt}{load_txt}),"
         f" device {meta.get('device', 'cpu')}, certify threads {meta.get('certify_threads', '?')};"
-        f" git {str(meta.get('git_revision'))[:10]}{' (dirty)' if meta.get('git_dirty') else ''};"
+        f" {_code(meta)};"
         f" wall time running the cases {wall_txt} (start-up and this report's drawing not"
         f" included); {rows} rows."
         f" Versions: {', '.join(f'{k} {v}' for k, v in meta.get('versions', {}).items())}."

@@ -391,25 +391,32 @@ def read_meta(folder: Path) -> dict | None:
 
 def git_state() -> tuple[str | None, bool | None]:
     """(revision, whether tracked files have uncommitted changes) of the rsmbench checkout
-    this code runs from; (None, None) outside one: an installed package, also one
-    installed into a virtual environment inside a user's own repository (whose revision
-    says nothing of this code; a review found it read). Untracked files (a run's output
-    folder in the checkout) do not count."""
+    this code runs from, or of the one in the working directory whose files are this code
+    (a copy installed from it: the README's quick start); (None, None) otherwise, as for
+    a copy installed into a virtual environment inside a user's own repository (whose
+    revision says nothing of this code; a review found it read). Untracked files (a run's
+    output folder in the checkout) do not count."""
     here = Path(__file__).resolve()
 
-    def git(*args: str) -> str:
+    def git(cwd: Path, *args: str) -> str:
         return subprocess.run(
-            ["git", *args], capture_output=True, text=True, cwd=here.parent, timeout=5
+            ["git", *args], capture_output=True, text=True, cwd=cwd, timeout=5
         ).stdout.strip()
 
-    try:
-        top = git("rev-parse", "--show-toplevel")
-        if not top or Path(top).resolve() / "harness" / "run" / "journal.py" != here:
-            return None, None
-        rev = git("rev-parse", "HEAD") or None
-        return rev, None if rev is None else bool(git("status", "--porcelain", "-uno"))
-    except (OSError, subprocess.SubprocessError):
-        return None, None
+    for where in (here.parent, Path.cwd()):
+        try:
+            top = git(where, "rev-parse", "--show-toplevel")
+            if not top:
+                continue
+            root = Path(top).resolve()
+            own = root / "harness" / "run" / "journal.py"
+            if own != here and not (own.is_file() and code_digest(root) == code_digest()):
+                continue
+            rev = git(root, "rev-parse", "HEAD") or None
+            return rev, None if rev is None else bool(git(root, "status", "--porcelain", "-uno"))
+        except (OSError, subprocess.SubprocessError):
+            continue
+    return None, None
 
 
 def machine_meta() -> dict:
