@@ -15,6 +15,8 @@ import motions
 from harness import Box, Compound, Sphere, certify, certify_many
 from motions.quaternion import quat_from_matrix
 
+from .test_repair import POST_XML as REPAIR_POST_XML
+
 TOL = 1e-2
 N_SCENES = 48
 
@@ -138,15 +140,11 @@ def test_single_query_and_order(scenes):
     assert c2.toi_hi == c.toi_hi and c2.obstacle == len(rest)
 
 
-POST_XML = """<mujoco><worldbody>
-<geom name="table" type="box" size="1 1 .05" pos="0 0 -.05"/>
-<geom type="box" size=".05 .05 .05" pos="0 2 .5"/>
-<geom name="post" type="box" size=".05 .05 .5" pos="0 0 .5"/>
-<body name="hand" mocap="true" pos="-.6 0 .3"><geom name="palm" type="sphere" size=".05"/></body>
-</worldbody><keyframe>
-<key time="0" mpos="-.6 0 .3"/><key time="1" mpos="-.3 0 .3"/>
-<key time="2" mpos=".3 0 .3"/><key time="3" mpos=".6 0 .3"/>
-</keyframe></mujoco>"""
+# the repair tests' scene, with an unnamed geom before the post
+POST_XML = REPAIR_POST_XML.replace(
+    '<geom name="post"', '<geom type="box" size=".05 .05 .05" pos="0 2 .5"/>\n<geom name="post"', 1
+)
+assert POST_XML != REPAIR_POST_XML
 
 
 def test_a_certify_studys_rows_name_the_obstacle(tmp_path):
