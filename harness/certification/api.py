@@ -536,7 +536,7 @@ class Owners:
         lst = self.lists[i]
         key = id(lst)
         if key not in self._owners:  # (a C loop over the types: thousands of obstacles)
-            compound = Compound in set(map(type, lst))
+            compound = any(issubclass(t, Compound) for t in set(map(type, lst)))
             self._owners[key] = part_owners(lst) if compound else None
         own = self._owners[key]
         return part if own is None else int(own[part])
