@@ -13,6 +13,7 @@ ratio of medians from the rounds of both sides.
 from __future__ import annotations
 
 import contextlib
+import functools
 import gc
 import json
 import math
@@ -437,11 +438,21 @@ def code_digest(root: Path | None = None) -> str:
     """SHA-256 (16 hex digits) of rsmbench's own code as it runs (or as it lies in the
     source tree `root`): every file of the packages ``harness``, ``motions`` and ``scenes``
     (sources, registry, scene files), by path and content. The same for a checkout and an
-    installed copy of the same code; it changes with any edit, committed or not (~7 ms)."""
+    installed copy of the same code; it changes with any edit, committed or not (~7 ms).
+    The running code's is read once per process (the code in memory is what was read
+    then), a source tree's every time."""
+    return _running_digest() if root is None else _tree_digest(Path(root))
+
+
+@functools.cache
+def _running_digest() -> str:
+    return _tree_digest(Path(__file__).resolve().parents[1])
+
+
+def _tree_digest(root: Path) -> str:
     import hashlib
 
     h = hashlib.sha256()
-    root = Path(__file__).resolve().parents[1] if root is None else Path(root)
     for pkg in ("harness", "motions", "scenes"):
         for p in sorted((root / pkg).rglob("*")):
             if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc":

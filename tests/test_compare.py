@@ -516,6 +516,9 @@ def test_min_time_sets_which_groups_are_gated(tmp_path, capsys):
     every = compare(a, b, min_time=0)
     assert {t.status for t in every.timing} == {"regression"}, every.text()
     assert compare(a, b, min_time=0.1).exit_code == 0  # (nothing gated: 100 ms floor)
+    for bad in (-1e-3, float("nan"), "5ms", True):
+        with pytest.raises(CompareError, match="Expected `min_time` to be a duration"):
+            compare(a, b, min_time=bad)
     r = _cli(capsys, "compare", str(a), str(b), "--min-time", "0")
     assert r.returncode == 1 and r.stdout.count("regression\n") == 3, r.stdout
     r = _cli(capsys, "compare", str(a), str(b), "--min-time", "2ms")

@@ -40,13 +40,9 @@ ROUNDS_SUFFIX = "_cpu_rounds"
 CPU times of its contender NAME, gated as the benchmark ``FULLNAME [NAME, CPU]``."""
 
 
-def _environment(p: Path) -> dict:
+def _environment(doc: dict) -> dict:
     """What a pytest-benchmark file says of its machine and commit (``machine_info``,
     ``commit_info``), under the keys of a run's meta.json (those it does not say, left out)."""
-    try:
-        doc = json.loads(p.read_text())
-    except (OSError, UnicodeDecodeError, ValueError):
-        return {}
     get = lambda d, k: d.get(k) if isinstance(d, dict) else None  # noqa: E731
     mi, ci = get(doc, "machine_info"), get(doc, "commit_info")
     cpu = get(mi, "cpu")
@@ -63,9 +59,10 @@ def _environment(p: Path) -> dict:
     return {k: v for k, v in env.items() if v is not None}
 
 
-def _load_benchmarks(p: Path) -> tuple[dict[str, dict], dict[str, str | None]]:
-    """The `stats` of each benchmark of `p` by its `fullname`, and the name of its timer
-    (``options.timer``; None when the file does not say)."""
+def _load_benchmarks(p: Path) -> tuple[dict[str, dict], dict[str, str | None], dict]:
+    """The `stats` of each benchmark of `p` by its `fullname`, the name of its timer
+    (``options.timer``; None when the file does not say), and the file's machine and
+    commit (:func:`_environment`)."""
     try:
         doc = json.loads(p.read_text())
     except (OSError, UnicodeDecodeError, ValueError) as e:
@@ -138,7 +135,7 @@ def _load_benchmarks(p: Path) -> tuple[dict[str, dict], dict[str, str | None]]:
                 )
             name = f"{bm['fullname']} [{key[: -len(ROUNDS_SUFFIX)]}, CPU]"
             out[name], timers[name] = {"data": rounds}, "process_time"
-    return out, timers
+    return out, timers, _environment(doc)
 
 
 def _count(x: Any) -> bool:
@@ -166,7 +163,7 @@ def _normal_quantiles(n: int) -> np.ndarray:
 
 
 def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
-    (base, tb), (new, tn) = _load_benchmarks(b), _load_benchmarks(n)
+    (base, tb, eb), (new, tn, en) = _load_benchmarks(b), _load_benchmarks(n)
     # Two empty files are identical, yet a gate that compared nothing has no evidence to
     # pass on: an empty file is what a benchmark step that collected nothing writes.
     for p, d in ((b, base), (n, new)):
@@ -188,7 +185,7 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
     # running (or was renamed, or crashed), and fails the gate; one only in NEW is new
     lost, added = sorted(set(base) - set(new)), sorted(set(new) - set(base))
     out = Comparison()
-    _environments(out, (b, _environment(b)), (n, _environment(n)))
+    _environments(out, (b, eb), (n, en))
     out.lines.append(
         f"{len(common)} benchmarks in both files, {len(lost)} only in the base, {len(added)}"
         f" only in the new file; {_timer_label({tb[k] for k in base} | {tn[k] for k in new})}"

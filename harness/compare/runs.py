@@ -271,7 +271,7 @@ def _flag(df: pd.DataFrame, col: str) -> pd.Series:
 
 def _where(r: pd.Series) -> str:
     bits = [
-        f"{k} {_plain(r.get(k))}"
+        f"{k} {_as_written(r.get(k))}"
         for k in ("pair",)
         if r.get(k) is not None and not _isnan(r.get(k))
     ]
@@ -279,7 +279,7 @@ def _where(r: pd.Series) -> str:
     return f"{scene}/{r.get('scheme')}/{r.get('bound')}" + (f" ({', '.join(bits)})" if bits else "")
 
 
-def _plain(v: Any) -> str:
+def _as_written(v: Any) -> str:
     """A number as written (a pair id read back as a float, 3.0, prints as 3)."""
     return str(int(v)) if isinstance(v, float | np.floating) and float(v).is_integer() else str(v)
 
