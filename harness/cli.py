@@ -345,6 +345,8 @@ def _duration(text: str, option: str) -> float:
 def _compare(args) -> int:
     from harness.compare import MAX_TIME_THRESHOLD, compare
 
+    if args.json is not None:
+        _json_target(args.json)
     result = compare(
         args.base,
         args.new,
@@ -357,7 +359,21 @@ def _compare(args) -> int:
         min_time=_duration(args.min_time, "--min-time"),
     )
     print(result.text())
+    if args.json is not None:
+        from harness.run.journal import atomic_json
+
+        atomic_json(Path(args.json), result.as_dict())
     return result.exit_code
+
+
+def _json_target(value: str) -> Path:
+    """`--json`'s file, checked before the comparison runs."""
+    p = Path(value)
+    if not value or p.is_dir():
+        raise UsageError(f"Expected `--json` to name a file, got {value!r}.")
+    if not p.parent.is_dir():
+        raise UsageError(f"`--json` {value}: its folder {p.parent} does not exist.")
+    return p
 
 
 def _render(args) -> int:
@@ -547,6 +563,13 @@ def parser() -> argparse.ArgumentParser:
         default="5ms",
         help="runs: groups whose base cost is below this are shown, not gated (default 5ms,"
         " below which the drift between runs of unchanged code decides; 0 gates every group)",
+    )
+    c.add_argument(
+        "--json",
+        default=None,
+        metavar="FILE",
+        help="also write the result to FILE as JSON (groups, seconds, ratios, intervals,"
+        " statuses, regressions, exit code), whenever the comparison ran (exit 0 or 1)",
     )
     cp = sub.add_parser("corpus", help="export or check the rigid-motion CCD corpus")
     cp.add_argument("action", choices=["export", "check"], help="export DIR, or check FILE")

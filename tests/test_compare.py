@@ -634,3 +634,53 @@ def test_benchmark_files_name_their_machines_and_note_differences(tmp_path):
         "note: the runs differ in cores: 2 -> 64",
         "note: the runs differ in python: 3.11.7 -> 3.12.0",
     ]
+
+
+def test_a_link_to_the_base_is_the_base(tmp_path, capsys):
+    # a CI trial: a hard link to one benchmark file passed as two inputs, a gate that
+    # never fails; a symbolic link or a hard link names the same file
+    rng = np.random.default_rng(31)
+    (tmp_path / "a.json").write_text(json.dumps(_bench({"x": rng.lognormal(0, NOISE, 7).tolist()})))
+    os.link(tmp_path / "a.json", tmp_path / "hard.json")
+    os.symlink(tmp_path / "a.json", tmp_path / "soft.json")
+    for other in ("hard.json", "soft.json"):
+        with pytest.raises(CompareError, match="the same benchmark"):
+            compare(tmp_path / "a.json", tmp_path / other)
+    # a copy is another file: compared
+    shutil.copy(tmp_path / "a.json", tmp_path / "copy.json")
+    assert compare(tmp_path / "a.json", tmp_path / "copy.json").exit_code == 0
+
+
+def test_json_output_for_a_pipeline(tmp_path, capsys):
+    rng = np.random.default_rng(32)
+    a = _run(tmp_path / "a", _rows(rng))
+    b = _run(tmp_path / "b", _rows(rng, factor=2.0))
+    out = tmp_path / "gate.json"
+    r = _cli(capsys, "compare", str(a), str(b), "--json", str(out), "--min-time", "0")
+    assert r.returncode == 1
+    doc = json.loads(out.read_text())
+    assert doc["exit_code"] == 1 and doc["kind"] == "run"
+    assert (doc["base"], doc["new"]) == (str(a), str(b))
+    # the same groups and decisions as the printed table, with numbers, not strings
+    text = compare(a, b, min_time=0)
+    assert [t["group"] for t in doc["timing"]] == [t.name for t in text.timing]
+    assert doc["regressions"] == text.regressions and doc["regressions"]
+    for t in doc["timing"]:
+        assert t["base_seconds"] > 0 and t["new_seconds"] > 0
+        assert t["ratio"] == pytest.approx(t["new_seconds"] / t["base_seconds"])
+        lo, hi = t["ratio_ci95"]
+        assert lo <= t["ratio"] <= hi
+        # every group slowed 2x: each is a regression, its interval above 1
+        assert t["status"] == "regression" and lo > 1
+    # a passing gate writes exit 0; an input that cannot be compared writes nothing
+    ok = tmp_path / "ok.json"
+    twin = shutil.copytree(a, tmp_path / "twin")
+    assert _cli(capsys, "compare", str(a), str(twin), "--json", str(ok)).returncode == 0
+    assert json.loads(ok.read_text())["exit_code"] == 0
+    bad = tmp_path / "bad.json"
+    r = _cli(capsys, "compare", str(a), str(tmp_path / "nothing"), "--json", str(bad))
+    assert r.returncode == 2 and not bad.exists()
+    # a file in a folder that does not exist: refused before comparing, one line
+    r = _cli(capsys, "compare", str(a), str(b), "--json", str(tmp_path / "no" / "g.json"))
+    assert r.returncode == 2 and "does not exist" in r.stderr and len(r.stderr.splitlines()) == 1
+    assert r.stdout == ""

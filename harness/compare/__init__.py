@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -195,7 +196,9 @@ def compare(
     else:
         out = _compare_runs(b, n, thr, fpt, ut, timer, floor)
     # (after reading: an input's own fault is named first) a pipeline pointing both
-    # arguments at one folder or file is always green
-    if b.resolve() == n.resolve():
+    # arguments at one folder or file is always green; a link to it (symbolic or hard)
+    # is the same file
+    if os.path.samefile(b, n):
         raise CompareError(f"BASE and NEW are the same {kb} ({b}): a gate that never fails.")
+    out.kind, out.base, out.new = kb, str(base), str(new)
     return out

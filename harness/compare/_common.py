@@ -71,10 +71,42 @@ class Comparison:
     lines: list[str] = field(default_factory=list)
     timing: list[TimingRow] = field(default_factory=list)
     regressions: list[str] = field(default_factory=list)
+    kind: str = ""  # "run" or "benchmark"
+    base: str = ""  # the inputs as given
+    new: str = ""
 
     @property
     def exit_code(self) -> int:
         return 1 if self.regressions else 0
+
+    def as_dict(self) -> dict[str, Any]:
+        """The result for a pipeline (``rsmbench compare --json``): plain JSON types,
+        seconds as numbers, a figure that is not a number (a group not gated for want of
+        rounds) as None."""
+
+        def num(x: float) -> float | None:
+            return float(x) if math.isfinite(x) else None
+
+        return {
+            "kind": self.kind,
+            "base": self.base,
+            "new": self.new,
+            "exit_code": self.exit_code,
+            "regressions": list(self.regressions),
+            "timing": [
+                {
+                    "group": r.name,
+                    "base_seconds": num(r.base),
+                    "new_seconds": num(r.new),
+                    "ratio": num(r.ratio),
+                    "ratio_ci95": [num(r.lo), num(r.hi)],
+                    "rounds": [int(r.samples[0]), int(r.samples[1])],
+                    "status": r.status,
+                }
+                for r in self.timing
+            ],
+            "lines": list(self.lines),
+        }
 
     def text(self) -> str:
         out = list(self.lines)
