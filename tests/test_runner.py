@@ -442,3 +442,28 @@ def test_the_grace_after_a_second_ctrl_c_lets_cleanup_finish(grace, cleaned):
     assert (code, "cleaned" in out, "left" in out) == (
         (0, True, True) if cleaned else (130, False, False)
     )
+
+
+def test_a_cluster_run_gets_the_cluster_grace(tmp_path, monkeypatch):
+    """`run_suite` gives its stop the cluster's grace when it runs on a scheduler, the local
+    one otherwise (the test above shows that a grace lets a cleanup finish)."""
+    from harness.run import orchestrate
+    from harness.run.stop import Stop
+
+    graces = []
+
+    class Recording(Stop):
+        def __init__(self, hard=False, grace=Stop.GRACE):
+            graces.append(grace)
+            super().__init__(hard=hard, grace=grace)
+
+    def nothing(*args, **kwargs):  # no case runs: the run stops "interrupted", at once
+        yield from ()
+
+    monkeypatch.setattr(orchestrate, "Stop", Recording)
+    monkeypatch.setattr(orchestrate, "_execute", nothing)
+    suite = load_suite("smoke")
+    for i, scheduler in enumerate((None, "tcp://127.0.0.1:9")):
+        with pytest.raises(orchestrate.RunInterrupted):
+            run_suite(suite, tmp_path / f"r{i}", scheduler=scheduler, progress=False)
+    assert graces == [Stop.GRACE, Stop.CLUSTER_GRACE] and Stop.CLUSTER_GRACE > Stop.GRACE
