@@ -1062,3 +1062,48 @@ def test_scene_labels_of_files_at_the_root_keep_one_slash():
 
     got = scene_labels(["/a/arm.xml", "/b/a/arm.xml"])
     assert got == {"/a/arm.xml": "/a/arm.xml", "/b/a/arm.xml": "b/a/arm.xml"}
+
+
+def test_a_repairs_success_is_keeping_the_requested_clearance():
+    """A new user's trial: at 4 mm the sampled repair's success rate read 0.9, counting
+    results the truth proves free but closer than 4 mm (2.4 and 2.6 mm, flagged
+    below_clearance) as successes. A success keeps the clearance (the truth's proven
+    minimum at least it); a minimum within the truth's resolution below it is undecided."""
+    from harness.report.avoid import _summary
+
+    c, res = 0.004, 1e-3
+    minima = [0.002414, 0.004047, 0.002615, 0.004059, 0.0045, 0.003662, 0.004007, 0.004271, 0.003047]  # fmt: skip
+    rows = [
+        {
+            "study": "repair", "tolerance": 1e-3, "clearance": c, "method": "sampled",
+            "case": i, "repairable": True, "status": "repaired", "truth": "free",
+            "truth_clearance": m, "below_clearance": m < c - res, "max_deviation": 0.1,
+            "iterations": 3, "cpu_seconds": 0.01, "seconds": 0.01, "samples": 64,
+            "truth_resolution": res,
+        }
+        for i, m in enumerate(minima)
+    ] + [
+        {
+            "study": "repair", "tolerance": 1e-3, "clearance": c, "method": "sampled",
+            "case": 9, "repairable": True, "status": "refused", "truth": None,
+            "max_deviation": np.nan, "iterations": 20, "cpu_seconds": 0.01, "seconds": 0.01,
+            "samples": 64, "truth_resolution": res,
+        }
+    ]  # fmt: skip
+    (s,) = _summary(pd.DataFrame(rows)).to_dict("records")
+    keep = sum(m >= c for m in minima)  # 5: 4.047, 4.059, 4.5, 4.007, 4.271 mm
+    below = sum(m < c - res for m in minima)  # 2: 2.414, 2.615 mm
+    assert (s["truly_free"], s["keeps_clearance"], s["below_clearance"]) == (9, keep, below)
+    # 3.662 and 3.047 mm: within the resolution below 4 mm, neither proven kept nor below
+    assert s["truth_undecided"] == 9 - keep - below == 2
+    assert s["success_rate"] == pytest.approx(keep / (10 - 2))
+    # at a clearance of 0 every free result keeps it
+    (z,) = _summary(pd.DataFrame(rows).assign(clearance=0.0, below_clearance=False)).to_dict(
+        "records"
+    )
+    assert z["keeps_clearance"] == 9 and z["success_rate"] == pytest.approx(9 / 10)
+    # the headline of a study that repaired nothing says so, not "moved by nan m"
+    refused = pd.DataFrame([dict(rows[-1], case=k) for k in range(3)])
+    (line,) = headline(refused)
+    assert "nan" not in line["spread"] and "no motion repaired" in line["spread"]
+    assert "refused 3" in line["value"]

@@ -26,7 +26,16 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
         done = g[g["status"] == "repaired"]
         truth = done["truth"] if "truth" in done else pd.Series("unknown", index=done.index)
         ok_truth = truth[done["repairable"]]
-        decided = len(ok) - int((ok_truth == "unknown").sum())
+        keeps, below = _kept(
+            done, float(key[keys.index("clearance")]) if "clearance" in keys else 0.0
+        )
+        ok_keeps = keeps[done["repairable"]]
+        # undecided: the truth cannot tell whether it collides, or (free) whether it keeps the
+        # clearance: its proven minimum is below the clearance by less than its resolution
+        undecided = (ok_truth == "unknown") | (
+            (ok_truth == "free") & ~ok_keeps & ~below[done["repairable"]]
+        )
+        decided = len(ok) - int(undecided.sum())
         row = dict(zip(keys, key, strict=True))
         if "scene" in row:  # the seeded cases, or a scene's keyframes (a user's own file)
             row["scene"] = "seeded cases" if row["scene"] == SEEDED else labels[str(row["scene"])]
@@ -43,15 +52,12 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
                 "repairable": len(ok),
                 "claimed": int((ok["status"] == "repaired").sum()),
                 "truly_free": int((ok_truth == "free").sum()),
-                "success_rate": float((ok_truth == "free").sum() / decided)
-                if decided
-                else math.nan,
+                "keeps_clearance": int(ok_keeps.sum()),
+                "success_rate": float(ok_keeps.sum() / decided) if decided else math.nan,
                 "claimed_all": len(done),
                 "still_collides": int((truth == "collision").sum()),
-                "truth_undecided": int((truth == "unknown").sum()),
-                "below_clearance": int(
-                    done.get("below_clearance", pd.Series(dtype=bool)).fillna(False).sum()
-                ),
+                "truth_undecided": int(undecided.sum()),
+                "below_clearance": int(below.sum()),
                 "median_deviation_m": _median(done["max_deviation"]),
                 "max_deviation_m": float(done["max_deviation"].max()) if len(done) else math.nan,
                 "median_rounds": _median(done["iterations"]),
@@ -63,6 +69,19 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
         )
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _kept(done: pd.DataFrame, clearance: float) -> tuple[pd.Series, pd.Series]:
+    """Per repaired row: whether the ground truth proves it keeps `clearance` (free, and
+    its proven minimum distance ``truth_clearance`` at least the clearance), and whether
+    it proves it does not (``below_clearance``: closer than requested, or not free)."""
+    free = (done["truth"] == "free") if "truth" in done else pd.Series(False, index=done.index)
+    if "truth_clearance" in done:
+        at_least = pd.to_numeric(done["truth_clearance"], errors="coerce") >= clearance
+    else:  # (rows from before it was kept: free is all a clearance of 0 asks)
+        at_least = pd.Series(clearance <= 0, index=done.index)
+    below = done.get("below_clearance", pd.Series(False, index=done.index))
+    return free & at_least, below.fillna(False).astype(bool)
 
 
 def _median(x: pd.Series) -> float:
@@ -151,14 +170,20 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
         " repairable means every keyframe pose keeps clearance + 2 tolerances, the repair's margin"
         " (keyframes are kept); claimed: repairable cases the method called repaired; truly_free:"
         " of those, proven free by the ground truth (dense mj_geomDistance sampling with the"
-        f" Lipschitz margin at {_resolution_text(rep)}); success_rate = truly_free / (repairable"
-        " minus the claimed ones the truth cannot decide: truth_undecided, a clearance under"
-        " the truth's resolution or more than 5 M samples needed; a certified repair there is"
-        " still proven free by its certificate);"
+        f" Lipschitz margin at {_resolution_text(rep)}); keeps_clearance: of those, proven by"
+        " the truth to keep the requested clearance (its proven minimum distance at least the"
+        " clearance); success_rate = keeps_clearance / (repairable minus truth_undecided, the"
+        " claimed ones the truth cannot decide: whether they collide, where a clearance is"
+        " under the truth's resolution or more than 5 M samples are needed, or whether they"
+        " keep the clearance, where their proven minimum lies within the resolution below it;"
+        " a certified repair there is still proven by its certificate);"
         " over all claims (claimed_all), still_collides and below_clearance (proven closer than"
-        " requested, or not proven free). Deviation (the origin path's largest move), rounds and"
-        " CPU time are over the repaired motions; refusals' CPU time apart. The certified"
-        f" repair's free is a proof; the sampled repair's is what {grid_text(rep)} saw.",
+        " requested, or not proven free). Tolerance and clearance in metres; deviation (the"
+        " origin path's largest move, m), rounds and CPU time are over the repaired motions;"
+        " refusals' CPU time apart. The certified repair's free is a proof; the sampled"
+        f" repair's is what {grid_text(rep)} saw: it re-interpolates the keyframes through via"
+        " poses pushed off the contacts its grid finds (a baseline of the usual sampling"
+        " practice, not an optimiser), so its path can move far and still collide.",
         "repair_summary",
     )
     ex = _example(rep)

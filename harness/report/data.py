@@ -208,7 +208,7 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
                     figure="sampled false free (certify study)",
                     value=ratio_text(r["false free"], r["of truth collision"]),
                     spread="exact count",
-                    basis=f"sampled verdicts against a proven collision truth; {r['truth not proven']} sampled rows with unproven truth are not counted as passes",
+                    basis=f"sampled verdicts against a proven collision truth (its certified rows are in the line above too); {r['truth not proven']} sampled rows with unproven truth are not counted as passes",
                 )
             )
     wl = study_rows(df, "workload")
@@ -251,26 +251,35 @@ def _repair_headline(df: pd.DataFrame) -> list[dict[str, str]]:
             if r["colliding"] == r["motions"]
             else f"{r['motions']} motions ({r['colliding']} colliding)"
         )
+        refused = int(r["motions"]) - int(r["claimed_all"])
+        keeps = f"keeps the clearance {r['keeps_clearance']}, " if float(r["clearance"]) > 0 else ""
         if r["method"] == "certified":
             value = (
                 f"proved free {r['claimed']}/{r['repairable']} repairable;"
                 f" still collide {r['still_collides']}, below clearance {r['below_clearance']}"
             )
             basis = (
-                f"of {motions}; the ground truth confirms"
-                f" {r['truly_free']} and cannot decide {r['truth_undecided']}; none may still collide"
+                f"of {motions}; the ground truth confirms {r['truly_free']} free,"
+                f" {keeps}cannot decide {r['truth_undecided']}; none may still collide"
             )
         else:
             value = f"claimed free {r['claimed_all']}, still collide {r['still_collides']}"
-            basis = f"of {motions}; its free is what {grid_text(rep)} saw"
-        out.append(
-            dict(
-                figure=f"{r['method']} repair ({where})",
-                value=value,
-                spread=f"path moved by a median of {r['median_deviation_m']:.3g} m, at most"
-                f" {r['max_deviation_m']:.3g} m",
-                basis=basis,
+            if float(r["clearance"]) > 0:
+                value += f", below clearance {r['below_clearance']}"
+            basis = (
+                f"of {motions}; the ground truth confirms {r['truly_free']} free, {keeps}cannot"
+                f" decide {r['truth_undecided']}; its free is what {grid_text(rep)} saw"
             )
+        if refused:
+            value += f"; refused {refused}"
+        spread = (
+            f"path moved by a median of {r['median_deviation_m']:.3g} m, at most"
+            f" {r['max_deviation_m']:.3g} m"
+            if int(r["claimed_all"])
+            else "no motion repaired: no path moved"
+        )
+        out.append(
+            dict(figure=f"{r['method']} repair ({where})", value=value, spread=spread, basis=basis)
         )
     return out
 
