@@ -112,3 +112,26 @@ def test_number_arguments_refuse_strings_bools_and_lists(call, name, value, got)
 def test_number_arguments_take_numpy_scalars(call, name):
     # numpy scalars are numbers (the result is a motion or a float, not an error)
     assert call(np.float64(0.5)) is not None
+
+
+@pytest.mark.parametrize(
+    "fn, typo, says",
+    [
+        (harness.certify, "tolerence", "certify() got an unexpected keyword argument 'tolerence'; did you mean 'tolerance'?"),
+        (harness.certify, "max_node", "did you mean 'max_nodes'?"),
+        (harness.clearance, "max_dept", "clearance() got an unexpected keyword argument 'max_dept'; did you mean 'max_depth'?"),
+        (harness.clearance, "clearance", "clearance() got an unexpected keyword argument 'clearance' (its keywords: tolerance, max_depth,"),
+    ],
+)  # fmt: skip
+def test_a_misspelt_keyword_names_the_function_called(fn, typo, says):
+    """A new user's trial: ``certify(..., tolerence=...)`` read "certify_many() got an
+    unexpected keyword", and clearance's was raised from inside contextlib."""
+    with pytest.raises(TypeError) as e:
+        fn(_line(), Sphere(0.1), [Box([0.1, 0.1, 0.1], center=[0, 3, 0])], **{typo: 1e-3})
+    assert says in str(e.value)
+    assert e.traceback[-1].path.name == "api.py"  # (raised by the check, not inside a call)
+
+
+def test_query_error_is_public():
+    with pytest.raises(harness.QueryError, match="Expected"):
+        harness.certify(_line(), Sphere(0.1), [Box([0.1, 0.1, 0.1])], bound="sampled", samples=1)

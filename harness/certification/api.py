@@ -377,6 +377,7 @@ def certify(
             comparator's: where :func:`certify_many` answers a comparator's
             ``NotApplicable`` in a batch, one query raises, as the engine's bounds do).
     """
+    check_keywords(options, certify, OPTIONS)
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     one_body(body)
@@ -398,6 +399,29 @@ def certify(
             f"Bound {short(bound)} cannot answer this query: {out.reason.rstrip('.')}."
         )
     return out
+
+
+OPTIONS = ("max_nodes", "threads", "device", "max_iter", "comparator_options")
+"""The keywords a single query passes on to its batch function (its `options`)."""
+
+
+def check_keywords(options: dict, fn: Any, allowed: Sequence[str]) -> None:
+    """Refuse a keyword of `options` (the ``**options`` of the single query `fn`) that is
+    not `allowed`, naming `fn` and the nearest valid name (a misspelt ``tolerence=`` read
+    "certify_many() got an unexpected keyword", raised for clearance from contextlib)."""
+    import difflib
+    import inspect
+
+    for k in options:
+        if k not in allowed:
+            params = inspect.signature(fn).parameters.values()
+            valid = [p.name for p in params if p.kind == p.KEYWORD_ONLY] + list(allowed)
+            near = difflib.get_close_matches(str(k), valid, n=1, cutoff=0.8)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
+            raise TypeError(
+                f"{fn.__name__}() got an unexpected keyword argument {k!r}{hint} (its"
+                f" keywords: {', '.join(valid)})."
+            )
 
 
 def one_body(body: Any) -> Shape:

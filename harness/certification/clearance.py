@@ -23,6 +23,7 @@ from .api import (
     DEFAULT_MAX_NODES,
     QueryError,
     body_list,
+    check_keywords,
     check_options,
     cover_half_spaces,
     naming,
@@ -92,6 +93,7 @@ def clearance(
         max_depth: subdivision depth limit.
         options: ``max_nodes``, ``threads``, ``device``, ``max_iter`` as for ``certify``.
     """
+    check_keywords(options, clearance, ("max_nodes", "threads", "device", "max_iter"))
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     one_body(body)
