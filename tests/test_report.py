@@ -1107,3 +1107,48 @@ def test_a_repairs_success_is_keeping_the_requested_clearance():
     (line,) = headline(refused)
     assert "nan" not in line["spread"] and "no motion repaired" in line["spread"]
     assert "refused 3" in line["value"]
+
+
+def test_motions_that_start_in_contact_stay_out_of_the_toi_figure(tmp_path):
+    """A new user's trial: a random keyframe set started inside the table; every method's
+    toi_lo was then the start, a TOI error of 0 counted as accuracy."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from harness.report.document import Document
+    from harness.report.sections import _toi_figure
+
+    def row(bound, err, start):
+        return {"study": "certify", "truth": "collision", "verdict": "collision",
+                "bound": bound, "toi_error": err, "duration": 2.0, "starts_in_contact": start}  # fmt: skip
+
+    rows = [row("hull", -1e-3, False), row("hull", 0.0, True), row("lipschitz", 0.0, True)]
+    seen = []
+
+    def figure(self, fig, name, caption):
+        seen.append((fig.axes[0].get_xticklabels(), caption))
+        plt.close(fig)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Document, "figure", figure)
+        _toi_figure(Document(tmp_path), pd.DataFrame(rows), plt)
+    ((labels, caption),) = seen
+    assert [t.get_text() for t in labels] == ["hull\nn=1"]  # lipschitz's only row left out
+    assert "2 row(s) whose motion starts inside an obstacle" in caption
+
+
+def test_the_truth_says_when_a_motion_starts_in_contact():
+    from types import SimpleNamespace
+
+    import motions
+    from harness import Box, Sphere
+    from harness.run.studies.context import truth_cols
+
+    ctx = SimpleNamespace(memo=lambda key, make: make())
+    m = motions.interpolate([[1, 0, 0, 0]] * 3, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
+    for x, starts in ((0.0, True), (1.0, False), (5.0, None)):
+        out = truth_cols(ctx, "s", "random-0", "rational", m, Sphere(0.1), [Box([0.2] * 3, center=[x, 0, 0])], 1e-3)  # fmt: skip
+        assert out["truth"] == ("free" if starts is None else "collision")
+        assert out["starts_in_contact"] is bool(starts)

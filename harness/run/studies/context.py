@@ -232,6 +232,9 @@ def truth_cols(
                 toi_true=g.toi_hi,
                 toi_true_lo=g.toi_lo,
                 truth_clearance=g.clearance,
+                # (a random keyframe set can start inside an obstacle: every method's
+                # toi_lo is then the start, exact, which says nothing of its accuracy)
+                starts_in_contact=bool(g.verdict == "collision" and g.toi_hi <= m.domain[0]),
             )
         except NotImplementedError:  # no proven speed bound: no proven truth
             out["truth"] = "unproven"
