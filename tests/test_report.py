@@ -1152,3 +1152,32 @@ def test_the_truth_says_when_a_motion_starts_in_contact():
         out = truth_cols(ctx, "s", "random-0", "rational", m, Sphere(0.1), [Box([0.2] * 3, center=[x, 0, 0])], 1e-3)  # fmt: skip
         assert out["truth"] == ("free" if starts is None else "collision")
         assert out["starts_in_contact"] is bool(starts)
+
+
+def test_the_per_scene_certify_tables_give_the_cpu_times_spread(tmp_path):
+    """A new user's trial: the README says every figure gives its spread; these tables
+    gave a median CPU time alone."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from harness.report.document import Document
+    from harness.report.sections import certify_section
+
+    cpu = [0.001, 0.002, 0.004, 0.010]
+    rows = [
+        {"study": "certify", "scene": "slot", "tolerance": 1e-3, "scheme": "rational",
+         "bound": "hull", "verdict": "free", "reason": "clear", "truth": "free", "nodes": 5, "cpu_median": c,
+         "keyframes": f"random-{i}"}
+        for i, c in enumerate(cpu)
+    ]  # fmt: skip
+    tables = {}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Document, "table", lambda self, t, caption, name: tables.update({name: t}))
+        mp.setattr(Document, "figure", lambda self, fig, name, caption: plt.close(fig))
+        certify_section(Document(tmp_path), pd.DataFrame(rows), plt)
+    (t,) = [v for k, v in tables.items() if k.startswith("certify_slot")]
+    q = np.percentile(cpu, [25, 50, 75]) * 1e3
+    assert t["median CPU ms/query"].iloc[0] == pytest.approx(q[1])
+    assert t["CPU ms IQR"].iloc[0] == pytest.approx(q[2] - q[0])
