@@ -87,6 +87,20 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     )
     from harness.shapes import parts
 
+    if not Path(file).expanduser().exists():
+        # a registered scene's name describes its file; anything else names the scenes
+        registered = scenes.path(file) if file in scenes.SCENES else None
+        if registered is None:
+            raise UsageError(
+                f"MJCF file {file!r} does not exist"
+                + (
+                    " (a procedural scene: it has no file)"
+                    if file in scenes.SCENES
+                    else f"; registered scenes: {list(scenes.SCENES)}"
+                )
+                + "."
+            )
+        file = str(registered)
     model = scenes.compile_file(file)
     names = scenes.mocap_bodies(model)
     if mocap_body is not None:

@@ -211,6 +211,13 @@ def test_scenes_command_describes_a_file(tmp_path, capsys, monkeypatch):
     assert "keyframes: 5 at t = [0.0, 1.0, 2.0, 3.0, 4.0]" in out
     assert "cannot be obstacles" not in out  # every static geom of the gripper has a shape
     assert main(["scenes", "missing.xml"]) == 2
+    # a mistyped name lists the registered scenes (a trial read only "does not exist"); a
+    # registered scene's name describes its file
+    capsys.readouterr()
+    assert main(["scenes", "grippr"]) == 2
+    assert "registered scenes: ['cube_keyframes'," in capsys.readouterr().err
+    assert main(["scenes", "gripper"]) == 0
+    assert "keyframes: 5 at t = [0.0, 1.0, 2.0, 3.0, 4.0]" in capsys.readouterr().out
     # the registry listing counts what each scene holds
     assert main(["scenes"]) == 0
     listing = capsys.readouterr().out
