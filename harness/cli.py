@@ -6,11 +6,13 @@ Exit codes: 0 ok, 1 a regression or a failure, 2 a usage error.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import signal
 import sys
+import tempfile
 from datetime import datetime
 from pathlib import Path
 
@@ -359,8 +361,7 @@ def _duration(text: str, option: str) -> float:
 def _compare(args) -> int:
     from harness.compare import MAX_TIME_THRESHOLD, compare
 
-    if args.json is not None:
-        _json_target(args.json)
+    target = None if args.json is None else _json_target(args.json, args.base, args.new)
     result = compare(
         args.base,
         args.new,
@@ -373,21 +374,51 @@ def _compare(args) -> int:
         min_time=_duration(args.min_time, "--min-time"),
     )
     print(result.text())
-    if args.json is not None:
-        from harness.run.journal import atomic_json
-
-        atomic_json(Path(args.json), result.as_dict())
+    if target is not None:
+        _write_json(target, result.as_dict())
     return result.exit_code
 
 
-def _json_target(value: str) -> Path:
-    """`--json`'s file, checked before the comparison runs."""
-    p = Path(value)
+def _json_target(value: str, *inputs: str) -> Path:
+    """`--json`'s file, checked before the comparison runs: a file in an existing folder
+    that can be written, and neither input nor inside an input run's folder (``--json
+    NEW.json`` replaced the benchmark file it compared)."""
+    p = Path(value).expanduser()
     if not value or p.is_dir():
         raise UsageError(f"Expected `--json` to name a file, got {value!r}.")
     if not p.parent.is_dir():
-        raise UsageError(f"`--json` {value}: its folder {p.parent} does not exist.")
+        what = "is not a folder" if p.parent.exists() else "does not exist"
+        raise UsageError(f"`--json` {value}: its folder {p.parent} {what}.")
+    for given in inputs:
+        q = Path(given)
+        clash = (p.exists() and q.exists() and os.path.samefile(p, q)) or (
+            q.is_dir() and os.path.samefile(p.parent, q)
+        )
+        if clash:
+            raise UsageError(
+                f"`--json` {value} would overwrite the input {given}: write it elsewhere."
+            )
+    try:  # (a folder it cannot write in: said now, not after the comparison's table)
+        with tempfile.NamedTemporaryFile(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp"):
+            pass
+    except OSError as e:
+        raise UsageError(
+            f"`--json` {value}: cannot write in {p.parent} ({e.strerror or e})."
+        ) from None
     return p
+
+
+def _write_json(path: Path, doc: dict) -> None:
+    """Write `doc` to `path` whole or not at all (a temporary file, then a rename)."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(doc, f, indent=2)
+        os.replace(tmp, path)
+    except OSError as e:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise UsageError(f"`--json` {path}: cannot write it ({e.strerror or e}).") from None
 
 
 def _render(args) -> int:

@@ -684,3 +684,26 @@ def test_json_output_for_a_pipeline(tmp_path, capsys):
     r = _cli(capsys, "compare", str(a), str(b), "--json", str(tmp_path / "no" / "g.json"))
     assert r.returncode == 2 and "does not exist" in r.stderr and len(r.stderr.splitlines()) == 1
     assert r.stdout == ""
+
+
+def test_json_output_never_overwrites_an_input(tmp_path, capsys):
+    # a review: `compare a.json b.json --json b.json` replaced the benchmark file it compared
+    rng = np.random.default_rng(33)
+    for name in ("a.json", "b.json"):
+        (tmp_path / name).write_text(json.dumps(_bench({"x": rng.lognormal(0, NOISE, 7).tolist()})))
+    before = (tmp_path / "b.json").read_text()
+    a, b = str(tmp_path / "a.json"), str(tmp_path / "b.json")
+    r = _cli(capsys, "compare", a, b, "--json", b)
+    assert r.returncode == 2 and "would overwrite the input" in r.stderr and r.stdout == ""
+    assert (tmp_path / "b.json").read_text() == before
+    run = _run(tmp_path / "run", _rows(rng))
+    twin = shutil.copytree(run, tmp_path / "twin")
+    for inside in (run / "meta.json", run / "gate.json"):  # into a run folder, at all
+        r = _cli(capsys, "compare", str(run), str(twin), "--json", str(inside))
+        assert r.returncode == 2 and "would overwrite the input" in r.stderr
+    assert json.loads((run / "meta.json").read_text()) == META and not (run / "gate.json").exists()
+    # a file given as the folder: said so
+    r = _cli(capsys, "compare", a, str(tmp_path / "copy.json"), "--json", f"{a}/x.json")
+    assert r.returncode == 2 and "is not a folder" in r.stderr
+    # nothing is left behind by the checks
+    assert not list(tmp_path.glob(".*.tmp"))
