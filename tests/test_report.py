@@ -1102,6 +1102,24 @@ def test_a_repairs_success_is_keeping_the_requested_clearance():
         "records"
     )
     assert z["keeps_clearance"] == 9 and z["success_rate"] == pytest.approx(9 / 10)
+    # (a review) every count is over all claims, each claim counted once: two more claims
+    # not repairable (one free, one colliding) and one the truth cannot decide
+    more = [
+        dict(rows[1], case=20, repairable=False),
+        dict(rows[1], case=21, repairable=False, truth="collision", below_clearance=True),
+        dict(rows[1], case=22, truth="unknown", truth_clearance=np.nan, below_clearance=True),
+    ]
+    (m,) = _summary(pd.DataFrame(rows + more)).to_dict("records")
+    assert (m["claimed_all"], m["truly_free"], m["keeps_clearance"]) == (12, 10, keep + 1)
+    assert (m["still_collides"], m["below_clearance"], m["truth_undecided"]) == (1, below, 3)
+    assert m["claimed_all"] == m["truly_free"] + m["still_collides"] + 1  # (+ the unknown)
+    # the success rate is over the repairable: the undecided repairable claims leave it
+    assert m["success_rate"] == pytest.approx(keep / (11 - 3))
+    (line,) = [x for x in headline(pd.DataFrame(rows + more)) if "sampled repair" in x["figure"]]
+    assert "still collide 1, below clearance 2" in line["value"]
+    assert (
+        "of its 12 claims the ground truth confirms 10 free (6 keep the clearance)" in line["basis"]
+    )
     # the headline of a study that repaired nothing says so, not "moved by nan m"
     refused = pd.DataFrame([dict(rows[-1], case=k) for k in range(3)])
     (line,) = headline(refused)

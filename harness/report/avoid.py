@@ -24,18 +24,10 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
     for key, g in rep.groupby(keys):
         ok = g[g["repairable"]]
         done = g[g["status"] == "repaired"]
-        truth = done["truth"] if "truth" in done else pd.Series("unknown", index=done.index)
-        ok_truth = truth[done["repairable"]]
-        keeps, below = _kept(
-            done, float(key[keys.index("clearance")]) if "clearance" in keys else 0.0
-        )
-        ok_keeps = keeps[done["repairable"]]
-        # undecided: the truth cannot tell whether it collides, or (free) whether it keeps the
-        # clearance: its proven minimum is below the clearance by less than its resolution
-        undecided = (ok_truth == "unknown") | (
-            (ok_truth == "free") & ~ok_keeps & ~below[done["repairable"]]
-        )
-        decided = len(ok) - int(undecided.sum())
+        c = float(key[keys.index("clearance")]) if "clearance" in keys else 0.0
+        judged = _judged(done, c)  # each claim: collides, keeps, below, band or unknown
+        rep_judged = judged[done["repairable"]]
+        decided = len(ok) - int(rep_judged.isin(("unknown", "band")).sum())
         row = dict(zip(keys, key, strict=True))
         if "scene" in row:  # the seeded cases, or a scene's keyframes (a user's own file)
             row["scene"] = "seeded cases" if row["scene"] == SEEDED else labels[str(row["scene"])]
@@ -51,13 +43,15 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
                 "colliding": int((before == "collision").sum()),
                 "repairable": len(ok),
                 "claimed": int((ok["status"] == "repaired").sum()),
-                "truly_free": int((ok_truth == "free").sum()),
-                "keeps_clearance": int(ok_keeps.sum()),
-                "success_rate": float(ok_keeps.sum() / decided) if decided else math.nan,
+                "success_rate": float((rep_judged == "keeps").sum() / decided)
+                if decided
+                else math.nan,
                 "claimed_all": len(done),
-                "still_collides": int((truth == "collision").sum()),
-                "truth_undecided": int(undecided.sum()),
-                "below_clearance": int(below.sum()),
+                "truly_free": int(judged.isin(("keeps", "below", "band")).sum()),
+                "keeps_clearance": int((judged == "keeps").sum()),
+                "below_clearance": int((judged == "below").sum()),
+                "still_collides": int((judged == "collides").sum()),
+                "truth_undecided": int(judged.isin(("unknown", "band")).sum()),
                 "median_deviation_m": _median(done["max_deviation"]),
                 "max_deviation_m": float(done["max_deviation"].max()) if len(done) else math.nan,
                 "median_rounds": _median(done["iterations"]),
@@ -71,17 +65,28 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _kept(done: pd.DataFrame, clearance: float) -> tuple[pd.Series, pd.Series]:
-    """Per repaired row: whether the ground truth proves it keeps `clearance` (free, and
-    its proven minimum distance ``truth_clearance`` at least the clearance), and whether
-    it proves it does not (``below_clearance``: closer than requested, or not free)."""
-    free = (done["truth"] == "free") if "truth" in done else pd.Series(False, index=done.index)
+def _judged(done: pd.DataFrame, clearance: float) -> pd.Series:
+    """What the ground truth proves of each claimed repair at `clearance`: "collides";
+    "keeps" (free, its proven minimum distance ``truth_clearance`` at least the
+    clearance); "below" (free, proven closer than the clearance: that minimum is more
+    than the truth's resolution below it, the most the true minimum can exceed it);
+    "band" (free, in between: not decided); "unknown" (the truth cannot decide)."""
+    idx = done.index
+    truth = done["truth"] if "truth" in done else pd.Series("unknown", index=idx)
+    tc = pd.to_numeric(done.get("truth_clearance", pd.Series(math.nan, index=idx)), errors="coerce")
+    res = pd.to_numeric(
+        done.get("truth_resolution", pd.Series(math.nan, index=idx)), errors="coerce"
+    )
+    out = pd.Series("unknown", index=idx, dtype=object)
+    out[truth == "collision"] = "collides"
+    free = truth == "free"
     if "truth_clearance" in done:
-        at_least = pd.to_numeric(done["truth_clearance"], errors="coerce") >= clearance
+        out[free] = "band"
+        out[free & (tc >= clearance)] = "keeps"
+        out[free & (tc < clearance - res)] = "below"
     else:  # (rows from before it was kept: free is all a clearance of 0 asks)
-        at_least = pd.Series(clearance <= 0, index=done.index)
-    below = done.get("below_clearance", pd.Series(False, index=done.index))
-    return free & at_least, below.fillna(False).astype(bool)
+        out[free] = "keeps" if clearance <= 0 else "band"
+    return out
 
 
 def _median(x: pd.Series) -> float:
@@ -170,15 +175,15 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
         " repairable means every keyframe pose keeps clearance + 2 tolerances, the repair's margin"
         " (keyframes are kept); claimed: repairable cases the method called repaired; truly_free:"
         " of those, proven free by the ground truth (dense mj_geomDistance sampling with the"
-        f" Lipschitz margin at {_resolution_text(rep)}); keeps_clearance: of those, proven by"
-        " the truth to keep the requested clearance (its proven minimum distance at least the"
-        " clearance); success_rate = keeps_clearance / (repairable minus truth_undecided, the"
-        " claimed ones the truth cannot decide: whether they collide, where a clearance is"
-        " under the truth's resolution or more than 5 M samples are needed, or whether they"
-        " keep the clearance, where their proven minimum lies within the resolution below it;"
-        " a certified repair there is still proven by its certificate);"
-        " over all claims (claimed_all), still_collides and below_clearance (proven closer than"
-        " requested, or not proven free). Tolerance and clearance in metres; deviation (the"
+        f" Lipschitz margin at {_resolution_text(rep)}), each claim of all claims (claimed_all) is"
+        " one of: still_collides; truly_free, of those keeps_clearance (the truth's proven"
+        " minimum distance at least the requested clearance) or below_clearance (proven"
+        " closer than requested) or neither (that minimum within the truth's resolution below"
+        " the clearance); or truth_undecided (those neither, and the claims whose collision"
+        " the truth cannot decide: a clearance under its resolution or more than 5 M samples"
+        " needed). success_rate = the repairable claims that keep the clearance / (repairable"
+        " minus the repairable claims the truth cannot decide); a certified repair's claim is"
+        " proven by its certificate either way. Tolerance and clearance in metres; deviation (the"
         " origin path's largest move, m), rounds and CPU time are over the repaired motions;"
         " refusals' CPU time apart. The certified repair's free is a proof; the sampled"
         f" repair's is what {grid_text(rep)} saw: it re-interpolates the keyframes through via"

@@ -252,24 +252,23 @@ def _repair_headline(df: pd.DataFrame) -> list[dict[str, str]]:
             else f"{r['motions']} motions ({r['colliding']} colliding)"
         )
         refused = int(r["motions"]) - int(r["claimed_all"])
-        keeps = f"keeps the clearance {r['keeps_clearance']}, " if float(r["clearance"]) > 0 else ""
+        keeps = f" ({r['keeps_clearance']} keep the clearance)" if float(r["clearance"]) > 0 else ""
+        # (every count over its claims, claimed_all; `claimed` is the repairable ones')
+        checked = (
+            f"of its {r['claimed_all']} claims the ground truth confirms {r['truly_free']}"
+            f" free{keeps} and cannot decide {r['truth_undecided']}"
+        )
         if r["method"] == "certified":
             value = (
                 f"proved free {r['claimed']}/{r['repairable']} repairable;"
                 f" still collide {r['still_collides']}, below clearance {r['below_clearance']}"
             )
-            basis = (
-                f"of {motions}; the ground truth confirms {r['truly_free']} free,"
-                f" {keeps}cannot decide {r['truth_undecided']}; none may still collide"
-            )
+            basis = f"of {motions}; {checked}; none may still collide"
         else:
             value = f"claimed free {r['claimed_all']}, still collide {r['still_collides']}"
             if float(r["clearance"]) > 0:
                 value += f", below clearance {r['below_clearance']}"
-            basis = (
-                f"of {motions}; the ground truth confirms {r['truly_free']} free, {keeps}cannot"
-                f" decide {r['truth_undecided']}; its free is what {grid_text(rep)} saw"
-            )
+            basis = f"of {motions}; {checked}; its free is what {grid_text(rep)} saw"
         if refused:
             value += f"; refused {refused}"
         spread = (
