@@ -626,7 +626,12 @@ def parser() -> argparse.ArgumentParser:
         "scenes",
         help="list the registered scenes, or the mocap bodies, geoms and keyframes of FILE",
     )
-    sc.add_argument("file", nargs="?", default=None, help="an MJCF file to describe")
+    sc.add_argument(
+        "file",
+        nargs="?",
+        default=None,
+        help="an MJCF file (or a registered scene's name) to describe",
+    )
     sc.add_argument("--mocap-body", default=None, help="describe only this mocap body")
     sub.add_parser("schemes", help="list motion schemes with measured continuity and invariance")
     pr = sub.add_parser("render", help="write a PNG filmstrip of a scene's motion")

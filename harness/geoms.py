@@ -41,6 +41,7 @@ __all__ = [
     "obstacle_geoms",
     "obstacles_from_model",
     "reference_qpos",
+    "scene_geometry",
     "subtree_geoms",
     "unusable_obstacles",
 ]
@@ -582,3 +583,17 @@ def check_body_covers_subtree(
             f"The certified body of mocap body {mocap_body!r} does not cover "
             f"{len(missing)} of its subtree's {len(geoms)} geoms: {', '.join(missing)}."
         )
+
+
+def scene_geometry(scene: Any) -> tuple[Shape, list[Shape]]:
+    """The certified body of a scene's mocap body, checked to cover its subtree, and the
+    scene's obstacles (`scene`: a :class:`scenes.Scene`). What a suite's cases query, and
+    what loading the suite checks first.
+
+    Raises:
+        UnsupportedGeomError, UncoveredGeomError, ShapeError: a geom the queries cannot
+            use, named.
+    """
+    body = body_from_model(scene.model, scene.mocap_body)
+    check_body_covers_subtree(scene.model, scene.mocap_body, body)
+    return body, obstacles_from_model(scene.model, carried=scene.carried)

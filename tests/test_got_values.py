@@ -121,13 +121,22 @@ def test_number_arguments_take_numpy_scalars(call, name):
         (harness.certify, "max_node", "did you mean 'max_nodes'?"),
         (harness.clearance, "max_dept", "clearance() got an unexpected keyword argument 'max_dept'; did you mean 'max_depth'?"),
         (harness.clearance, "clearance", "clearance() got an unexpected keyword argument 'clearance' (its keywords: tolerance, max_depth,"),
+        (harness.repair, "max_node", "repair() got an unexpected keyword argument 'max_node'; did you mean 'max_nodes'?"),
+        (harness.certify_pair, "tolerence", "certify_pair() got an unexpected keyword argument 'tolerence'; did you mean 'tolerance'?"),
     ],
 )  # fmt: skip
 def test_a_misspelt_keyword_names_the_function_called(fn, typo, says):
     """A new user's trial: ``certify(..., tolerence=...)`` read "certify_many() got an
-    unexpected keyword", and clearance's was raised from inside contextlib."""
+    unexpected keyword", and clearance's was raised from inside contextlib (a review:
+    certify_pair's named certify, repair's named no function)."""
+    args = (_line(), Sphere(0.1))
+    args += (
+        (_line(), Box([0.1] * 3))
+        if fn is harness.certify_pair
+        else ([Box([0.1] * 3, center=[0, 3, 0])],)
+    )
     with pytest.raises(TypeError) as e:
-        fn(_line(), Sphere(0.1), [Box([0.1, 0.1, 0.1], center=[0, 3, 0])], **{typo: 1e-3})
+        fn(*args, **{typo: 1e-3})
     assert says in str(e.value)
     assert e.traceback[-1].path.name == "api.py"  # (raised by the check, not inside a call)
 

@@ -17,7 +17,8 @@ import numpy as np
 from motions import Motion, RationalMotion
 from motions.relative import relative_motion
 
-from ..certification import Certificate, QueryError, certify
+from ..certification import Certificate, QueryError, certify, certify_many
+from ..certification.api import check_keywords
 from ..errors import HarnessError
 from ..shapes import Shape, as_shape
 from .distance import DistanceModel
@@ -68,6 +69,7 @@ def certify_pair(
     Raises:
         PairError: a motion that is not rational, or domains that differ.
     """
+    check_keywords(options, certify_pair, certify_many)
     a = _rational(motion_a, "motion_a")
     b = _rational(motion_b, "motion_b")
     body_a = as_shape(body_a, "body_a")

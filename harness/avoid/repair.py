@@ -50,6 +50,7 @@ from motions._checks import short
 
 from ..certification import Certificate, Clearance, certify
 from ..certification import clearance as certified_clearance
+from ..certification.api import check_keywords
 from ..errors import HarnessError
 from ..shapes import Shape, as_obstacles, as_shape
 from .cuts import MAX_KNOTS, Constraints, Search, solve
@@ -203,6 +204,8 @@ def _check_keyframes(motion, dm: DistanceModel, anchors, c, tol, obst) -> None:
 
 
 # ----------------------------------------------------------------------------- the repair
+CERTIFIER_OPTIONS = ("max_depth", "max_nodes", "threads", "device")
+"""The keywords :func:`repair` passes on to the certifier."""
 POLISH_ROUNDS = 8
 """Certify-and-move rounds a found repair may spend shrinking its detour (:func:`repair`)."""
 WIDE = 3.0
@@ -457,11 +460,8 @@ def repair(
         raise RepairError(
             f"Expected `max_iterations` to be a positive integer, got {short(max_iterations)}."
         )
-    cert_opts = {
-        k: v for k, v in options.items() if k in ("max_depth", "max_nodes", "threads", "device")
-    }
-    if set(options) - set(cert_opts):
-        raise TypeError(f"Unexpected keyword argument(s) {sorted(set(options) - set(cert_opts))}.")
+    check_keywords(options, repair, CERTIFIER_OPTIONS)
+    cert_opts = dict(options)
     dm = DistanceModel([body], obst)
     anchors = _anchors(motion)
 

@@ -8,6 +8,8 @@
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 import os
 from collections.abc import Iterator, Sequence
@@ -380,7 +382,7 @@ def certify(
             comparator's: where :func:`certify_many` answers a comparator's
             ``NotApplicable`` in a batch, one query raises, as the engine's bounds do).
     """
-    check_keywords(options, certify, OPTIONS)
+    check_keywords(options, certify, certify_many)
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     one_body(body)
@@ -404,27 +406,37 @@ def certify(
     return out
 
 
-OPTIONS = ("max_nodes", "threads", "device", "max_iter", "comparator_options")
-"""The keywords a single query passes on to its batch function (its `options`)."""
-
-
-def check_keywords(options: dict, fn: Any, allowed: Sequence[str]) -> None:
-    """Refuse a keyword of `options` (the ``**options`` of the single query `fn`) that is
-    not `allowed`, naming `fn` and the nearest valid name (a misspelt ``tolerence=`` read
-    "certify_many() got an unexpected keyword", raised for clearance from contextlib)."""
-    import difflib
-    import inspect
-
+def check_keywords(options: dict, fn: Any, allowed: Any) -> None:
+    """Refuse a keyword of `options` (the ``**options`` of the query `fn`) that is not
+    `allowed`: the keyword-only parameters of the batch function `fn` passes them to, or
+    a sequence of names. The error names `fn` and the nearest valid keyword (a misspelt
+    ``tolerence=`` read "certify_many() got an unexpected keyword", raised for
+    clearance from inside contextlib)."""
+    if not options:
+        return
+    named, passed = _keywords(fn, allowed if callable(allowed) else tuple(allowed))
     for k in options:
-        if k not in allowed:
-            params = inspect.signature(fn).parameters.values()
-            valid = [p.name for p in params if p.kind == p.KEYWORD_ONLY] + list(allowed)
+        if k not in passed:
+            import difflib
+
+            valid = [*named, *(p for p in passed if p not in named)]
             near = difflib.get_close_matches(str(k), valid, n=1, cutoff=0.8)
             hint = f"; did you mean {near[0]!r}?" if near else ""
             raise TypeError(
                 f"{fn.__name__}() got an unexpected keyword argument {k!r}{hint} (its"
                 f" keywords: {', '.join(valid)})."
             )
+
+
+@functools.cache
+def _keywords(fn: Any, allowed: Any) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(`fn`'s own keyword-only parameters, the names its options may take)."""
+
+    def kwonly(f) -> tuple[str, ...]:
+        params = inspect.signature(f).parameters.values()
+        return tuple(p.name for p in params if p.kind == p.KEYWORD_ONLY)
+
+    return kwonly(fn), kwonly(allowed) if callable(allowed) else allowed
 
 
 def one_body(body: Any) -> Shape:

@@ -93,7 +93,7 @@ def clearance(
         max_depth: subdivision depth limit.
         options: ``max_nodes``, ``threads``, ``device``, ``max_iter`` as for ``certify``.
     """
-    check_keywords(options, clearance, ("max_nodes", "threads", "device", "max_iter"))
+    check_keywords(options, clearance, clearance_many)
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     one_body(body)

@@ -195,7 +195,7 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
         doc.h(f"{name}, tolerance {tol:g} mm", 3)
         doc.table(
             g.drop(columns=["scene", "tolerance (mm)"]),
-            f"Scene {where} at tolerance {tol:g} mm, every keyframe set: verdicts, accuracy with denominators, median nodes (what each method counts as one step: hull and aabb a bound evaluation of a piece against an obstacle part, lipschitz a distance evaluation, sampled a sample; so not comparable across methods: the CPU time is), and the median CPU time per single certify call with its interquartile range over the rows (each row: its median over rounds).",
+            f"Scene {where} at tolerance {tol:g} mm, every keyframe set: verdicts, accuracy with denominators, median nodes (what each method counts as one step: hull and aabb a bound evaluation of a piece against an obstacle part, lipschitz a distance evaluation, sampled a sample, each against an obstacle part; so not comparable across methods: the CPU time is), and the median CPU time per single certify call with its interquartile range over the rows (each row: its median over rounds).",
             f"certify_{name}_{tol:g}mm",
         )
     na = (

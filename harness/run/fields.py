@@ -80,15 +80,13 @@ def _check_geometry(scene: str, file: Path, key: str) -> None:
     import warnings
 
     from ..errors import HarnessError
-    from ..sim import body_from_model, check_body_covers_subtree, obstacles_from_model
+    from ..geoms import scene_geometry
 
     sc = scenes_pkg.load(scene)
     try:
         with warnings.catch_warnings():  # (each case records them)
             warnings.simplefilter("ignore")
-            body = body_from_model(sc.model, sc.mocap_body)
-            check_body_covers_subtree(sc.model, sc.mocap_body, body)
-            obstacles_from_model(sc.model, carried=sc.carried)
+            scene_geometry(sc)
     except (HarnessError, scenes_pkg.SceneError) as e:
         raise SuiteError(f"{file}: key `{key}`: {scene}: {e}") from None
 

@@ -152,14 +152,11 @@ class Context:
         of building them (a HeldJointsWarning, a MovingGeomsWarning) are kept with them
         and raised again at every call, so that every case of the scene records them
         (:func:`~harness.run.studies.run_case`), not only the first one in this process."""
-        from ...sim import body_from_model, check_body_covers_subtree, obstacles_from_model
+        from ...geoms import scene_geometry
 
         def make():
-            sc = self.scene(scene)
             with warnings.catch_warnings(record=True) as caught:
-                body = body_from_model(sc.model, sc.mocap_body)
-                check_body_covers_subtree(sc.model, sc.mocap_body, body)
-                obst = obstacles_from_model(sc.model, carried=sc.carried)
+                body, obst = scene_geometry(self.scene(scene))
             return body, obst, [w.message for w in caught]
 
         body, obst, raised = self.memo(("geom", scene), make)
