@@ -283,7 +283,7 @@ def test_a_scene_geom_the_queries_cannot_use_is_refused_when_the_suite_loads(tmp
     out = tmp_path / "out"
     assert main(["run", str(f), "--out", str(out), "--quiet"]) == 2
     assert not out.exists()
-    # the fixed file runs into the same folder
+    # the fixed file's suite loads (its run may use the same folder: nothing is there)
     (tmp_path / "cyl.xml").write_text(
         CYLINDER_POST.replace(
             'type="cylinder" size="0.02 0.15"', 'type="box" size="0.02 0.02 0.15"'
