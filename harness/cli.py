@@ -392,7 +392,7 @@ def _json_target(value: str, *inputs: str) -> Path:
     for given in inputs:
         q = Path(given)
         clash = (p.exists() and q.exists() and os.path.samefile(p, q)) or (
-            q.is_dir() and os.path.samefile(p.parent, q)
+            q.is_dir() and p.resolve().is_relative_to(q.resolve())
         )
         if clash:
             raise UsageError(

@@ -698,7 +698,8 @@ def test_json_output_never_overwrites_an_input(tmp_path, capsys):
     assert (tmp_path / "b.json").read_text() == before
     run = _run(tmp_path / "run", _rows(rng))
     twin = shutil.copytree(run, tmp_path / "twin")
-    for inside in (run / "meta.json", run / "gate.json"):  # into a run folder, at all
+    (run / "tables").mkdir()
+    for inside in (run / "meta.json", run / "gate.json", run / "tables" / "g.json"):  # at all
         r = _cli(capsys, "compare", str(run), str(twin), "--json", str(inside))
         assert r.returncode == 2 and "would overwrite the input" in r.stderr
     assert json.loads((run / "meta.json").read_text()) == META and not (run / "gate.json").exists()
