@@ -6,10 +6,12 @@ from .avoid import Moved, PairError, Repair, RepairError, certify_pair, repair
 from .certification import (
     BOUNDS,
     Certificate,
+    CertificateTable,
     Clearance,
     QueryError,
     certify,
     certify_many,
+    certify_table,
     clearance,
     clearance_many,
 )
@@ -34,6 +36,7 @@ __all__ = [
     "Box",
     "Capsule",
     "Certificate",
+    "CertificateTable",
     "Clearance",
     "Compound",
     "ConvexMesh",
@@ -55,6 +58,7 @@ __all__ = [
     "certify",
     "certify_many",
     "certify_pair",
+    "certify_table",
     "clearance",
     "clearance_many",
     "ground_truth",

@@ -12,17 +12,21 @@ from .api import (
 )
 from .clearance import Clearance, clearance, clearance_many
 from .device import DeviceError
+from .table import UNRESOLVED, CertificateTable, certify_table
 
 __all__ = [
     "BOUNDS",
     "ENGINE_BOUNDS",
     "REASONS",
+    "UNRESOLVED",
     "Certificate",
+    "CertificateTable",
     "Clearance",
     "DeviceError",
     "QueryError",
     "certify",
     "certify_many",
+    "certify_table",
     "clearance",
     "clearance_many",
 ]

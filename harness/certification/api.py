@@ -511,10 +511,13 @@ def certify_many(
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
         with naming(ms):
             obst = cover_half_spaces(ms, bodies, obst)
-            return _engine(ms, bodies, obst, o) if ms else []
+            return engine(ms, bodies, obst, o) if ms else []
 
 
-def _engine(ms, bodies, obst, o: dict) -> list[Certificate]:
+def engine(ms, bodies, obst, o: dict, *, table: bool = False) -> Any:
+    """The engine's certificates of checked motions, bodies and obstacle lists with the
+    options `o` (:func:`check_options`): a list, or with `table` a
+    :class:`.table.CertificateTable` (built on the outcome arrays for hull and aabb)."""
     if o["bound"] in ("hull", "aabb"):
         from .refine import refine_many
 
@@ -530,14 +533,22 @@ def _engine(ms, bodies, obst, o: dict) -> list[Certificate]:
             threads=o["threads"],
             device=o["device"],
         )
+        if table:
+            from .table import assemble_table
+
+            return assemble_table(out, elapsed, o["bound"], o["tol"], motions=ms, obstacles=obst)
         return assemble(
             out, elapsed, o["bound"], o["tol"], certified=True, motions=ms, obstacles=obst
         )
     from .advance import advance_many, sample_many
 
-    if o["bound"] == "lipschitz":
-        return advance_many(ms, bodies, obst, o)
-    return sample_many(ms, bodies, obst, o)
+    many = advance_many if o["bound"] == "lipschitz" else sample_many
+    certs = many(ms, bodies, obst, o)
+    if table:
+        from .table import from_certificates
+
+        return from_certificates(certs, o["bound"], o["tol"])
+    return certs
 
 
 def _comparators(bound, ms, bodies, obst, tol, options) -> list:

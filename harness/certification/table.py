@@ -1,0 +1,239 @@
+"""Certificates of a batch as columns (:func:`certify_table`): one numpy array per field
+of :class:`~.api.Certificate`, built from the kernels' outcome arrays without a Python
+object per motion, for batches whose results go into a table (a DataFrame, a Parquet
+file) anyway.
+
+``certify_table(ms, ...)[i]`` is the :class:`~.api.Certificate` that
+``certify_many(ms, ...)[i]`` returns, in every field but ``seconds``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+
+from motions import Motion
+from motions.pieces import UNIT_ROUNDOFF
+
+from ..timing import collector_paused
+from .api import (
+    DEFAULT_MAX_NODES,
+    ENGINE_BOUNDS,
+    TIME_ULPS,
+    Certificate,
+    Owners,
+    QueryError,
+    body_list,
+    check_motions,
+    check_options,
+    cover_half_spaces,
+    engine,
+    naming,
+    obstacle_lists,
+)
+from .refine import BIG
+from .refine import REASONS as KERNEL_REASONS
+
+__all__ = ["UNRESOLVED", "CertificateTable", "certify_table"]
+
+UNRESOLVED = ("tolerance", "depth", "budget")
+"""The columns of :attr:`CertificateTable.unresolved`: counts of unresolved pieces."""
+
+_VERDICTS = np.array(["free", "collision", "unknown"])
+_REASONS = np.array(["clear", "contact", *KERNEL_REASONS.values()])
+_REASON_CODE = np.zeros(max(KERNEL_REASONS) + 1, dtype=np.int64)  # kernel code -> _REASONS
+for _j, _code in enumerate(KERNEL_REASONS):
+    _REASON_CODE[_code] = 2 + _j
+
+
+@dataclass(frozen=True)
+class CertificateTable:
+    """The certificates of a batch, field by field (see :class:`~.api.Certificate`):
+    arrays of one entry per motion, except `bound` and `tolerance` (the batch's).
+
+    ``obstacle`` is -1 where a certificate's is None; ``unresolved`` is (n, 3), the counts
+    of :data:`UNRESOLVED` (a certificate's dict holds the nonzero ones). ``table[i]``
+    gives certificate i, ``table.to_pandas()`` a DataFrame (``unresolved_*`` columns).
+    """
+
+    verdict: np.ndarray
+    reason: np.ndarray
+    toi_lo: np.ndarray
+    toi_hi: np.ndarray
+    nodes: np.ndarray
+    depth: np.ndarray
+    seconds: np.ndarray
+    certified: np.ndarray
+    bound: str
+    tolerance: float
+    witness_time: np.ndarray
+    witness_distance: np.ndarray
+    unresolved: np.ndarray
+    clearance: np.ndarray
+    penetration: np.ndarray
+    pose_tests: np.ndarray
+    obstacle: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.verdict)
+
+    def __getitem__(self, i: int) -> Certificate:
+        n = len(self)
+        if isinstance(i, bool) or not isinstance(i, int | np.integer) or not -n <= i < n:
+            raise IndexError(f"Expected an index in [{-n}, {n}), got {i!r}.")
+        return Certificate(
+            verdict=str(self.verdict[i]),
+            reason=str(self.reason[i]),
+            toi_lo=float(self.toi_lo[i]),
+            toi_hi=float(self.toi_hi[i]),
+            nodes=int(self.nodes[i]),
+            depth=int(self.depth[i]),
+            seconds=float(self.seconds[i]),
+            certified=bool(self.certified[i]),
+            bound=self.bound,
+            tolerance=self.tolerance,
+            witness_time=float(self.witness_time[i]),
+            witness_distance=float(self.witness_distance[i]),
+            unresolved={
+                k: int(x) for k, x in zip(UNRESOLVED, self.unresolved[i], strict=True) if x
+            },
+            clearance=float(self.clearance[i]),
+            penetration=float(self.penetration[i]),
+            pose_tests=int(self.pose_tests[i]),
+            obstacle=None if self.obstacle[i] < 0 else int(self.obstacle[i]),
+        )
+
+    def __iter__(self) -> Iterator[Certificate]:
+        return (self[i] for i in range(len(self)))
+
+    def to_pandas(self):
+        """One row per motion, one column per field (``unresolved_tolerance``, ...)."""
+        import pandas as pd
+
+        cols: dict[str, Any] = {}
+        n = len(self)
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name == "unresolved":
+                for j, k in enumerate(UNRESOLVED):
+                    cols[f"unresolved_{k}"] = v[:, j]
+            else:
+                cols[f.name] = np.full(n, v) if np.ndim(v) == 0 else v
+        return pd.DataFrame(cols)
+
+
+def assemble_table(
+    out, elapsed: float, bound: str, tol: float, *, motions, obstacles
+) -> CertificateTable:
+    """:func:`.api.assemble`'s certificates (refinement outcomes, certified) as columns:
+    the same values, computed on the arrays."""
+    t, c = out.t, out.c
+    n = len(c)
+    nodes = c[:, 0].astype(np.int64)
+    hit = t[:, 1] <= BIG
+    special = hit | (c[:, 3] != 0)
+    witness = special & ~hit & (t[:, 2] <= BIG)
+    code = np.where(hit, 1, np.where(special, 2, 0))
+    reason = np.where(hit, 1, np.where(special, _REASON_CODE[np.minimum(c[:, 3], 4)], 0))
+    # toi_lo: the kernels' (the special rows'), lowered by the round-off of halved times
+    lo = np.where(special & (t[:, 0] <= BIG), t[:, 0], math.inf)
+    rows = np.flatnonzero(np.isfinite(lo))
+    if rows.size:
+        dom = np.array([motions[i].domain for i in rows.tolist()], dtype=float)
+        a, b, x = dom[:, 0], dom[:, 1], lo[rows]
+        scale = np.maximum(np.maximum(np.abs(x), np.abs(a)), np.abs(b))
+        lo[rows] = np.where(x > a, np.maximum(x - TIME_ULPS * UNIT_ROUNDOFF * scale, a), x)
+    obstacle = np.full(n, -1, dtype=np.int64)
+    named = np.flatnonzero(hit | witness)
+    if named.size:
+        part = np.where(hit, c[:, 8], c[:, 9])
+        owner = Owners(obstacles)
+        obstacle[named] = [
+            owner(i, p) for i, p in zip(named.tolist(), part[named].tolist(), strict=True)
+        ]
+    nan = np.full(n, math.nan)
+    return CertificateTable(
+        verdict=_VERDICTS[code],
+        reason=_REASONS[reason],
+        toi_lo=lo,
+        toi_hi=np.where(hit, t[:, 1], math.inf),
+        nodes=nodes,
+        depth=c[:, 2].astype(np.int64),
+        seconds=elapsed * nodes / max(1, int(nodes.sum())),
+        certified=np.ones(n, dtype=bool),
+        bound=bound,
+        tolerance=tol,
+        witness_time=np.where(witness, t[:, 2], math.nan),
+        witness_distance=np.where(witness, t[:, 3], math.nan),
+        unresolved=c[:, 4:7].astype(np.int64),
+        clearance=nan,
+        penetration=nan.copy(),
+        pose_tests=c[:, 1].astype(np.int64),
+        obstacle=obstacle,
+    )
+
+
+def from_certificates(certs: Sequence[Certificate], bound: str, tol: float) -> CertificateTable:
+    """The table of a list of certificates (the bounds whose batch builds objects)."""
+    col = lambda name, dtype: np.array([getattr(c, name) for c in certs], dtype=dtype)  # noqa: E731
+    return CertificateTable(
+        verdict=col("verdict", "<U9"),
+        reason=col("reason", "<U9"),
+        toi_lo=col("toi_lo", float),
+        toi_hi=col("toi_hi", float),
+        nodes=col("nodes", np.int64),
+        depth=col("depth", np.int64),
+        seconds=col("seconds", float),
+        certified=col("certified", bool),
+        bound=bound,
+        tolerance=tol,
+        witness_time=col("witness_time", float),
+        witness_distance=col("witness_distance", float),
+        unresolved=np.array(
+            [[c.unresolved.get(k, 0) for k in UNRESOLVED] for c in certs], dtype=np.int64
+        ).reshape(len(certs), len(UNRESOLVED)),
+        clearance=col("clearance", float),
+        penetration=col("penetration", float),
+        pose_tests=col("pose_tests", np.int64),
+        obstacle=np.array(
+            [-1 if c.obstacle is None else c.obstacle for c in certs], dtype=np.int64
+        ),
+    )
+
+
+def certify_table(
+    motions: Sequence[Motion],
+    body: Any,
+    obstacles: Any,
+    *,
+    bound: str = "hull",
+    tolerance: float = 1e-3,
+    max_depth: int = 24,
+    samples: int | None = None,
+    max_nodes: int = DEFAULT_MAX_NODES,
+    threads: int = 2,
+    device: str | None = None,
+    max_iter: int = 32,
+) -> CertificateTable:
+    """:func:`~.api.certify_many` as a :class:`CertificateTable`: the same queries, the same
+    values (``certify_table(ms)[i] == certify_many(ms)[i]`` in every field but
+    ``seconds``), without a Python object per motion for ``hull`` and ``aabb``. The
+    engine's bounds only (the external comparators answer through ``certify_many``)."""
+    o = check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)
+    if o["bound"] not in ENGINE_BOUNDS:
+        raise QueryError(
+            f"certify_table answers the engine's bounds {list(ENGINE_BOUNDS)}, got"
+            f" {o['bound']!r}: the external comparators answer through certify_many."
+        )
+    with collector_paused():
+        ms = check_motions(motions, o["bound"])
+        bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
+        with naming(ms):
+            obst = cover_half_spaces(ms, bodies, obst)
+            if not ms:
+                return from_certificates([], o["bound"], o["tol"])
+            return engine(ms, bodies, obst, o, table=True)
