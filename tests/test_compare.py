@@ -708,3 +708,26 @@ def test_json_output_never_overwrites_an_input(tmp_path, capsys):
     assert r.returncode == 2 and "is not a folder" in r.stderr
     # nothing is left behind by the checks
     assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_corpus_rows_of_a_method_that_varies_between_runs_are_not_gated(tmp_path, capsys):
+    """A researcher's trial: `compare` of two default runs of unchanged code failed on
+    fcl-linear's TOI error (FCL's LINEAR reads an uninitialised reference point)."""
+
+    def corpus(err_linear: float, err_hull: float) -> list[dict]:
+        return [
+            dict(study="corpus", scene="spin", scheme="slerp-linear", bound=b, case_id=f"c-{b}",
+                 verdict="collision", truth="collision", false_negative=False,
+                 false_positive=False, toi_error=e)
+            for b, e in (("fcl-linear", err_linear), ("hull", err_hull))
+        ]  # fmt: skip
+
+    base = _run(tmp_path / "base", corpus(0.06, 0.001))
+    same = _run(tmp_path / "same", corpus(0.78, 0.001))
+    r = compare(base, same)
+    assert r.exit_code == 0, r.text()
+    assert "accuracy not gated on 1 row(s) of fcl-linear" in r.text()
+    # the other methods' rows still are
+    worse = _run(tmp_path / "worse", corpus(0.06, 0.2))
+    r = compare(base, worse)
+    assert r.exit_code == 1 and "larger |TOI error| in spin/slerp-linear/hull" in r.text()

@@ -286,6 +286,7 @@ def _repair_headline(df: pd.DataFrame) -> list[dict[str, str]]:
 def _corpus_headline(df: pd.DataFrame) -> list[dict[str, str]]:
     """Per corpus method: its false negatives, false positives and unknowns with their
     denominators, and the median wall time per single query with its spread over cases."""
+    from ..corpus.methods import METHODS
     from .corpus import corpus_summary
 
     cor = study_rows(df, "corpus")
@@ -295,6 +296,9 @@ def _corpus_headline(df: pd.DataFrame) -> list[dict[str, str]]:
     out = []
     for _, r in corpus_summary(cor).iterrows():
         claim = "free is a proof" if r["free is a proof"] == "yes" else "free is its own claim"
+        m = METHODS.get(str(r["method"]))
+        if m is not None and not m.repeatable:
+            claim += "; undefined behaviour: its answers vary between runs of the same code"
         out.append(
             dict(
                 figure=f"corpus verdicts of {r['method']}",
