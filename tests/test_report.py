@@ -1203,3 +1203,42 @@ def test_the_per_scene_certify_tables_give_the_cpu_times_spread(tmp_path):
     q = np.percentile(cpu, [25, 50, 75]) * 1e3
     assert t["median CPU ms/query"].iloc[0] == pytest.approx(q[1])
     assert t["CPU ms IQR"].iloc[0] == pytest.approx(q[2] - q[0])
+
+
+def test_repeats_are_timed_not_counted_again(tmp_path):
+    """A researcher's trial: with repeats = 3 the headline read 'certified false free
+    0/108' for 36 distinct queries, and the TOI box n=12 for 4."""
+    rows = [
+        {"study": "certify", "scene": "slot", "keyframes": "scene", "scheme": "rational",
+         "bound": "hull", "tolerance": 1e-3, "repeat": rep, "verdict": v, "reason": "clear",
+         "truth": v, "certified": True, "cpu_median": 0.001 * (1 + rep), "toi_error": -1e-3,
+         "duration": 1.0, "false_negative": False, "false_positive": False}
+        for rep in range(3)
+        for v in ("free", "collision")
+    ]  # fmt: skip
+    df = pd.DataFrame(rows)
+    (line,) = [x for x in headline(df) if x["figure"].startswith("certified false free")]
+    assert line["value"] == "0/1"  # one colliding query, not three
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from harness.report.document import Document
+    from harness.report.sections import certify_section
+
+    tables, figures = {}, []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Document, "table", lambda self, t, caption, name: tables.update({name: t}))
+        mp.setattr(
+            Document,
+            "figure",
+            lambda self, fig, name, caption: (figures.append((name, fig.axes[0])), plt.close(fig)),
+        )
+        certify_section(Document(tmp_path), df, plt)
+    (per,) = [v for k, v in tables.items() if k.startswith("certify_slot")]
+    assert per["ran"].iloc[0] == 2  # the counts: each query once
+    # the CPU times: every repeat (1, 1, 2, 2, 3, 3 ms)
+    assert per["median CPU ms/query"].iloc[0] == pytest.approx(2.0)
+    (toi,) = [ax for name, ax in figures if name == "toi_error"]
+    assert [t.get_text() for t in toi.get_xticklabels()] == ["hull\nn=1"]

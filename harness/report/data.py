@@ -174,6 +174,15 @@ def rates(g: pd.DataFrame, label_ok: pd.Series | None = None) -> dict[str, Any]:
     }
 
 
+def first_repeat(df: pd.DataFrame) -> pd.DataFrame:
+    """The rows of the first repeat of each case: a study's `repeats` time the same
+    deterministic query again, so counting them would inflate the denominators of
+    accuracy figures (a trial read 0/108 for 36 distinct queries)."""
+    if "repeat" not in df:
+        return df
+    return df[pd.to_numeric(df["repeat"], errors="coerce").fillna(0) == 0]
+
+
 def ratio_text(k: int, n: int) -> str:
     return f"{k}/{n}" if n else "n/a (0 rows)"
 
@@ -186,7 +195,7 @@ def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]
     """
     meta = meta or {}
     out: list[dict[str, str]] = []
-    cert = study_rows(df, "certify")
+    cert = first_repeat(study_rows(df, "certify"))
     if len(cert):
         certified = flag(cert, "certified")
         r = rates(cert[certified])
