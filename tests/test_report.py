@@ -1139,8 +1139,10 @@ def test_motions_that_start_in_contact_stay_out_of_the_toi_figure(tmp_path):
     from harness.report.sections import _toi_figure
 
     def row(bound, err, start):
+        # the truth's bracket of the first contact: [0.9985, 1.0]
         return {"study": "certify", "truth": "collision", "verdict": "collision",
-                "bound": bound, "toi_error": err, "duration": 2.0, "starts_in_contact": start}  # fmt: skip
+                "bound": bound, "toi_error": err, "duration": 2.0, "starts_in_contact": start,
+                "toi_true": 1.0, "toi_true_lo": 0.9985}  # fmt: skip
 
     rows = [row("hull", -1e-3, False), row("hull", 0.0, True), row("lipschitz", 0.0, True)]
     # (a review: a late answer there is still counted, and shown)
@@ -1159,6 +1161,9 @@ def test_motions_that_start_in_contact_stay_out_of_the_toi_figure(tmp_path):
     assert [t.get_text() for t in labels] == ["fcl\nn=1", "hull\nn=1"]
     assert "2 row(s) whose motion starts inside an obstacle" in caption
     assert "1 row(s) had toi_lo later" in caption
+    # hull's toi_lo 0.999 lies inside the truth's bracket, fcl's 1.4 above it
+    assert "median width 0.00075 of the duration" in caption
+    assert "1 row(s) whose toi_lo lies inside the bracket" in caption
 
 
 def test_the_truth_says_when_a_motion_starts_in_contact():
