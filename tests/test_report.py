@@ -1195,7 +1195,7 @@ def test_the_per_scene_certify_tables_give_the_cpu_times_spread(tmp_path):
     cpu = [0.001, 0.002, 0.004, 0.010]
     rows = [
         {"study": "certify", "scene": "slot", "tolerance": 1e-3, "scheme": "rational",
-         "bound": "hull", "verdict": "free", "reason": "clear", "truth": "free", "nodes": 5, "cpu_median": c,
+         "bound": "hull", "verdict": "free", "reason": "clear", "truth": "free", "nodes": 5, "cpu_median": c, "certified": i < 3,
          "keyframes": f"random-{i}"}
         for i, c in enumerate(cpu)
     ]  # fmt: skip
@@ -1208,6 +1208,7 @@ def test_the_per_scene_certify_tables_give_the_cpu_times_spread(tmp_path):
     q = np.percentile(cpu, [25, 50, 75]) * 1e3
     assert t["median CPU ms/query"].iloc[0] == pytest.approx(q[1])
     assert t["CPU ms IQR"].iloc[0] == pytest.approx(q[2] - q[0])
+    assert t["certified"].iloc[0] == "3/4"  # (a trial: which answers are proofs)
 
 
 def test_repeats_are_timed_not_counted_again(tmp_path):
