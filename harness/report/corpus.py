@@ -148,7 +148,12 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
         " of each case's median wall time over timed rounds (interleaved A B A B, single queries, warm"
         " kernels), with the quartiles over cases; CPU time per query: the same median of process CPU"
         " time. Memory: Python-heap peak of one query (tracemalloc), a rough size only: it does not see"
-        " allocations inside Warp, FCL or ipctk.",
+        " allocations inside Warp, FCL or ipctk. Each method is timed over the cases it applies to, so"
+        " two methods' times are over different case sets where their applicable counts differ. ipctk"
+        " runs as its line search is built to: it reports an impact once a distance falls below 20 %"
+        " of its value at the query's start (conservative_rescaling 0.8), and spheres and capsules are"
+        " icosphere hulls within the tolerance, so its false positives are near passes (see the"
+        " grazing class below); harness/comparators/ipctk.py gives its settings.",
         "corpus_methods",
     )
     methods = list(summary["method"])
