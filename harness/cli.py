@@ -312,6 +312,12 @@ def _fraction(text: str, option: str, most: float, below: bool = False) -> float
             f"Expected `{option}` {'below' if below else 'at most'} {most:.0%} (a fraction like"
             f" 0.15, or 15%), got {_clip(text)}, {value:.0%}: a gate that never fails{hint}."
         )
+    if value >= 1 and not t.endswith("%"):  # (a CI trial's `--time-threshold 5`, meant as
+        # 5 %, was taken as 500 %: a bare number from 1 on says a percentage without its sign)
+        raise UsageError(
+            f"Expected `{option}` as a fraction below 1 (0.15) or a percentage (15%), got"
+            f" {_clip(text)}: for {value:.0%} write {value * 100:g}%, for {t} % write {t}%."
+        )
     return value
 
 
@@ -362,9 +368,7 @@ def _compare(args) -> int:
     from harness.compare import MAX_TIME_THRESHOLD, compare
 
     target = None if args.json is None else _json_target(args.json, args.base, args.new)
-    result = compare(
-        args.base,
-        args.new,
+    settings = dict(
         time_threshold=_fraction(args.time_threshold, "--time-threshold", MAX_TIME_THRESHOLD),
         fp_threshold=_whole(
             args.fp_threshold, "--fp-threshold", "the false collisions allowed beyond the base's"
@@ -373,9 +377,21 @@ def _compare(args) -> int:
         timer=args.timer,
         min_time=_duration(args.min_time, "--min-time"),
     )
+    try:
+        result = compare(args.base, args.new, **settings)
+    except Exception:
+        # a result file of an earlier comparison would read as this one's (a CI trial's
+        # pipeline found `exit_code: 1` of the run before after an exit 2)
+        if target is not None and target.is_file():
+            with contextlib.suppress(OSError):
+                target.unlink()
+        raise
     print(result.text())
     if target is not None:
-        _write_json(target, result.as_dict())
+        doc = result.as_dict()
+        doc["settings"] = settings
+        doc["written"] = datetime.now().astimezone().isoformat(timespec="seconds")
+        _write_json(target, doc)
     return result.exit_code
 
 
@@ -386,6 +402,11 @@ def _json_target(value: str, *inputs: str) -> Path:
     p = Path(value).expanduser()
     if not value or p.is_dir():
         raise UsageError(f"Expected `--json` to name a file, got {value!r}.")
+    if (p.exists() and not p.is_file()) or (p.is_symlink() and not p.resolve().is_file()):
+        # (a CI trial's /dev/stdout and a pipe were replaced by regular files, exit 0)
+        raise UsageError(
+            f"`--json` {value} is not a regular file (a device, a pipe): give a file path."
+        )
     if not p.parent.is_dir():
         what = "is not a folder" if p.parent.exists() else "does not exist"
         raise UsageError(f"`--json` {value}: its folder {p.parent} {what}.")
@@ -412,6 +433,9 @@ def _write_json(path: Path, doc: dict) -> None:
     """Write `doc` to `path` whole or not at all (a temporary file, then a rename)."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.fchmod(fd, 0o666 & ~umask)  # (mkstemp's 0600: a pipeline's other users read it)
         with os.fdopen(fd, "w") as f:
             json.dump(doc, f, indent=2)
         os.replace(tmp, path)

@@ -649,6 +649,14 @@ def test_a_link_to_the_base_is_the_base(tmp_path, capsys):
     # a copy is another file: compared
     shutil.copy(tmp_path / "a.json", tmp_path / "copy.json")
     assert compare(tmp_path / "a.json", tmp_path / "copy.json").exit_code == 0
+    said = compare(tmp_path / "a.json", tmp_path / "copy.json", timer="wall").text()
+    assert "`timer` applies to runs only" in said
+    # a copy of a run is compared too, and said to be one (a CI trial's artifact passed)
+    run = _run(tmp_path / "run", _rows(rng))
+    res = compare(run, shutil.copytree(run, tmp_path / "run2"))
+    assert res.exit_code == 0 and "a copy of one run, not two runs" in res.text()
+    other = compare(run, _run(tmp_path / "run3", _rows(rng)))
+    assert "a copy of one run" not in other.text()
 
 
 def test_json_output_for_a_pipeline(tmp_path, capsys):
@@ -664,7 +672,12 @@ def test_json_output_for_a_pipeline(tmp_path, capsys):
     # the same groups and decisions as the printed table, with numbers, not strings
     text = compare(a, b, min_time=0)
     assert [t["group"] for t in doc["timing"]] == [t.name for t in text.timing]
-    assert doc["regressions"] == text.regressions and doc["regressions"]
+    assert [f"{r['kind']}: {r['message']}" for r in doc["regressions"]] == text.regressions
+    assert {r["kind"] for r in doc["regressions"]} == {"timing"}
+    assert doc["accuracy"]["false_free"] == [0, 0] and doc["settings"]["min_time"] == 0.0
+    assert doc["settings"]["time_threshold"] == 0.75 and doc["written"]
+    assert set(doc["sides"]) == {"base", "new"}
+    assert oct(out.stat().st_mode & 0o777) != oct(0o600)  # (readable by a pipeline's others)
     for t in doc["timing"]:
         assert t["base_seconds"] > 0 and t["new_seconds"] > 0
         assert t["ratio"] == pytest.approx(t["new_seconds"] / t["base_seconds"])
@@ -678,6 +691,10 @@ def test_json_output_for_a_pipeline(tmp_path, capsys):
     assert _cli(capsys, "compare", str(a), str(twin), "--json", str(ok)).returncode == 0
     assert json.loads(ok.read_text())["exit_code"] == 0
     bad = tmp_path / "bad.json"
+    r = _cli(capsys, "compare", str(a), str(tmp_path / "nothing"), "--json", str(bad))
+    assert r.returncode == 2 and not bad.exists()
+    # an earlier result in that file is removed: it would read as this comparison's
+    bad.write_text(out.read_text())
     r = _cli(capsys, "compare", str(a), str(tmp_path / "nothing"), "--json", str(bad))
     assert r.returncode == 2 and not bad.exists()
     # a file in a folder that does not exist: refused before comparing, one line
@@ -706,6 +723,11 @@ def test_json_output_never_overwrites_an_input(tmp_path, capsys):
     # a file given as the folder: said so
     r = _cli(capsys, "compare", a, str(tmp_path / "copy.json"), "--json", f"{a}/x.json")
     assert r.returncode == 2 and "is not a folder" in r.stderr
+    # a device or a pipe is not replaced by a file (a CI trial's /dev/stdout was)
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    r = _cli(capsys, "compare", a, str(tmp_path / "copy.json"), "--json", str(fifo))
+    assert r.returncode == 2 and "not a regular file" in r.stderr and fifo.is_fifo()
     # nothing is left behind by the checks
     assert not list(tmp_path.glob(".*.tmp"))
 

@@ -340,7 +340,12 @@ def test_a_threshold_that_would_turn_the_gate_off_is_refused(tmp_path, capsys):
     _one_line_error(r, "`--unknown-threshold` below 100%", "write 5%")
     twin = str(shutil.copytree(base, tmp_path / "twin"))
     assert _cli(capsys, "compare", base, twin, "--time-threshold", "75%").returncode == 0
-    assert _cli(capsys, "compare", base, twin, "--time-threshold", "10").returncode == 0
+    assert _cli(capsys, "compare", base, twin, "--time-threshold", "1000%").returncode == 0
+    assert _cli(capsys, "compare", base, twin, "--time-threshold", "0.99").returncode == 0
+    # a bare number from 1 on is a percentage without its sign (a CI trial's "5" was 500 %)
+    for bare, says in (("5", "for 500% write 500%, for 5 % write 5%"), ("1", "for 100%")):
+        r = _cli(capsys, "compare", base, twin, "--time-threshold", bare)
+        _one_line_error(r, "`--time-threshold` as a fraction below 1", says)
     with pytest.raises(ValueError, match=r"`time_threshold` at most 10 .* got 75"):
         compare(base, base, time_threshold=75)
     with pytest.raises(ValueError, match=r"`unknown_threshold` below 1 .* got 5"):

@@ -193,6 +193,11 @@ def compare(
         out = _compare_benchmarks(b, n, thr)
         if floor != MIN_TIMING_SECONDS:  # (a trial set it and saw no effect)
             out.lines.append("(`min_time` applies to runs only: every benchmark is gated)")
+        if timer != "cpu":  # (so did a CI trial with --timer wall)
+            out.lines.append(
+                "(`timer` applies to runs only: benchmark files are compared in the timer they"
+                " were recorded with)"
+            )
     else:
         out = _compare_runs(b, n, thr, fpt, ut, timer, floor)
     # (after reading: an input's own fault is named first) a pipeline pointing both

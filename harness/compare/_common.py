@@ -74,6 +74,8 @@ class Comparison:
     kind: str = ""  # "run" or "benchmark"
     base: str = ""  # the inputs as given
     new: str = ""
+    sides: dict = field(default_factory=dict)  # per side: git revision, code digest, start
+    accuracy: dict = field(default_factory=dict)  # runs: counts per side, [base, new]
 
     @property
     def exit_code(self) -> int:
@@ -91,8 +93,14 @@ class Comparison:
             "kind": self.kind,
             "base": self.base,
             "new": self.new,
+            "sides": self.sides,
             "exit_code": self.exit_code,
-            "regressions": list(self.regressions),
+            # each regression with its kind ("timing", "accuracy", "missing")
+            "regressions": [
+                {"kind": r.split(":", 1)[0], "message": r.split(":", 1)[-1].strip()}
+                for r in self.regressions
+            ],
+            "accuracy": self.accuracy,
             "timing": [
                 {
                     "group": r.name,
@@ -126,6 +134,9 @@ def _environments(out: Comparison, *runs: tuple[Any, dict]) -> None:
     """Name both runs (folder, git revision, machine) and note every difference of machine
     or software between them: a gate compares code only where the rest is the same."""
     for (p, meta), side in zip(runs, ("base", "new"), strict=True):
+        out.sides[side] = {
+            k: meta.get(k) for k in ("git_revision", "git_dirty", "code_digest", "started")
+        }
         rev = meta.get("git_revision")
         rev = "no git revision" if not rev else f"git {str(rev)[:10]}"
         if meta.get("git_dirty"):

@@ -180,6 +180,17 @@ def _compare_runs(
             f"missing: {len(lost)} row(s) of the base are not in the new run"
             f" ({_count_groups([_group_name(r) for _, r in lost.iterrows()])})"
         )
+    col = f"{timer}_rounds"
+    if col in bi and col in ni:
+        both = bi[col].notna() & ni[col].notna()
+        if both.any() and (bi.loc[both, col].astype(str) == ni.loc[both, col].astype(str)).all():
+            # (a CI trial compared a run with a copy of it, an artifact, and passed: two
+            # runs never time every round alike)
+            out.lines.append(
+                "note: every timing round of NEW equals BASE's: a copy of one run, not two"
+                " runs; its timing cannot fail the gate"
+            )
+            out.accuracy["identical_timings"] = True
     _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"), floor)
     _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
     return out
@@ -327,6 +338,7 @@ def _run_accuracy(
         )
         free += f" ({cb} and {cn} of them certified; the others are uncertified claims)"
     out.lines.append(f"{free}; false collisions: base {fpb}, new {fpn}")
+    out.accuracy.update(false_free=[fnb_n, fnn_n], false_collisions=[fpb, fpn])
     if fpn - fpb > fp_threshold:
         out.regressions.append(
             f"accuracy: {fpn - fpb} more false collisions than the base (threshold {fp_threshold})"
@@ -338,6 +350,9 @@ def _run_accuracy(
         gn = ni[ran_n].assign(_u=ni["verdict"] == "unknown").groupby(["study", "scheme", "bound"])
         ub, un = gb["_u"].mean(), gn["_u"].mean()
         cb, cn = gb["_u"].sum(), gn["_u"].sum()
+        out.accuracy["unknown_rate"] = {
+            "/".join(map(str, g)): [float(ub[g]), float(un[g])] for g in ub.index if g in un.index
+        }
         for g in ub.index:
             if g in un.index and un[g] - ub[g] > unknown_threshold + 1e-12:
                 out.regressions.append(
