@@ -314,9 +314,12 @@ def _fraction(text: str, option: str, most: float, below: bool = False) -> float
         )
     if value >= 1 and not t.endswith("%"):  # (a CI trial's `--time-threshold 5`, meant as
         # 5 %, was taken as 500 %: a bare number from 1 on says a percentage without its sign)
+        from decimal import Decimal
+
+        pct = format((Decimal(t) * 100).normalize(), "f")
         raise UsageError(
             f"Expected `{option}` as a fraction below 1 (0.15) or a percentage (15%), got"
-            f" {_clip(text)}: for {value:.0%} write {value * 100:g}%, for {t} % write {t}%."
+            f" {_clip(text)}: for {pct} % write {pct}%, for {t} % write {t}%."
         )
     return value
 
@@ -368,30 +371,36 @@ def _compare(args) -> int:
     from harness.compare import MAX_TIME_THRESHOLD, compare
 
     target = None if args.json is None else _json_target(args.json, args.base, args.new)
-    settings = dict(
-        time_threshold=_fraction(args.time_threshold, "--time-threshold", MAX_TIME_THRESHOLD),
-        fp_threshold=_whole(
-            args.fp_threshold, "--fp-threshold", "the false collisions allowed beyond the base's"
-        ),
-        unknown_threshold=_fraction(args.unknown_threshold, "--unknown-threshold", 1.0, below=True),
-        timer=args.timer,
-        min_time=_duration(args.min_time, "--min-time"),
-    )
+    written = lambda: datetime.now().astimezone().isoformat(timespec="seconds")  # noqa: E731
     try:
+        settings = dict(
+            time_threshold=_fraction(args.time_threshold, "--time-threshold", MAX_TIME_THRESHOLD),
+            fp_threshold=_whole(
+                args.fp_threshold,
+                "--fp-threshold",
+                "the false collisions allowed beyond the base's",
+            ),
+            unknown_threshold=_fraction(
+                args.unknown_threshold, "--unknown-threshold", 1.0, below=True
+            ),
+            timer=args.timer,
+            min_time=_duration(args.min_time, "--min-time"),
+        )
         result = compare(args.base, args.new, **settings)
-    except Exception:
-        # a result file of an earlier comparison would read as this one's (a CI trial's
-        # pipeline found `exit_code: 1` of the run before after an exit 2)
-        if target is not None and target.is_file():
-            with contextlib.suppress(OSError):
-                target.unlink()
+        if target is not None:  # (before the table: a reader closing the pipe stops that)
+            doc = result.as_dict()
+            doc["settings"], doc["written"] = settings, written()
+            _write_json(target, doc)
+    except BaseException as e:
+        # an earlier comparison's result would read as this one's (a CI trial's pipeline
+        # found `exit_code: 1` of the run before after an exit 2): the file says this one
+        # failed, and why
+        if target is not None:
+            code = 130 if isinstance(e, KeyboardInterrupt) else 2
+            with contextlib.suppress(Exception):
+                _write_json(target, {"exit_code": code, "error": str(e), "written": written()})
         raise
     print(result.text())
-    if target is not None:
-        doc = result.as_dict()
-        doc["settings"] = settings
-        doc["written"] = datetime.now().astimezone().isoformat(timespec="seconds")
-        _write_json(target, doc)
     return result.exit_code
 
 
@@ -400,6 +409,8 @@ def _json_target(value: str, *inputs: str) -> Path:
     that can be written, and neither input nor inside an input run's folder (``--json
     NEW.json`` replaced the benchmark file it compared)."""
     p = Path(value).expanduser()
+    if p.is_symlink():  # (written through, as other tools do: the link stays a link)
+        p = p.resolve()
     if not value or p.is_dir():
         raise UsageError(f"Expected `--json` to name a file, got {value!r}.")
     if (p.exists() and not p.is_file()) or (p.is_symlink() and not p.resolve().is_file()):
@@ -437,12 +448,14 @@ def _write_json(path: Path, doc: dict) -> None:
         os.umask(umask)
         os.fchmod(fd, 0o666 & ~umask)  # (mkstemp's 0600: a pipeline's other users read it)
         with os.fdopen(fd, "w") as f:
-            json.dump(doc, f, indent=2)
+            json.dump(doc, f, indent=2, default=str)
         os.replace(tmp, path)
-    except OSError as e:
+    except BaseException as e:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
-        raise UsageError(f"`--json` {path}: cannot write it ({e.strerror or e}).") from None
+        if isinstance(e, OSError):
+            raise UsageError(f"`--json` {path}: cannot write it ({e.strerror or e}).") from None
+        raise
 
 
 def _render(args) -> int:

@@ -685,18 +685,29 @@ def test_json_output_for_a_pipeline(tmp_path, capsys):
         assert lo <= t["ratio"] <= hi
         # every group slowed 2x: each is a regression, its interval above 1
         assert t["status"] == "regression" and lo > 1
-    # a passing gate writes exit 0; an input that cannot be compared writes nothing
+    # a passing gate writes exit 0; an input that cannot be compared writes its exit 2
     ok = tmp_path / "ok.json"
     twin = shutil.copytree(a, tmp_path / "twin")
     assert _cli(capsys, "compare", str(a), str(twin), "--json", str(ok)).returncode == 0
     assert json.loads(ok.read_text())["exit_code"] == 0
     bad = tmp_path / "bad.json"
     r = _cli(capsys, "compare", str(a), str(tmp_path / "nothing"), "--json", str(bad))
-    assert r.returncode == 2 and not bad.exists()
-    # an earlier result in that file is removed: it would read as this comparison's
-    bad.write_text(out.read_text())
-    r = _cli(capsys, "compare", str(a), str(tmp_path / "nothing"), "--json", str(bad))
-    assert r.returncode == 2 and not bad.exists()
+    err = json.loads(bad.read_text())
+    assert r.returncode == 2 and err["exit_code"] == 2 and "does not exist" in err["error"]
+    # an earlier result in that file is replaced: it would read as this comparison's, also
+    # where an option is refused before comparing (a review)
+    for more in ([], ["--time-threshold", "5"], ["--min-time", "7"]):
+        bad.write_text(out.read_text())
+        r = _cli(capsys, "compare", str(a), str(b), "--json", str(bad), *more)
+        if more:
+            assert r.returncode == 2 and json.loads(bad.read_text())["exit_code"] == 2
+        else:
+            assert r.returncode == 1 and json.loads(bad.read_text())["exit_code"] == 1
+    # a symbolic link to the file is written through, and stays a link
+    link = tmp_path / "link.json"
+    link.symlink_to(ok)
+    assert _cli(capsys, "compare", str(a), str(twin), "--json", str(link)).returncode == 0
+    assert link.is_symlink() and json.loads(ok.read_text())["exit_code"] == 0
     # a file in a folder that does not exist: refused before comparing, one line
     r = _cli(capsys, "compare", str(a), str(b), "--json", str(tmp_path / "no" / "g.json"))
     assert r.returncode == 2 and "does not exist" in r.stderr and len(r.stderr.splitlines()) == 1

@@ -343,7 +343,11 @@ def test_a_threshold_that_would_turn_the_gate_off_is_refused(tmp_path, capsys):
     assert _cli(capsys, "compare", base, twin, "--time-threshold", "1000%").returncode == 0
     assert _cli(capsys, "compare", base, twin, "--time-threshold", "0.99").returncode == 0
     # a bare number from 1 on is a percentage without its sign (a CI trial's "5" was 500 %)
-    for bare, says in (("5", "for 500% write 500%, for 5 % write 5%"), ("1", "for 100%")):
+    for bare, says in (
+        ("5", "for 500 % write 500%, for 5 % write 5%"),
+        ("1", "for 100 % write 100%, for 1 % write 1%"),
+        ("1.005", "for 100.5 % write 100.5%"),
+    ):
         r = _cli(capsys, "compare", base, twin, "--time-threshold", bare)
         _one_line_error(r, "`--time-threshold` as a fraction below 1", says)
     with pytest.raises(ValueError, match=r"`time_threshold` at most 10 .* got 75"):

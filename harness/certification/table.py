@@ -4,7 +4,7 @@ object per motion, for batches whose results go into a table (a DataFrame, a Par
 file) anyway.
 
 ``certify_table(ms, ...)[i]`` is the :class:`~.api.Certificate` that
-``certify_many(ms, ...)[i]`` returns, in every field but ``seconds``.
+``certify_many(ms, ...)[i]`` returns, field by field but ``seconds`` (NaN where it is NaN).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from .refine import REASONS as KERNEL_REASONS
 
 __all__ = ["UNRESOLVED", "CertificateTable", "certify_table"]
 
-UNRESOLVED = ("tolerance", "depth", "budget")
+UNRESOLVED = tuple(KERNEL_REASONS.values())  # ("tolerance", "depth", "budget")
 """The columns of :attr:`CertificateTable.unresolved`: counts of unresolved pieces."""
 
 _VERDICTS = np.array(["free", "collision", "unknown"])
@@ -50,7 +50,7 @@ for _j, _code in enumerate(KERNEL_REASONS):
     _REASON_CODE[_code] = 2 + _j
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # (arrays: no elementwise == or hash of a table)
 class CertificateTable:
     """The certificates of a batch, field by field (see :class:`~.api.Certificate`):
     arrays of one entry per motion, except `bound` and `tolerance` (the batch's).
@@ -138,7 +138,10 @@ def assemble_table(
     special = hit | (c[:, 3] != 0)
     witness = special & ~hit & (t[:, 2] <= BIG)
     code = np.where(hit, 1, np.where(special, 2, 0))
-    reason = np.where(hit, 1, np.where(special, _REASON_CODE[np.minimum(c[:, 3], 4)], 0))
+    why = c[:, 3]
+    if not np.isin(why[special & ~hit], list(KERNEL_REASONS)).all():  # (assemble's KeyError)
+        raise ValueError(f"Unknown reason code among {sorted(set(why.tolist()))}.")
+    reason = np.where(hit, 1, np.where(special, _REASON_CODE[np.clip(why, 0, None)], 0))
     # toi_lo: the kernels' (the special rows'), lowered by the round-off of halved times
     lo = np.where(special & (t[:, 0] <= BIG), t[:, 0], math.inf)
     rows = np.flatnonzero(np.isfinite(lo))
@@ -152,9 +155,8 @@ def assemble_table(
     if named.size:
         part = np.where(hit, c[:, 8], c[:, 9])
         owner = Owners(obstacles)
-        obstacle[named] = [
-            owner(i, p) for i, p in zip(named.tolist(), part[named].tolist(), strict=True)
-        ]
+        named_as = (owner(i, p) for i, p in zip(named.tolist(), part[named].tolist(), strict=True))
+        obstacle[named] = [-1 if o is None else o for o in named_as]
     nan = np.full(n, math.nan)
     return CertificateTable(
         verdict=_VERDICTS[code],
@@ -181,8 +183,8 @@ def from_certificates(certs: Sequence[Certificate], bound: str, tol: float) -> C
     """The table of a list of certificates (the bounds whose batch builds objects)."""
     col = lambda name, dtype: np.array([getattr(c, name) for c in certs], dtype=dtype)  # noqa: E731
     return CertificateTable(
-        verdict=col("verdict", "<U9"),
-        reason=col("reason", "<U9"),
+        verdict=col("verdict", str),
+        reason=col("reason", str),
         toi_lo=col("toi_lo", float),
         toi_hi=col("toi_hi", float),
         nodes=col("nodes", np.int64),
@@ -220,7 +222,7 @@ def certify_table(
     max_iter: int = 32,
 ) -> CertificateTable:
     """:func:`~.api.certify_many` as a :class:`CertificateTable`: the same queries, the same
-    values (``certify_table(ms)[i] == certify_many(ms)[i]`` in every field but
+    values (``certify_table(ms)[i]`` is ``certify_many(ms)[i]`` field by field but
     ``seconds``), without a Python object per motion for ``hull`` and ``aabb``. The
     engine's bounds only (the external comparators answer through ``certify_many``)."""
     o = check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)

@@ -76,6 +76,7 @@ class Comparison:
     new: str = ""
     sides: dict = field(default_factory=dict)  # per side: git revision, code digest, start
     accuracy: dict = field(default_factory=dict)  # runs: counts per side, [base, new]
+    identical_timings: bool = False  # every timing round of NEW equals BASE's: a copy
 
     @property
     def exit_code(self) -> int:
@@ -101,6 +102,7 @@ class Comparison:
                 for r in self.regressions
             ],
             "accuracy": self.accuracy,
+            "identical_timings": self.identical_timings,
             "timing": [
                 {
                     "group": r.name,
@@ -108,7 +110,7 @@ class Comparison:
                     "new_seconds": num(r.new),
                     "ratio": num(r.ratio),
                     "ratio_ci95": [num(r.lo), num(r.hi)],
-                    "rounds": [int(r.samples[0]), int(r.samples[1])],
+                    "samples": [int(r.samples[0]), int(r.samples[1])],
                     "status": r.status,
                 }
                 for r in self.timing

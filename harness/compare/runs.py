@@ -190,7 +190,7 @@ def _compare_runs(
                 "note: every timing round of NEW equals BASE's: a copy of one run, not two"
                 " runs; its timing cannot fail the gate"
             )
-            out.accuracy["identical_timings"] = True
+            out.identical_timings = True
     _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"), floor)
     _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
     return out
