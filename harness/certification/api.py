@@ -506,12 +506,18 @@ def certify_many(
         if not ms:
             return []
         return _comparators(o["bound"], ms, bodies, obst, o["tol"], comparator_options)
+    out = checked_engine(motions, body, obstacles, o)
+    return [] if out is None else out
+
+
+def checked_engine(motions: Any, body: Any, obstacles: Any, o: dict, *, table: bool = False):
+    """:func:`engine` on the arguments of a batch, checked (None for no motion)."""
     with collector_paused():
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
         with naming(ms):
             obst = cover_half_spaces(ms, bodies, obst)
-            return engine(ms, bodies, obst, o) if ms else []
+            return engine(ms, bodies, obst, o, table=table) if ms else None
 
 
 def engine(ms, bodies, obst, o: dict, *, table: bool = False) -> Any:

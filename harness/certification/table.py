@@ -19,7 +19,6 @@ import numpy as np
 from motions import Motion
 from motions.pieces import UNIT_ROUNDOFF
 
-from ..timing import collector_paused
 from .api import (
     DEFAULT_MAX_NODES,
     ENGINE_BOUNDS,
@@ -27,13 +26,8 @@ from .api import (
     Certificate,
     Owners,
     QueryError,
-    body_list,
-    check_motions,
     check_options,
-    cover_half_spaces,
-    engine,
-    naming,
-    obstacle_lists,
+    checked_engine,
 )
 from .refine import BIG
 from .refine import REASONS as KERNEL_REASONS
@@ -231,11 +225,5 @@ def certify_table(
             f"certify_table answers the engine's bounds {list(ENGINE_BOUNDS)}, got"
             f" {o['bound']!r}: the external comparators answer through certify_many."
         )
-    with collector_paused():
-        ms = check_motions(motions, o["bound"])
-        bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
-        with naming(ms):
-            obst = cover_half_spaces(ms, bodies, obst)
-            if not ms:
-                return from_certificates([], o["bound"], o["tol"])
-            return engine(ms, bodies, obst, o, table=True)
+    out = checked_engine(motions, body, obstacles, o, table=True)
+    return from_certificates([], o["bound"], o["tol"]) if out is None else out
