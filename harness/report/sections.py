@@ -167,12 +167,11 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
     )
     _rate_figure(doc, cert, plt)
     per = []
-    for (scene, tol, m), g in cert.groupby(["scene", "tolerance", "method"], sort=True):
+    keys = ["scene", "tolerance", "method"]
+    cpus = {k: numeric(g, "cpu_median") for k, g in timed.groupby(keys, sort=True)}
+    for (scene, tol, m), g in cert.groupby(keys, sort=True):
         r = rates(g)
-        cpu = numeric(
-            timed[(timed["scene"] == scene) & (timed["tolerance"] == tol) & (timed["method"] == m)],
-            "cpu_median",
-        )
+        cpu = cpus[(scene, tol, m)]
         per.append(
             {
                 "scene": scene,
@@ -279,13 +278,13 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
         (column(cert, "truth", "") == "collision") & (column(cert, "verdict", "") == "collision")
     ]
     err = numeric(both, "toi_error")
-    both = both[err.notna()]
-    late = int((numeric(both, "toi_error") > 0).sum())  # (every row: none may be late)
+    both, err = both[err.notna()], err[err.notna()]
+    late = int((err > 0).sum())  # (every row: none may be late)
     # a motion that starts inside an obstacle, answered at its start exactly, says nothing
     # of a method's accuracy (a random keyframe set can start so)
-    at_start = flag(both, "starts_in_contact") & (numeric(both, "toi_error").abs() <= TOI_FLOOR)
+    at_start = flag(both, "starts_in_contact") & (err.abs() <= TOI_FLOOR)
     started = int(at_start.sum())
-    both = both[~at_start]
+    both, err = both[~at_start], err[~at_start]
     left_out = (
         f" {started} row(s) whose motion starts inside an obstacle, answered exactly there,"
         " are left out."
@@ -298,7 +297,6 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
             " row(s) had toi_lo later than the ground truth's first intersecting sample.)"
         )
         return
-    err = numeric(both, "toi_error")
     dur = numeric(both, "duration")
     relative = dur.notna().all()
     mag = (err.abs() / dur) if relative else err.abs()
