@@ -624,7 +624,9 @@ def parser() -> argparse.ArgumentParser:
         " unchanged code on a shared 2-core machine); a slowdown must also be significant",
     )
     c.add_argument(
-        "--fp-threshold", default="0", help="allowed increase in false collisions (a count)"
+        "--fp-threshold",
+        default="0",
+        help="allowed number of queries that became false collisions (a count)",
     )
     c.add_argument(
         "--unknown-threshold",

@@ -131,6 +131,23 @@ def test_accuracy_regressions(tmp_path):
     assert compare(base, unk, unknown_threshold=0.5).exit_code == 0
 
 
+def test_false_collisions_gated_query_by_query(tmp_path):
+    # one query becomes a false collision while another stops being one: the count is the
+    # same, but the new one is a regression of its own (as a new false free is)
+    fp = {"verdict": "collision", "false_positive": True}
+    base = _run(tmp_path / "base", _rows(np.random.default_rng(6), **{"hull-1": fp}))
+    swapped = _run(tmp_path / "swapped", _rows(np.random.default_rng(6), **{"hull-2": fp}))
+    res = compare(base, swapped)
+    assert res.exit_code == 1
+    (line,) = [r for r in res.regressions if "false collisions" in r]
+    assert "in 1 query" in line and "hull" in line, line
+    assert res.accuracy["false_collisions"] == [1, 1]
+    assert compare(base, swapped, fp_threshold=1).exit_code == 0
+    # the base's false collision gone and no new one: no regression
+    clean = _run(tmp_path / "clean", _rows(np.random.default_rng(6)))
+    assert compare(base, clean).exit_code == 0
+
+
 def _matched(res) -> str:
     """The comparison's line counting the matched rows (after both runs' header)."""
     return next(line for line in res.lines if "matched rows" in line)

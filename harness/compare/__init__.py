@@ -37,7 +37,8 @@ named as new and not gated.
 
 **Accuracy** (runs only; verdicts are deterministic for a suite and seed, so any change
 is real): a row that is a false free (truth collision, verdict free) in NEW but not in
-BASE; more false collisions than BASE (beyond ``fp_threshold``); a higher unknown rate
+BASE; rows that are false collisions in NEW but not in BASE, more of them than
+``fp_threshold``; a higher unknown rate
 of a (study, scheme, bound) group (beyond ``unknown_threshold``); a larger |TOI error|
 of a row; a lower measured continuity class of a scheme.
 """
@@ -166,7 +167,8 @@ def compare(
     Args:
         base, new: run folders or pytest-benchmark JSON files (both of one kind).
         time_threshold: allowed slowdown as a fraction (0.15: 15 %), >= 0.
-        fp_threshold: allowed increase in false collisions, an integer >= 0.
+        fp_threshold: allowed number of rows that became false collisions (query by
+            query, not the net count), an integer >= 0.
         unknown_threshold: allowed increase of a group's unknown rate (a fraction), >= 0
             and below 1 (a rate rises by 1 at most: 1 is a gate that never fails).
         timer: "cpu" (process CPU time) or "wall", for runs; benchmark files are compared in

@@ -28,6 +28,8 @@ from ._common import (
 TOI_SLACK = 1e-9
 """Absolute slack (motion parameter units) before a larger |TOI error| counts: the
 certified times are deterministic, so only round-off may move them."""
+MAX_LISTED = 10
+"""Queries named in one regression line (the rest are counted)."""
 _GROUP = ("study", "scheme", "bound", "mode")
 _ROW_KEY = ("study", "case_id", "keyframes", "scheme", "pair", "bound", "method", "mode", "case")
 """Columns that identify a row within one run, for every study kind: a certify row by its
@@ -326,7 +328,8 @@ def _run_accuracy(
         out.regressions.append(
             f"accuracy: new false free in {_where(ni.loc[key])} where the base had none"
         )
-    fpb, fpn = int(_flag(bi, "false_positive").sum()), int(_flag(ni, "false_positive").sum())
+    fpb_rows, fpn_rows = _flag(bi, "false_positive"), _flag(ni, "false_positive")
+    fpb, fpn = int(fpb_rows.sum()), int(fpn_rows.sum())
     fnb_n, fnn_n = int(fnb.sum()), int(fnn.sum())
     free = f"false free: base {fnb_n}, new {fnn_n}"
     if "certified" in bi and "certified" in ni:
@@ -339,9 +342,16 @@ def _run_accuracy(
         free += f" ({cb} and {cn} of them certified; the others are uncertified claims)"
     out.lines.append(f"{free}; false collisions: base {fpb}, new {fpn}")
     out.accuracy.update(false_free=[fnb_n, fnn_n], false_collisions=[fpb, fpn])
-    if fpn - fpb > fp_threshold:
+    # query by query, as false frees are: a query that became a false collision is not
+    # offset by another that stopped being one
+    became = bi.index[(fpn_rows & ~fpb_rows).to_numpy()]
+    if len(became) > fp_threshold:
+        where = "; ".join(_where(ni.loc[key]) for key in became[:MAX_LISTED])
+        more = f" and {len(became) - MAX_LISTED} more" if len(became) > MAX_LISTED else ""
         out.regressions.append(
-            f"accuracy: {fpn - fpb} more false collisions than the base (threshold {fp_threshold})"
+            f"accuracy: new false collisions in {len(became)} quer"
+            f"{'y' if len(became) == 1 else 'ies'} where the base had none (threshold"
+            f" {fp_threshold}): {where}{more}"
         )
     if "verdict" in bi:
         ran_b = bi["verdict"].isin(["free", "collision", "unknown"])
