@@ -378,7 +378,7 @@ def _compare(args) -> int:
             fp_threshold=_whole(
                 args.fp_threshold,
                 "--fp-threshold",
-                "the false collisions allowed beyond the base's",
+                "the false collisions allowed where the base had none",
             ),
             unknown_threshold=_fraction(
                 args.unknown_threshold, "--unknown-threshold", 1.0, below=True
