@@ -1,7 +1,8 @@
 """Slerp-family baselines under the common motion protocol (DESIGN §3).
 
-Every scheme except ``"sclerp"`` combines its rotation scheme with the same C² cubic
-not-a-knot origin spline as the rational ``"cubic"`` mode, so only the rotation differs.
+Every scheme except ``"sclerp"`` and ``"slerp-linear"`` (a piecewise-linear, C⁰ origin)
+combines its rotation scheme with the same C² cubic not-a-knot origin spline as the
+rational ``"cubic"`` mode, so only the rotation differs.
 Derivatives are analytic: closed forms for slerp and sclerp, scipy's own for
 ``RotationSpline``, and second-order jets (:mod:`motions._jet`) through the nested slerps
 of squad, Bézier-slerp and the cumulative B-spline.
@@ -585,8 +586,12 @@ class ScLerpMotion(Motion):
         )
 
     def speed_bound(self, t0, t1, radius):
-        """``|ω| (|c| + radius) + |slide|`` per segment: exact for a screw (the origin keeps
-        its distance |c| from the axis)."""
+        """``|ω| (|c| + radius) + (|d| + |slide|) / h`` per segment (d the slide along the
+        screw's axis, `slide` the translation of a segment that does not turn): a bound of
+        the speed of the points within `radius` of the origin, which keeps its distance
+        |c| from the axis. The turning and sliding speeds are added, so it is exact for a
+        segment that only turns or only slides, and above the true
+        ``sqrt(turning² + sliding²)`` for a screw that does both."""
         a, b, r = self._check_interval(t0, t1, radius)
         i0 = int(np.clip(np.searchsorted(self._t, a, side="right") - 1, 0, self._t.size - 2))
         i1 = int(np.clip(np.searchsorted(self._t, b, side="left") - 1, 0, self._t.size - 2))

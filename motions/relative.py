@@ -3,9 +3,12 @@
 For rational motions ``M_a(t)`` and ``M_b(t)`` (weight-last homogeneous matrices
 ``[[U, v], [0, u0]]`` with ``U Uᵀ = u0² I``), the inverse is, up to the scalar factor
 ``u0³``, the polynomial matrix ``[[u0 Uᵀ, -Uᵀ v], [0, u0²]]`` of twice the degree, so the
-motion of body b in body a's frame, ``M_a(t)^{-1} M_b(t)``, is rational of degree
-``2 n_a + n_b``. Its Bézier form is computed exactly (products of Bernstein polynomials,
-DESIGN §2.3) on the union of both motions' breakpoints.
+motion of body b in body a's frame, ``M_a(t)^{-1} M_b(t)``, is rational and represented
+at degree ``2 n_a + n_b``. Its Bézier form is computed exactly (products of Bernstein
+polynomials, DESIGN §2.3) on the union of both motions' breakpoints. The representation
+is not reduced: where ``v_a = u0_a p_a`` with a polynomial origin ``p_a`` (the ``cubic``
+mode), every entry shares the factor ``u0_a`` and the motion has a lower degree (15 for
+two interpolated motions, not 27).
 """
 
 from __future__ import annotations

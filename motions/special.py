@@ -6,7 +6,9 @@
 - :func:`darboux`: the elliptic motion plus a harmonic oscillation along the rolling
   axis with the same frequency. All trajectories are planar ellipses.
 - :func:`planar`: planar rational motions from planar keyframes (``q1 = q2 = 0``,
-  ``v3 = 0``), whose affine control positions are equiform images of the body.
+  ``v3 = 0``), whose affine control positions map the xy-plane by equiform
+  transformations (similarities); a 3D body's z coordinate is kept as it is (the blocks
+  ``A_i / w_i`` are a similarity of the plane and 1 along z).
 
 The parameter t is rational: the rolling angle is ``θ(t) = 2 atan(t)``, so
 ``cos θ = (1 - t²)/(1 + t²)`` and ``sin θ = 2t/(1 + t²)``, and the preimage is linear,
