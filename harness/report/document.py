@@ -243,12 +243,33 @@ class Document:
         self.md.append("\n".join(f"- {t}" for t in items) + "\n")
         self.html.append("<ul>" + "".join(f"<li>{html.escape(t)}</li>" for t in items) + "</ul>")
 
-    def table(self, df: pd.DataFrame, caption: str, name: str | None = None) -> None:
-        """Add a table, exported as ``tables/NAME.csv`` and ``.tex`` (NAME from the
-        caption when not given)."""
+    def table(
+        self,
+        df: pd.DataFrame,
+        caption: str,
+        name: str | None = None,
+        *,
+        data: pd.DataFrame | None = None,
+    ) -> None:
+        """Add a table: `df` as the reader sees it (Markdown, HTML and ``tables/NAME.tex``,
+        cells formatted), `data` as ``tables/NAME.csv`` (NAME from the caption when not
+        given).
+
+        Args:
+            df: the displayed table; its cells may be formatted text ("0/18", "3.5 ms").
+            caption: the table's caption.
+            name: the file name's stem (default: from the caption).
+            data: the same figures for machines: numbers in numeric columns whose
+                snake_case names carry their units (``cpu_ms_median``), a count "a/b" as
+                two columns, a missing value NaN (an empty cell), text columns (methods,
+                scenes, verdicts) as text. Its rows need not be `df`'s (a method × class
+                grid can be written one row per cell). Default: `df` itself, for a table
+                whose cells are already such numbers and text.
+        """
+        csv = (df if data is None else data).reset_index(drop=True)
         name = self._unique("table:" + slug(name or caption)).split(":", 1)[1]
         df = df.reset_index(drop=True)
-        df.to_csv(self.tabs / f"{name}.csv", index=False)
+        csv.to_csv(self.tabs / f"{name}.csv", index=False)
         (self.tabs / f"{name}.tex").write_text(latex_table(df, caption))
         self.md.append(
             markdown_table(df) + f"\n\n*{caption}* (tables/{name}.csv, tables/{name}.tex)\n"
