@@ -348,8 +348,8 @@ def test_scaling_marks_censored_data_and_fits_only_measured_series(written):
     _, run, figures = written
     t = pd.read_csv(run / "tables" / "scaling_slopes.csv").set_index("method")
     assert t.loc["uniform subdivision (aabb)", "basis"].startswith("censored")
-    assert np.isnan(t.loc["uniform subdivision (aabb)", "fitted slope"])
-    np.testing.assert_allclose(t.loc["uniform sampling", "fitted slope"], -1.0, atol=1e-9)
+    assert np.isnan(t.loc["uniform subdivision (aabb)", "fitted_slope"])
+    np.testing.assert_allclose(t.loc["uniform sampling", "fitted_slope"], -1.0, atol=1e-9)
     assert t.loc["uniform sampling", "basis"] == "measured"
     fig = next(f for n, f, _ in figures if n == "scaling")
     assert "mm" in fig.axes[0].get_xlabel()
@@ -366,12 +366,15 @@ def test_tables_per_scene_and_tolerance_with_csv_and_latex(written):
             assert "\\begin{tabular}" in tex.read_text() and "\\toprule" in tex.read_text()
     for csv in tabs.glob("*.csv"):
         assert csv.with_suffix(".tex").exists()
-    slot = pd.read_csv(tabs / "certify_slot_1mm.csv", keep_default_na=False).set_index("method")
+    slot = pd.read_csv(tabs / "certify_slot_1mm.csv").set_index("method")
     # the sampled bound said free on one of the two proven collisions of this scene/tolerance
-    assert slot.loc["rational/sampled", "false free"] == "1/2"
-    assert slot.loc["rational/hull", "false free"] == "0/2"
-    assert slot.loc["squad/sampled", "false free"] == "n/a (0 rows)"
-    assert slot.loc["squad/sampled", "truth not proven"] == 1
+    assert tuple(slot.loc["rational/sampled", ["false_free", "truth_collision"]]) == (1, 2)
+    assert tuple(slot.loc["rational/hull", ["false_free", "truth_collision"]]) == (0, 2)
+    assert tuple(slot.loc["squad/sampled", ["false_free", "truth_collision"]]) == (0, 0)
+    assert slot.loc["squad/sampled", "truth_not_proven"] == 1
+    md = written[0].read_text()  # (the report shows them over their denominators)
+    assert "| rational/sampled | 3 | 2 | 1 | 0 | 1/2 | 0/1 | 0 | 0/3 |" in md
+    assert "| squad/sampled | 1 | 1 | 0 | 0 | n/a (0 rows) | n/a (0 rows) | 1 | 0/1 |" in md
 
 
 def test_headline_has_units_spread_basis_and_ratios_from_rounds():
@@ -425,22 +428,24 @@ def test_workload_accuracy_counts_only_proven_labels(written):
     _, run, _ = written
     acc = pd.read_csv(run / "tables" / "workload_accuracy.csv").set_index("method")
     measured = PAIRS // 10
-    assert acc.loc["hull", "truth not proven"] == measured
-    assert acc.loc["hull", "truth proven"] == PAIRS - measured
+    assert acc.loc["hull", "truth_not_proven"] == measured
+    assert acc.loc["hull", "truth_proven"] == PAIRS - measured
 
 
 def test_physics_says_na_where_nothing_is_carried(written):
     _, run, _ = written
-    phys = pd.read_csv(run / "tables" / "physics.csv", keep_default_na=False)
+    phys = pd.read_csv(run / "tables" / "physics.csv")
     tool = phys[phys["scene"] == "mesh_tool"]
-    assert (tool["force jump (N)"] == "n/a").all()
-    assert (phys[phys["scene"] == "payload"]["force jump (N)"] != "n/a").all()
+    assert tool["force_jump_n"].isna().all()  # (the report shows n/a)
+    np.testing.assert_allclose(phys[phys["scene"] == "payload"]["force_jump_n"], 0.5)
+    md = written[0].read_text()
+    assert "| mesh_tool | rational | 0 | n/a | n/a | n/a | 0.01 |" in md
 
 
 def test_memory_table_is_per_case(written):
     _, run, _ = written
     mem = pd.read_csv(run / "tables" / "memory.csv").set_index("study")
-    assert mem.loc["certify", "max added MB"] == 3.0
+    assert mem.loc["certify", "max_added_mb"] == 3.0
 
 
 def test_unreadable_runs_are_named_errors(tmp_path, capsys, monkeypatch):
@@ -558,15 +563,17 @@ def test_single_queries_are_labelled_one_certify_call_per_pair():
 
 def test_accuracy_by_method_says_na_where_nothing_ran(written):
     _, run, _ = written
-    acc = pd.read_csv(run / "tables" / "accuracy_by_method.csv", keep_default_na=False)
-    acc = acc.set_index("method")
+    acc = pd.read_csv(run / "tables" / "accuracy_by_method.csv").set_index("method")
+    false = ["false_free", "truth_collision", "false_collision", "truth_free"]
     assert acc.loc["squad/hull", "ran"] == 0
-    assert acc.loc["squad/hull", "false free"] == "n/a (0 rows)"
-    assert acc.loc["squad/hull", "false collision"] == "n/a (0 rows)"
+    assert tuple(acc.loc["squad/hull", false]) == (0, 0, 0, 0)
     # per scene and tolerance: two proven collisions, the sampled bound missed one of them
-    assert acc.loc["rational/hull", "false free"] == "0/8"
-    assert acc.loc["rational/sampled", "false free"] == "4/8"
-    assert acc.loc["rational/sampled", "false collision"] == "0/4"
+    assert tuple(acc.loc["rational/hull", false]) == (0, 8, 0, 4)
+    assert tuple(acc.loc["rational/sampled", false]) == (4, 8, 0, 4)
+    # the report shows them over their denominators, and says where there are none
+    md = written[0].read_text()
+    assert "| squad/hull | 0 | 0 | 0 | 0 | 4 | 0 | 0 | n/a (0 rows) | n/a (0 rows) |" in md
+    assert "| rational/sampled | 12 | 8 | 4 | 0 | 0 | 12 | 0 | 4/8 | 0/4 |" in md
 
 
 def test_scaling_caption_and_legend_say_what_was_measured(written, tmp_path):
@@ -659,8 +666,8 @@ def test_corpus_tables_are_named_and_labelled_whole(written):
     for csv in tabs.glob("*.csv"):
         assert len(csv.stem) <= 45, csv.name
     mem = pd.read_csv(tabs / "memory.csv").set_index("study")
-    assert mem.loc["corpus", "runner cases measured"] == 1
-    assert "chunk of corpus cases" in mem.loc["corpus", "measured per"]
+    assert mem.loc["corpus", "runner_cases"] == 1
+    assert "chunk of corpus cases" in mem.loc["corpus", "measured_per"]
 
 
 def test_slug_and_shorten_keep_words_whole():
@@ -1037,7 +1044,7 @@ def test_the_physics_table_names_a_suites_own_scene_by_its_file(tmp_path):
     ]  # fmt: skip
     tables = []
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(Document, "table", lambda self, t, caption, name: tables.append(t))
+        mp.setattr(Document, "table", lambda self, t, caption, name, **kw: tables.append(t))
         mp.setattr(Document, "figure", lambda self, fig, name, caption: plt.close(fig))
         physics_section(Document(tmp_path), pd.DataFrame(rows), plt)
     (t,) = tables
@@ -1201,7 +1208,7 @@ def test_the_per_scene_certify_tables_give_the_cpu_times_spread(tmp_path):
     ]  # fmt: skip
     tables = {}
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(Document, "table", lambda self, t, caption, name: tables.update({name: t}))
+        mp.setattr(Document, "table", lambda self, t, caption, name, **kw: tables.update({name: t}))
         mp.setattr(Document, "figure", lambda self, fig, name, caption: plt.close(fig))
         certify_section(Document(tmp_path), pd.DataFrame(rows), plt)
     (t,) = [v for k, v in tables.items() if k.startswith("certify_slot")]
@@ -1235,7 +1242,7 @@ def test_repeats_are_timed_not_counted_again(tmp_path):
 
     tables, figures = {}, []
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(Document, "table", lambda self, t, caption, name: tables.update({name: t}))
+        mp.setattr(Document, "table", lambda self, t, caption, name, **kw: tables.update({name: t}))
         mp.setattr(
             Document,
             "figure",

@@ -17,6 +17,7 @@ __all__ = [
     "DECIDED",
     "EXTERNAL_PREFIX",
     "RAN",
+    "RATE_COLUMNS",
     "column",
     "flag",
     "format_headline",
@@ -24,6 +25,7 @@ __all__ = [
     "implementation_of",
     "method_labels",
     "numeric",
+    "rate_numbers",
     "rates",
     "ratio_text",
     "rounds_of",
@@ -31,6 +33,7 @@ __all__ = [
     "series_basis",
     "study_rows",
     "timing_rows",
+    "us_span",
     "workload_costs",
 ]
 
@@ -172,6 +175,29 @@ def rates(g: pd.DataFrame, label_ok: pd.Series | None = None) -> dict[str, Any]:
         "false collision": int((free & (verdict == "collision")).sum()),
         "of truth free": int(free.sum()),
     }
+
+
+RATE_COLUMNS = {
+    "ran": "ran",
+    "free": "free",
+    "collision": "collision",
+    "unknown": "unknown",
+    "not applicable": "not_applicable",
+    "truth proven": "truth_proven",
+    "truth not proven": "truth_not_proven",
+    "false free": "false_free",
+    "of truth collision": "truth_collision",
+    "false collision": "false_collision",
+    "of truth free": "truth_free",
+}
+"""The CSV column of each count of :func:`rates` (a false free counts out of
+``truth_collision``, a false collision out of ``truth_free``)."""
+
+
+def rate_numbers(r: dict[str, Any], *keys: str) -> dict[str, int]:
+    """The counts of :func:`rates` `r` (all, or those named `keys`) under their CSV names
+    (:data:`RATE_COLUMNS`)."""
+    return {RATE_COLUMNS[k]: int(r[k]) for k in keys or RATE_COLUMNS}
 
 
 def first_repeat(df: pd.DataFrame) -> pd.DataFrame:
@@ -348,7 +374,14 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
 
     A workload run in several chunks has one timing row per chunk: round r of the whole
     workload is the sum of round r of every chunk (rounds are independent draws), divided
-    by the total number of pairs."""
+    by the total number of pairs.
+
+    Columns: ``workload``, ``tolerance`` (m), ``method``, ``mode``, ``implementation``,
+    ``pairs``, ``rounds``; CPU time per pair in µs, its median over rounds
+    (``cpu_us_per_pair``), quartiles (``cpu_us_q1``, ``cpu_us_q3``) and bootstrap 95 %
+    interval of the median (``cpu_us_ci95_lo``, ``cpu_us_ci95_hi``); wall time per pair
+    likewise (``wall_us_per_pair``, ``wall_us_q1``, ``wall_us_q3``); ``_cpu``, the CPU
+    seconds per pair of each round."""
     rows: list[dict] = []
     t = timing_rows(wl)
     keys = ["keyframes", "tolerance", "bound", "mode"]
@@ -374,15 +407,23 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
                 "implementation": implementation_label(implementation_of(g), str(mode)),
                 "pairs": int(total),
                 "rounds": sc.n,
-                "cpu µs/pair": sc.median * 1e6,
-                "cpu IQR": span(sc.q1, sc.q3),
-                "cpu 95% CI": span(sc.lo, sc.hi),
-                "wall µs/pair": sw.median * 1e6,
-                "wall IQR": span(sw.q1, sw.q3),
+                "cpu_us_per_pair": sc.median * 1e6,
+                "cpu_us_q1": sc.q1 * 1e6,
+                "cpu_us_q3": sc.q3 * 1e6,
+                "cpu_us_ci95_lo": sc.lo * 1e6,
+                "cpu_us_ci95_hi": sc.hi * 1e6,
+                "wall_us_per_pair": sw.median * 1e6,
+                "wall_us_q1": sw.q1 * 1e6,
+                "wall_us_q3": sw.q3 * 1e6,
                 "_cpu": cpu_pp,
             }
         )
     return pd.DataFrame(rows)
+
+
+def us_span(lo_us: float, hi_us: float) -> str:
+    """:func:`~harness.report.document.span` of two times in µs."""
+    return span(lo_us * 1e-6, hi_us * 1e-6)
 
 
 def _workload_headline(df: pd.DataFrame, meta: dict) -> list[dict[str, str]]:
@@ -411,8 +452,8 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[dict[str, str]]:
         out.append(
             dict(
                 figure=f"hull cost per pair, {what.get(mode, mode)}",
-                value=f"{fmt_time(h['cpu µs/pair'] * 1e-6)} CPU ({fmt_time(h['wall µs/pair'] * 1e-6)} wall)",
-                spread=f"CPU IQR {h['cpu IQR']}, 95% CI {h['cpu 95% CI']}, {h['rounds']} rounds",
+                value=f"{fmt_time(h['cpu_us_per_pair'] * 1e-6)} CPU ({fmt_time(h['wall_us_per_pair'] * 1e-6)} wall)",
+                spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, 95% CI {us_span(h['cpu_us_ci95_lo'], h['cpu_us_ci95_hi'])}, {h['rounds']} rounds",
                 basis=work,
             )
         )
@@ -432,7 +473,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[dict[str, str]]:
                 dict(
                     figure=f"cost of {o['method']}{ext} / cost of hull, {mode}",
                     value=f"{ratio:.3g}× ({cheaper_text(lo, hi)}{unknown})",
-                    spread=f"95% CI {lo:.3g}–{hi:.3g}×; {o['method']} {fmt_time(o['cpu µs/pair'] * 1e-6)} CPU per pair ({o['implementation']})",
+                    spread=f"95% CI {lo:.3g}–{hi:.3g}×; {o['method']} {fmt_time(o['cpu_us_per_pair'] * 1e-6)} CPU per pair ({o['implementation']})",
                     basis=f"median CPU time per pair of {o['method']} / that of the hull, same pairs and tolerance; 'hull cheaper' only when the 95% CI lies above 1. {work}",
                 )
             )

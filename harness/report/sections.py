@@ -18,11 +18,13 @@ from .data import (
     implementation_of,
     method_labels,
     numeric,
+    rate_numbers,
     rates,
     ratio_text,
     scaling_slopes,
     series_basis,
     study_rows,
+    us_span,
     workload_costs,
     workload_groups,
 )
@@ -132,6 +134,12 @@ def startup_section(doc: Document, df: pd.DataFrame) -> None:
         t,
         "The first certification call of each method in this process: Warp kernel compile (cache 'cold': a module was compiled) or cache load ('warm'), plus start-up. Measured once, before any case, and charged to none.",
         "startup",
+        data=t.rename(
+            columns={
+                "first call wall (s)": "first_call_wall_s",
+                "first call CPU (s)": "first_call_cpu_s",
+            }
+        ),
     )
 
 
@@ -150,6 +158,28 @@ def _accuracy_row(method: str, r: dict) -> dict:
     }
 
 
+def _per_scene_display(per: pd.DataFrame) -> pd.DataFrame:
+    """The per-scene certify table's numbers as the report shows them: false verdicts and
+    certified answers over their denominators."""
+
+    def frac(k: str, n: str) -> list[str]:
+        return [ratio_text(int(a), int(b)) for a, b in zip(per[k], per[n], strict=True)]
+
+    return pd.DataFrame(
+        {
+            "method": per["method"],
+            **{c: per[c] for c in ("ran", "free", "collision", "unknown")},
+            "false free": frac("false_free", "truth_collision"),
+            "false collision": frac("false_collision", "truth_free"),
+            "truth not proven": per["truth_not_proven"],
+            "certified": frac("certified", "ran"),
+            "median nodes": per["median_nodes"],
+            "median CPU ms/query": per["cpu_ms_median"],
+            "CPU ms IQR": per["cpu_ms_iqr"],
+        }
+    )
+
+
 def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
     cert = study_rows(df, "certify")
     if not len(cert):
@@ -157,13 +187,12 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
     doc.h("Certification accuracy")
     timed = cert.assign(method=method_labels(cert))  # every repeat: the CPU times
     cert = first_repeat(timed)  # each query once: the counts
-    overall = pd.DataFrame(
-        [_accuracy_row(m, rates(g)) for m, g in cert.groupby("method", sort=True)]
-    )
+    overall = [(m, rates(g)) for m, g in cert.groupby("method", sort=True)]
     doc.table(
-        overall,
+        pd.DataFrame([_accuracy_row(m, r) for m, r in overall]),
         "Per scheme/bound over every scene, keyframe set and tolerance of the study, each query once (a study's repeats time it again, and are not counted again): verdict counts; false free out of the rows whose proven truth is collision; false collision out of those proven free. The ground truth is dense exact distances (MuJoCo mj_geomDistance) plus the Lipschitz margin of a proven speed bound; schemes without one have truth `unproven`, counted apart.",
         "accuracy_by_method",
+        data=pd.DataFrame([{"method": m, **rate_numbers(r)} for m, r in overall]),
     )
     _rate_figure(doc, cert, plt)
     per = []
@@ -172,39 +201,35 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
     for (scene, tol, m), g in cert.groupby(keys, sort=True):
         r = rates(g)
         cpu = cpus[(scene, tol, m)]
+        n = rate_numbers(r)
         per.append(
             {
                 "scene": scene,
-                "tolerance (mm)": float(tol) * 1e3,
+                "tolerance_mm": float(tol) * 1e3,
                 "method": m,
-                "ran": r["ran"],
-                "free": r["free"],
-                "collision": r["collision"],
-                "unknown": r["unknown"],
-                "false free": ratio_text(r["false free"], r["of truth collision"]),
-                "false collision": ratio_text(r["false collision"], r["of truth free"]),
-                "truth not proven": r["truth not proven"],
-                "certified": ratio_text(
-                    int((flag(g, "certified") & column(g, "verdict", "").isin(RAN)).sum()),
-                    r["ran"],
-                ),
-                "median nodes": float(numeric(g, "nodes").median()),
-                "median CPU ms/query": float(cpu.median() * 1e3) if cpu.notna().any() else math.nan,
-                "CPU ms IQR": float((cpu.quantile(0.75) - cpu.quantile(0.25)) * 1e3)
+                **{k: n[k] for k in ("ran", "free", "collision", "unknown")},
+                **{k: n[k] for k in ("false_free", "truth_collision", "false_collision")},
+                **{k: n[k] for k in ("truth_free", "truth_not_proven")},
+                # (out of `ran`)
+                "certified": int((flag(g, "certified") & column(g, "verdict", "").isin(RAN)).sum()),
+                "median_nodes": float(numeric(g, "nodes").median()),
+                "cpu_ms_median": float(cpu.median() * 1e3) if cpu.notna().any() else math.nan,
+                "cpu_ms_iqr": float((cpu.quantile(0.75) - cpu.quantile(0.25)) * 1e3)
                 if cpu.notna().any()
                 else math.nan,
             }
         )
     per = pd.DataFrame(per)
     labels = scene_labels(per["scene"].unique()) if len(per) else {}
-    for (scene, tol), g in per.groupby(["scene", "tolerance (mm)"], sort=True):
+    for (scene, tol), g in per.groupby(["scene", "tolerance_mm"], sort=True):
         name = labels[str(scene)]
         where = name if name == scene else f"{name} ({scene})"
         doc.h(f"{name}, tolerance {tol:g} mm", 3)
         doc.table(
-            g.drop(columns=["scene", "tolerance (mm)"]),
+            _per_scene_display(g),
             f"Scene {where} at tolerance {tol:g} mm, every keyframe set: verdicts, accuracy with denominators, median nodes (what each method counts as one step: hull and aabb a bound evaluation of a piece against an obstacle part, lipschitz a distance evaluation, sampled a sample, each against an obstacle part; so not comparable across methods: the CPU time is), and the median CPU time per single certify call with its interquartile range over the rows (each row: its median over rounds). certified: the answers that are proofs; `sampled` is two algorithms: on the fair grid in the kernels from a proven speed bound where the scheme has one (rational, slerp, sclerp, ...), a proof when every cell is proven; host poses at an estimated speed for squad, Bézier-slerp and RotationSpline, never a proof.",
             f"certify_{name}_{tol:g}mm",
+            data=g,
         )
     na = (
         cert[column(cert, "verdict", "") == "n/a"].groupby("method")["reason"].first().reset_index()
@@ -388,16 +413,36 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
         _workload_pairs(doc, g, plt, f" ({label})" if several else "")
     costs = workload_costs(wl)
     if len(costs):
-        table = costs.drop(columns=["_cpu"])
-        table["tolerance"] = table["tolerance"] * 1e3
+        data = costs.drop(columns=["_cpu"]).rename(columns={"tolerance": "tolerance_mm"})
+        data["tolerance_mm"] = data["tolerance_mm"] * 1e3
         doc.table(
-            table.rename(columns={"tolerance": "tolerance (mm)"}),
+            _cost_display(data),
             "Cost per pair: medians over rounds of the whole set of pairs (batch: one certify_many call; single: one call per pair), divided by the number of pairs; every method on the same pairs.",
             "workload_cost",
+            data=data,
         )
         _cost_figure(doc, costs, plt)
     elif "batch_seconds" in wl:
         doc.p("(This run predates repeated rounds: no cost table. Rerun the suite.)")
+
+
+def _cost_display(data: pd.DataFrame) -> pd.DataFrame:
+    """The workload cost table as the report shows it: spreads as ranges with a unit."""
+
+    def spans(lo: str, hi: str) -> list[str]:
+        return [us_span(a, b) for a, b in zip(data[lo], data[hi], strict=True)]
+
+    return pd.DataFrame(
+        {
+            **{c: data[c] for c in ("workload", "tolerance_mm", "method", "mode")},
+            **{c: data[c] for c in ("implementation", "pairs", "rounds")},
+            "cpu µs/pair": data["cpu_us_per_pair"],
+            "cpu IQR": spans("cpu_us_q1", "cpu_us_q3"),
+            "cpu 95% CI": spans("cpu_us_ci95_lo", "cpu_us_ci95_hi"),
+            "wall µs/pair": data["wall_us_per_pair"],
+            "wall IQR": spans("wall_us_q1", "wall_us_q3"),
+        }
+    ).rename(columns={"tolerance_mm": "tolerance (mm)"})
 
 
 def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt, which: str) -> None:
@@ -425,16 +470,15 @@ def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt, which: str) -> None
             + "; only proven labels count as truth below."
         )
         ok = lab == "proven"
-        acc = pd.DataFrame(
-            [
-                {"method": b, "implementation": implementation_of(g), **rates(g, ok)}
-                for b, g in pairs.groupby("bound", sort=True)
-            ]
-        )
+        acc = [
+            ({"method": b, "implementation": implementation_of(g)}, rates(g, ok))
+            for b, g in pairs.groupby("bound", sort=True)
+        ]
         doc.table(
-            acc,
+            pd.DataFrame([{**m, **r} for m, r in acc]),
             f"Verdicts per method on every pair of the workload{which}; false free and false collision out of the pairs whose label is proven.",
             "workload_accuracy",
+            data=pd.DataFrame([{**m, **rate_numbers(r)} for m, r in acc]),
         )
         _rate_figure(
             doc,
@@ -548,11 +592,27 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
             " without clearing, so the cost shown is a lower bound)"
         )
     doc.figure(fig, "scaling", "".join(caption) + ".")
+    table = pd.DataFrame(table)
     doc.table(
-        pd.DataFrame(table),
+        table,
         "Slopes of log cost on log δ. A fitted slope is given only for measured, uncensored series; the slope of a formula or of censored values is shown apart and is not a measurement.",
         "scaling_slopes",
+        data=table.rename(
+            columns={"fitted slope": "fitted_slope", "slope of the plotted values": "plotted_slope"}
+        ),
     )
+
+
+CONTINUITY_COLUMNS = {
+    "measured class": "continuity_class",
+    "max jump of acceleration": "max_jump_acceleration_m_per_t2",
+    "max jump of angular acceleration": "max_jump_angular_acceleration_rad_per_t2",
+    "max jump of angular velocity": "max_jump_angular_velocity_rad_per_t",
+    "world-frame invariance error": "invariance_error_world",
+    "body-frame invariance error": "invariance_error_body",
+}
+"""The continuity table's CSV columns: t is the motion parameter (seconds for scene
+keyframes, the chordal parameter for random ones)."""
 
 
 def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
@@ -579,6 +639,7 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         t,
         "Measured continuity class (a derivative counts as continuous when its one-sided jump at a knot falls at least 5× per decade of the offset) and the largest jumps at the smallest offset, in scene units per motion-parameter unit: m/s², rad/s², rad/s for scene keyframes, whose times are seconds; random keyframe sets are timed by chord length, so theirs are per metre of parameter (m/m², rad/m²), pooled here with the scene's because a class does not depend on the parametrisation; invariance: largest matrix difference after moving the world frame or turning the body.",
         "continuity",
+        data=t.rename(columns=CONTINUITY_COLUMNS),
     )
     scene_kf = src[src["keyframes"] == "scene"]
     use = scene_kf if len(scene_kf) else src
@@ -622,6 +683,15 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     )
 
 
+PHYSICS_COLUMNS = {
+    "force_jump": ("force jump (N)", "force_jump_n"),
+    "force_rate_jump": ("force rate jump (N/s)", "force_rate_jump_n_per_s"),
+    "jerk_jump": ("jerk jump (m/s³)", "jerk_jump_m_per_s3"),
+    "min_distance": ("min distance (m)", "min_distance_m"),
+}
+"""The simulation table's columns with a unit: (as shown, in the CSV)."""
+
+
 def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
     sim = study_rows(df, "simulate")
     if not len(sim):
@@ -644,28 +714,29 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
         if c in sim
     ]
     t = sim[cols].copy()
+    data = t.copy()  # (scenes as the rows name them)
     labels: dict = {}
     if "scene" in t:  # (a suite's own file by its name, as in the certify headings)
         labels = scene_labels(t["scene"].astype(str).unique())
         t["scene"] = t["scene"].astype(str).map(labels)
     carried = numeric(sim, "carried")
+    for c in ("carried", "min_distance", "steps_per_second"):
+        if c in data:
+            data[c] = numeric(sim, c)
+    if "carried" in data and (data["carried"].dropna() % 1 == 0).all():
+        data["carried"] = data["carried"].astype("Int64")  # (a count: "1", not "1.0")
     for c in ("force_jump", "force_rate_jump", "jerk_jump"):
         if c in t:
-            t[c] = [
-                "n/a" if (np.isfinite(k) and k == 0) or not np.isfinite(v) else cell(float(v))
-                for v, k in zip(numeric(sim, c), carried.fillna(1), strict=True)
-            ]
+            jump = numeric(sim, c).where(~(carried == 0))  # (nothing carried: no jump)
+            data[c] = jump
+            t[c] = [cell(float(v)) if np.isfinite(v) else "n/a" for v in jump]
     doc.table(
-        t.rename(
-            columns={
-                "force_jump": "force jump (N)",
-                "force_rate_jump": "force rate jump (N/s)",
-                "jerk_jump": "jerk jump (m/s³)",
-                "min_distance": "min distance (m)",
-            }
-        ),
+        t.rename(columns={c: PHYSICS_COLUMNS[c][0] for c in t.columns if c in PHYSICS_COLUMNS}),
         "MuJoCo simulation of every scene and scheme: jumps of the net constraint force on carried bodies and of its rate at the knots (lines fitted over 8 steps each side; n/a where the scene carries nothing or the recording is shorter than two such windows), the smallest simulated clearance, and for rational motions the certificate; crosscheck_ok is False only if a certified-free motion touched in simulation.",
         "physics",
+        data=data.rename(
+            columns={c: PHYSICS_COLUMNS[c][1] for c in data.columns if c in PHYSICS_COLUMNS}
+        ),
     )
     rate = numeric(sim, "force_rate_jump")
     has = sim[rate.notna() & (rate > 0) & (carried.fillna(1) > 0)]
@@ -728,6 +799,16 @@ def memory_section(doc: Document, df: pd.DataFrame) -> None:
         t,
         "Memory measured per runner case (one journal record; 'measured per' says what that is in each study, so a corpus chunk holds many corpus cases): the peak resident set during the case (the kernel's high-water mark reset before it, 'rss') and its excess over the resident set at the start of the case.",
         "memory",
+        data=t.rename(
+            columns={
+                "measured per": "measured_per",
+                "runner cases measured": "runner_cases",
+                "median added MB": "median_added_mb",
+                "max added MB": "max_added_mb",
+                "max peak resident MB": "max_peak_resident_mb",
+                "method": "memory_method",
+            }
+        ),
     )
 
 
