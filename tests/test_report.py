@@ -647,12 +647,20 @@ def test_corpus_tables_are_named_and_labelled_whole(written):
     md = md_path.read_text()
     tabs = run / "tables"
     summary = pd.read_csv(tabs / "corpus_methods.csv").set_index("method")
-    heap = [c for c in summary.columns if c.startswith("Python-heap")]
+    assert summary.loc["sampled", "python_heap_peak_mb"] == pytest.approx(0.0123456)
+    assert summary.loc["sampled", "wall_ms_median"] == pytest.approx(3.5)
+    assert summary.loc["sampled", "cpu_ms_median"] == pytest.approx(3.15)
+    # the report's table: the heap column's name carries its caveat, its figure two
+    # significant figures (a rough size), times with their unit
+    heading = next(line for line in md.splitlines() if line.startswith("| method | free is"))
+    heap = [c.strip() for c in heading.split("|") if c.strip().startswith("Python-heap")]
     assert len(heap) == 1 and "not Warp" in heap[0]
-    assert summary.loc["sampled", heap[0]] == 0.012  # two significant figures
-    assert summary.loc["sampled", "wall time per query"] == "3.5 ms"
-    assert summary.loc["sampled", "CPU time per query"] == "3.15 ms"
-    assert pd.read_csv(tabs / "corpus_by_class.csv").columns[0] == "class"
+    assert (
+        "| sampled | no | 4/4 | 1/2 | 0/2 | 0/4 | 3.5 ms | 2.75 ms – 4.25 ms | 3.15 ms | 3 | 0.012 |"
+        in md
+    )
+    assert pd.read_csv(tabs / "corpus_by_class.csv").columns[0] == "truth_class"
+    assert "| class | hull | sampled | fcl |" in md
     assert "klass" not in md and "of our research" not in md
     assert "Known FCL hazards" in md
     na = pd.read_csv(tabs / "corpus_not_applicable.csv")

@@ -13,19 +13,17 @@ import math
 import numpy as np
 import pandas as pd
 
+from .data import ratio_text
 from .document import shorten
 
 __all__ = ["corpus_section", "corpus_summary"]
 
 
-def _frac(n: int, d: int) -> str:
-    return f"{n}/{d}" if d else "n/a"
-
-
 def _ms(x: float) -> str:
+    """A time in ms as the tables show it (µs below 1 ms)."""
     if not math.isfinite(x):
         return "–"
-    return f"{x * 1e3:.3g} ms" if x >= 1e-3 else f"{x * 1e6:.3g} µs"
+    return f"{x:.3g} ms" if x >= 1 else f"{x * 1e3:.3g} µs"
 
 
 HEAP = "Python-heap peak per query (MB; not Warp, FCL or ipctk memory)"
@@ -44,75 +42,111 @@ def _heap(mb: float) -> str:
     return f"{mb:.2g}" if math.isfinite(mb) else "–"
 
 
+def _verdicts(app: pd.DataFrame) -> dict[str, int]:
+    """False negatives, false positives and unknowns of the applicable rows `app`, with
+    their denominators."""
+    coll = app[app["truth"] == "collision"]
+    free = app[app["truth"] == "free"]
+    return {
+        "false_negatives": int((coll["verdict"] == "free").sum()),
+        "truth_collision": len(coll),
+        "false_positives": int((free["verdict"] == "collision").sum()),
+        "truth_free": len(free),
+        "unknown": int((app["verdict"] == "unknown").sum()),
+        "cases_applicable": len(app),
+    }
+
+
 def corpus_summary(df: pd.DataFrame) -> pd.DataFrame:
     """One row per method: applicable cases, false negatives / positives and unknowns with
     their denominators, and cost (median over cases of each case's median round, with the
     quartiles over cases), CPU time and Python-heap memory.
 
-    Times are per single query: ``seconds`` is wall time, ``cpu_seconds`` process CPU time;
-    the column names say which."""
+    Columns (the report's ``tables/corpus_methods.csv``): ``method``, ``free_is_proof``,
+    ``cases`` (all), ``cases_applicable``; ``false_negatives`` out of ``truth_collision``,
+    ``false_positives`` out of ``truth_free``, ``unknown`` out of ``cases_applicable``;
+    ``wall_ms_median``, ``wall_ms_q1``, ``wall_ms_q3`` (wall time per single query),
+    ``cpu_ms_median`` (process CPU time), ``rounds_median``, ``python_heap_peak_mb``
+    (NaN where nothing was measured)."""
     rows = []
     for method, g in df.groupby("bound", sort=False):
         app = g[g["verdict"] != "n/a"]
-        coll = app[app["truth"] == "collision"]
-        free = app[app["truth"] == "free"]
-        fn = int((coll["verdict"] == "free").sum())
-        fp = int((free["verdict"] == "collision").sum())
-        unk = int((app["verdict"] == "unknown").sum())
         sec = app["seconds"].astype(float) if len(app) else pd.Series(dtype=float)
         q1, med, q3 = np.nanpercentile(sec, [25, 50, 75]) if sec.notna().any() else (math.nan,) * 3
-        proof = bool(g["proof"].iloc[0]) if "proof" in g else False
         rows.append(
             {
                 "method": method,
-                "free is a proof": "yes" if proof else "no",
-                "cases": f"{len(app)}/{len(g)}",
-                "false negatives": _frac(fn, len(coll)),
-                "false positives": _frac(fp, len(free)),
-                "unknown": _frac(unk, len(app)),
-                "wall time per query": _ms(med),
-                "wall IQR over cases": f"{_ms(q1)} – {_ms(q3)}",
-                "CPU time per query": _ms(_median(app, "cpu_seconds")),
-                "rounds (median)": _median(app, "rounds"),
-                HEAP: _heap(_median(app, "memory_peak_mb")),
-                "_fn": fn,
-                "_fp": fp,
-                "_unk": unk,
-                "_ncoll": len(coll),
-                "_nfree": len(free),
-                "_napp": len(app),
-                "_med": med,
-                "_q1": q1,
-                "_q3": q3,
+                "free_is_proof": bool(g["proof"].iloc[0]) if "proof" in g else False,
+                "cases": len(g),
+                **_verdicts(app),
+                "wall_ms_median": med * 1e3,
+                "wall_ms_q1": q1 * 1e3,
+                "wall_ms_q3": q3 * 1e3,
+                "cpu_ms_median": _median(app, "cpu_seconds") * 1e3,
+                "rounds_median": _median(app, "rounds"),
+                "python_heap_peak_mb": _median(app, "memory_peak_mb"),
             }
         )
     return pd.DataFrame(rows)
 
 
-def _cell(app: pd.DataFrame) -> str:
-    coll = app[app["truth"] == "collision"]
-    free = app[app["truth"] == "free"]
-    fn = int((coll["verdict"] == "free").sum())
-    fp = int((free["verdict"] == "collision").sum())
-    unk = int((app["verdict"] == "unknown").sum())
-    return f"{_frac(fn, len(coll))} · {_frac(fp, len(free))} · {_frac(unk, len(app))}"
+def _summary_display(summary: pd.DataFrame) -> pd.DataFrame:
+    """The corpus summary as the report shows it: counts over their denominators, times
+    with their units."""
+    return pd.DataFrame(
+        {
+            "method": summary["method"],
+            "free is a proof": summary["free_is_proof"].map({True: "yes", False: "no"}),
+            "cases": [
+                f"{a}/{n}"
+                for a, n in zip(summary["cases_applicable"], summary["cases"], strict=True)
+            ],
+            "false negatives": _fracs(summary, "false_negatives", "truth_collision"),
+            "false positives": _fracs(summary, "false_positives", "truth_free"),
+            "unknown": _fracs(summary, "unknown", "cases_applicable"),
+            "wall time per query": summary["wall_ms_median"].map(_ms),
+            "wall IQR over cases": [
+                f"{_ms(a)} – {_ms(b)}"
+                for a, b in zip(summary["wall_ms_q1"], summary["wall_ms_q3"], strict=True)
+            ],
+            "CPU time per query": summary["cpu_ms_median"].map(_ms),
+            "rounds (median)": summary["rounds_median"],
+            HEAP: summary["python_heap_peak_mb"].map(_heap),
+        }
+    )
 
 
-def _by(df: pd.DataFrame, key: str, methods: list) -> pd.DataFrame:
+def _fracs(t: pd.DataFrame, count: str, of: str) -> list[str]:
+    return [ratio_text(int(k), int(n), "n/a") for k, n in zip(t[count], t[of], strict=True)]
+
+
+def _by(df: pd.DataFrame, key: str, methods: list) -> tuple[pd.DataFrame, pd.DataFrame]:
     """A `key` x method table whose cells read "FN/collisions · FP/frees · unknown/cases"
-    over the applicable cases ("–" when the method applies to none)."""
-    out = []
+    over the applicable cases ("–" when the method applies to none), and its numbers: one
+    row per `key` value and method (:func:`_verdicts`; zeros where the method applies to
+    no case)."""
+    shown, numbers = [], []
     for val, g in df.groupby(key, sort=True):
         row = {key: val}
         for m in methods:
             app = g[(g["bound"] == m) & (g["verdict"] != "n/a")]
-            row[m] = _cell(app) if len(app) else "–"
-        out.append(row)
-    return pd.DataFrame(out)
+            v = _verdicts(app)
+            numbers.append({key: val, "method": m, **v})
+            row[m] = (
+                f"{ratio_text(v['false_negatives'], v['truth_collision'], 'n/a')}"
+                f" · {ratio_text(v['false_positives'], v['truth_free'], 'n/a')}"
+                f" · {ratio_text(v['unknown'], v['cases_applicable'], 'n/a')}"
+                if len(app)
+                else "–"
+            )
+        shown.append(row)
+    return pd.DataFrame(shown), pd.DataFrame(numbers)
 
 
-def _na_reasons(na: pd.DataFrame) -> pd.DataFrame:
-    """n/a answers per method, by reason (interval times and numbers folded)."""
+def _na_reasons(na: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """n/a answers per method, by reason (interval times and numbers folded): a reason x
+    method table, and its numbers one row per reason and method (``reason``, ``method``,
+    ``cases``)."""
     reason = (
         na["reason"]
         .str.replace(r"\[[^\]]*\]", "[…]", regex=True)
@@ -122,7 +156,9 @@ def _na_reasons(na: pd.DataFrame) -> pd.DataFrame:
     table = na.assign(reason=reason).pivot_table(
         index="reason", columns="bound", values="keyframes", aggfunc="count", fill_value=0
     )
-    return table.reset_index()
+    wide = table.rename_axis(columns=None).reset_index()
+    long = wide.melt(id_vars="reason", var_name="method", value_name="cases")
+    return wide, long.astype({"cases": int})
 
 
 def corpus_section(doc, df: pd.DataFrame, plt) -> None:
@@ -142,7 +178,7 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
     )
     summary = corpus_summary(cor)
     doc.table(
-        summary[[c for c in summary.columns if not c.startswith("_")]],
+        _summary_display(summary),
         "Per method: applicable cases / all cases; false negatives / applicable collision cases; false"
         " positives / applicable free cases; unknown / applicable. Wall time per query: median over cases"
         " of each case's median wall time over timed rounds (interleaved A B A B, single queries, warm"
@@ -155,40 +191,49 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
         " icosphere hulls within the tolerance, so its false positives are near passes (see the"
         " grazing class below); harness/comparators/ipctk.py gives its settings.",
         "corpus_methods",
+        data=summary,
     )
     methods = list(summary["method"])
     cell = "cells: false negatives/collision cases · false positives/free cases · unknown/cases"
+    shown, numbers = _by(cor, "klass", methods)
     doc.table(
-        _by(cor, "klass", methods).rename(columns={"klass": "class"}),
+        shown.rename(columns={"klass": "class"}),
         f"Per truth class (grazing: |distance| < 1 mm, either verdict) and method; {cell}.",
         "corpus_by_class",
+        data=numbers.rename(columns={"klass": "truth_class"}),
     )
+    shown, numbers = _by(cor, "scene", methods)
     doc.table(
-        _by(cor, "scene", methods).rename(columns={"scene": "family"}),
+        shown.rename(columns={"scene": "family"}),
         f"Per family and method; {cell}.",
         "corpus_by_family",
+        data=numbers.rename(columns={"scene": "family"}),
     )
     na = cor[cor["verdict"] == "n/a"]
     if len(na):
+        shown, numbers = _na_reasons(na)
         doc.table(
-            _na_reasons(na),
+            shown,
             "Cases each method answered n/a, by reason: it does not approximate a motion it"
             " cannot represent.",
             "corpus_not_applicable",
+            data=numbers,
         )
     if "tags" in cor:
         tagged = cor.assign(tag=cor["tags"].fillna("").str.split(",")).explode("tag")
         tagged = tagged[tagged["tag"].str.startswith("fcl:")]
         fcl = [m for m in methods if m.startswith("fcl")]
         if len(tagged) and fcl:
+            shown, numbers = _by(tagged, "tag", fcl)
             doc.table(
-                _by(tagged, "tag", fcl),
+                shown,
                 "Known FCL hazards (found while building the corpus), per solver setting:"
                 " fcl (GST_INDEP, pure"
                 " translations as TRANS), fcl-libccd (python-fcl's default solver), fcl-screw"
                 " (FCL's SCREW on pure translations: moves |Δp| times too far), fcl-linear"
                 f" (FCL's LINEAR with its uninitialised reference point); {cell}.",
                 "corpus_fcl_hazards",
+                data=numbers,
             )
     samp = cor[(cor["bound"] == "sampled") & (cor["truth"] == "collision")]
     if len(samp) and "sampling_step" in samp:
@@ -207,25 +252,19 @@ def _figure(doc, summary: pd.DataFrame, cor: pd.DataFrame, plt) -> None:
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2))
     x = np.arange(len(summary))
     width = 0.27
-    for j, (key, den, label) in enumerate(
-        (
-            ("_fn", "_ncoll", "false negatives"),
-            ("_fp", "_nfree", "false positives"),
-            ("_unk", "_napp", "unknown"),
-        )
-    ):
+    kinds = (
+        ("false_negatives", "truth_collision", "false negatives"),
+        ("false_positives", "truth_free", "false positives"),
+        ("unknown", "cases_applicable", "unknown"),
+    )
+    for j, (key, den, label) in enumerate(kinds):
         rate = [r[key] / r[den] if r[den] else np.nan for _, r in summary.iterrows()]
         bars = ax1.bar(x + (j - 1) * width, rate, width, label=label)
         for b, (_, r) in zip(bars, summary.iterrows(), strict=True):
             if r[den]:
                 ax1.annotate(f"{r[key]}/{r[den]}", (b.get_x() + b.get_width() / 2, b.get_height()),
                              ha="center", va="bottom", fontsize=6, rotation=90)  # fmt: skip
-    rates = [
-        r[k] / r[d]
-        for _, r in summary.iterrows()
-        for k, d in (("_fn", "_ncoll"), ("_fp", "_nfree"), ("_unk", "_napp"))
-        if r[d]
-    ]
+    rates = [r[k] / r[d] for _, r in summary.iterrows() for k, d, _ in kinds if r[d]]
     ax1.set_ylim(0, 1.3 * max([*rates, 0.05]))  # room for the count labels
     ax1.set_xticks(x, summary["method"], rotation=45, ha="right")
     ax1.set_xlabel("method")

@@ -209,8 +209,9 @@ def first_repeat(df: pd.DataFrame) -> pd.DataFrame:
     return df[pd.to_numeric(df["repeat"], errors="coerce").fillna(0) == 0]
 
 
-def ratio_text(k: int, n: int) -> str:
-    return f"{k}/{n}" if n else "n/a (0 rows)"
+def ratio_text(k: int, n: int, empty: str = "n/a (0 rows)") -> str:
+    """``k/n`` as the tables show a count out of its denominator, `empty` when `n` is 0."""
+    return f"{k}/{n}" if n else empty
 
 
 def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]:
@@ -330,16 +331,20 @@ def _corpus_headline(df: pd.DataFrame) -> list[dict[str, str]]:
     cases = cor["keyframes"].nunique() if "keyframes" in cor else len(cor)
     out = []
     for _, r in corpus_summary(cor).iterrows():
-        claim = "free is a proof" if r["free is a proof"] == "yes" else "free is its own claim"
+        claim = "free is a proof" if r["free_is_proof"] else "free is its own claim"
         m = METHODS.get(str(r["method"]))
         if m is not None and not m.repeatable:
             claim += "; undefined behaviour: its answers vary between runs of the same code"
+        fn = ratio_text(r["false_negatives"], r["truth_collision"], "n/a")
+        fp = ratio_text(r["false_positives"], r["truth_free"], "n/a")
+        unk = ratio_text(r["unknown"], r["cases_applicable"], "n/a")
+        med, q1, q3 = (r[f"wall_ms_{k}"] * 1e-3 for k in ("median", "q1", "q3"))
         out.append(
             dict(
                 figure=f"corpus verdicts of {r['method']}",
-                value=f"false negatives {r['false negatives']}, false positives {r['false positives']}, unknown {r['unknown']}",
-                spread=f"{fmt_time(r['_med'])} wall per query (median; IQR over cases {span(r['_q1'], r['_q3'])})",
-                basis=f"{r['_napp']} of {cases} corpus cases applicable ({claim}); false negatives out of applicable collision cases, false positives out of applicable free cases",
+                value=f"false negatives {fn}, false positives {fp}, unknown {unk}",
+                spread=f"{fmt_time(med)} wall per query (median; IQR over cases {span(q1, q3)})",
+                basis=f"{r['cases_applicable']} of {cases} corpus cases applicable ({claim}); false negatives out of applicable collision cases, false positives out of applicable free cases",
             )
         )
     return out
