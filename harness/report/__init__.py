@@ -31,7 +31,14 @@ from ..errors import HarnessError
 from ..run.journal import OutputLock, atomic_json
 from .avoid import repair_section
 from .corpus import corpus_section
-from .data import format_headline, headline, pooled_studies, scaling_slopes
+from .data import (
+    format_headline,
+    headline,
+    headline_lines,
+    headline_numbers,
+    pooled_studies,
+    scaling_slopes,
+)
 from .document import Document, latex_table, pyplot
 from .sections import (
     cache_text,
@@ -226,13 +233,14 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
             " workload study has its own section; the other tables pool them. Tell them apart"
             " by the `study_index` column of results.parquet, or run them as separate suites."
         )
-    rows = headline(df, meta)
+    lines = headline_lines(df, meta)
     doc.h("Headline")
-    if rows:
+    if lines:
         doc.table(
-            pd.DataFrame(rows),
+            pd.DataFrame([line.text() for line in lines]),
             "The headline figures with their spread and what they were compared against.",
             "headline",
+            data=headline_numbers(lines),
         )
     else:
         doc.p("(This run has no certify, workload, corpus or repair study: no headline figures.)")

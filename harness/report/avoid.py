@@ -168,8 +168,9 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
     if not len(rep):
         return
     doc.h("Collision avoidance: certified repair against sampling-based repair")
+    summary = _summary(rep)
     doc.table(
-        _summary(rep),
+        summary,
         "Per scene (the seeded colliding motions, or a scene's keyframe motion), tolerance,"
         " requested clearance and method:"
         " repairable means every keyframe pose keeps clearance + 2 tolerances, the repair's margin"
@@ -190,6 +191,7 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
         " poses pushed off the contacts its grid finds (a baseline of the usual sampling"
         " practice, not an optimiser), so its path can move far and still collide.",
         "repair_summary",
+        data=summary.rename(columns={"tolerance": "tolerance_m", "clearance": "clearance_m"}),
     )
     ex = _example(rep)
     if ex is not None:
