@@ -265,8 +265,17 @@ class Document:
                 scenes, verdicts) as text. Its rows need not be `df`'s (a method × class
                 grid can be written one row per cell). Default: `df` itself, for a table
                 whose cells are already such numbers and text.
+
+        Raises:
+            ValueError: a CSV column name is not snake_case.
         """
         csv = (df if data is None else data).reset_index(drop=True)
+        bad = [c for c in csv.columns if not re.fullmatch(r"[a-z][a-z0-9_]*", str(c))]
+        if bad:
+            raise ValueError(
+                f"Expected the CSV columns of table {caption[:40]!r} (`data`, or `df` without"
+                f" it) to be snake_case names with units, got {bad}."
+            )
         name = self._unique("table:" + slug(name or caption)).split(":", 1)[1]
         df = df.reset_index(drop=True)
         csv.to_csv(self.tabs / f"{name}.csv", index=False)
