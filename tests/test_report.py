@@ -353,6 +353,62 @@ def test_scaling_marks_censored_data_and_fits_only_measured_series(written):
     assert t.loc["uniform sampling", "basis"] == "measured"
     fig = next(f for n, f, _ in figures if n == "scaling")
     assert "mm" in fig.axes[0].get_xlabel()
+    # two resolutions: a slope but no interval
+    ci = ["fitted_slope_ci95_lo", "fitted_slope_ci95_hi"]
+    assert t[ci].isna().all().all()
+    assert "95% CI of the fit" in (run / "report.md").read_text()
+
+
+def test_scaling_table_gives_the_fit_interval(tmp_path):
+    from harness.report.document import pyplot
+    from harness.report.sections import scaling_section
+
+    # three resolutions: an exact power law (interval of width 0), a bent series (an
+    # interval around its slope), a censored one (none)
+    rows = [
+        dict(study="scaling", method=m, delta=d, cost=c, censored=cens, verdicts="free")
+        for d in (1e-3, 1e-2, 1e-1)
+        for m, c, cens in (
+            ("uniform sampling", 10 / d, False),
+            ("adaptive subdivision (hull)", 16.0 + 8 * (d < 5e-3), False),
+            ("uniform subdivision (aabb)", 2e4, True),
+        )
+    ]
+    doc = Document(tmp_path)
+    scaling_section(doc, pd.DataFrame(rows), pyplot())
+    t = pd.read_csv(tmp_path / "tables" / "scaling_slopes.csv").set_index("method")
+    ci = ["fitted_slope_ci95_lo", "fitted_slope_ci95_hi"]
+    np.testing.assert_allclose(t.loc["uniform sampling", ci], -1.0, atol=1e-9)
+    lo, hi = t.loc["adaptive subdivision (hull)", ci]
+    assert lo < t.loc["adaptive subdivision (hull)", "fitted_slope"] < hi
+    assert t.loc["uniform subdivision (aabb)", ci].isna().all()
+    shown = "\n".join(doc.md)
+    assert "-1 to -1" in shown or "−1 to −1" in shown, shown
+
+
+def test_slope_interval_from_the_residuals():
+    from harness.report import slope_intervals
+
+    # log cost = -0.5 log delta + e with residuals e = (+r, -2r, +r) at log deltas -1, 0, 1
+    # (they sum to 0 and are orthogonal to x, so the slope stays -0.5): SSE = 6 r^2,
+    # Sxx = 2, standard error sqrt(6 r^2 / 1 / 2) = sqrt(3) r; t(0.975, 1 dof) = 12.7062047
+    r = 0.01
+    x = np.array([-1.0, 0.0, 1.0])
+    y = -0.5 * x + np.array([r, -2 * r, r])
+    sc = pd.DataFrame({"method": "m", "delta": np.exp(x), "cost": np.exp(y)})
+    lo, hi = slope_intervals(sc)["m"]
+    half = 12.706204736174707 * np.sqrt(3) * r
+    np.testing.assert_allclose([lo, hi], [-0.5 - half, -0.5 + half], rtol=1e-9)
+    # four points: 2 dof, t = 4.30265273
+    x4 = np.array([-1.5, -0.5, 0.5, 1.5])
+    e4 = np.array([r, -r, -r, r])  # orthogonal to 1 and x: slope stays -0.5
+    sc4 = pd.DataFrame({"method": "m", "delta": np.exp(x4), "cost": np.exp(-0.5 * x4 + e4)})
+    lo, hi = slope_intervals(sc4)["m"]
+    half = 4.302652729911275 * np.sqrt(4 * r * r / 2 / 5.0)
+    np.testing.assert_allclose([lo, hi], [-0.5 - half, -0.5 + half], rtol=1e-9)
+    # two resolutions: a slope but no interval
+    lo, hi = slope_intervals(sc.iloc[:2])["m"]
+    assert np.isnan(lo) and np.isnan(hi)
 
 
 def test_tables_per_scene_and_tolerance_with_csv_and_latex(written):

@@ -38,6 +38,7 @@ from .data import (
     headline_numbers,
     pooled_studies,
     scaling_slopes,
+    slope_intervals,
 )
 from .document import Document, latex_table, pyplot
 from .sections import (
@@ -62,6 +63,7 @@ __all__ = [
     "headline",
     "latex_table",
     "scaling_slopes",
+    "slope_intervals",
     "write_report",
 ]
 

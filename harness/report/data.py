@@ -35,6 +35,7 @@ __all__ = [
     "rounds_of",
     "scaling_slopes",
     "series_basis",
+    "slope_intervals",
     "study_rows",
     "timing_rows",
     "us_span",
@@ -608,6 +609,28 @@ def scaling_slopes(sc: pd.DataFrame) -> dict[str, float]:
         g = g[pd.to_numeric(g["cost"], errors="coerce") > 0]
         if len(g) >= 2 and g["delta"].nunique() >= 2:
             out[method] = float(np.polyfit(np.log(g["delta"]), np.log(g["cost"]), 1)[0])
+    return out
+
+
+def slope_intervals(sc: pd.DataFrame, level: float = 0.95) -> dict[str, tuple[float, float]]:
+    """Confidence interval of each method's fitted slope (:func:`scaling_slopes`): the
+    least-squares slope ± the t quantile (n - 2 degrees of freedom) times its standard
+    error from the residuals. The costs are counts, not noisy timings: the interval says
+    how well one power law fits the points (it is 0 wide for an exact power law), and
+    needs 3 points at 3 resolutions; NaN otherwise."""
+    from scipy import stats
+
+    out = {}
+    for method, g in sc.groupby("method"):
+        g = g[pd.to_numeric(g["cost"], errors="coerce") > 0]
+        if len(g) >= 3 and g["delta"].nunique() >= 3:
+            fit = stats.linregress(
+                np.log(g["delta"].to_numpy(float)), np.log(g["cost"].to_numpy(float))
+            )
+            half = float(stats.t.ppf(0.5 + level / 2, len(g) - 2)) * float(fit.stderr)
+            out[method] = (float(fit.slope) - half, float(fit.slope) + half)
+        else:
+            out[method] = (math.nan, math.nan)
     return out
 
 

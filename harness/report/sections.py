@@ -23,6 +23,7 @@ from .data import (
     ratio_text,
     scaling_slopes,
     series_basis,
+    slope_intervals,
     study_rows,
     us_span,
     workload_costs,
@@ -538,6 +539,7 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
         return
     doc.h("Cost against resolution")
     slopes = scaling_slopes(sc)
+    intervals = slope_intervals(sc)
     fig, ax = plt.subplots(figsize=(6, 4))
     table = []
     kinds: dict[str, str] = {}
@@ -556,10 +558,15 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
         if cens.any():
             ax.loglog(d_mm[cens], cost[cens], "^", mfc="none", color=line.get_color())
         slope = slopes.get(method, math.nan)
+        lo, hi = (
+            intervals.get(method, (math.nan, math.nan)) if basis == "measured" else (math.nan,) * 2
+        )
         table.append(
             {
                 "method": method,
                 "fitted slope": slope if basis == "measured" else math.nan,
+                "fitted_slope_ci95_lo": lo,
+                "fitted_slope_ci95_hi": hi,
                 "slope of the plotted values": slope,
                 "basis": basis,
                 "points": len(g),
@@ -593,9 +600,20 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
         )
     doc.figure(fig, "scaling", "".join(caption) + ".")
     table = pd.DataFrame(table)
+    shown = table.drop(columns=["fitted_slope_ci95_lo", "fitted_slope_ci95_hi"])
+    shown.insert(
+        2,
+        "95% CI of the fit",
+        [
+            f"{cell(a)} to {cell(b)}" if np.isfinite(a) and np.isfinite(b) else "n/a"
+            for a, b in zip(
+                table["fitted_slope_ci95_lo"], table["fitted_slope_ci95_hi"], strict=True
+            )
+        ],
+    )
     doc.table(
-        table,
-        "Slopes of log cost on log δ. A fitted slope is given only for measured, uncensored series; the slope of a formula or of censored values is shown apart and is not a measurement.",
+        shown,
+        "Slopes of log cost on log δ. A fitted slope is given only for measured, uncensored series; the slope of a formula or of censored values is shown apart and is not a measurement. The costs are counts, not timings: the least-squares interval (t with points − 2 degrees of freedom; 3 points at least) says how well one power law fits the points, not a measurement's noise.",
         "scaling_slopes",
         data=table.rename(
             columns={"fitted slope": "fitted_slope", "slope of the plotted values": "plotted_slope"}
