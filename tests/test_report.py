@@ -932,6 +932,26 @@ def test_two_workload_tolerances_are_not_pooled():
     # one workload: the lines keep their plain names
     plain = [r["figure"] for r in headline(df) if r["figure"].startswith("workload verdicts")]
     assert "workload verdicts of hull" in plain
+    # the cost lines and headline.csv keep them apart too: each figure once, naming its
+    # workload and tolerance (a pivot of the CSV's rows had duplicate entries)
+    from harness.report import headline_lines, headline_numbers
+
+    nums = headline_numbers(headline_lines(both))
+    assert not nums.duplicated(["figure", "quantity"]).any()
+    cost = nums[nums["figure"].str.startswith("hull cost per pair, batch")]
+    assert set(cost["figure"]) == {
+        "hull cost per pair, batch (one certify_many call) (workload-0 at tolerance 1 mm)",
+        "hull cost per pair, batch (one certify_many call) (workload-0 at tolerance 10 mm)",
+    }
+    tol = nums[nums["quantity"] == "tolerance_mm"].groupby("figure")["value"].first()
+    for figure, mm in tol.items():
+        if "(workload-0 at tolerance" in figure:
+            assert f"tolerance {mm:g} mm" in figure, figure
+    one = headline_numbers(headline_lines(df))["figure"]
+    assert "hull cost per pair, batch (one certify_many call)" in set(one)
+    lines = headline_lines(df)
+    with pytest.raises(ValueError, match="each headline figure once"):
+        headline_numbers(lines + lines[:1])
 
 
 def test_latex_tables_are_ascii(written):

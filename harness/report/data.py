@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -253,6 +254,10 @@ def headline_numbers(lines: list[HeadlineLine]) -> pd.DataFrame:
     ``figure``, ``quantity``, ``value``): the figures differ in what they count, so a wide
     table would be mostly empty. ``value`` is numeric; a quantity's name carries its unit."""
     rows = [(line.figure, q, v) for line in lines for q, v in line.numbers.items()]
+    seen = Counter((f, q) for f, q, _ in rows)
+    twice = sorted(k for k, n in seen.items() if n > 1)
+    if twice:  # (the lines' own invariant: each figure names what it is about)
+        raise ValueError(f"Expected each headline figure once, got {twice[:3]} more than once.")
     figure, quantity, value = zip(*rows, strict=True) if rows else ((), (), ())
     # (object, not float: counts are written "3", not "3.0"; pandas reads both as numbers)
     return pd.DataFrame(
@@ -530,17 +535,21 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
         "single": "single queries (one call per pair)",
     }
     undecided = _workload_unknowns(wl)
+    several = len(costs.groupby(["workload", "tolerance"], sort=False)) > 1
     for (name, tol, mode), g in costs.groupby(["workload", "tolerance", "mode"], sort=False):
         hull = g[g["method"] == "hull"]
         if not len(hull):
             continue
         h = hull.iloc[0]
         work = f"{name}: {int(h['pairs'])} pairs, tolerance {tol * 1e3:g} mm; {machine}"
+        # (several workloads or tolerances: each figure names its own, as the verdict
+        # lines do, so that no two lines, nor two rows of headline.csv, read alike)
+        which = f" ({name} at tolerance {tol * 1e3:g} mm)" if several else ""
         timed = ("cpu_us_per_pair", "wall_us_per_pair", "cpu_us_q1", "cpu_us_q3",
                  "cpu_us_ci95_lo", "cpu_us_ci95_hi")  # fmt: skip
         out.append(
             HeadlineLine(
-                figure=f"hull cost per pair, {what.get(mode, mode)}",
+                figure=f"hull cost per pair, {what.get(mode, mode)}{which}",
                 value=f"{fmt_time(h['cpu_us_per_pair'] * 1e-6)} CPU ({fmt_time(h['wall_us_per_pair'] * 1e-6)} wall)",
                 spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, 95% CI {us_span(h['cpu_us_ci95_lo'], h['cpu_us_ci95_hi'])}, {h['rounds']} rounds",
                 basis=work,
@@ -559,6 +568,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
             ext = " (external)" if str(o["implementation"]).startswith(EXTERNAL_PREFIX) else ""
             unknown = ""
             numbers = {
+                "tolerance_mm": float(tol) * 1e3,
                 "cost_ratio": float(ratio),
                 "cost_ratio_ci95_lo": float(lo),
                 "cost_ratio_ci95_hi": float(hi),
@@ -575,7 +585,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                     unknown = f"; {o['method']} answered unknown on {u[0]}/{u[1]} pairs, the hull on {hu[0]}/{hu[1]}"
             out.append(
                 HeadlineLine(
-                    figure=f"cost of {o['method']}{ext} / cost of hull, {mode}",
+                    figure=f"cost of {o['method']}{ext} / cost of hull, {mode}{which}",
                     value=f"{ratio:.3g}× ({cheaper_text(lo, hi)}{unknown})",
                     spread=f"95% CI {lo:.3g}–{hi:.3g}×; {o['method']} {fmt_time(o['cpu_us_per_pair'] * 1e-6)} CPU per pair ({o['implementation']})",
                     basis=f"median CPU time per pair of {o['method']} / that of the hull, same pairs and tolerance; 'hull cheaper' only when the 95% CI lies above 1. {work}",
