@@ -140,9 +140,25 @@ def test_false_collisions_gated_query_by_query(tmp_path):
     res = compare(base, swapped)
     assert res.exit_code == 1
     (line,) = [r for r in res.regressions if "false collisions" in r]
-    assert "in 1 query" in line and "hull" in line, line
+    assert "in 1 query " in line and "hull" in line, line
+    case_id = next(
+        r["case_id"] for r in _rows(np.random.default_rng(6)) if r["case_id"] == "hull-2"
+    )
+    assert f"case_id {case_id}" in line, line  # (which query: not only its scene/scheme/bound)
     assert res.accuracy["false_collisions"] == [1, 1]
+    assert res.accuracy["new_false_collisions"] == 1
     assert compare(base, swapped, fp_threshold=1).exit_code == 0
+    # many: each named up to MAX_LISTED, the rest counted
+    from harness.compare.runs import MAX_LISTED
+
+    ids = sorted({r["case_id"] for r in _rows(np.random.default_rng(6))} - {"hull-1"})
+    many = _run(tmp_path / "many", _rows(np.random.default_rng(6), **dict.fromkeys(ids, fp)))
+    (line,) = [r for r in compare(base, many).regressions if "false collisions" in r]
+    assert f"in {len(ids)} queries" in line, line
+    named = [i for i in ids if f"case_id {i}" in line]
+    assert len(named) == min(MAX_LISTED, len(ids)), line
+    if len(ids) > MAX_LISTED:
+        assert line.endswith(f"and {len(ids) - MAX_LISTED} more"), line
     # the base's false collision gone and no new one: no regression
     clean = _run(tmp_path / "clean", _rows(np.random.default_rng(6)))
     assert compare(base, clean).exit_code == 0

@@ -283,11 +283,20 @@ def _flag(df: pd.DataFrame, col: str) -> pd.Series:
 
 
 def _where(r: pd.Series) -> str:
-    bits = [
-        f"{k} {_as_written(r.get(k))}"
-        for k in ("pair",)
-        if r.get(k) is not None and not _isnan(r.get(k))
-    ]
+    """The query a row is: scene/scheme/bound, then what tells it from the scene's other
+    queries (its keyframe set, tolerance, pair, corpus or repair case, case id)."""
+
+    def given(k: str) -> bool:
+        return r.get(k) is not None and not _isnan(r.get(k)) and str(r.get(k)) != ""
+
+    bits = []
+    if given("keyframes") and r.get("keyframes") != r.get("scene"):
+        bits.append(f"keyframes {r.get('keyframes')}")
+    if given("tolerance"):
+        bits.append(f"tolerance {float(r.get('tolerance')) * 1e3:g} mm")
+    bits += [f"{k} {_as_written(r.get(k))}" for k in ("pair", "case") if given(k)]
+    if given("case_id"):
+        bits.append(f"case_id {r.get('case_id')}")
     scene = r.get("scene")
     return f"{scene}/{r.get('scheme')}/{r.get('bound')}" + (f" ({', '.join(bits)})" if bits else "")
 
@@ -345,6 +354,7 @@ def _run_accuracy(
     # query by query, as false frees are: a query that became a false collision is not
     # offset by another that stopped being one
     became = bi.index[(fpn_rows & ~fpb_rows).to_numpy()]
+    out.accuracy["new_false_collisions"] = len(became)
     if len(became) > fp_threshold:
         where = "; ".join(_where(ni.loc[key]) for key in became[:MAX_LISTED])
         more = f" and {len(became) - MAX_LISTED} more" if len(became) > MAX_LISTED else ""
