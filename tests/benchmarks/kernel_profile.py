@@ -19,6 +19,7 @@ Samples from the kernel's first launch (Warp loading it) are a negligible share.
 from __future__ import annotations
 
 import argparse
+import bisect
 import collections
 import json
 import re
@@ -73,15 +74,38 @@ def _python_line(cpp: list[str], line: int) -> str:
     return "(no source line)"
 
 
-def _frames(chain: list[str]) -> tuple[list[str], int | None]:
-    """(wp.funcs inlined, innermost first; the kernel's C++ line) from one address's
-    ``addr2line -f -i`` output, pairs of (function, file:line) where each pair's
-    function is the one the previous pair's location was inlined into."""
-    names = [chain[i] for i in range(2, len(chain), 2)]
-    funcs = [n.removesuffix("_0") for n in names if n.endswith("_0")]
-    last = chain[-1].rsplit(":", 1)
-    line = int(last[1].split()[0]) if len(last) == 2 and last[1].split()[0].isdigit() else None
-    return funcs, line
+def _definitions(cpp: list[str]) -> list[tuple[int, str]]:
+    """(first line, name) of every function the generated C++ defines at its left margin,
+    in order (a wp.func ``f`` is ``f_0``, the kernel ``NAME_HASH_cpu_kernel_forward``)."""
+    out = []
+    for i, line in enumerate(cpp, start=1):
+        m = re.match(r"(?:static|template|WP_API|void)[^(/]*?\b(\w+)\s*(?:<[^(]*>)?\(", line)
+        if m:
+            out.append((i, m.group(1)))
+    return out
+
+
+def _frames(chain: list[str], defs: list[tuple[int, str]]) -> tuple[list[str], int | None]:
+    """(the wp.funcs inlined at one address, innermost first; the kernel's C++ line) from
+    its ``addr2line -i`` output: each generated-C++ location of the chain is placed in the
+    function that encloses it (the printed function names are not relied on: with line
+    tables only, addr2line names the innermost scope by the outer symbol)."""
+    lines = []
+    for loc in chain[1::2]:
+        file, _, num = loc.rpartition(":")
+        num = num.split()[0] if num else ""
+        if file.endswith(".cpp") and num.isdigit():
+            lines.append(int(num))
+    if not lines:
+        return [], None
+    starts = [d[0] for d in defs]
+    funcs = []
+    for ln in lines:
+        k = bisect.bisect_right(starts, ln) - 1
+        name = defs[k][1] if k >= 0 else ""
+        if name.endswith("_0") and (not funcs or funcs[-1] != name[:-2]):
+            funcs.append(name[:-2])
+    return funcs, lines[-1]
 
 
 def main() -> None:
@@ -110,6 +134,7 @@ def main() -> None:
         ).stdout  # fmt: skip
     obj = Path(info["binary"])  # the object file Warp loaded, its C++ source beside it
     cpp = next(obj.parent.glob("*.cpp")).read_text().split("\n")
+    defs = _definitions(cpp)
     symbols = subprocess.run(["nm", "-S", str(obj)], capture_output=True, text=True).stdout
     entry_offset = next(
         int(f[0], 16) for f in map(str.split, symbols.splitlines()) if f[-1] == info["entry"]
@@ -140,10 +165,12 @@ def main() -> None:
     by_func: collections.Counter = collections.Counter()
     by_path: collections.Counter = collections.Counter()
     in_kernel = 0
+    unplaced = 0
     for off in addresses:
         n = offsets[off]
-        funcs, line = _frames(chains.get(off, []))
-        if line is None:
+        funcs, line = _frames(chains.get(off, []), defs)
+        if line is None:  # (no line: outside the kernel's code, or `??`)
+            unplaced += n
             continue
         in_kernel += n
         by_line[_python_line(cpp, line)] += n
@@ -156,7 +183,8 @@ def main() -> None:
             print(f"  {100 * n / in_kernel:5.1f} %  {key}")
 
     print(
-        f"{in_kernel} samples in the kernel of {total} in the process;"
+        f"{in_kernel} samples in the kernel of {total} in the process ({unplaced} more in"
+        " JIT-loaded code without a line);"
         f" {info['ms_per_launch']:.2f} ms CPU per launch (line-table build)"
     )
     show("by the kernel's line (outermost frame):", by_line, 25)
