@@ -409,6 +409,13 @@ def test_slope_interval_from_the_residuals():
     # two resolutions: a slope but no interval
     lo, hi = slope_intervals(sc.iloc[:2])["m"]
     assert np.isnan(lo) and np.isnan(hi)
+    # bad input: named errors, not pandas' or scipy's
+    with pytest.raises(ValueError, match="`level` in \\(0, 1\\)"):
+        slope_intervals(sc, level=95)
+    with pytest.raises(ValueError, match="missing \\['cost'\\]"):
+        slope_intervals(sc.drop(columns=["cost"]))
+    with pytest.raises(ValueError, match="positive resolutions"):
+        slope_intervals(sc.assign(delta=[0.0, 1.0, 2.0]))
 
 
 def test_tables_per_scene_and_tolerance_with_csv_and_latex(written):

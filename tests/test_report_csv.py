@@ -329,3 +329,10 @@ def test_a_table_refuses_csv_columns_that_are_not_snake_case(tmp_path):
         "false_free,truth_collision\n1,2\n"
     )
     assert "| 1/2 |" in doc.md[-1]  # (the reader's cell)
+    # a column twice, or `data` not a frame: named errors before anything is written
+    twice = pd.DataFrame([[1, 2]], columns=["n", "n"])
+    with pytest.raises(ValueError, match=r"\['n'\] more than once"):
+        doc.table(shown, "another table", data=twice)
+    with pytest.raises(TypeError, match="`data` to be a pandas DataFrame, got dict"):
+        doc.table(shown, "another table", data={"false_free": [1]})
+    assert not (tmp_path / "tables" / "another_table.csv").exists()

@@ -611,36 +611,66 @@ def format_headline(rows: list[dict[str, str]]) -> list[str]:
     return [f"{r['figure']}: {r['value']} ({r['spread']}; {r['basis']})" for r in rows]
 
 
-def scaling_slopes(sc: pd.DataFrame) -> dict[str, float]:
-    """Fitted slope of log cost on log δ per method (censored series included: see
-    :func:`_slope_table` for how the report labels them)."""
+def _loglog_fits(sc: pd.DataFrame) -> dict[str, Any]:
+    """Least-squares fits of log cost on log δ per method, over the points with a positive
+    cost (``scipy.stats.linregress``: slope and its standard error), for the methods with
+    two resolutions at least; with the number of points."""
+    from scipy import stats
+
+    if not isinstance(sc, pd.DataFrame):
+        raise TypeError(f"Expected scaling rows as a pandas DataFrame, got {type(sc).__name__}.")
+    missing = [c for c in ("method", "delta", "cost") if c not in sc]
+    if missing:
+        raise ValueError(
+            f"Expected scaling rows with columns method, delta, cost; missing {missing}."
+        )
     out = {}
     for method, g in sc.groupby("method"):
-        g = g[pd.to_numeric(g["cost"], errors="coerce") > 0]
-        if len(g) >= 2 and g["delta"].nunique() >= 2:
-            out[method] = float(np.polyfit(np.log(g["delta"]), np.log(g["cost"]), 1)[0])
+        cost = pd.to_numeric(g["cost"], errors="coerce")
+        delta = pd.to_numeric(g["delta"], errors="coerce")
+        keep = cost > 0
+        if (delta[keep] <= 0).any() or delta[keep].isna().any():
+            raise ValueError(
+                f"Expected positive resolutions δ of method {method!r}, got"
+                f" {sorted(delta[keep][~(delta[keep] > 0)].tolist())[:3]}."
+            )
+        if keep.sum() >= 2 and delta[keep].nunique() >= 2:
+            fit = stats.linregress(
+                np.log(delta[keep].to_numpy(float)), np.log(cost[keep].to_numpy(float))
+            )
+            out[method] = (fit, int(keep.sum()), int(delta[keep].nunique()))
     return out
 
 
+def scaling_slopes(sc: pd.DataFrame) -> dict[str, float]:
+    """Fitted slope of log cost on log δ per method (censored series included: see
+    :func:`_slope_table` for how the report labels them)."""
+    return {method: float(fit.slope) for method, (fit, _n, _d) in _loglog_fits(sc).items()}
+
+
 def slope_intervals(sc: pd.DataFrame, level: float = 0.95) -> dict[str, tuple[float, float]]:
-    """Confidence interval of each method's fitted slope (:func:`scaling_slopes`): the
-    least-squares slope ± the t quantile (n - 2 degrees of freedom) times its standard
-    error from the residuals. The costs are counts, not noisy timings: the interval says
-    how well one power law fits the points (it is 0 wide for an exact power law), and
-    needs 3 points at 3 resolutions; NaN otherwise."""
+    """Confidence interval at `level` of each method's fitted slope
+    (:func:`scaling_slopes`): the least-squares slope ± the t quantile (n - 2 degrees of
+    freedom) times its standard error from the residuals. The costs are counts, not noisy
+    timings: the interval says how well one power law fits the points (it is 0 wide for
+    an exact power law), and needs 3 points at 3 resolutions; NaN otherwise.
+
+    Raises:
+        ValueError: `level` not in (0, 1), a column missing, a resolution δ not positive.
+    """
     from scipy import stats
 
+    if not isinstance(level, float | int) or not 0 < level < 1:
+        raise ValueError(f"Expected `level` in (0, 1) (0.95 for 95 %), got {level!r}.")
+    fits = _loglog_fits(sc)
     out = {}
-    for method, g in sc.groupby("method"):
-        g = g[pd.to_numeric(g["cost"], errors="coerce") > 0]
-        if len(g) >= 3 and g["delta"].nunique() >= 3:
-            fit = stats.linregress(
-                np.log(g["delta"].to_numpy(float)), np.log(g["cost"].to_numpy(float))
-            )
-            half = float(stats.t.ppf(0.5 + level / 2, len(g) - 2)) * float(fit.stderr)
-            out[method] = (float(fit.slope) - half, float(fit.slope) + half)
-        else:
+    for method in sc["method"].drop_duplicates().sort_values():
+        fit, n, distinct = fits.get(method, (None, 0, 0))
+        if fit is None or distinct < 3:
             out[method] = (math.nan, math.nan)
+            continue
+        half = float(stats.t.ppf(0.5 + level / 2, n - 2)) * float(fit.stderr)
+        out[method] = (float(fit.slope) - half, float(fit.slope) + half)
     return out
 
 

@@ -269,12 +269,21 @@ class Document:
         Raises:
             ValueError: a CSV column name is not snake_case.
         """
+        for arg, v in (("df", df), ("data", data)):
+            if not (v is None and arg == "data") and not isinstance(v, pd.DataFrame):
+                raise TypeError(
+                    f"Expected `{arg}` to be a pandas DataFrame, got {type(v).__name__}."
+                )
         csv = (df if data is None else data).reset_index(drop=True)
         bad = [c for c in csv.columns if not re.fullmatch(r"[a-z][a-z0-9_]*", str(c))]
-        if bad:
+        twice = sorted({str(c) for c in csv.columns[csv.columns.duplicated()]})
+        if bad or twice:
             raise ValueError(
                 f"Expected the CSV columns of table {caption[:40]!r} (`data`, or `df` without"
-                f" it) to be snake_case names with units, got {bad}."
+                f" it) to be distinct snake_case names with units, got"
+                + (f" {bad}" if bad else "")
+                + (f" {twice} more than once" if twice else "")
+                + "."
             )
         name = self._unique("table:" + slug(name or caption)).split(":", 1)[1]
         df = df.reset_index(drop=True)
