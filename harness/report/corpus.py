@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from .data import ratio_text
+from .data import ratio_cells, ratio_text
 from .document import shorten
 
 __all__ = ["corpus_section", "corpus_summary"]
@@ -101,9 +101,9 @@ def _summary_display(summary: pd.DataFrame) -> pd.DataFrame:
                 f"{a}/{n}"
                 for a, n in zip(summary["cases_applicable"], summary["cases"], strict=True)
             ],
-            "false negatives": _fracs(summary, "false_negatives", "truth_collision"),
-            "false positives": _fracs(summary, "false_positives", "truth_free"),
-            "unknown": _fracs(summary, "unknown", "cases_applicable"),
+            "false negatives": ratio_cells(summary, "false_negatives", "truth_collision", "n/a"),
+            "false positives": ratio_cells(summary, "false_positives", "truth_free", "n/a"),
+            "unknown": ratio_cells(summary, "unknown", "cases_applicable", "n/a"),
             "wall time per query": summary["wall_ms_median"].map(_ms),
             "wall IQR over cases": [
                 f"{_ms(a)} – {_ms(b)}"
@@ -114,10 +114,6 @@ def _summary_display(summary: pd.DataFrame) -> pd.DataFrame:
             HEAP: summary["python_heap_peak_mb"].map(_heap),
         }
     )
-
-
-def _fracs(t: pd.DataFrame, count: str, of: str) -> list[str]:
-    return [ratio_text(int(k), int(n), "n/a") for k, n in zip(t[count], t[of], strict=True)]
 
 
 def _by(df: pd.DataFrame, key: str, methods: list) -> tuple[pd.DataFrame, pd.DataFrame]:

@@ -32,6 +32,7 @@ __all__ = [
     "numeric",
     "rate_numbers",
     "rates",
+    "ratio_cells",
     "ratio_text",
     "rounds_of",
     "scaling_slopes",
@@ -218,6 +219,12 @@ def first_repeat(df: pd.DataFrame) -> pd.DataFrame:
 def ratio_text(k: int, n: int, empty: str = "n/a (0 rows)") -> str:
     """``k/n`` as the tables show a count out of its denominator, `empty` when `n` is 0."""
     return f"{k}/{n}" if n else empty
+
+
+def ratio_cells(t: pd.DataFrame, count: str, of: str, empty: str = "n/a (0 rows)") -> list[str]:
+    """:func:`ratio_text` of columns `count` and `of` of `t`, row by row (a table's cells
+    shown from its numbers)."""
+    return [ratio_text(int(k), int(n), empty) for k, n in zip(t[count], t[of], strict=True)]
 
 
 @dataclass(frozen=True)

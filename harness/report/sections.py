@@ -20,6 +20,7 @@ from .data import (
     numeric,
     rate_numbers,
     rates,
+    ratio_cells,
     ratio_text,
     scaling_slopes,
     series_basis,
@@ -163,17 +164,14 @@ def _per_scene_display(per: pd.DataFrame) -> pd.DataFrame:
     """The per-scene certify table's numbers as the report shows them: false verdicts and
     certified answers over their denominators."""
 
-    def frac(k: str, n: str) -> list[str]:
-        return [ratio_text(int(a), int(b)) for a, b in zip(per[k], per[n], strict=True)]
-
     return pd.DataFrame(
         {
             "method": per["method"],
             **{c: per[c] for c in ("ran", "free", "collision", "unknown")},
-            "false free": frac("false_free", "truth_collision"),
-            "false collision": frac("false_collision", "truth_free"),
+            "false free": ratio_cells(per, "false_free", "truth_collision"),
+            "false collision": ratio_cells(per, "false_collision", "truth_free"),
             "truth not proven": per["truth_not_proven"],
-            "certified": frac("certified", "ran"),
+            "certified": ratio_cells(per, "certified", "ran"),
             "median nodes": per["median_nodes"],
             "median CPU ms/query": per["cpu_ms_median"],
             "CPU ms IQR": per["cpu_ms_iqr"],
