@@ -673,7 +673,7 @@ def test_filmstrip_hides_only_a_rendering_failure(written, tmp_path, monkeypatch
     assert "## Filmstrip" in md and "No filmstrip" not in md
     import importlib
 
-    from harness.report.sections import filmstrip
+    from harness.report.run_sections import filmstrip
 
     module = importlib.import_module("harness.render")  # `harness.render` is also a function
 
@@ -1010,7 +1010,7 @@ def test_two_scene_files_of_one_name_get_apart():
 
 def test_first_calls_of_two_studies_of_one_kind_say_which(tmp_path):
     """The start-up table had two identical 'first call: hull (certify study)' rows."""
-    from harness.report.sections import startup_section
+    from harness.report.run_sections import startup_section
 
     rows = [
         dict(study="startup", bound="hull", method="first call: hull (certify study)",
@@ -1080,7 +1080,7 @@ def test_continuity_zero_and_missing_jumps_are_labelled_inside_the_axis(tmp_path
     import matplotlib.pyplot as plt
 
     from harness.report.document import Document
-    from harness.report.sections import continuity_section
+    from harness.report.motion_sections import continuity_section
 
     rows = [
         {"study": "certify", "scene": "s", "keyframes": "scene", "scheme": name,
@@ -1108,7 +1108,7 @@ def test_continuity_zero_and_missing_jumps_are_labelled_inside_the_axis(tmp_path
 def test_the_machine_line_says_what_its_wall_time_covers():
     """A trial's report said 'total wall time 43 s' of a 52 s shell run: meta.json times
     the cases of each leg, not the start-up nor the report's drawing, and the line says so."""
-    from harness.report.sections import machine_text
+    from harness.report.run_sections import machine_text
 
     text = machine_text({"wall_seconds": 43.4, "legs": [{}, {}]}, 7)
     assert "wall time running the cases 43 s over 2 legs (resumed)" in text
@@ -1125,7 +1125,7 @@ def test_the_physics_table_names_a_suites_own_scene_by_its_file(tmp_path):
     import matplotlib.pyplot as plt
 
     from harness.report.document import Document
-    from harness.report.sections import physics_section
+    from harness.report.motion_sections import physics_section
 
     rows = [
         {"study": "simulate", "scene": "/tmp/myrobot/robot.xml", "scheme": s, "carried": 1,

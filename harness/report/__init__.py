@@ -41,20 +41,17 @@ from .data import (
     slope_intervals,
 )
 from .document import Document, latex_table, pyplot
-from .sections import (
+from .motion_sections import continuity_section, physics_section
+from .run_sections import (
     cache_text,
-    certify_section,
-    continuity_section,
     filmstrip,
     how_to_read,
     machine_text,
     memory_section,
-    physics_section,
-    scaling_section,
     startup_section,
     warnings_section,
-    workload_section,
 )
+from .sections import certify_section, scaling_section, workload_section
 
 __all__ = [
     "CITATION",

@@ -1,0 +1,172 @@
+"""The report's sections on the motions themselves: their measured continuity and their
+MuJoCo simulation (each writes its tables and figures into a
+:class:`~harness.report.document.Document`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .data import numeric, study_rows
+from .document import Document, cell
+from .sections import scene_label, scene_labels
+
+__all__ = ["CONTINUITY_COLUMNS", "PHYSICS_COLUMNS", "continuity_section", "physics_section"]
+
+
+CONTINUITY_COLUMNS = {
+    "measured class": "continuity_class",
+    "max jump of acceleration": "max_jump_acceleration_m_per_t2",
+    "max jump of angular acceleration": "max_jump_angular_acceleration_rad_per_t2",
+    "max jump of angular velocity": "max_jump_angular_velocity_rad_per_t",
+    "world-frame invariance error": "invariance_error_world",
+    "body-frame invariance error": "invariance_error_body",
+}
+"""The continuity table's CSV columns: t is the motion parameter (seconds for scene
+keyframes, the chordal parameter for random ones)."""
+
+
+def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
+    src = df[df["study"].isin(["certify", "simulate"])]
+    if not len(src) or "continuity" not in src:
+        return
+    doc.h("Continuity measured at the knots")
+    src = src.dropna(subset=["continuity"]).drop_duplicates(["scene", "keyframes", "scheme"])
+    if not len(src):
+        return
+    g = src.groupby("scheme")
+    t = pd.DataFrame(
+        {
+            "motions": g.size(),
+            "measured class": g["continuity"].agg(lambda v: "/".join(sorted(set(map(str, v))))),
+            "max jump of acceleration": g["jump_acceleration"].max(),
+            "max jump of angular acceleration": g["jump_angular_acceleration"].max(),
+            "max jump of angular velocity": g["jump_angular_velocity"].max(),
+            "world-frame invariance error": g["invariance_world"].max(),
+            "body-frame invariance error": g["invariance_body"].max(),
+        }
+    ).reset_index()
+    doc.table(
+        t,
+        "Measured continuity class (a derivative counts as continuous when its one-sided jump at a knot falls at least 5× per decade of the offset) and the largest jumps at the smallest offset, in scene units per motion-parameter unit: m/s², rad/s², rad/s for scene keyframes, whose times are seconds; random keyframe sets are timed by chord length, so theirs are per metre of parameter (m/m², rad/m²), pooled here with the scene's because a class does not depend on the parametrisation; invariance: largest matrix difference after moving the world frame or turning the body.",
+        "continuity",
+        data=t.rename(columns=CONTINUITY_COLUMNS),
+    )
+    scene_kf = src[src["keyframes"] == "scene"]
+    use = scene_kf if len(scene_kf) else src
+    unit_t = "s" if len(scene_kf) else "t"
+    gg = use.groupby("scheme")
+    lin = gg["jump_acceleration"].max()
+    ang = gg["jump_angular_acceleration"].max()
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
+    for ax, series, label in (
+        (axes[0], lin, f"jump of acceleration (m/{unit_t}²)"),
+        (axes[1], ang, f"jump of angular acceleration (rad/{unit_t}²)"),
+    ):
+        vals = series.to_numpy(dtype=float)
+        x = np.arange(len(vals))
+        ok = np.isfinite(vals) & (vals > 0)
+        ax.bar(x[ok], vals[ok])
+        for xi in x[~ok]:  # at the axis' foot (x in data, y in axes units): inside any limits
+            ax.text(
+                xi, 0.02, "0" if np.isfinite(vals[xi]) else "n/a", ha="center", va="bottom",
+                fontsize=7, transform=ax.get_xaxis_transform(),
+            )  # fmt: skip
+        ax.set_yscale("log")
+        if ok.any():  # at least two decades: bars of nearly equal height had one tick
+            lo, hi = float(vals[ok].min()), float(vals[ok].max())
+            ax.set_ylim(min(lo, hi / 100) / 3, max(hi, lo * 100) * 3)
+        ax.set_xticks(x, series.index, rotation=45, ha="right", fontsize=7)
+        ax.set_ylabel(label)
+        ax.set_xlabel("scheme")
+    counts = gg.size()
+    scenes = gg["scene"].agg(lambda v: tuple(sorted(set(map(str, v)))))
+    same = scenes.nunique() <= 1
+    fig.suptitle(
+        f"largest one-sided jump at interior knots; motions per scheme: {int(counts.min())}–{int(counts.max())}"
+        + ("" if same else "; the schemes ran on different scenes (see the table)"),
+        fontsize=8,
+    )
+    doc.figure(
+        fig,
+        "continuity_jumps",
+        f"Largest one-sided jumps of acceleration (left) and angular acceleration (right) at interior knots, at the smallest offset, {'scene keyframes (time in seconds)' if len(scene_kf) else 'random keyframes (t: the chordal parameter)'}: a C² scheme jumps here only by the offset times the jerk, a C¹ one by a finite amount; a scheme that is C⁰ (slerp's corners) jumps already in velocity or angular velocity, which these panels do not show (the continuity table gives those jumps and every scheme's measured class): its acceleration can be 0 on both sides of a knot (slerp turns at a constant rate), so its bar reads 0.",
+    )
+
+
+PHYSICS_COLUMNS = {
+    "force_jump": ("force jump (N)", "force_jump_n"),
+    "force_rate_jump": ("force rate jump (N/s)", "force_rate_jump_n_per_s"),
+    "jerk_jump": ("jerk jump (m/s³)", "jerk_jump_m_per_s3"),
+    "min_distance": ("min distance (m)", "min_distance_m"),
+}
+"""The simulation table's columns with a unit: (as shown, in the CSV)."""
+
+
+def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
+    sim = study_rows(df, "simulate")
+    if not len(sim):
+        return
+    doc.h("Physics-side smoothness and the simulation cross-check")
+    cols = [
+        c
+        for c in (
+            "scene",
+            "scheme",
+            "carried",
+            "force_jump",
+            "force_rate_jump",
+            "jerk_jump",
+            "min_distance",
+            "verdict",
+            "crosscheck_ok",
+            "steps_per_second",
+        )
+        if c in sim
+    ]
+    t = sim[cols].copy()
+    data = t.copy()  # (scenes as the rows name them)
+    labels: dict = {}
+    if "scene" in t:  # (a suite's own file by its name, as in the certify headings)
+        labels = scene_labels(t["scene"].astype(str).unique())
+        t["scene"] = t["scene"].astype(str).map(labels)
+    carried = numeric(sim, "carried")
+    for c in ("carried", "min_distance", "steps_per_second"):
+        if c in data:
+            data[c] = numeric(sim, c)
+    if "carried" in data and (data["carried"].dropna() % 1 == 0).all():
+        data["carried"] = data["carried"].astype("Int64")  # (a count: "1", not "1.0")
+    for c in ("force_jump", "force_rate_jump", "jerk_jump"):
+        if c in t:
+            jump = numeric(sim, c).where(~(carried == 0))  # (nothing carried: no jump)
+            data[c] = jump
+            t[c] = [cell(float(v)) if np.isfinite(v) else "n/a" for v in jump]
+    doc.table(
+        t.rename(columns={c: PHYSICS_COLUMNS[c][0] for c in t.columns if c in PHYSICS_COLUMNS}),
+        "MuJoCo simulation of every scene and scheme: jumps of the net constraint force on carried bodies and of its rate at the knots (lines fitted over 8 steps each side; n/a where the scene carries nothing or the recording is shorter than two such windows), the smallest simulated clearance, and for rational motions the certificate; crosscheck_ok is False only if a certified-free motion touched in simulation.",
+        "physics",
+        data=data.rename(
+            columns={c: PHYSICS_COLUMNS[c][1] for c in data.columns if c in PHYSICS_COLUMNS}
+        ),
+    )
+    rate = numeric(sim, "force_rate_jump")
+    has = sim[rate.notna() & (rate > 0) & (carried.fillna(1) > 0)]
+    if len(has):
+        fig, ax = plt.subplots(figsize=(6.5, 3.2))
+        schemes = sorted(has["scheme"].unique())
+        for scene, g in has.groupby("scene"):
+            ax.semilogy(
+                [schemes.index(s) for s in g["scheme"]],
+                numeric(g, "force_rate_jump"),
+                "o",
+                label=labels.get(str(scene), scene_label(scene)),
+            )
+        ax.set_xticks(range(len(schemes)), schemes, rotation=40, ha="right", fontsize=8)
+        ax.set_ylabel("force rate jump (N/s)")
+        ax.set_xlabel("scheme")
+        ax.legend(fontsize=7, title="scene (carries a body)", title_fontsize=7)
+        doc.figure(
+            fig,
+            "force_jumps",
+            f"Jump of the rate of change of the force on carried bodies at keyframes ({len(has)} simulations of scenes that carry something). By the schemes' classes one expects C⁰ to jump most and C² least; the bars are what the simulations measured, a scene at a time, and need not follow that order (the contact forces depend on the path too).",
+        )
