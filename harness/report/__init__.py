@@ -31,16 +31,9 @@ from ..errors import HarnessError
 from ..run.journal import OutputLock, atomic_json
 from .avoid import repair_section
 from .corpus import corpus_section
-from .data import (
-    format_headline,
-    headline,
-    headline_lines,
-    headline_numbers,
-    pooled_studies,
-    scaling_slopes,
-    slope_intervals,
-)
+from .data import pooled_studies, scaling_slopes, slope_intervals
 from .document import Document, latex_table, pyplot
+from .headline import format_headline, headline, headline_lines, headline_numbers
 from .motion_sections import continuity_section, physics_section
 from .run_sections import (
     cache_text,

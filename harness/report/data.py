@@ -1,32 +1,25 @@
 """The report's numbers: rows of a study, accuracy rates with their denominators,
-workload costs per pair from the rounds, the headline, and scaling slopes."""
+workload costs per pair from the rounds, and scaling slopes (the headline: :mod:`.headline`)."""
 
 from __future__ import annotations
 
 import json
 import math
-from collections import Counter
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from ..timing import ratio_interval, spread
-from .document import fmt_time, span
+from ..timing import spread
+from .document import span
 
 __all__ = [
     "DECIDED",
     "EXTERNAL_PREFIX",
     "RAN",
     "RATE_COLUMNS",
-    "HeadlineLine",
     "column",
     "flag",
-    "format_headline",
-    "headline",
-    "headline_lines",
-    "headline_numbers",
     "implementation_of",
     "method_labels",
     "numeric",
@@ -227,223 +220,6 @@ def ratio_cells(t: pd.DataFrame, count: str, of: str, empty: str = "n/a (0 rows)
     return [ratio_text(int(k), int(n), empty) for k, n in zip(t[count], t[of], strict=True)]
 
 
-@dataclass(frozen=True)
-class HeadlineLine:
-    """One headline figure: its text (printed by `rsmbench run`, shown in the report's
-    first table) and its numbers (the report's ``tables/headline.csv``).
-
-    ``numbers`` maps a snake_case name carrying its unit (``cpu_us_per_pair``) to a count
-    or a measurement; NaN where the figure has none."""
-
-    figure: str
-    value: str
-    spread: str
-    basis: str
-    numbers: dict[str, float] = field(default_factory=dict, hash=False)
-
-    def text(self) -> dict[str, str]:
-        return {"figure": self.figure, "value": self.value, "spread": self.spread,
-                "basis": self.basis}  # fmt: skip
-
-
-def headline(df: pd.DataFrame, meta: dict | None = None) -> list[dict[str, str]]:
-    """The figures a reader wants first, each with its unit, spread and basis.
-
-    Returns rows with keys ``figure``, ``value``, ``spread``, ``basis`` (printed by
-    `rsmbench run` and the report's first table); :func:`headline_lines` gives their
-    numbers too.
-    """
-    return [line.text() for line in headline_lines(df, meta)]
-
-
-def headline_numbers(lines: list[HeadlineLine]) -> pd.DataFrame:
-    """The numbers of headline `lines`, one row per figure and quantity (columns
-    ``figure``, ``quantity``, ``value``): the figures differ in what they count, so a wide
-    table would be mostly empty. ``value`` is numeric; a quantity's name carries its unit."""
-    rows = [(line.figure, q, v) for line in lines for q, v in line.numbers.items()]
-    seen = Counter((f, q) for f, q, _ in rows)
-    twice = sorted(k for k, n in seen.items() if n > 1)
-    if twice:  # (the lines' own invariant: each figure names what it is about)
-        raise ValueError(f"Expected each headline figure once, got {twice[:3]} more than once.")
-    figure, quantity, value = zip(*rows, strict=True) if rows else ((), (), ())
-    # (object, not float: counts are written "3", not "3.0"; pandas reads both as numbers)
-    return pd.DataFrame(
-        {"figure": list(figure), "quantity": list(quantity),
-         "value": pd.Series(value, dtype=object)}
-    )  # fmt: skip
-
-
-WORKLOAD_COUNTS = (
-    "false free", "of truth collision", "false collision", "of truth free", "unknown", "ran",
-    "truth not proven",
-)  # fmt: skip
-"""The counts of :func:`rates` a workload's verdict line carries."""
-
-
-def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineLine]:
-    """:func:`headline`'s figures with their numbers."""
-    meta = meta or {}
-    out: list[HeadlineLine] = []
-    cert = first_repeat(study_rows(df, "certify"))
-    if len(cert):
-        certified = flag(cert, "certified")
-        r = rates(cert[certified])
-        # (the methods counted: sampled rows are certified too, on a proven fair grid)
-        methods = ", ".join(sorted(set(column(cert[certified], "bound", "").astype(str))))
-        counted = ("false free", "of truth collision", "truth not proven")
-        out.append(
-            HeadlineLine(
-                figure="certified false free (certify study)",
-                value=ratio_text(r["false free"], r["of truth collision"]),
-                spread="exact count",
-                basis=f"certified verdicts ({methods}) whose ground truth is a proven collision; must be 0. {r['truth not proven']} certified rows had no proven truth and are not counted",
-                numbers=rate_numbers(r, *counted),
-            )
-        )
-        samp = cert[column(cert, "bound", "").astype(str) == "sampled"]
-        if len(samp):
-            r = rates(samp)
-            out.append(
-                HeadlineLine(
-                    figure="sampled false free (certify study)",
-                    value=ratio_text(r["false free"], r["of truth collision"]),
-                    spread="exact count",
-                    basis=f"sampled verdicts against a proven collision truth (its certified rows are in the line above too); {r['truth not proven']} sampled rows with unproven truth are not counted as passes",
-                    numbers=rate_numbers(r, *counted),
-                )
-            )
-    wl = study_rows(df, "workload")
-    groups = workload_groups(wl[column(wl, "mode", "") == "pair"])
-    for at, pairs in groups:
-        which = f" ({at})" if len(groups) > 1 else ""
-        for method, g in pairs.groupby("bound", sort=True):
-            r = rates(g, column(g, "label", "") == "proven")
-            out.append(
-                HeadlineLine(
-                    figure=f"workload verdicts of {method}{which}",
-                    value=f"false free {r['false free']}/{r['of truth collision']}, false collision {r['false collision']}/{r['of truth free']}, unknown {r['unknown']}/{r['ran']}",
-                    spread="exact counts",
-                    basis=f"every pair of {at}; false verdicts counted against proven labels only ({r['truth not proven']} pairs whose label is not proven not counted)",
-                    numbers=rate_numbers(r, *WORKLOAD_COUNTS),
-                )
-            )
-    out += _workload_headline(df, meta)
-    out += _corpus_headline(df)
-    out += _repair_headline(df)
-    return out
-
-
-def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
-    """Per (tolerance, clearance) of a repair study: the certified repair's proofs and
-    the ground truth's check of them, against the sampled repair's claims."""
-    from .avoid import _summary, grid_text
-
-    rep = study_rows(df, "repair")
-    if not len(rep) or "method" not in rep:
-        return []
-    out = []
-    s = _summary(rep)
-    for _, r in s.iterrows():
-        where = f"clearance {r['clearance']:g} m, tolerance {r['tolerance']:g} m"
-        scene = r.get("scene", "seeded cases")
-        if scene != "seeded cases":
-            where = f"{scene}, {where}"
-        motions = (
-            f"{r['colliding']} colliding motions"
-            if r["colliding"] == r["motions"]
-            else f"{r['motions']} motions ({r['colliding']} colliding)"
-        )
-        refused = int(r["motions"]) - int(r["claimed_all"])
-        keeps = f" ({r['keeps_clearance']} keep the clearance)" if float(r["clearance"]) > 0 else ""
-        # (every count over its claims, claimed_all; `claimed` is the repairable ones')
-        checked = (
-            f"of its {r['claimed_all']} claims the ground truth confirms {r['truly_free']}"
-            f" free{keeps} and cannot decide {r['truth_undecided']}"
-        )
-        if r["method"] == "certified":
-            value = (
-                f"proved free {r['claimed']}/{r['repairable']} repairable;"
-                f" still collide {r['still_collides']}, below clearance {r['below_clearance']}"
-            )
-            basis = f"of {motions}; {checked}; none may still collide"
-        else:
-            value = f"claimed free {r['claimed_all']}, still collide {r['still_collides']}"
-            if float(r["clearance"]) > 0:
-                value += f", below clearance {r['below_clearance']}"
-            basis = f"of {motions}; {checked}; its free is what {grid_text(rep)} saw"
-        if refused:
-            value += f"; refused {refused}"
-        spread = (
-            f"path moved by a median of {r['median_deviation_m']:.3g} m, at most"
-            f" {r['max_deviation_m']:.3g} m"
-            if int(r["claimed_all"])
-            else "no motion repaired: no path moved"
-        )
-        numbers = {
-            "tolerance_m": float(r["tolerance"]),
-            "clearance_m": float(r["clearance"]),
-            **{k: int(r[k]) for k in REPAIR_COUNTS},
-            "refused": refused,
-            "median_deviation_m": float(r["median_deviation_m"]),
-            "max_deviation_m": float(r["max_deviation_m"]),
-        }
-        out.append(
-            HeadlineLine(
-                figure=f"{r['method']} repair ({where})",
-                value=value,
-                spread=spread,
-                basis=basis,
-                numbers=numbers,
-            )
-        )
-    return out
-
-
-REPAIR_COUNTS = (
-    "motions", "colliding", "repairable", "claimed", "claimed_all", "truly_free",
-    "keeps_clearance", "below_clearance", "still_collides", "truth_undecided",
-)  # fmt: skip
-"""The counts of a repair summary row that its headline line carries."""
-
-
-def _corpus_headline(df: pd.DataFrame) -> list[HeadlineLine]:
-    """Per corpus method: its false negatives, false positives and unknowns with their
-    denominators, and the median wall time per single query with its spread over cases."""
-    from ..corpus.methods import METHODS
-    from .corpus import corpus_summary
-
-    cor = study_rows(df, "corpus")
-    if not len(cor):
-        return []
-    cases = cor["keyframes"].nunique() if "keyframes" in cor else len(cor)
-    out = []
-    for _, r in corpus_summary(cor).iterrows():
-        claim = "free is a proof" if r["free_is_proof"] else "free is its own claim"
-        m = METHODS.get(str(r["method"]))
-        if m is not None and not m.repeatable:
-            claim += "; undefined behaviour: its answers vary between runs of the same code"
-        fn = ratio_text(r["false_negatives"], r["truth_collision"], "n/a")
-        fp = ratio_text(r["false_positives"], r["truth_free"], "n/a")
-        unk = ratio_text(r["unknown"], r["cases_applicable"], "n/a")
-        med, q1, q3 = (r[f"wall_ms_{k}"] * 1e-3 for k in ("median", "q1", "q3"))
-        counts = ("false_negatives", "truth_collision", "false_positives", "truth_free",
-                  "unknown", "cases_applicable")  # fmt: skip
-        out.append(
-            HeadlineLine(
-                figure=f"corpus verdicts of {r['method']}",
-                value=f"false negatives {fn}, false positives {fp}, unknown {unk}",
-                spread=f"{fmt_time(med)} wall per query (median; IQR over cases {span(q1, q3)})",
-                basis=f"{r['cases_applicable']} of {cases} corpus cases applicable ({claim}); false negatives out of applicable collision cases, false positives out of applicable free cases",
-                numbers={
-                    **{k: int(r[k]) for k in counts},
-                    "cases": int(cases),
-                    **{f"wall_ms_{k}": float(r[f"wall_ms_{k}"]) for k in ("median", "q1", "q3")},
-                },
-            )
-        )
-    return out
-
-
 def workload_groups(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     """Workload rows per study, workload and tolerance, in order of appearance, each with
     its label ('workload-0 at tolerance 1 mm', '(study[2])' added where two studies share
@@ -523,99 +299,6 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
 def us_span(lo_us: float, hi_us: float) -> str:
     """:func:`~harness.report.document.span` of two times in µs."""
     return span(lo_us * 1e-6, hi_us * 1e-6)
-
-
-def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
-    """Per workload and mode: the hull's cost per pair, then every other method's cost as
-    a ratio to it (batch against batch, single queries against single queries)."""
-    wl = study_rows(df, "workload")
-    costs = workload_costs(wl)
-    if not len(costs):
-        return []
-    out = []
-    machine = (
-        f"{meta.get('cpu_model') or meta.get('cpu', '?')},"
-        f" {meta.get('usable_cpus') or meta.get('cores', '?')} CPUs, device {meta.get('device', 'cpu')}"
-    )
-    what = {
-        "batch": "batch (one certify_many call)",
-        "single": "single queries (one call per pair)",
-    }
-    undecided = _workload_unknowns(wl)
-    several = len(costs.groupby(["workload", "tolerance"], sort=False)) > 1
-    for (name, tol, mode), g in costs.groupby(["workload", "tolerance", "mode"], sort=False):
-        hull = g[g["method"] == "hull"]
-        if not len(hull):
-            continue
-        h = hull.iloc[0]
-        work = f"{name}: {int(h['pairs'])} pairs, tolerance {tol * 1e3:g} mm; {machine}"
-        # (several workloads or tolerances: each figure names its own, as the verdict
-        # lines do, so that no two lines, nor two rows of headline.csv, read alike)
-        which = f" ({name} at tolerance {tol * 1e3:g} mm)" if several else ""
-        timed = ("cpu_us_per_pair", "wall_us_per_pair", "cpu_us_q1", "cpu_us_q3",
-                 "cpu_us_ci95_lo", "cpu_us_ci95_hi")  # fmt: skip
-        out.append(
-            HeadlineLine(
-                figure=f"hull cost per pair, {what.get(mode, mode)}{which}",
-                value=f"{fmt_time(h['cpu_us_per_pair'] * 1e-6)} CPU ({fmt_time(h['wall_us_per_pair'] * 1e-6)} wall)",
-                spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, 95% CI {us_span(h['cpu_us_ci95_lo'], h['cpu_us_ci95_hi'])}, {h['rounds']} rounds",
-                basis=work,
-                numbers={
-                    **{k: float(h[k]) for k in timed},
-                    "rounds": int(h["rounds"]),
-                    "pairs": int(h["pairs"]),
-                    "tolerance_mm": float(tol) * 1e3,
-                },
-            )
-        )
-        for _, o in g.iterrows():
-            if o["method"] == "hull":
-                continue
-            ratio, lo, hi = ratio_interval(h["_cpu"], o["_cpu"])
-            ext = " (external)" if str(o["implementation"]).startswith(EXTERNAL_PREFIX) else ""
-            unknown = ""
-            numbers = {
-                "tolerance_mm": float(tol) * 1e3,
-                "cost_ratio": float(ratio),
-                "cost_ratio_ci95_lo": float(lo),
-                "cost_ratio_ci95_hi": float(hi),
-                "cpu_us_per_pair": float(o["cpu_us_per_pair"]),
-                "hull_cpu_us_per_pair": float(h["cpu_us_per_pair"]),
-            }
-            u = undecided.get((name, tol, o["method"]))
-            if u is not None:
-                hu = undecided.get((name, tol, "hull"), (0, u[1]))
-                numbers.update(unknown=u[0], pairs=u[1], hull_unknown=hu[0], hull_pairs=hu[1])
-                if u[0] > 0:
-                    # a cost is only comparable with what it bought: say how often the
-                    # method left the question open
-                    unknown = f"; {o['method']} answered unknown on {u[0]}/{u[1]} pairs, the hull on {hu[0]}/{hu[1]}"
-            out.append(
-                HeadlineLine(
-                    figure=f"cost of {o['method']}{ext} / cost of hull, {mode}{which}",
-                    value=f"{ratio:.3g}× ({cheaper_text(lo, hi)}{unknown})",
-                    spread=f"95% CI {lo:.3g}–{hi:.3g}×; {o['method']} {fmt_time(o['cpu_us_per_pair'] * 1e-6)} CPU per pair ({o['implementation']})",
-                    basis=f"median CPU time per pair of {o['method']} / that of the hull, same pairs and tolerance; 'hull cheaper' only when the 95% CI lies above 1. {work}",
-                    numbers=numbers,
-                )
-            )
-    return out
-
-
-def _workload_unknowns(wl: pd.DataFrame) -> dict[tuple, tuple[int, int]]:
-    """(unknown verdicts, pairs) per (workload, tolerance, method) from the per-pair rows."""
-    pair = wl[column(wl, "mode", "") == "pair"]
-    if not len(pair) or any(k not in pair for k in ("keyframes", "tolerance", "bound", "verdict")):
-        return {}
-    return {
-        key: (int((g["verdict"] == "unknown").sum()), len(g))
-        for key, g in pair.groupby(["keyframes", "tolerance", "bound"], sort=False)
-    }
-
-
-def format_headline(rows: list[dict[str, str]]) -> list[str]:
-    """Printable lines of :func:`headline`."""
-    return [f"{r['figure']}: {r['value']} ({r['spread']}; {r['basis']})" for r in rows]
 
 
 def _loglog_fits(sc: pd.DataFrame) -> dict[str, Any]:
