@@ -135,6 +135,13 @@ def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineL
     return out
 
 
+REPAIR_COUNTS = (
+    "motions", "colliding", "repairable", "claimed", "claimed_all", "truly_free",
+    "keeps_clearance", "below_clearance", "still_collides", "truth_undecided",
+)  # fmt: skip
+"""The counts of a repair summary row that its headline line carries."""
+
+
 def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
     """Per (tolerance, clearance) of a repair study: the certified repair's proofs and
     the ground truth's check of them, against the sampled repair's claims."""
@@ -201,13 +208,6 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
     return out
 
 
-REPAIR_COUNTS = (
-    "motions", "colliding", "repairable", "claimed", "claimed_all", "truly_free",
-    "keeps_clearance", "below_clearance", "still_collides", "truth_undecided",
-)  # fmt: skip
-"""The counts of a repair summary row that its headline line carries."""
-
-
 def _corpus_headline(df: pd.DataFrame) -> list[HeadlineLine]:
     """Per corpus method: its false negatives, false positives and unknowns with their
     denominators, and the median wall time per single query with its spread over cases."""
@@ -238,7 +238,7 @@ def _corpus_headline(df: pd.DataFrame) -> list[HeadlineLine]:
                 basis=f"{r['cases_applicable']} of {cases} corpus cases applicable ({claim}); false negatives out of applicable collision cases, false positives out of applicable free cases",
                 numbers={
                     **{k: int(r[k]) for k in counts},
-                    "cases": int(cases),
+                    "corpus_cases": int(cases),
                     **{f"wall_ms_{k}": float(r[f"wall_ms_{k}"]) for k in ("median", "q1", "q3")},
                 },
             )
