@@ -90,6 +90,21 @@ def corpus_summary(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+VERDICT_COUNTS = (
+    "false_negatives", "truth_collision", "false_positives", "truth_free", "unknown",
+    "cases_applicable",
+)  # fmt: skip
+"""The counts of :func:`_verdicts`: each count followed by its denominator."""
+
+
+def verdict_texts(v) -> tuple[str, str, str]:
+    """False negatives, false positives and unknowns of `v` (:func:`_verdicts`' counts, a
+    dict or a summary row) as "k/n" over their denominators ("n/a" for none)."""
+    return tuple(
+        ratio_text(v[VERDICT_COUNTS[j]], v[VERDICT_COUNTS[j + 1]], "n/a") for j in (0, 2, 4)
+    )
+
+
 def _summary_display(summary: pd.DataFrame) -> pd.DataFrame:
     """The corpus summary as the report shows it: counts over their denominators, times
     with their units."""
@@ -128,13 +143,7 @@ def _by(df: pd.DataFrame, key: str, methods: list) -> tuple[pd.DataFrame, pd.Dat
             app = g[(g["bound"] == m) & (g["verdict"] != "n/a")]
             v = _verdicts(app)
             numbers.append({key: val, "method": m, **v})
-            row[m] = (
-                f"{ratio_text(v['false_negatives'], v['truth_collision'], 'n/a')}"
-                f" · {ratio_text(v['false_positives'], v['truth_free'], 'n/a')}"
-                f" · {ratio_text(v['unknown'], v['cases_applicable'], 'n/a')}"
-                if len(app)
-                else "–"
-            )
+            row[m] = " · ".join(verdict_texts(v)) if len(app) else "–"
         shown.append(row)
     return pd.DataFrame(shown), pd.DataFrame(numbers)
 

@@ -92,26 +92,21 @@ def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineL
         r = rates(cert[certified])
         # (the methods counted: sampled rows are certified too, on a proven fair grid)
         methods = ", ".join(sorted(set(column(cert[certified], "bound", "").astype(str))))
-        counted = ("false free", "of truth collision", "truth not proven")
         out.append(
-            HeadlineLine(
-                figure="certified false free (certify study)",
-                value=ratio_text(r["false free"], r["of truth collision"]),
-                spread="exact count",
-                basis=f"certified verdicts ({methods}) whose ground truth is a proven collision; must be 0. {r['truth not proven']} certified rows had no proven truth and are not counted",
-                numbers=rate_numbers(r, *counted),
+            _false_free_line(
+                "certified false free (certify study)",
+                r,
+                f"certified verdicts ({methods}) whose ground truth is a proven collision; must be 0. {r['truth not proven']} certified rows had no proven truth and are not counted",
             )
         )
         samp = cert[column(cert, "bound", "").astype(str) == "sampled"]
         if len(samp):
             r = rates(samp)
             out.append(
-                HeadlineLine(
-                    figure="sampled false free (certify study)",
-                    value=ratio_text(r["false free"], r["of truth collision"]),
-                    spread="exact count",
-                    basis=f"sampled verdicts against a proven collision truth (its certified rows are in the line above too); {r['truth not proven']} sampled rows with unproven truth are not counted as passes",
-                    numbers=rate_numbers(r, *counted),
+                _false_free_line(
+                    "sampled false free (certify study)",
+                    r,
+                    f"sampled verdicts against a proven collision truth (its certified rows are in the line above too); {r['truth not proven']} sampled rows with unproven truth are not counted as passes",
                 )
             )
     wl = study_rows(df, "workload")
@@ -133,6 +128,18 @@ def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineL
     out += _corpus_headline(df)
     out += _repair_headline(df)
     return out
+
+
+def _false_free_line(figure: str, r: dict, basis: str) -> HeadlineLine:
+    """A certify study's false frees (:func:`rates` `r`) out of its proven collisions."""
+    counted = ("false free", "of truth collision", "truth not proven")
+    return HeadlineLine(
+        figure=figure,
+        value=ratio_text(r["false free"], r["of truth collision"]),
+        spread="exact count",
+        basis=basis,
+        numbers=rate_numbers(r, *counted),
+    )
 
 
 REPAIR_COUNTS = (
@@ -212,7 +219,7 @@ def _corpus_headline(df: pd.DataFrame) -> list[HeadlineLine]:
     """Per corpus method: its false negatives, false positives and unknowns with their
     denominators, and the median wall time per single query with its spread over cases."""
     from ..corpus.methods import METHODS
-    from .corpus import corpus_summary
+    from .corpus import VERDICT_COUNTS, corpus_summary, verdict_texts
 
     cor = study_rows(df, "corpus")
     if not len(cor):
@@ -224,12 +231,8 @@ def _corpus_headline(df: pd.DataFrame) -> list[HeadlineLine]:
         m = METHODS.get(str(r["method"]))
         if m is not None and not m.repeatable:
             claim += "; undefined behaviour: its answers vary between runs of the same code"
-        fn = ratio_text(r["false_negatives"], r["truth_collision"], "n/a")
-        fp = ratio_text(r["false_positives"], r["truth_free"], "n/a")
-        unk = ratio_text(r["unknown"], r["cases_applicable"], "n/a")
+        fn, fp, unk = verdict_texts(r)
         med, q1, q3 = (r[f"wall_ms_{k}"] * 1e-3 for k in ("median", "q1", "q3"))
-        counts = ("false_negatives", "truth_collision", "false_positives", "truth_free",
-                  "unknown", "cases_applicable")  # fmt: skip
         out.append(
             HeadlineLine(
                 figure=f"corpus verdicts of {r['method']}",
@@ -237,7 +240,7 @@ def _corpus_headline(df: pd.DataFrame) -> list[HeadlineLine]:
                 spread=f"{fmt_time(med)} wall per query (median; IQR over cases {span(q1, q3)})",
                 basis=f"{r['cases_applicable']} of {cases} corpus cases applicable ({claim}); false negatives out of applicable collision cases, false positives out of applicable free cases",
                 numbers={
-                    **{k: int(r[k]) for k in counts},
+                    **{k: int(r[k]) for k in VERDICT_COUNTS},
                     "corpus_cases": int(cases),
                     **{f"wall_ms_{k}": float(r[f"wall_ms_{k}"]) for k in ("median", "q1", "q3")},
                 },
