@@ -114,8 +114,20 @@ class Motion(abc.ABC):
 
     @property
     def knots(self) -> np.ndarray:
-        """(K,) sorted union of keyframe times and breakpoints, ends included."""
-        return np.unique(np.concatenate([self._keyframe_times, self.breakpoints]))
+        """(K,) sorted union of keyframe times and breakpoints within the domain, its ends
+        included (whatever a subclass's `breakpoints` say: the ground truth and the
+        certifiers step from knot to knot, and a user motion whose breakpoints left out
+        the domain's ends had the times before its first one certified free unseen)."""
+        t0, t1 = self._domain
+        try:
+            br = np.asarray(self.breakpoints, dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise TypeError(
+                f"Expected the `breakpoints` of {self!r} to be numbers (times), got"
+                f" {short(self.breakpoints)}."
+            ) from None
+        k = np.concatenate([self._keyframe_times, br])
+        return np.unique(np.concatenate([[t0], k[(k > t0) & (k < t1)], [t1]]))
 
     def __repr__(self) -> str:
         t0, t1 = self._domain

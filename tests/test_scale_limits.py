@@ -188,6 +188,53 @@ def test_a_users_speed_bound_that_is_nan_proves_nothing():
     assert c.verdict != "free", c
 
 
+class _Slide(motions.Motion):
+    """A user's own motion: the body origin slides along x at unit speed over [0, 1], with
+    the `breakpoints` its author chose (the contract says ends included)."""
+
+    scheme = "slide"
+
+    def __init__(self, breakpoints):
+        super().__init__((0.0, 1.0), [])
+        self._bp = breakpoints
+
+    @property
+    def breakpoints(self):
+        return self._bp
+
+    def _kinematics(self, t, order):
+        n = len(t)
+        p = np.zeros((n, 3))
+        p[:, 0] = t
+        out = [np.broadcast_to(np.eye(3), (n, 3, 3)).copy(), p]
+        if order >= 1:
+            out += [np.zeros((n, 3)), np.tile([1.0, 0, 0], (n, 1))]
+        if order >= 2:
+            out += [np.zeros((n, 3)), np.zeros((n, 3))]
+        return tuple(out)
+
+    def speed_bound(self, t0, t1, radius=0.0):
+        return 1.0
+
+
+def test_a_users_breakpoints_without_the_domain_ends_leave_no_time_unchecked():
+    # the ground truth stepped from knot to knot, and a user motion's knots were its
+    # breakpoints: with [0.2, 0.8] on the domain [0, 1] it never looked at t < 0.2 and
+    # certified `free` a sphere that passes through a wall at x = 0.05 (t ~ 0.03)
+    wall = [Box([0.01, 1, 1], center=[0.05, 0, 0])]
+    for bp in ([0.2, 0.8], [0.2, 1.0], [0.0, 0.8], [-1.0, 0.5, 2.0], [0.5]):
+        m = _Slide(np.array(bp))
+        assert m.knots[0] == 0.0 and m.knots[-1] == 1.0, (bp, m.knots)
+        assert set(m.knots) == {0.0, 1.0} | {x for x in bp if 0 < x < 1}, (bp, m.knots)
+        truth = harness.ground_truth(m, Sphere(0.01), wall)
+        assert truth.verdict == "collision" and truth.toi_hi < 0.05, (bp, truth)
+        for bound in ("lipschitz", "sampled"):
+            c = harness.certify(m, Sphere(0.01), wall, bound=bound)
+            assert c.verdict == "collision" and c.toi_lo <= 0.03, (bp, bound, c)
+    with pytest.raises(TypeError, match="breakpoints"):
+        _Slide(["start", "end"]).knots
+
+
 def test_intervals_one_double_long_get_their_own_speed_and_pieces():
     # a speed bound and the slerp family's exponential-product pieces chose each knot
     # interval by its midpoint, which rounds onto the right end when the interval is one
