@@ -619,12 +619,17 @@ def assemble(
         rows = [cl[0][:3]]
         more = [0] if any(cl[0][4:7]) else []
         special = [0] if tl[0][1] <= BIG or cl[0][3] != 0 else []
+        sp_t = tl[:1] if special else []  # (indexing by a list costs ~8 µs, even empty)
+        sp_c = [[cl[0][3], cl[0][8], cl[0][9]]] if special else []
     else:
         nodes = c[:, 0]
         seconds = (elapsed * nodes / max(1, int(nodes.sum()))).tolist()
         rows = c[:, :3].tolist()
         more = np.flatnonzero(c[:, 4:7].any(axis=1)).tolist()
         special = np.flatnonzero((t[:, 1] <= BIG) | (c[:, 3] != 0)).tolist()
+        # (their rows gathered once: indexing one row of a numpy array costs ~0.2 us)
+        sp_t = t[special].tolist()
+        sp_c = c[special][:, (3, 8, 9)].tolist()
     if isinstance(certified, bool):
         cert = [certified] * n
     else:
@@ -653,9 +658,6 @@ def assemble(
         res[i].__dict__["unresolved"] = {
             k: x for k, x in zip(KERNEL_REASONS.values(), c[i, 4:7].tolist(), strict=True) if x
         }
-    # (their rows gathered once: indexing one row of a numpy array costs ~0.2 us)
-    sp_t = t[special].tolist()
-    sp_c = c[special][:, (3, 8, 9)].tolist()
     for i, ti, (why, hit, near) in zip(special, sp_t, sp_c, strict=True):
         d = res[i].__dict__
         lo = ti[0] if ti[0] <= BIG else inf
