@@ -232,7 +232,7 @@ def test_a_users_breakpoints_without_the_domain_ends_leave_no_time_unchecked():
             c = harness.certify(m, Sphere(0.01), wall, bound=bound)
             assert c.verdict == "collision" and c.toi_lo <= 0.03, (bp, bound, c)
     with pytest.raises(TypeError, match="breakpoints"):
-        _Slide(["start", "end"]).knots
+        _ = _Slide(["start", "end"]).knots
 
 
 def test_intervals_one_double_long_get_their_own_speed_and_pieces():
