@@ -519,27 +519,29 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
     kernel = [i for i, m in enumerate(ms) if _in_kernel(m)]
     host = [i for i, m in enumerate(ms) if not _in_kernel(m)]
     res: list[Certificate | None] = [None] * len(ms)
+    if kernel and o["samples"] is None:
+        fits = []
+        for i in kernel:
+            pack, v, _ = _stepping_pieces(ms[i], bodies[i].bounding_radius)
+            tt = pack.t
+            with np.errstate(over="ignore", invalid="ignore"):
+                need = float(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
+            if not np.isfinite(v).all():
+                raise QueryError(
+                    f"The fair grid of motions[{i}] needs inf samples: a piece has no finite"
+                    " speed bound (a zero-length piece, or numbers that overflow); use"
+                    " bound='hull' or 'lipschitz'."
+                )
+            if need <= MAX_SAMPLES:  # (a float: the count can pass 1e100, or overflow)
+                fits.append(i)
+            else:  # this motion alone: the others' certificates do not depend on it
+                res[i] = _grid_over_budget(ms[i], tol)
+        kernel = fits
     if kernel:
         rm = [ms[i] for i in kernel]
         rb = [bodies[i] for i in kernel]
         if o["samples"] is None:
             counts = np.zeros(len(rm), dtype=np.int64)
-            for j, (m, b) in enumerate(zip(rm, rb, strict=True)):
-                pack, v, _ = _stepping_pieces(m, b.bounding_radius)
-                tt = pack.t
-                with np.errstate(over="ignore", invalid="ignore"):
-                    need = float(np.ceil((tt[:, 1] - tt[:, 0]) * v / (2 * tol)).clip(1).sum())
-                if not math.isfinite(need):  # (a speed bound that is not finite)
-                    raise QueryError(
-                        f"The fair grid of motions[{kernel[j]}] needs inf samples: a piece"
-                        " has no finite speed bound (a zero-length piece, or numbers that"
-                        " overflow); use bound='hull' or 'lipschitz'."
-                    )
-                if not need <= MAX_SAMPLES:  # (a float: the count can pass 1e100)
-                    raise QueryError(
-                        f"The fair grid of motions[{kernel[j]}] needs {need:.4g} samples at"
-                        f" `tolerance` {tol!r} (more than {MAX_SAMPLES}); raise `tolerance`."
-                    )
         else:
             counts = np.full(len(rm), o["samples"], dtype=np.int64)
         out, elapsed = _kernel_run("sample", rm, rb, [obst[i] for i in kernel], o, samples=counts)
@@ -555,6 +557,25 @@ def sample_many(ms, bodies, obst, o) -> list[Certificate]:
         for i, c in zip(host, certs, strict=True):
             res[i] = c
     return res
+
+
+def _grid_over_budget(m, tol: float) -> Certificate:
+    """The answer for a motion whose fair grid needs more than :data:`MAX_SAMPLES` poses at
+    `tol`: nothing sampled, so nothing proven from the domain's start (``unknown``, reason
+    ``"budget"``: raise `tolerance`, or use ``bound="hull"`` or ``"lipschitz"``)."""
+    return Certificate(
+        "unknown",
+        "budget",
+        m.domain[0],
+        math.inf,
+        nodes=0,
+        depth=0,
+        seconds=0.0,
+        certified=True,
+        bound="sampled",
+        tolerance=tol,
+        unresolved={"budget": 1},
+    )
 
 
 def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms, obst) -> list[Certificate]:
