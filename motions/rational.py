@@ -418,6 +418,13 @@ class RationalMotion(Motion):
         return None if self._v is None else self._v.copy()
 
     @property
+    def piece_error(self) -> np.ndarray:
+        """(S, 2) bounds on |computed - exact| of the preimage and of the translation
+        (origin or numerator) Bézier coefficients per segment (zero for pieces given
+        exactly; a copy)."""
+        return self._piece_error.copy()
+
+    @property
     def ctrl(self) -> np.ndarray:
         """(S, n+1, 4, 4) homogeneous control matrices (computed once, read-only)."""
         if self._ctrl is None:

@@ -1,25 +1,32 @@
 """Relative motion of two rational motions (DESIGN §4 "Two moving bodies").
 
 For rational motions ``M_a(t)`` and ``M_b(t)`` (weight-last homogeneous matrices
-``[[U, v], [0, u0]]`` with ``U Uᵀ = u0² I``), the inverse is, up to the scalar factor
-``u0³``, the polynomial matrix ``[[u0 Uᵀ, -Uᵀ v], [0, u0²]]`` of twice the degree, so the
-motion of body b in body a's frame, ``M_a(t)^{-1} M_b(t)``, is rational and represented
-at degree ``2 n_a + n_b``. Its Bézier form is computed exactly (products of Bernstein
-polynomials, DESIGN §2.3) on the union of both motions' breakpoints. The representation
-is not reduced: where ``v_a = u0_a p_a`` with a polynomial origin ``p_a`` (the ``cubic``
-mode), every entry shares the factor ``u0_a`` and the motion has a lower degree (15 for
-two interpolated motions, not 27).
+``[[U, v], [0, u0]]`` with ``U Uᵀ = u0² I``), the motion of body b in body a's frame,
+``M_a(t)^{-1} M_b(t)``, is rational. Its Bézier form is computed exactly (products of
+Bernstein polynomials, DESIGN §2.3) on the union of both motions' breakpoints, in one of
+two ways:
+
+- **Reduced** (a built from a preimage with a polynomial origin ``p_a`` or none, as the
+  interpolants are; b built from a preimage): the preimage ``conj(Q_a) Q_b`` (degree
+  ``d_a + d_b``; ``R(conj(P) Q) = R(P)ᵀ R(Q)``) with weight ``u0_a u0_b`` and the
+  numerator ``v = U_aᵀ (v_b - u0_b p_a)`` (``= u0_a u0_b R_aᵀ (p_b - p_a)``), so the
+  degree is ``max(2 (d_a + d_b), 2 d_a + deg(v_b - u0_b p_a))``: 15 for two cubic
+  interpolants (preimages of degree 3, cubic origins).
+- **Otherwise** through the inverse: up to the scalar factor ``u0³``, ``M_a^{-1}`` is the
+  polynomial matrix ``[[u0 Uᵀ, -Uᵀ v], [0, u0²]]`` of twice the degree, and the product is
+  represented at degree ``2 n_a + n_b`` (27 for two cubic interpolants: every entry
+  shares the factor ``u0_a`` there, which this form does not cancel).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .bernstein import bezier_product_weights, de_casteljau_split
+from .bernstein import bezier_product_weights, de_casteljau_split, elevate
 from .errors import MotionError
 from .motion import DOMAIN_SLACK
 from .pieces import UNIT_ROUNDOFF, block_magnitude, gamma
-from .rational import RationalMotion
+from .rational import RationalMotion, control_matrices
 
 __all__ = ["inverse_control", "relative_motion", "restrict_control"]
 
@@ -120,6 +127,10 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     # would re-time a piece: a body at speed V misplaced by V times the difference)
     lo, hi = max(a0, b0), min(a1, b1)
     a, b = _window(a, lo, hi), _window(b, lo, hi)
+    kt = np.union1d(a.keyframe_times, b.keyframe_times)
+    if a.preimage_pieces is not None and a.numerator_pieces is None:
+        if b.preimage_pieces is not None:
+            return _reduced(a, b, kt)
     br_a, ca = a.bezier_form()
     br_b, cb = b.bezier_form()
     breaks = _union_breaks(br_a, br_b)
@@ -156,8 +167,125 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     g = gamma(m + 8)
     diff = hi * (1.0 + 2.0 * g) - lo * (1.0 - 2.0 * g)
     err = block_magnitude(diff)
-    kt = np.union1d(a.keyframe_times, b.keyframe_times)
     return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt, ctrl_error=err)
+
+
+def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMotion:
+    """The relative motion from the preimages and translations (the module's "reduced"
+    form): a's origin polynomial (or none), b with a preimage."""
+    br_a, br_b = a.breaks, b.breaks
+    breaks = _union_breaks(br_a, br_b)
+    ins = [  # (breakpoints, pieces or None, error bound per segment) of qa, pa, qb, pb, vb
+        (br_a, a.preimage_pieces, a.piece_error[:, 0]),
+        (br_a, a.origin_pieces, a.piece_error[:, 1]),
+        (br_b, b.preimage_pieces, b.piece_error[:, 0]),
+        (br_b, b.origin_pieces, b.piece_error[:, 1]),
+        (br_b, b.numerator_pieces, b.piece_error[:, 1]),
+    ]
+    # each input as it is, its absolute values, and those grown by its error bound and
+    # the shift of the rounded split parameters (below), restricted to `breaks` at once
+    three = []
+    for _, x, e in ins:
+        if x is None:
+            three.append(None)
+            continue
+        ax = np.abs(x)
+        shift = 2 * (x.shape[1] - 1) * 10 * UNIT_ROUNDOFF * ax.max(axis=1, keepdims=True)
+        three.append(np.stack([x, ax, ax + e.reshape((-1,) + (1,) * (x.ndim - 1)) + shift]))
+    cut = [None if t is None else restrict_control(br, np.moveaxis(t, 0, -1), breaks)
+           for (br, _, _), t in zip(ins, three, strict=True)]  # fmt: skip
+    on, absx, big = ([None if c is None else c[..., j] for c in cut] for j in range(3))
+    q, v = _reduced_parts(*on)
+    # Round-off, as for the other form (see relative_motion): every coefficient is a
+    # polynomial in the inputs' coefficients, and the same pipeline on absolute values
+    # (quaternion product and U with their signs dropped, the difference a sum) gives
+    # F_abs; the inputs' own bounds E and the rounded split parameters' shifts P enter as
+    # F_abs(|x| + E + P) - F_abs(|x|), the roundings as γ_m F_abs(|x|), with m the most
+    # roundings on any product's way to a coefficient:
+    #   restriction, two splits of n levels: 6 n;
+    #   conj(Q_a) Q_b: 4-term sums (4), the weight (2), a sum over (d_a+1)(d_b+1) terms;
+    #   U_a and u0_b: 3 d + 10 each (control_matrices);
+    #   v_b - u0_b p_a: the product (2, and a sum over (2 d_b + 1)(k_a + 1) terms), an
+    #     elevation (k + 1), the difference (1);
+    #   U_aᵀ (...): a 3-term dot (3), the weight (2), a sum over (2 d_a + 1)(j + 1) terms.
+    # (lo and hi both restrict absolute values, as the pipeline F_abs does)
+    lo_q, lo_v = _reduced_parts(*absx, absolute=True)
+    hi_q, hi_v = _reduced_parts(*big, absolute=True)
+    da, db = on[0].shape[1] - 1, on[2].shape[1] - 1
+    deg_in = max(x.shape[1] - 1 for x in on if x is not None)
+    j = 0 if v is None else v.shape[1] - 1 - 2 * da
+    ka = 0 if on[1] is None else on[1].shape[1] - 1
+    m = (
+        6 * deg_in + (da + 1) * (db + 1) + 6 + 3 * (da + db) + 20
+        + (2 * db + 1) * (ka + 1) + (j + 1) + 4 + (2 * da + 1) * (j + 1) + 5
+    )  # fmt: skip
+    g = gamma(m + 8)
+    err = np.zeros((len(q), 2))
+    err[:, 0] = (hi_q * (1.0 + 2.0 * g) - lo_q * (1.0 - 2.0 * g)).max(axis=(1, 2))
+    if v is not None:
+        err[:, 1] = (hi_v * (1.0 + 2.0 * g) - lo_v * (1.0 - 2.0 * g)).max(axis=(1, 2))
+    # homogeneous: a power of two (exact) keeps |Q|^4 and the numerator in range, as
+    # from_preimage does (the numerator scales with u0 = |Q|^2)
+    _, e = np.frexp(np.abs(q).max())
+    if not -200 < e < 200:
+        q, err[:, 0] = np.ldexp(q, -int(e)), np.ldexp(err[:, 0], -int(e))
+        if v is not None:
+            v, err[:, 1] = np.ldexp(v, -2 * int(e)), np.ldexp(err[:, 1], -2 * int(e))
+    return RationalMotion(breaks, preimage=q, numerator=v, keyframe_times=kt, piece_error=err)
+
+
+def _quaternion_product_tensor() -> np.ndarray:
+    """H (4, 4, 4) with ``qmul(conj(x), y)[c] = sum_ab H[c, a, b] x_a y_b``."""
+    from .quaternion import qconj, qmul
+
+    e = np.eye(4)
+    h = np.stack([qmul(qconj(e[a]), e) for a in range(4)], axis=1)  # (b, a, c)
+    return np.ascontiguousarray(h.transpose(2, 1, 0))
+
+
+_CONJ_PRODUCT = _quaternion_product_tensor()
+
+
+def _reduced_parts(qa, pa, qb, pb, vb, *, absolute: bool = False) -> tuple:
+    """Bézier pieces of the relative preimage ``conj(Q_a) Q_b`` (P, d_a+d_b+1, 4) and
+    numerator ``U_aᵀ (v_b - u0_b p_a)`` (P, j+1, 3), or None where both translations are
+    absent, from the pieces on the same intervals (None where absent; `pb` and `vb`
+    exclusive). With `absolute`, every sign dropped (non-negative inputs): the magnitude
+    pipeline of the round-off bound. (Small matrix products: einsum's path search cost
+    more than the work.)"""
+    h = np.abs(_CONJ_PRODUCT) if absolute else _CONJ_PRODUCT
+    s, da, db = len(qa), qa.shape[1] - 1, qb.shape[1] - 1
+    pairs = (qa[:, :, None, :, None] * qb[:, None, :, None, :]).reshape(s, -1, 16)
+    q = _product_weights(da, db) @ (pairs @ h.reshape(4, 16).T)
+    ua = control_matrices(qa, None, None, absolute=absolute)[..., :3, :3]  # (P, 2 d_a+1, 3, 3)
+    u0b = control_matrices(qb, None, None, absolute=absolute)[..., 3, 3]  # (P, 2 d_b+1)
+    terms = []  # v_b, then -u0_b p_a, at their own degrees
+    if pb is not None:
+        terms.append(_times_weight(u0b, pb))
+    elif vb is not None:
+        terms.append(vb)
+    if pa is not None:
+        t = _times_weight(u0b, pa)
+        terms.append(t if absolute else -t)
+    if not terms:
+        return q, None
+    deg = max(t.shape[1] - 1 for t in terms)
+    x = sum(elevate(t, deg - (t.shape[1] - 1), axis=1) for t in terms)
+    ux = x[:, None, :, None, :] @ ua[:, :, None]  # (P, 2 d_a+1, deg+1, 1, 3): (U_aᵀ x)_y
+    v = _product_weights(2 * da, deg) @ ux.reshape(s, -1, 3)
+    return q, v
+
+
+def _times_weight(u0: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Bernstein product of weight pieces (P, m+1) and vector pieces (P, k+1, 3)."""
+    prod = (u0[:, :, None, None] * p[:, None]).reshape(len(p), -1, p.shape[2])
+    return _product_weights(u0.shape[1] - 1, p.shape[1] - 1) @ prod
+
+
+def _product_weights(m: int, n: int) -> np.ndarray:
+    """(m+n+1, (m+1)(n+1)): Bernstein product coefficients from the products of each pair
+    of coefficients (flattened over the pair)."""
+    return bezier_product_weights(m, n).reshape((m + 1) * (n + 1), -1).T
 
 
 def _window(m: RationalMotion, lo: float, hi: float) -> RationalMotion:

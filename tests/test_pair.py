@@ -59,7 +59,7 @@ def test_relative_motion_is_inverse_times_other(translation):
     times[0], times[-1] = a.domain
     b = motions.interpolate(qb, pb, times, translation=translation)
     r = relative_motion(a, b)
-    assert r.degree == 2 * a.degree + b.degree
+    assert r.degree == 15  # conj(Q_a) Q_b (degree 12) and U_aᵀ (v_b - u0_b p_a) (15)
     assert set(a.breaks) | set(b.breaks) >= set(r.breaks) >= set(a.breaks)
     t = np.linspace(*a.domain, 777)
     want = np.linalg.inv(a.matrix(t)) @ b.matrix(t)
@@ -222,54 +222,61 @@ def test_a_pairs_query_error_names_the_relative_motion():
     # (a fair grid beyond its budget is an answer, not an error: unknown, "budget")
     c = harness.certify_pair(a, Sphere(1.0), b, Sphere(1.0), bound="sampled")
     assert (c.verdict, c.reason) == ("unknown", "budget"), c
-    # past shapes' lengths, the relative motion's positions are refused, as named
-    a = motions.interpolate(q, p * 1e100)
-    b = motions.interpolate(q, p * 1e100 + 1.0)
+    # past shapes' lengths, the relative motion's positions are refused, as named (b a
+    # long way from a: two motions at 1e100 whose keyframes are equal in doubles have a
+    # relative motion at rest, which the reduced form computes as such)
+    a = motions.interpolate(q, p)
+    b = motions.interpolate(q, p + 1e100, a.keyframe_times)
     with pytest.raises(QueryError, match="the relative motion M_a⁻¹ M_b's positions") as e:
         harness.certify_pair(a, Sphere(1.0), b, Sphere(1.0), bound="sampled")
     assert "`motion`" not in str(e.value)
 
 
+def _fr_restrict(br, c, t0, t1) -> list:
+    """Segment coefficients (n+1, ...) of pieces `c` on [t0, t1] (Fractions), exactly:
+    lists of Fractions, one per coefficient."""
+    from .exact import fr
+
+    s = int(np.searchsorted(br, float(t0), side="right")) - 1
+    s = min(max(s, 0), len(br) - 2)
+    a, h = fr(br[s]), fr(br[s + 1]) - fr(br[s])
+    u0, u1 = (t0 - a) / h, (t1 - a) / h
+    pts = [[fr(x) for x in np.ravel(m)] for m in c[s]]
+
+    def split(p, u):  # de Casteljau: (left, right)
+        left, right, w = [p[0]], [p[-1]], p
+        while len(w) > 1:
+            w = [
+                [(1 - u) * x + u * y for x, y in zip(w[i], w[i + 1], strict=True)]
+                for i in range(len(w) - 1)
+            ]
+            left.append(w[0])
+            right.append(w[-1])
+        return left, right[::-1]
+
+    left, _ = split(pts, u1)
+    return split(left, u0 / u1)[1] if u0 > 0 else left
+
+
+def _fr_product(f, g, mul) -> list:
+    """Bernstein product of two coefficient sequences, each term ``mul(f_i, g_j)``."""
+    from math import comb
+
+    m, n = len(f) - 1, len(g) - 1
+    out = [None] * (m + n + 1)
+    for i, fi in enumerate(f):
+        for j, gj in enumerate(g):
+            wt = Fraction(comb(m, i) * comb(n, j), comb(m + n, i + j))
+            term = [wt * x for x in mul(fi, gj)]
+            k = i + j
+            out[k] = term if out[k] is None else [x + y for x, y in zip(out[k], term, strict=True)]
+    return out
+
+
 def _exact_relative(br_a, ca, br_b, cb, breaks) -> list:
     """The relative control matrices of the stored (double) pieces of a and b on `breaks`,
     in exact rational arithmetic: per interval, (2 n_a + n_b + 1) 4x4 Fraction lists."""
-    from math import comb
-
     from .exact import fr
-
-    def restrict(br, c, t0, t1):  # the segment's coefficients on [t0, t1], exactly
-        s = int(np.searchsorted(br, float(t0), side="right")) - 1
-        s = min(max(s, 0), len(br) - 2)
-        a, h = fr(br[s]), fr(br[s + 1]) - fr(br[s])
-        u0, u1 = (t0 - a) / h, (t1 - a) / h
-        pts = [[fr(x) for x in m.ravel()] for m in c[s]]
-
-        def split(p, u):  # de Casteljau: (left, right)
-            left, right, w = [p[0]], [p[-1]], p
-            while len(w) > 1:
-                w = [
-                    [(1 - u) * x + u * y for x, y in zip(w[i], w[i + 1], strict=True)]
-                    for i in range(len(w) - 1)
-                ]
-                left.append(w[0])
-                right.append(w[-1])
-            return left, right[::-1]
-
-        left, _ = split(pts, u1)
-        return split(left, u0 / u1)[1] if u0 > 0 else left
-
-    def product(f, g, mul):  # Bernstein product of two coefficient sequences
-        m, n = len(f) - 1, len(g) - 1
-        out = [None] * (m + n + 1)
-        for i, fi in enumerate(f):
-            for j, gj in enumerate(g):
-                wt = Fraction(comb(m, i) * comb(n, j), comb(m + n, i + j))
-                term = [wt * x for x in mul(fi, gj)]
-                k = i + j
-                out[k] = (
-                    term if out[k] is None else [x + y for x, y in zip(out[k], term, strict=True)]
-                )
-        return out
 
     def matmul(x, y):
         return [
@@ -278,10 +285,46 @@ def _exact_relative(br_a, ca, br_b, cb, breaks) -> list:
 
     rel = []
     for t0, t1 in pairwise(map(fr, breaks)):
-        pa, pb = restrict(br_a, ca, t0, t1), restrict(br_b, cb, t0, t1)
-        inv = product(pa, pa, _inv_pair)
-        rel.append(product(inv, pb, matmul))
+        pa, pb = _fr_restrict(br_a, ca, t0, t1), _fr_restrict(br_b, cb, t0, t1)
+        inv = _fr_product(pa, pa, _inv_pair)
+        rel.append(_fr_product(inv, pb, matmul))
     return rel
+
+
+def _exact_reduced(a, b, breaks) -> list:
+    """Per interval of `breaks`, the reduced relative motion's preimage ``conj(Q_a) Q_b``
+    and numerator ``U_aᵀ u0_b (p_b - p_a)`` from the stored pieces of a and b (both with
+    origin pieces of one degree), in exact rational arithmetic: two coefficient lists."""
+    from motions.quaternion import U_TENSOR
+
+    from .exact import fr, hamilton
+
+    tensor = [[[[fr(U_TENSOR[j, k, x, y]) for y in range(4)] for x in range(4)] for k in range(3)]
+              for j in range(3)]  # fmt: skip
+
+    def u_pair(x, y):  # U's polarised quadratic form, row-major 3x3, and u0
+        u = [sum(tensor[j][k][i][l] * x[i] * y[l] for i in range(4) for l in range(4))
+             for j in range(3) for k in range(3)]  # fmt: skip
+        return u + [sum(x[i] * y[i] for i in range(4))]
+
+    out = []
+    for t0, t1 in pairwise(map(fr, breaks)):
+        qa = _fr_restrict(a.breaks, a.preimage_pieces, t0, t1)
+        qb = _fr_restrict(b.breaks, b.preimage_pieces, t0, t1)
+        pa = _fr_restrict(a.breaks, a.origin_pieces, t0, t1)
+        pb = _fr_restrict(b.breaks, b.origin_pieces, t0, t1)
+        q = _fr_product(qa, qb, lambda x, y: hamilton([x[0], -x[1], -x[2], -x[3]], y))
+        ua = _fr_product(qa, qa, u_pair)
+        u0b = [c[9] for c in _fr_product(qb, qb, u_pair)]
+        diff = [
+            [x - y for x, y in zip(cb, ca_, strict=True)] for cb, ca_ in zip(pb, pa, strict=True)
+        ]
+        x = _fr_product([[w] for w in u0b], diff, lambda w, d: [w[0] * c for c in d])
+        v = _fr_product(
+            ua, x, lambda u, y: [sum(u[3 * r + c] * y[r] for r in range(3)) for c in range(3)]
+        )
+        out.append((q, v))
+    return out
 
 
 def _inv_pair(x, y):
@@ -300,17 +343,19 @@ def _inv_pair(x, y):
 def test_relative_motions_round_off_bound_holds_in_exact_arithmetic(offset):
     # the relative motion's error bound (ctrl_error) against its pieces computed exactly
     # from the stored pieces of a and b, breakpoints of b inside a's segments (restricted
-    # by rounded parameters), far from the origin too; a hunt asked for the derivation
+    # by rounded parameters), far from the origin too; a hunt asked for the derivation.
+    # a's origin a numerator ("minimal"): the form through the inverse, degree 2 n_a + n_b
     from .exact import fr
 
     rng = np.random.default_rng(11)
     q, p = random_keyframes(rng, 5)
-    a = motions.interpolate(q, p + offset)
+    a = motions.interpolate(q, p + offset, translation="minimal")
     qb, pb = random_keyframes(rng, 5)
     times = np.sort(rng.uniform(*a.domain, 5))
     times[0], times[-1] = a.domain
     b = motions.interpolate(qb, pb + offset, times)
     r = relative_motion(a, b)
+    assert r.degree == 2 * a.degree + b.degree
     br_a, ca = a.bezier_form()
     br_b, cb = b.bezier_form()
     br, got = r.bezier_form()
@@ -326,6 +371,38 @@ def test_relative_motions_round_off_bound_holds_in_exact_arithmetic(offset):
             assert np.all(blocks <= err[s]), (s, k, blocks, err[s])
             worst = max(worst, float((blocks / np.maximum(err[s], 1e-300)).max()))
     assert worst > 0  # (the bound is not vacuous: some entry rounds)
+
+
+@pytest.mark.parametrize("offset", [0.0, 1e3])
+def test_the_reduced_relative_motions_round_off_bound_holds_in_exact_arithmetic(offset):
+    # two cubic interpolants: the relative motion is conj(Q_a) Q_b with the numerator
+    # U_aᵀ u0_b (p_b - p_a), degree 15 (not 27); its pieces against the same computed
+    # exactly from the stored pieces of a and b, within its piece_error (which
+    # ctrl_error then carries, as for any motion built from a preimage)
+    from .exact import fr
+
+    rng = np.random.default_rng(12)
+    q, p = random_keyframes(rng, 5)
+    a = motions.interpolate(q, p + offset)
+    qb, pb = random_keyframes(rng, 5)
+    times = np.sort(rng.uniform(*a.domain, 5))
+    times[0], times[-1] = a.domain
+    b = motions.interpolate(qb, pb + offset, times)
+    r = relative_motion(a, b)
+    assert (a.degree, b.degree, r.degree, r.preimage_degree) == (9, 9, 15, 6)
+    err = r.piece_error
+    exact = _exact_reduced(a, b, r.breaks)
+    worst = np.zeros(2)
+    for s, pair in enumerate(exact):
+        for j, (got, want) in enumerate(
+            zip((r.preimage_pieces[s], r.numerator_pieces[s]), pair, strict=True)
+        ):
+            diff = max(float(abs(fr(x) - y)) for g, w in zip(got, want, strict=True)
+                       for x, y in zip(g, w, strict=True))  # fmt: skip
+            assert diff <= err[s, j], (s, j, diff, err[s, j])
+            worst[j] = max(worst[j], diff / err[s, j])
+    assert np.all(worst > 0), worst  # (the bound is not vacuous: some coefficient rounds)
+    print("largest error / bound (preimage, numerator):", worst)
 
 
 def test_a_pair_whose_weights_span_three_decades_is_certified_not_refused():
