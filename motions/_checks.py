@@ -63,15 +63,15 @@ def as_array(
     try:
         # complex numbers are refused, not cast (numpy would drop their imaginary parts
         # with a warning): arrays by their type, anything else once converted
-        if isinstance(getattr(x, "dtype", None), np.dtype):
-            if x.dtype.kind == "c":
-                raise _Complex
-            a = np.array(x, dtype=np.float64)
-        else:
-            a = np.array(x)
-            if a.dtype.kind == "c":
-                raise _Complex
-            a = a.astype(np.float64, copy=False)
+        a = x if isinstance(getattr(x, "dtype", None), np.dtype) else np.array(x)
+        if a.dtype.kind == "c":
+            raise _Complex
+        if a.dtype.kind in "USbO":
+            # numpy would cast '2' to 2.0 and True to 1.0: text and booleans are refused,
+            # and an object array holds real numbers only
+            if a.dtype.kind != "O" or not all(map(_is_real, a.ravel().tolist())):
+                raise TypeError  # (named below)
+        a = np.array(a, dtype=np.float64) if a is x else a.astype(np.float64, copy=False)
     except _Complex:
         raise TypeError(f"Expected `{name}` to hold real numbers, got {short(x)}.") from None
     except (TypeError, ValueError):
@@ -86,8 +86,16 @@ def as_array(
             want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
             raise ValueError(f"Expected `{name}` to have shape {want}, got {a.shape}.")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"Expected `{name}` to be finite, got {short(a)}.")
+        bad = np.argwhere(~np.isfinite(a))[0]
+        raise ValueError(
+            f"Expected `{name}` to be finite, got {a[tuple(bad)]} at index {tuple(bad.tolist())}"
+            f" of {short(a)}."
+        )
     return a
+
+
+def _is_real(v: Any) -> bool:
+    return isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
 
 
 def as_quaternions(x: Any, name: str = "quaternions") -> np.ndarray:

@@ -409,3 +409,38 @@ def test_complex_positions_are_refused_not_cast(positions):
         motions.interpolate(q, positions, [0, 1])
     with pytest.raises(TypeError, match=r"`times` to hold real numbers"):
         motions.interpolate(q, [[0, 0, 0], [1, 0, 0]], np.array([0, 1 + 1e-3j]))
+
+
+def test_text_booleans_and_objects_that_are_not_numbers_are_refused():
+    # numpy casts '2' to 2.0 and True to 1.0: a trial's keyframes with a string among the
+    # positions, boolean positions and a string time were all accepted
+    q, p = demo_keyframes(7)
+    text = p.tolist()
+    text[1][1] = "2"
+    for args, name in (
+        ((q, text), "positions"),
+        ((q, p > 0.3), "positions"),
+        ((np.array(q, dtype=object).astype(str), p), "rotations"),
+        ((q, np.array(text, dtype=object)), "positions"),
+    ):
+        with pytest.raises(TypeError, match=f"`{name}` to be an array of numbers"):
+            motions.interpolate(*args)
+    with pytest.raises(TypeError, match="`times`"):
+        motions.build("rational", q, p, [0, 1, 2, "3", 4, 5, 6])
+    # an object array of numbers is numbers: the same motion
+    same = motions.interpolate(np.array(q, dtype=object), np.array(p.tolist(), dtype=object))
+    t = np.linspace(*same.domain, 11)
+    np.testing.assert_array_equal(same.pose(t)[1], motions.interpolate(q, p).pose(t)[1])
+
+
+def test_a_value_that_is_not_finite_is_named_with_its_index():
+    # the message showed the first six numbers only: a NaN at [5, 2] was not among them
+    q, p = demo_keyframes(7)
+    p = p.copy()
+    p[5, 2] = np.nan
+    with pytest.raises(ValueError, match=r"`positions` to be finite, got nan at index \(5, 2\)"):
+        motions.interpolate(q, p)
+    q = q.copy()
+    q[3, 1] = np.inf
+    with pytest.raises(ValueError, match=r"finite, got inf at index \(3, 1\)"):
+        motions.interpolate(q, demo_keyframes(7)[1])
