@@ -94,6 +94,17 @@ def _pair_eps(md: MujocoDistance, reach: float) -> np.ndarray:
     return eps.reshape(-1)
 
 
+def _intersected(motion, body, obst: list, t: float, method: str) -> int | None:
+    """Index of the first obstacle the pose at `t` is proven to intersect (one does)."""
+    if len(obst) == 1:
+        return 0
+    for k, o in enumerate(obst):
+        _, hi, eps = sample_distances(motion, body, [o], np.array([t]), method)
+        if np.all(hi < -np.asarray(eps)):
+            return k
+    return None  # (each alone above its own ε, though the least of all was below)
+
+
 def ground_truth(
     motion: Motion,
     body: Shape,
@@ -112,8 +123,10 @@ def ground_truth(
     Returns:
         A :class:`Certificate` (bound "truth"): verdict free / collision / unknown;
         ``toi_hi`` the first intersecting sample (the true ``toi``), ``toi_lo`` the start
-        of the first interval not proven free, ``clearance`` the proven minimum distance
-        (free), ``penetration`` the largest proven depth.
+        of the first interval not proven free, ``clearance`` a proven lower bound on the
+        minimum distance (free; below the true minimum by at most
+        `resolution`), ``penetration`` the largest proven depth, ``obstacle`` the index
+        of an obstacle the pose at ``toi_hi`` is proven to intersect (as ``certify``'s).
 
     Raises:
         NoSpeedBoundError: the motion's scheme has no proven speed bound, so there is no
@@ -182,6 +195,7 @@ def ground_truth(
             first_hit,
             seconds=seconds,
             penetration=penetration,
+            obstacle=_intersected(motion, body, obst, first_hit, method),
             **common,
         )
     if np.all(free_iv):

@@ -117,3 +117,17 @@ def test_a_mesh_far_from_its_frames_origin_is_not_rounded_clear(x0, depth, verdi
     m = translation(Q, [end - 0.5, 0.0, 0.0], [end, 0.0, 0.0])
     g = ground_truth(m, Sphere(0.1), [cube], resolution=1e-4)
     assert g.verdict in verdicts, g
+
+
+@pytest.mark.parametrize("method", ["mujoco", "gjk"])
+def test_a_collision_names_the_obstacle_it_meets(method):
+    # the truth's collision had obstacle None where certify names its index (a trial)
+    m = translation(Q, [-2.0, 0.0, 0.0], [2.0, 0.0, 0.0])
+    far = Box([0.1, 0.1, 0.1], center=[0.0, 5.0, 0.0])
+    first = Box([0.1, 1.0, 1.0], center=[-0.5, 0.0, 0.0])  # met first (its face at x = -0.6)
+    later = Box([0.1, 1.0, 1.0], center=[1.5, 0.0, 0.0])
+    for obst, want in (([far, later, first], 2), ([first], 0), ([later, far], 0)):
+        g = ground_truth(m, Sphere(0.2), obst, resolution=1e-2, method=method)
+        assert (g.verdict, g.obstacle) == ("collision", want), (want, g)
+        c = harness.certify(m, Sphere(0.2), obst)
+        assert c.obstacle == want, c
