@@ -165,6 +165,11 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     if model.nkey:
         keys = [model.key(k).name or f"#{k}" for k in range(model.nkey)]
         print(f"keyframes: {model.nkey} at t = {np.round(model.key_time, 6).tolist()} {keys}")
+        for name in (n for n in names if not n.startswith("<unnamed body ")):
+            try:
+                scenes.keyframes_of(model, name)
+            except scenes.SceneError as e:  # (scenes.load would refuse them: say why here)
+                print(f"  (they cannot drive {name}: {e})")
     else:
         print("keyframes: none (a scene needs at least 2 <key> entries with mocap poses)")
     return 0

@@ -128,9 +128,15 @@ def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
             f" {np.array2string(times, threshold=8)}."
         )
     if np.any(np.diff(times) <= 0):
+        zeros = int(np.sum(times == 0.0))
+        hint = (
+            f'{zeros} are 0: give each <key> a time="..." attribute; MuJoCo reads a missing'
+            " one as 0"
+            if zeros > 1
+            else "put the <key> entries in order of time"
+        )
         raise SceneError(
-            f"Expected the keyframe times to be strictly increasing, got {times} (give each"
-            ' <key> a time="..." attribute; MuJoCo reads a missing one as 0).'
+            f"Expected the keyframe times to be strictly increasing, got {times} ({hint})."
         )
     pos = np.array(model.key_mpos).reshape(model.nkey, -1, 3)[:, mid]
     quat = np.array(model.key_mquat).reshape(model.nkey, -1, 4)[:, mid]

@@ -538,6 +538,27 @@ def test_keys_without_times_are_named():
     </body></worldbody><keyframe><key mpos="0 0 0"/><key mpos="1 0 0"/></keyframe></mujoco>"""
     with pytest.raises(scenes.SceneError, match=r'strictly increasing, .*time="\.\.\."'):
         scenes.from_xml(xml, "hand")
+    # times given out of order: the hint is the order, not a missing attribute
+    shuffled = xml.replace('<key mpos="0 0 0"/>', '<key time="2" mpos="0 0 0"/>').replace(
+        '<key mpos="1 0 0"/>', '<key time="1" mpos="1 0 0"/>'
+    )
+    with pytest.raises(scenes.SceneError, match="in order of time") as e:
+        scenes.from_xml(shuffled, "hand")
+    assert "time=" not in str(e.value)
+
+
+def test_the_scenes_command_says_when_keys_cannot_drive_the_body(tmp_path, capsys):
+    # `rsmbench scenes FILE` listed keys without times as "2 at t = [0.0, 0.0]" with no
+    # word that scenes.load refuses them (a new user's trial)
+    from harness.cli import main
+
+    xml = """<mujoco><worldbody><body name="hand" mocap="true"><geom type="box" size=".1 .1 .1"/>
+    </body></worldbody><keyframe><key mpos="0 0 0"/><key mpos="1 0 0"/></keyframe></mujoco>"""
+    (tmp_path / "robot.xml").write_text(xml)
+    assert main(["scenes", str(tmp_path / "robot.xml")]) == 0
+    out = capsys.readouterr().out
+    assert "keyframes: 2 at t = [0.0, 0.0]" in out
+    assert "cannot drive hand: Expected the keyframe times to be strictly increasing" in out
 
 
 def test_carried_names_bodies_of_the_model():
