@@ -57,6 +57,25 @@ def _rows(rng: np.random.Generator, factor: float = 1.0, rounds: int = 5, **over
     return out
 
 
+def test_the_gate_judges_verdicts_against_the_truth_not_only_the_flags(tmp_path):
+    # a run whose rows say free where the truth is collision, with its flags left False
+    # (or without flag columns at all: another writer's results), passed the gate
+    rng = np.random.default_rng(16)
+    base = _run(tmp_path / "base", _rows(rng))
+    for name, override, what in (
+        ("flags_false", {"hull-0": {"verdict": "free"}}, "new false free"),
+        ("fp_flags_false", {"hull-1": {"verdict": "collision"}}, "false collisions"),
+    ):
+        new = _run(tmp_path / name, _rows(np.random.default_rng(16), **override))
+        res = compare(base, new)
+        assert res.exit_code == 1 and any(what in r for r in res.regressions), res.text()
+    rows = _rows(np.random.default_rng(16), **{"hull-0": {"verdict": "free"}})
+    for r in rows:
+        del r["false_negative"], r["false_positive"]
+    res = compare(base, _run(tmp_path / "no_flags", rows))
+    assert res.exit_code == 1 and res.accuracy["false_free"] == [0, 1], res.text()
+
+
 def test_noise_alone_never_fails(tmp_path):
     # 20 pairs of runs of the "same code" (same distribution, other noise)
     rng = np.random.default_rng(1)

@@ -282,6 +282,22 @@ def _flag(df: pd.DataFrame, col: str) -> pd.Series:
     return df[col].map(lambda v: bool(v) if isinstance(v, bool | np.bool_) else v == 1).astype(bool)
 
 
+_WRONG = {"false_negative": ("collision", "free"), "false_positive": ("free", "collision")}
+"""Each accuracy flag as (truth, verdict): what the run's own columns say it means."""
+
+
+def _wrong(df: pd.DataFrame, col: str) -> pd.Series:
+    """Rows a run marks `col` (false free or false collision), or whose `truth` and
+    `verdict` columns make so: the gate judges the verdicts against the truth, not only
+    the flags the run wrote (a run whose flags were left out, or computed by other code,
+    passed with a false free in its rows)."""
+    out = _flag(df, col)
+    if "truth" in df and "verdict" in df:
+        truth, verdict = _WRONG[col]
+        out = out | ((df["truth"] == truth) & (df["verdict"] == verdict)).to_numpy()
+    return out
+
+
 def _where(r: pd.Series) -> str:
     """The query a row is: scene/scheme/bound, then what tells it from the scene's other
     queries (its keyframe set, tolerance, pair, corpus or repair case, case id)."""
@@ -332,12 +348,12 @@ def _run_accuracy(
             " between runs of the same code, see the corpus section of the report)"
         )
         bi, ni = bi[~skip], ni[~skip]
-    fnb, fnn = _flag(bi, "false_negative"), _flag(ni, "false_negative")
+    fnb, fnn = _wrong(bi, "false_negative"), _wrong(ni, "false_negative")
     for key in bi.index[(fnn & ~fnb).to_numpy()]:
         out.regressions.append(
             f"accuracy: new false free in {_where(ni.loc[key])} where the base had none"
         )
-    fpb_rows, fpn_rows = _flag(bi, "false_positive"), _flag(ni, "false_positive")
+    fpb_rows, fpn_rows = _wrong(bi, "false_positive"), _wrong(ni, "false_positive")
     fpb, fpn = int(fpb_rows.sum()), int(fpn_rows.sum())
     fnb_n, fnn_n = int(fnb.sum()), int(fnn.sum())
     free = f"false free: base {fnb_n}, new {fnn_n}"
