@@ -509,7 +509,8 @@ def machine_info() -> dict[str, Any]:
         "logical_cpus": os.cpu_count(),
         "usable_cpus": usable,
         "ram_gb": round(_ram_gb(), 2),
-        "certify_threads": None if threads is None else threads.default,
+        # (the lanes a default query launches: no more than the usable CPUs)
+        "certify_threads": None if threads is None else min(threads.default, usable or 1),
         "load_average": load,
         "kernel_cache_dir": cache,
         "kernel_cache_modules": modules,

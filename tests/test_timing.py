@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import shutil
+import sys
 import time
 
 import numpy as np
@@ -142,3 +145,32 @@ def test_rounds_run_without_the_garbage_collector_and_restore_it():
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+@pytest.mark.skipif(shutil.which("taskset") is None, reason="needs taskset (util-linux)")
+def test_under_taskset_one_cpu_a_query_launches_one_lane_and_says_so():
+    # `certify_threads` said 2 under `taskset -c 0` (a trial), and two lanes took turns
+    # on the one CPU; the certificates are the same either way
+    import json
+    import subprocess
+
+    code = (
+        "import json, harness, motions\n"
+        "from harness.certification.refine import lane_count\n"
+        "from harness import timing\n"
+        "from motions.demo import demo_keyframes\n"
+        "q, p = demo_keyframes(5)\n"
+        "ms = [motions.interpolate(q, p + [0, 0, 0.1 * k]) for k in range(4)]\n"
+        "box = harness.Box([0.1, 0.1, 0.1])\n"
+        "c = harness.certify_many(ms, box, [harness.Box([0.2, 0.2, 0.2], center=p[2])])\n"
+        "print(json.dumps([lane_count(2, 4, 'cpu'), timing.machine_info()['certify_threads'],"
+        " [(x.verdict, x.toi_lo, x.nodes) for x in c]]))\n"
+    )
+    runs = []
+    for cmd in (["taskset", "-c", "0", sys.executable, "-c", code], [sys.executable, "-c", code]):
+        out = subprocess.run(cmd, capture_output=True, text=True, check=True, timeout=600)
+        runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    (lanes1, threads1, certs1), (lanes2, _, certs2) = runs
+    assert (lanes1, threads1) == (1, 1), runs
+    assert lanes2 == min(2, len(os.sched_getaffinity(0)))
+    assert certs1 == certs2

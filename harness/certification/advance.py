@@ -31,14 +31,14 @@ from motions.pieces import UNIT_ROUNDOFF, speed_bounds
 
 from ..shapes import Shape
 from .api import MAX_SAMPLES, Certificate, Owners, QueryError, assemble, motion_cache
-from .device import buffers, is_cpu, warp
+from .device import buffers, warp
 from .refine import (
-    GPU_LANES,
     MOTIONS_PER_CHUNK,
     OUT_N,
     REACH_ROW,
     Outcome,
     Packed,
+    lane_count,
     pack_inputs,
     pack_pieces,
     pack_shapes,
@@ -94,7 +94,7 @@ def pose_rows(
         z = np.zeros(0)
         return z, z, z.astype(bool), np.zeros((0, 3))
     buf = buffers(device, "pose_rows")
-    lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
+    lanes = lane_count(threads, n, device)
     args = [
         buf.put("poses", np.ascontiguousarray(poses), wp.mat44d),
         buf.put("bi", np.asarray(body_idx, dtype=np.int32), wp.int32),
@@ -294,7 +294,7 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
         n = len(cm)
         stepping = [_stepping_pieces(m, b.bounding_radius) for m, b in zip(cm, cb, strict=True)]
         buf = buffers(device, kernel_name)
-        lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
+        lanes = lane_count(threads, n, device)
         arrays, kmax = pack_inputs(buf, [x[0] for x in stepping], cb, co)
         head = [arrays[k] for k in ("ctrl", "p_start", "p_k", "p_t", "p_err")]
         head.append(buf.put_concat("p_speed", [x[1] for x in stepping], wp.float64))

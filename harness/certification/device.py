@@ -172,6 +172,23 @@ def is_cpu(device: str) -> bool:
     return device == "cpu"
 
 
+def usable_cpus(device: str = "cpu") -> int:
+    """CPUs this process may run on (its affinity: ``taskset`` narrows it), for lanes of a
+    CPU launch; unbounded for other devices. Read once."""
+    global _usable
+    if not is_cpu(device):
+        return 1 << 30
+    if _usable is None:
+        try:
+            _usable = max(1, len(os.sched_getaffinity(0)))
+        except (AttributeError, OSError):  # (no affinity on this platform)
+            _usable = max(1, os.cpu_count() or 1)
+    return _usable
+
+
+_usable: int | None = None
+
+
 class Buffers:
     """Grow-only kernel buffers of one device: ``put`` writes an input, ``out`` gives an
     output; both return (numpy view, warp array). Arrays keep their trailing dimensions;

@@ -23,7 +23,7 @@ from motions import RationalMotion
 from motions.pieces import UNIT_ROUNDOFF, BezierPieces, gamma
 
 from ..shapes import MAX_LENGTH, Shape
-from .device import buffers, is_cpu, record_dtype, warp
+from .device import buffers, is_cpu, record_dtype, usable_cpus, warp
 from .scale import MAX_TIME, check_pieces, control_positions
 from .tables import ShapeTable
 
@@ -44,6 +44,14 @@ REACH_ROW = 12
 GPU_LANES = 65536
 """Lanes of one launch on a CUDA device (scratch memory grows with lanes x depth x K)."""
 REASONS = {2: "tolerance", 3: "depth", 4: "budget"}
+
+
+def lane_count(threads: int, n: int, device: str) -> int:
+    """Lanes of a launch of `n` motions: on the CPU `threads` host threads, but no more
+    than the CPUs this process may run on (under ``taskset -c 0`` two lanes took turns on
+    one CPU while the run's meta said two threads), on a CUDA device :data:`GPU_LANES`.
+    Certificates never depend on it."""
+    return max(1, min(threads if is_cpu(device) else GPU_LANES, n, usable_cpus(device)))
 
 
 OUT_N = 10
@@ -576,7 +584,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
     wp = warp()
     n = len(packs)
     buf = buffers(device, "refine")
-    lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
+    lanes = lane_count(threads, n, device)
     arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
     args = [arrays[k] for k in REFINE_INPUTS] + [
@@ -634,7 +642,7 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
     wp = warp()
     n = len(packs)
     buf = buffers(device, "clearance")
-    lanes = max(1, min(threads if is_cpu(device) else GPU_LANES, n))
+    lanes = lane_count(threads, n, device)
     arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
     args = [arrays[k] for k in CLEARANCE_INPUTS] + [
