@@ -71,8 +71,10 @@ def restrict_control(breaks: np.ndarray, ctrl: np.ndarray, new_breaks: np.ndarra
     br = np.asarray(breaks, dtype=float)
     nb = np.asarray(new_breaks, dtype=float)
     c = np.asarray(ctrl, dtype=float)
-    mid = 0.5 * (nb[:-1] + nb[1:])
-    s = np.clip(np.searchsorted(br, mid, side="right") - 1, 0, br.size - 2)
+    # each interval's segment by its left end (its midpoint rounded onto the next
+    # breakpoint for an interval one double long: the segment on the right, both split
+    # parameters 0, and 0/0 for the second split; a hunt's 1-ulp slivers)
+    s = np.clip(np.searchsorted(br, nb[:-1], side="right") - 1, 0, br.size - 2)
     h = br[s + 1] - br[s]
     u0 = np.clip((nb[:-1] - br[s]) / h, 0.0, 1.0)
     u1 = np.clip((nb[1:] - br[s]) / h, 0.0, 1.0)
@@ -141,7 +143,8 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     # bounds E, |F(x + e) - F(x)| <= F_abs(|x| + E) - F_abs(|x|), and the roundings add
     # γ_m F_abs(|x|), m the most roundings on any product's way to an entry:
     #   restriction, two de Casteljau splits of n levels, (1 - u) c_i + u c_{i+1}: 3 n
-    #     each (6 n);
+    #     each (6 n) for every restricted factor of a product: a's twice, b's once
+    #     (12 n_a + 6 n_b; a hunt saw 6 (n_a + n_b) count each factor's once only);
     #   inverse: w_p A_q^T or A_p^T b_q (3-term dot: 3), its weight (1, itself rounded: 1),
     #     then a sum over (n_a + 1)^2 terms: (n_a + 1)^2 + 4;
     #   product: 4x4 products (4), weight (2), a sum over (2 n_a + 1)(n_b + 1) terms.
@@ -154,7 +157,7 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     #   <= hi / (1 - γ_m) - lo (1 - γ_m) / (1 + γ_m) <= hi (1 + 2 g) - lo (1 - 2 g)
     # with g = γ_(m + 8) (the last products' and the difference's own roundings).
     na, nb = ca.shape[1] - 1, cb.shape[1] - 1
-    m = 6 * (na + nb) + (na + 1) ** 2 + 4 + (2 * na + 1) * (nb + 1) + 6
+    m = 12 * na + 6 * nb + (na + 1) ** 2 + 4 + (2 * na + 1) * (nb + 1) + 6
     abs_a, abs_b = np.abs(ca), np.abs(cb)
     shift_a = 2 * na * 10 * UNIT_ROUNDOFF * abs_a.max(axis=1, keepdims=True)
     shift_b = 2 * nb * 10 * UNIT_ROUNDOFF * abs_b.max(axis=1, keepdims=True)
@@ -175,12 +178,21 @@ def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMo
     form): a's origin polynomial (or none), b with a preimage."""
     br_a, br_b = a.breaks, b.breaks
     breaks = _union_breaks(br_a, br_b)
+    # homogeneous: Q_a and Q_b scaled by powers of two (exact) to magnitude ~1 first, b's
+    # numerator with u0_b, so that no product below passes into the subnormals where the
+    # preimages are tiny (|Q| ~ 2**-190 and positions ~1e-90 broke the γ model: a hunt)
+    (qa, ea), (qb, eb) = _unit_scale(a.preimage_pieces), _unit_scale(b.preimage_pieces)
+    err_a, err_b = a.piece_error, b.piece_error
+    err_a[:, 0], err_b[:, 0] = np.ldexp(err_a[:, 0], -ea), np.ldexp(err_b[:, 0], -eb)
+    vb = b.numerator_pieces
+    if vb is not None:
+        vb, err_b[:, 1] = np.ldexp(vb, -2 * eb), np.ldexp(err_b[:, 1], -2 * eb)
     ins = [  # (breakpoints, pieces or None, error bound per segment) of qa, pa, qb, pb, vb
-        (br_a, a.preimage_pieces, a.piece_error[:, 0]),
-        (br_a, a.origin_pieces, a.piece_error[:, 1]),
-        (br_b, b.preimage_pieces, b.piece_error[:, 0]),
-        (br_b, b.origin_pieces, b.piece_error[:, 1]),
-        (br_b, b.numerator_pieces, b.piece_error[:, 1]),
+        (br_a, qa, err_a[:, 0]),
+        (br_a, a.origin_pieces, err_a[:, 1]),
+        (br_b, qb, err_b[:, 0]),
+        (br_b, b.origin_pieces, err_b[:, 1]),
+        (br_b, vb, err_b[:, 1]),
     ]
     # each input as it is, its absolute values, and those grown by its error bound and
     # the shift of the rounded split parameters (below), restricted to `breaks` at once
@@ -202,7 +214,9 @@ def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMo
     # F_abs; the inputs' own bounds E and the rounded split parameters' shifts P enter as
     # F_abs(|x| + E + P) - F_abs(|x|), the roundings as γ_m F_abs(|x|), with m the most
     # roundings on any product's way to a coefficient:
-    #   restriction, two splits of n levels: 6 n;
+    #   restriction, two splits of n levels: 6 n for each restricted factor of a
+    #     product, at most Q_a twice (U_a), Q_b twice (u0_b) and a translation:
+    #     6 (2 d_a + 2 d_b + k), k the translations' largest degree;
     #   conj(Q_a) Q_b: 4-term sums (4), the weight (2), a sum over (d_a+1)(d_b+1) terms;
     #   U_a and u0_b: 3 d + 10 each (control_matrices);
     #   v_b - u0_b p_a: the product (2, and a sum over (2 d_b + 1)(k_a + 1) terms), an
@@ -212,18 +226,27 @@ def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMo
     lo_q, lo_v = _reduced_parts(*absx, absolute=True)
     hi_q, hi_v = _reduced_parts(*big, absolute=True)
     da, db = on[0].shape[1] - 1, on[2].shape[1] - 1
-    deg_in = max(x.shape[1] - 1 for x in on if x is not None)
+    k_in = max([x.shape[1] - 1 for x in on[1:2] + on[3:] if x is not None], default=0)
     j = 0 if v is None else v.shape[1] - 1 - 2 * da
     ka = 0 if on[1] is None else on[1].shape[1] - 1
     m = (
-        6 * deg_in + (da + 1) * (db + 1) + 6 + 3 * (da + db) + 20
+        6 * (2 * da + 2 * db + k_in) + (da + 1) * (db + 1) + 6 + 3 * (da + db) + 20
         + (2 * db + 1) * (ka + 1) + (j + 1) + 4 + (2 * da + 1) * (j + 1) + 5
     )  # fmt: skip
     g = gamma(m + 8)
-    err = np.zeros((len(q), 2))
-    err[:, 0] = (hi_q * (1.0 + 2.0 * g) - lo_q * (1.0 - 2.0 * g)).max(axis=(1, 2))
+    # and underflow: a product that falls into the subnormals is off by up to 2**-1075
+    # absolutely (not relatively), then multiplied by at most three more preimage factors
+    # (each at most the largest, ~1 once scaled) and one translation, and summed with the
+    # other terms (fewer than m)
+    most_q = max(float(big[0].max()), float(big[2].max()))
+    most_t = max([float(x.max()) for x in big[1:2] + big[3:] if x is not None], default=0.0)
+    tiny = (m + 8) * 2.0**-1074 * (1.0 + most_q) ** 4 * (1.0 + most_t)
+    err = np.full((len(q), 2), tiny)
+    err[:, 0] += (hi_q * (1.0 + 2.0 * g) - lo_q * (1.0 - 2.0 * g)).max(axis=(1, 2))
     if v is not None:
-        err[:, 1] = (hi_v * (1.0 + 2.0 * g) - lo_v * (1.0 - 2.0 * g)).max(axis=(1, 2))
+        err[:, 1] += (hi_v * (1.0 + 2.0 * g) - lo_v * (1.0 - 2.0 * g)).max(axis=(1, 2))
+    else:
+        err[:, 1] = 0.0
     # homogeneous: a power of two (exact) keeps |Q|^4 and the numerator in range, as
     # from_preimage does (the numerator scales with u0 = |Q|^2)
     _, e = np.frexp(np.abs(q).max())
@@ -232,6 +255,12 @@ def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMo
         if v is not None:
             v, err[:, 1] = np.ldexp(v, -2 * int(e)), np.ldexp(err[:, 1], -2 * int(e))
     return RationalMotion(breaks, preimage=q, numerator=v, keyframe_times=kt, piece_error=err)
+
+
+def _unit_scale(q: np.ndarray) -> tuple[np.ndarray, int]:
+    """`q` divided by the power of two of its largest coefficient (exact), and the power."""
+    _, e = np.frexp(np.abs(q).max())
+    return np.ldexp(q, -int(e)), int(e)
 
 
 def _quaternion_product_tensor() -> np.ndarray:

@@ -7,6 +7,7 @@ distance: never `free` where a sampled pair of poses intersects.
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 from itertools import pairwise
 
@@ -392,17 +393,82 @@ def test_the_reduced_relative_motions_round_off_bound_holds_in_exact_arithmetic(
     assert (a.degree, b.degree, r.degree, r.preimage_degree) == (9, 9, 15, 6)
     err = r.piece_error
     exact = _exact_reduced(a, b, r.breaks)
+    # a motion's preimage is homogeneous: (λ Q, λ² v) is the same motion, and the pieces
+    # may be scaled by a power of two λ (exact); find it from the largest coefficient
+    big = max((c for s in exact for c in s[0]), key=lambda c: max(map(abs, c)))
+    k = max(range(4), key=lambda i: abs(big[i]))
+    where = next((s, i) for s, pair in enumerate(exact) for i, c in enumerate(pair[0]) if c is big)
+    lam = fr(r.preimage_pieces[where[0]][where[1]][k]) / big[k]
+    lam = Fraction(2) ** round(math.log2(float(lam)))
     worst = np.zeros(2)
     for s, pair in enumerate(exact):
         for j, (got, want) in enumerate(
             zip((r.preimage_pieces[s], r.numerator_pieces[s]), pair, strict=True)
         ):
-            diff = max(float(abs(fr(x) - y)) for g, w in zip(got, want, strict=True)
+            scale = lam ** (j + 1)  # (the preimage by λ, the numerator by λ²)
+            diff = max(float(abs(fr(x) - scale * y)) for g, w in zip(got, want, strict=True)
                        for x, y in zip(g, w, strict=True))  # fmt: skip
             assert diff <= err[s, j], (s, j, diff, err[s, j])
             worst[j] = max(worst[j], diff / err[s, j])
     assert np.all(worst > 0), worst  # (the bound is not vacuous: some coefficient rounds)
     print("largest error / bound (preimage, numerator):", worst)
+
+
+def test_breakpoints_one_double_apart_are_restricted_not_refused():
+    # a hunt: b's breakpoint one double below one of a's; the interval between them was
+    # located by its midpoint, which rounds onto the next breakpoint: the segment on the
+    # right, both split parameters 0, and 0/0 in the second split (NaN pieces, PairError)
+    rng = np.random.default_rng(0)
+    q, p = random_keyframes(rng, 5)
+    qb, pb = random_keyframes(rng, 5)
+    ta = np.array([0.0, 1.0, 1.5, 3.0, 4.0])
+    for nudge in (np.nextafter(1.5, 0.0), np.nextafter(1.5, 2.0)):
+        tb = ta.copy()
+        tb[2] = nudge
+        for mode in ("cubic", "minimal"):
+            a = motions.interpolate(q, p, ta, translation=mode)
+            b = motions.interpolate(qb, pb + 1.0, tb)
+            r = relative_motion(a, b)
+            assert np.isfinite(r.bezier_form()[1]).all() and 1.5 in r.breaks and nudge in r.breaks
+            t = np.r_[np.linspace(0.0, 4.0, 101), 1.5, nudge]
+            want = np.linalg.inv(a.matrix(t)) @ b.matrix(t)
+            np.testing.assert_allclose(bernstein_matrix(r, t), want, atol=EXACT)
+            c = certify_pair(a, Sphere(0.1), b, Sphere(0.1))
+            d = pair_distances(a, Sphere(0.1), b, Sphere(0.1), np.linspace(0.0, 4.0, 4001))
+            assert c.verdict != "free" or d.min() > 0, (c, d.min())
+
+
+def test_tiny_preimages_and_positions_keep_a_bound_through_the_subnormals():
+    # a hunt: |Q| ~ 2**-190 for both motions (from_preimage keeps any norm within
+    # 2**±200) and positions ~1e-90: the numerator's products passed into the subnormals,
+    # where rounding is absolute, and its bound read 0 with the pieces off
+    from motions.interpolation import interp_spline
+
+    from .exact import fr
+
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 4.0, 5)
+    tb = np.array([0.0, 0.7, 2.3, 3.1, 4.0])
+
+    def build(times, offset):
+        q, p = random_keyframes(rng, 5)
+        sq = interp_spline(times, motions.sign_continuity(q), 3, "rotations")
+        so = interp_spline(times, (p + offset) * 1e-90, 3)
+        return motions.RationalMotion.from_preimage(3, sq.t, sq.c * 2.0**-190, (3, so.t, so.c))
+
+    a, b = build(t, 0.0), build(tb, 0.5)
+    r = relative_motion(a, b)
+    assert np.all(r.piece_error[:, 1] > 0)
+    exact = _exact_reduced(a, b, r.breaks)
+    for s, (eq, ev) in enumerate(exact):
+        # the pieces up to a power of two λ (the preimage) and λ² (the numerator)
+        k = max(range(len(eq)), key=lambda i: max(map(abs, eq[i])))
+        c = max(range(4), key=lambda i: abs(eq[k][i]))
+        lam = Fraction(2) ** round(math.log2(float(fr(r.preimage_pieces[s][k][c]) / eq[k][c])))
+        for got, want, j in ((r.preimage_pieces[s], eq, 0), (r.numerator_pieces[s], ev, 1)):
+            diff = max(abs(fr(x) - lam ** (j + 1) * y) for g, w in zip(got, want, strict=True)
+                       for x, y in zip(g, w, strict=True))  # fmt: skip
+            assert diff <= fr(r.piece_error[s, j]), (s, j, float(diff), r.piece_error[s, j])
 
 
 def test_a_pair_whose_weights_span_three_decades_is_certified_not_refused():
