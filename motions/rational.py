@@ -739,7 +739,11 @@ class RationalMotion(Motion):
             trans = self._p if self._p is not None else self._v
             mags = [np.abs(self._q[s]).max(), 0.0 if trans is None else np.abs(trans[s]).max()]
             k = max(self._q.shape[1], 1 if trans is None else trans.shape[1])
-            err[s] += gamma(4 * k) * (np.array(mags) + err[s])
+            # and the split parameter's rounding (u = (t - b_s) / h: 3 roundings), which
+            # moves a degree-n restriction's coefficients by at most 2 n |δu| max |c_i|
+            err[s] += gamma(4 * k) * (np.array(mags) + err[s]) + 2 * (k - 1) * gamma(3) * (
+                np.array(mags) + err[s]
+            )
         errs = (err[: s + 1], err[s:]) if not at_break else (err[:s], err[s:])
         cerr = (None, None)
         if self._q is None and (not at_break or self._ctrl_error is not None):
@@ -750,7 +754,9 @@ class RationalMotion(Motion):
                 else np.array(self._ctrl_error)
             )
             if not at_break:
-                ce[s] += gamma(4 * self._ctrl.shape[1]) * (block_magnitude(self._ctrl[s]) + ce[s])
+                k = self._ctrl.shape[1]  # (and the split parameter's rounding, as above)
+                grow = gamma(4 * k) + 2 * (k - 1) * gamma(3)
+                ce[s] += grow * (block_magnitude(self._ctrl[s]) + ce[s])
             cerr = (ce[: s + 1], ce[s:]) if not at_break else (ce[:s], ce[s:])
         for side, br in ((0, bl), (1, brr)):
             kw = {k: v[side] for k, v in parts.items()}
