@@ -471,6 +471,25 @@ def test_tiny_preimages_and_positions_keep_a_bound_through_the_subnormals():
             assert diff <= fr(r.piece_error[s, j]), (s, j, float(diff), r.piece_error[s, j])
 
 
+def test_a_pair_whose_weights_dip_together_is_refused_as_a_pair():
+    # each motion's weight dips to 1e-8 of its peak at t = 0.5 (nearly antipodal control
+    # quaternions), which each alone carries; their product dips to 1e-16, below the
+    # relative motion's error bound. The refusal was a DegenerateMotionError about "the
+    # motion" from inside certify (a hunt): now a PairError that says whose weight
+    def dip(offset):
+        q = np.array([[1.0, 0, 0, 0], [-1.0, 2e-4, 0, 0]])
+        path = np.array([[0.0, 0, 0], [1.0, 0, 0]]) + offset
+        return motions.RationalMotion.from_preimage(1, [0, 0, 1, 1], q, (1, [0, 0, 1, 1], path))
+
+    a, b = dip([0.0, 0, 0]), dip([0.0, 3.0, 0])
+    assert harness.certify(a, Sphere(0.1), [Sphere(0.1, center=[0, 3.0, 0])]).verdict == "free"
+    with pytest.raises(
+        PairError,
+        match=r"relative motion M_a⁻¹ M_b cannot be bounded: its weight u0_a·u0_b vanishes near t = 0\.5",
+    ):
+        certify_pair(a, Sphere(0.1), b, Sphere(0.1))
+
+
 def test_a_pair_whose_weights_span_three_decades_is_certified_not_refused():
     """A hunt: two interpolated motions (translation "minimal", keyframe times ~1e3, a
     weight from 0.5 to 1e3) gave PairError: their relative motion's control matrices, rigid

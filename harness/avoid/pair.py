@@ -2,10 +2,11 @@
 body a moving by ``M_a(t)`` is body b moving by the relative rational motion
 ``M_a(t)^{-1} M_b(t)`` against body a held still, so the one engine certifies it.
 
-The relative motion has degree ``2 n_a + n_b`` (27 for two interpolated motions of
-degree 9): each hull support evaluation runs over three times as many control
-matrices, and its round-off margin is that of control matrices given exactly (the
-products are computed in floating point; see :func:`motions.relative.relative_motion`).
+The relative motion (:func:`motions.relative.relative_motion`) has degree 15 for two
+interpolated motions of degree 9 (built from their preimages), or is represented at
+degree ``2 n_a + n_b`` where a's origin is not polynomial; its weight is ``u0_a u0_b``,
+so it dips as deep as both motions' weights together, and its round-off bounds are
+those of its computed pieces.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from motions import Motion, RationalMotion
+from motions import DegenerateMotionError, Motion, RationalMotion
 from motions.relative import relative_motion
 
 from ..certification import Certificate, QueryError, certify, certify_many
@@ -84,6 +85,13 @@ def certify_pair(
         )
     except QueryError as e:  # (certify names its argument; here it is no argument)
         raise type(e)(str(e).replace("`motion`", "the relative motion M_a⁻¹ M_b")) from None
+    except DegenerateMotionError as e:  # (each motion alone may be fine: say whose weight)
+        why = str(e).rstrip(".").replace("The weight u0 of the motion", "its weight u0_a·u0_b")
+        raise PairError(
+            f"The relative motion M_a⁻¹ M_b cannot be bounded: {why} (the product of the two"
+            " motions' weights dips as deep as both together, though each may be certified"
+            " alone)."
+        ) from None
 
 
 def pair_distances(
