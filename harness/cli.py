@@ -160,8 +160,8 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
         )
     moving = moving_geoms(model)
     if moving.size:
-        names = sorted({model.body(b).name or f"#{b}" for b in model.geom_bodyid[moving]})
-        print(f"not obstacles: {moving.size} colliding geoms on bodies that joints move {names}")
+        moved = sorted({model.body(b).name or f"#{b}" for b in model.geom_bodyid[moving]})
+        print(f"not obstacles: {moving.size} colliding geoms on bodies that joints move {moved}")
     if model.nkey:
         keys = [model.key(k).name or f"#{k}" for k in range(model.nkey)]
         print(f"keyframes: {model.nkey} at t = {np.round(model.key_time, 6).tolist()} {keys}")

@@ -486,11 +486,9 @@ def machine_info() -> dict[str, Any]:
     import inspect
 
     import harness
+    from harness.certification.device import usable_cpus
 
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        usable = os.cpu_count()
+    usable = usable_cpus()
     try:
         load = [round(x, 2) for x in os.getloadavg()]
     except OSError:
@@ -510,7 +508,7 @@ def machine_info() -> dict[str, Any]:
         "usable_cpus": usable,
         "ram_gb": round(_ram_gb(), 2),
         # (the lanes a default query launches: no more than the usable CPUs)
-        "certify_threads": None if threads is None else min(threads.default, usable or 1),
+        "certify_threads": None if threads is None else min(threads.default, usable),
         "load_average": load,
         "kernel_cache_dir": cache,
         "kernel_cache_modules": modules,

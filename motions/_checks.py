@@ -6,6 +6,7 @@ Messages name the argument in backticks, say what was expected and what was got.
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
 import numpy as np
@@ -66,16 +67,20 @@ def as_array(
         a = x if isinstance(getattr(x, "dtype", None), np.dtype) else np.array(x)
         if a.dtype.kind == "c":
             raise _Complex
-        if a.dtype.kind in "USbO":
-            # numpy would cast '2' to 2.0 and True to 1.0: text and booleans are refused,
-            # and an object array holds real numbers only
+        if a.dtype.kind in "USbOmM" or (a is not x and _has_bool(x)):
+            # numpy would cast '2' to 2.0, True to 1.0 (also among floats, [1.0, True])
+            # and a date to its day count: text, booleans and times are refused, and an
+            # object array holds real numbers only (Fraction, Decimal, numpy scalars)
             if a.dtype.kind != "O" or not all(map(_is_real, a.ravel().tolist())):
                 raise TypeError  # (named below)
         a = np.array(a, dtype=np.float64) if a is x else a.astype(np.float64, copy=False)
     except _Complex:
         raise TypeError(f"Expected `{name}` to hold real numbers, got {short(x)}.") from None
     except (TypeError, ValueError):
-        raise TypeError(f"Expected `{name}` to be an array of numbers, got {short(x)}.") from None
+        among = " (True/False among them)" if _has_bool(x) else ""
+        raise TypeError(
+            f"Expected `{name}` to be an array of numbers, got {short(x)}{among}."
+        ) from None
     except OverflowError:  # a Python integer beyond the doubles (10**400)
         raise ValueError(f"Expected `{name}` to be finite, got a number beyond 1e308.") from None
     if ndim is not None and a.ndim != ndim:
@@ -86,6 +91,8 @@ def as_array(
             want = "(" + ", ".join("N" if s == -1 else str(s) for s in shape) + ")"
             raise ValueError(f"Expected `{name}` to have shape {want}, got {a.shape}.")
     if not np.all(np.isfinite(a)):
+        if a.ndim == 0:
+            raise ValueError(f"Expected `{name}` to be finite, got {a.item()}.")
         bad = np.argwhere(~np.isfinite(a))[0]
         raise ValueError(
             f"Expected `{name}` to be finite, got {a[tuple(bad)]} at index {tuple(bad.tolist())}"
@@ -95,7 +102,15 @@ def as_array(
 
 
 def _is_real(v: Any) -> bool:
-    return isinstance(v, int | float | np.integer | np.floating) and not isinstance(v, bool)
+    """A real number (int, float, Fraction, Decimal, numpy's), not a bool or a complex."""
+    return isinstance(v, numbers.Number) and not isinstance(v, bool | np.bool_ | complex)
+
+
+def _has_bool(x: Any) -> bool:
+    """Whether a (nested) list or tuple holds a bool (numpy folds [1.0, True] into floats)."""
+    if isinstance(x, list | tuple):
+        return any(_has_bool(v) for v in x)
+    return isinstance(x, bool | np.bool_)
 
 
 def as_quaternions(x: Any, name: str = "quaternions") -> np.ndarray:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
-from ._checks import as_float, as_points, short
+from ._checks import as_array, as_float, as_points, short
 
 if TYPE_CHECKING:
     from .exp_pieces import ExpPieces
@@ -119,13 +119,7 @@ class Motion(abc.ABC):
         certifiers step from knot to knot, and a user motion whose breakpoints left out
         the domain's ends had the times before its first one certified free unseen)."""
         t0, t1 = self._domain
-        try:
-            br = np.asarray(self.breakpoints, dtype=float).ravel()
-        except (TypeError, ValueError):
-            raise TypeError(
-                f"Expected the `breakpoints` of {self!r} to be numbers (times), got"
-                f" {short(self.breakpoints)}."
-            ) from None
+        br = as_array(self.breakpoints, "breakpoints").ravel()  # (a user's: checked)
         k = np.concatenate([self._keyframe_times, br])
         return np.unique(np.concatenate([[t0], k[(k > t0) & (k < t1)], [t1]]))
 

@@ -741,9 +741,7 @@ class RationalMotion(Motion):
             k = max(self._q.shape[1], 1 if trans is None else trans.shape[1])
             # and the split parameter's rounding (u = (t - b_s) / h: 3 roundings), which
             # moves a degree-n restriction's coefficients by at most 2 n |δu| max |c_i|
-            err[s] += gamma(4 * k) * (np.array(mags) + err[s]) + 2 * (k - 1) * gamma(3) * (
-                np.array(mags) + err[s]
-            )
+            err[s] += (gamma(4 * k) + 2 * (k - 1) * gamma(3)) * (np.array(mags) + err[s])
         errs = (err[: s + 1], err[s:]) if not at_break else (err[:s], err[s:])
         cerr = (None, None)
         if self._q is None and (not at_break or self._ctrl_error is not None):

@@ -99,8 +99,10 @@ def _union_breaks(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     """Motion of body b in the moving frame of body a: ``M_a(t)^{-1} M_b(t)``.
 
-    Rational of degree ``2 n_a + n_b`` on the union of both motions' breakpoints, built
-    exactly from Bernstein products (DESIGN §4 "Two moving bodies"). Its matrix at t is
+    Rational on the union of both motions' breakpoints, built exactly from Bernstein
+    products (DESIGN §4 "Two moving bodies"): from the preimages (degree 15 for two
+    interpolants) where a's origin is polynomial or absent and b has a preimage, else
+    through a's inverse at degree ``2 n_a + n_b`` (see the module docstring). Its matrix at t is
     ``inv(a.matrix(t)) @ b.matrix(t)``; a point fixed in body b is at
     ``relative.transform(x, t)`` in body a's coordinates.
 
@@ -236,8 +238,10 @@ def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMo
     g = gamma(m + 8)
     # and underflow: a product that falls into the subnormals is off by up to 2**-1075
     # absolutely (not relatively), then multiplied by at most three more preimage factors
-    # (each at most the largest, ~1 once scaled) and one translation, and summed with the
-    # other terms (fewer than m)
+    # (each at most the largest, ~1 once scaled) and one translation; the restrictions,
+    # Bernstein products and elevations combine terms with convex weights, so the nested
+    # sums do not multiply it, and m + 8 covers every rounding that can underflow on a
+    # coefficient's way
     most_q = max(float(big[0].max()), float(big[2].max()))
     most_t = max([float(x.max()) for x in big[1:2] + big[3:] if x is not None], default=0.0)
     tiny = (m + 8) * 2.0**-1074 * (1.0 + most_q) ** 4 * (1.0 + most_t)
@@ -247,13 +251,6 @@ def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMo
         err[:, 1] += (hi_v * (1.0 + 2.0 * g) - lo_v * (1.0 - 2.0 * g)).max(axis=(1, 2))
     else:
         err[:, 1] = 0.0
-    # homogeneous: a power of two (exact) keeps |Q|^4 and the numerator in range, as
-    # from_preimage does (the numerator scales with u0 = |Q|^2)
-    _, e = np.frexp(np.abs(q).max())
-    if not -200 < e < 200:
-        q, err[:, 0] = np.ldexp(q, -int(e)), np.ldexp(err[:, 0], -int(e))
-        if v is not None:
-            v, err[:, 1] = np.ldexp(v, -2 * int(e)), np.ldexp(err[:, 1], -2 * int(e))
     return RationalMotion(breaks, preimage=q, numerator=v, keyframe_times=kt, piece_error=err)
 
 

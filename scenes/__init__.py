@@ -133,7 +133,7 @@ def keyframes_of(model: mujoco.MjModel, body: str) -> Keyframes:
             f'{zeros} are 0: give each <key> a time="..." attribute; MuJoCo reads a missing'
             " one as 0"
             if zeros > 1
-            else "put the <key> entries in order of time"
+            else "give each <key> its own time, increasing in the order of the entries"
         )
         raise SceneError(
             f"Expected the keyframe times to be strictly increasing, got {times} ({hint})."

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from decimal import Decimal
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -427,10 +429,23 @@ def test_text_booleans_and_objects_that_are_not_numbers_are_refused():
             motions.interpolate(*args)
     with pytest.raises(TypeError, match="`times`"):
         motions.build("rational", q, p, [0, 1, 2, "3", 4, 5, 6])
-    # an object array of numbers is numbers: the same motion
+    # a bool among floats (numpy folds [1.0, True] into floats), and dates (their day count)
+    mixed = p.tolist()
+    mixed[2][0] = True
+    with pytest.raises(TypeError, match=r"`positions` .*True/False among them"):
+        motions.interpolate(q, mixed)
+    days = np.arange(7).astype("datetime64[D]")
+    with pytest.raises(TypeError, match="`times`"):
+        motions.build("rational", q, p, days)
+    # an object array of numbers is numbers, Fractions and Decimals among them: the same motion
     same = motions.interpolate(np.array(q, dtype=object), np.array(p.tolist(), dtype=object))
     t = np.linspace(*same.domain, 11)
     np.testing.assert_array_equal(same.pose(t)[1], motions.interpolate(q, p).pose(t)[1])
+    exact = [[Fraction(x) for x in row] for row in p.tolist()]
+    exact[0][0] = Decimal(str(p[0, 0]))
+    np.testing.assert_array_equal(
+        motions.interpolate(q, exact).pose(t)[1], motions.interpolate(q, p).pose(t)[1]
+    )
 
 
 def test_a_value_that_is_not_finite_is_named_with_its_index():

@@ -490,7 +490,10 @@ def certify_many(
     ``certify_many(ms)[i]`` equals ``certify(ms[i])`` in every field but ``seconds``.
 
     `obstacles` is one sequence shared by all motions, or one sequence per motion;
-    `body` is one shape, or one shape per motion.
+    `body` is one shape, or one shape per motion. `threads`: host threads of a CPU launch,
+    each taking part of the batch, but no more than the CPUs the process may run on (its
+    affinity, read on the first query: ``taskset`` narrows it); the certificates do not
+    depend on it.
 
     ``bound="fcl"`` / ``"ipctk"`` run the external comparators (extra ``comparators``;
     :mod:`harness.comparators`, options in `comparator_options`). Their answers are the
