@@ -102,8 +102,8 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     Rational on the union of both motions' breakpoints, built exactly from Bernstein
     products (DESIGN §4 "Two moving bodies"): from the preimages (degree 15 for two
     interpolants) where a's origin is polynomial or absent and b has a preimage, else
-    through a's inverse at degree ``2 n_a + n_b`` (see the module docstring). Its matrix at t is
-    ``inv(a.matrix(t)) @ b.matrix(t)``; a point fixed in body b is at
+    through a's inverse at degree ``2 n_a + n_b`` (see the module docstring). Its matrix
+    at t is ``inv(a.matrix(t)) @ b.matrix(t)``; a point fixed in body b is at
     ``relative.transform(x, t)`` in body a's coordinates.
 
     Args:
@@ -146,7 +146,7 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     # γ_m F_abs(|x|), m the most roundings on any product's way to an entry:
     #   restriction, two de Casteljau splits of n levels, (1 - u) c_i + u c_{i+1}: 3 n
     #     each (6 n) for every restricted factor of a product: a's twice, b's once
-    #     (12 n_a + 6 n_b; a hunt saw 6 (n_a + n_b) count each factor's once only);
+    #     (12 n_a + 6 n_b; it was 6 (n_a + n_b), each input once: a hunt's reading);
     #   inverse: w_p A_q^T or A_p^T b_q (3-term dot: 3), its weight (1, itself rounded: 1),
     #     then a sum over (n_a + 1)^2 terms: (n_a + 1)^2 + 4;
     #   product: 4x4 products (4), weight (2), a sum over (2 n_a + 1)(n_b + 1) terms.
