@@ -237,7 +237,62 @@ def compile_file(path: str | os.PathLike) -> mujoco.MjModel:
                 f"Cannot use MJCF file {str(p)!r}: MuJoCo says: {' '.join(msg.split())}"
             )
         warnings.warn(f"MJCF file {str(p)!r}: MuJoCo says: {' '.join(msg.split())}", stacklevel=2)
+    _check_key_poses(_keys_of_file(p), model)
     return model
+
+
+def _keys_of_file(path: Path) -> list:
+    """(file, <key> element) of an MJCF file and the files it includes (relative to its
+    folder), in document order per file; files that cannot be parsed add none."""
+    import xml.etree.ElementTree as ET
+
+    main = path.resolve()
+    keys, todo, seen = [], [main], {main}
+    while todo:
+        f = todo.pop(0)
+        try:
+            root = ET.parse(f).getroot()
+        except (OSError, ET.ParseError):
+            continue
+        for el in root.iter():
+            if el.tag == "key":
+                keys.append((f"MJCF file {str(f)!r}", el))
+            elif el.tag == "include" and el.get("file"):
+                inc = (main.parent / el.get("file")).resolve()
+                if inc not in seen:
+                    seen.add(inc)
+                    todo.append(inc)
+    return keys
+
+
+def _keys_of_string(xml: str) -> list:
+    import xml.etree.ElementTree as ET
+
+    try:
+        return [el for el in ET.fromstring(xml).iter() if el.tag == "key"]
+    except ET.ParseError:  # (MuJoCo compiled it: a form ElementTree does not read)
+        return []
+
+
+def _check_key_poses(keys: list, model: mujoco.MjModel) -> None:
+    """Refuse a <key> (of `keys`, (where, element) pairs) whose ``mpos`` or ``mquat`` does
+    not hold 3 or 4 numbers per mocap body: MuJoCo keeps the default pose for an
+    incomplete one, silently (a trial's ``mquat="0.9659 0 0.2588"`` became the identity)."""
+    count: dict[str, int] = {}
+    for where, el in keys:
+        k = count[where] = count.get(where, -1) + 1  # (its position among its file's keys)
+        for attr, per in (("mpos", 3), ("mquat", 4)):
+            text = el.get(attr)
+            if text is None:
+                continue
+            got = len(text.split())
+            if got != per * model.nmocap:
+                label = f" ({el.get('name')!r})" if el.get("name") else ""
+                raise SceneError(
+                    f"Expected <key> {k}{label} of {where} to give {per * model.nmocap} numbers"
+                    f" in {attr} ({per} per mocap body, {model.nmocap} of them), got {got}:"
+                    f" MuJoCo keeps the default pose for an incomplete {attr}."
+                )
 
 
 def _pick_mocap_body(model: mujoco.MjModel, mocap_body: str | None, where: str) -> str:
@@ -291,6 +346,7 @@ def from_xml(
         model = mujoco.MjModel.from_xml_string(xml)
     except ValueError as e:
         raise SceneError(f"Malformed MJCF for scene {name!r}: {' '.join(str(e).split())}") from None
+    _check_key_poses([(f"scene {name!r}", el) for el in _keys_of_string(xml)], model)
     body = _pick_mocap_body(model, mocap_body, f"Scene {name!r}")
     return _scene(model, body, name, carried, description, xml)
 

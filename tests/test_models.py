@@ -752,3 +752,32 @@ def test_a_nan_in_a_file_is_named_without_mujocos_own_print_or_log(tmp_path, mon
     assert mujoco.get_mju_user_warning() is None  # the hook is the process's: restored
     path.write_text(KEYS.format('<key time="0"/><key time="1" mpos="1 0 0"/>'))
     assert scenes.load(path).keyframes.positions[1].tolist() == [1.0, 0.0, 0.0]
+
+
+def test_a_key_with_too_few_pose_numbers_is_named(tmp_path):
+    # MuJoCo keeps the default pose for an incomplete mquat or mpos, silently (a longer
+    # one it refuses itself): a trial's mquat="0.9659 0 0.2588" (a 30° turn meant) drove
+    # the body at the identity
+    good = '<key time="1" mpos="1 0 0"/>'
+    for bad, attr, got in (
+        ('<key name="turn" time="0" mpos="0 0 0" mquat="0.9659 0 0.2588"/>', "mquat", 3),
+        ('<key time="0" mpos="0 0"/>', "mpos", 2),
+    ):
+        xml = f"""<mujoco><worldbody><body name="hand" mocap="true"><geom type="box"
+        size=".1 .1 .1"/></body></worldbody><keyframe>{bad}{good}</keyframe></mujoco>"""
+        with pytest.raises(scenes.SceneError, match=f"<key> 0.* numbers in {attr} .*got {got}"):
+            scenes.from_xml(xml, "hand")
+        (tmp_path / "robot.xml").write_text(xml)
+        with pytest.raises(scenes.SceneError, match=f"robot.xml.* numbers in {attr}"):
+            scenes.load(str(tmp_path / "robot.xml"))
+    # keys in an included file are checked too, and counted in their own file
+    (tmp_path / "keys.xml").write_text(
+        f'<mujoco><keyframe><key time="0" mpos="0 0 0"/>{good.replace("1 0 0", "1 0")}'
+        "</keyframe></mujoco>"
+    )
+    (tmp_path / "main.xml").write_text(
+        '<mujoco><worldbody><body name="hand" mocap="true"><geom type="box" size=".1 .1 .1"/>'
+        '</body></worldbody><include file="keys.xml"/></mujoco>'
+    )
+    with pytest.raises(scenes.SceneError, match=r"<key> 1 of MJCF file .*keys.xml.* got 2"):
+        scenes.load(str(tmp_path / "main.xml"))
