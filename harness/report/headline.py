@@ -306,9 +306,11 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 "cpu_us_per_pair": float(o["cpu_us_per_pair"]),
                 "hull_cpu_us_per_pair": float(h["cpu_us_per_pair"]),
             }
-            u = undecided.get((name, tol, o["method"]))
+            # (single queries run on the first `pairs` pairs: their unknowns are those)
+            part = undecided if mode != "single" else _workload_unknowns(wl, int(h["pairs"]))
+            u = part.get((name, tol, o["method"]))
             if u is not None:
-                hu = undecided.get((name, tol, "hull"), (0, u[1]))
+                hu = part.get((name, tol, "hull"), (0, u[1]))
                 numbers.update(unknown=u[0], pairs=u[1], hull_unknown=hu[0], hull_pairs=hu[1])
                 if u[0] > 0:
                     # a cost is only comparable with what it bought: say how often the
@@ -326,11 +328,17 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
     return out
 
 
-def _workload_unknowns(wl: pd.DataFrame) -> dict[tuple, tuple[int, int]]:
-    """(unknown verdicts, pairs) per (workload, tolerance, method) from the per-pair rows."""
+def _workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple[int, int]]:
+    """(unknown verdicts, pairs) per (workload, tolerance, method) from the per-pair rows,
+    over the first `first` pairs of each workload if given (a trial's single-query line
+    counted the unknowns of all 1,000 pairs beside a timing of the first 100)."""
     pair = wl[column(wl, "mode", "") == "pair"]
     if not len(pair) or any(k not in pair for k in ("keyframes", "tolerance", "bound", "verdict")):
         return {}
+    if first is not None:
+        if "pair" not in pair:
+            return {}
+        pair = pair[pd.to_numeric(pair["pair"], errors="coerce") < first]
     return {
         key: (int((g["verdict"] == "unknown").sum()), len(g))
         for key, g in pair.groupby(["keyframes", "tolerance", "bound"], sort=False)
