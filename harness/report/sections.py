@@ -236,6 +236,16 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
         else ""
     )
     bounds = sorted(both["bound"].astype(str).unique())
+    # each box pools the schemes its bound applies to: say which (a trial read the hull's
+    # 2 rational schemes against lipschitz's 5 as like for like)
+    pooled = (
+        "; ".join(
+            f"{b}: {', '.join(sorted(both.loc[both['bound'] == b, 'scheme'].astype(str).unique()))}"
+            for b in bounds
+        )
+        if "scheme" in both
+        else ""
+    )
     data, labels = [], []
     for b in bounds:
         v = mag[both["bound"] == b].to_numpy(dtype=float)
@@ -254,7 +264,7 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
     doc.figure(
         fig,
         "toi_error",
-        f"Time-of-contact error of collision verdicts whose truth is a proven collision: |toi_lo minus the ground truth's first intersecting sample|, {'as a fraction of the motion duration' if relative else 'in motion parameter units'}, log scale; n per box. A certified toi_lo never lies after the true contact: {late} row(s) had toi_lo later than the ground truth's first intersecting sample.{bracket}{left_out}",
+        f"Time-of-contact error of collision verdicts whose truth is a proven collision: |toi_lo minus the ground truth's first intersecting sample|, {'as a fraction of the motion duration' if relative else 'in motion parameter units'}, log scale; n per box{f' (each box pools the schemes its bound answers, so the boxes are not the same motions: {pooled})' if pooled else ''}. A certified toi_lo never lies after the true contact: {late} row(s) had toi_lo later than the ground truth's first intersecting sample.{bracket}{left_out}",
     )
 
 
