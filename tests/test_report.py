@@ -342,6 +342,9 @@ def test_toi_error_is_relative_to_the_duration(written):
     np.testing.assert_allclose([y.min(), y.max()], np.log10([1e-5 / 2, 1e-3 / 2]), atol=1e-9)
     ticks = [t.get_text() for t in fig.axes[0].get_xticklabels()]
     assert all("n=" in t for t in ticks)
+    # the caption names the schemes each box pools
+    caption = next(c for n, _, c in figures if n == "toi_error")
+    assert "each box pools the schemes its bound answers" in caption, caption
 
 
 def test_scaling_marks_censored_data_and_fits_only_measured_series(written):
