@@ -292,6 +292,8 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 },
             )
         )
+        # (single queries run on the first `pairs` pairs: their unknowns are those)
+        part = undecided if mode != "single" else _workload_unknowns(wl, int(h["pairs"]))
         for _, o in g.iterrows():
             if o["method"] == "hull":
                 continue
@@ -306,8 +308,6 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 "cpu_us_per_pair": float(o["cpu_us_per_pair"]),
                 "hull_cpu_us_per_pair": float(h["cpu_us_per_pair"]),
             }
-            # (single queries run on the first `pairs` pairs: their unknowns are those)
-            part = undecided if mode != "single" else _workload_unknowns(wl, int(h["pairs"]))
             u = part.get((name, tol, o["method"]))
             if u is not None:
                 hu = part.get((name, tol, "hull"), (0, u[1]))
