@@ -105,6 +105,30 @@ def test_a_2x_slowdown_fails_and_names_the_group(tmp_path):
     assert compare(a, b, timer="wall").exit_code == 1
 
 
+def test_a_burst_of_load_over_most_rounds_passes_a_slower_code_fails(tmp_path):
+    """Load from other processes comes in bursts that slow every round they cover (a run
+    of unchanged code: a figure's rounds [15.3, 15.1, 15.2, 8.9, 13.3] ms against
+    [8.3, 9.8, 8.2, 7.4, 11.1], median ratio 1.82 with its interval above 1, failed the
+    gate). Its fastest round was not slowed; a slower code slows every round."""
+    rng = np.random.default_rng(9)
+    base = _rows(rng, rounds=5)
+    burst = _rows(np.random.default_rng(9), rounds=5)  # the same rounds ...
+    for r in burst:  # ... all but the fastest slowed 2x
+        for col in ("cpu_rounds", "wall_rounds"):
+            x = json.loads(r[col])
+            r[col] = json.dumps([v * (1.0 if v == min(x) else 2.0) for v in x])
+    a, b = _run(tmp_path / "a", base), _run(tmp_path / "b", burst)
+    res = compare(a, b)
+    assert all(t.ratio > 1.75 and t.lo > 1 for t in res.timing), res.text()  # old rule: fail
+    assert res.exit_code == 0 and all(t.fastest == 1 for t in res.timing), res.text()
+    slower = _rows(np.random.default_rng(9), rounds=5, factor=1.9)
+    res = compare(a, _run(tmp_path / "c", slower))
+    assert {t.status for t in res.timing} == {"regression"}, res.text()
+    assert all(1.85 < t.fastest < 1.95 for t in res.timing)
+    doc = res.as_dict()["timing"]
+    assert [d["fastest_ratio"] for d in doc] == [pytest.approx(t.fastest) for t in res.timing]
+
+
 def test_a_significant_slowdown_below_the_threshold_passes(tmp_path):
     rng = np.random.default_rng(4)
     a = _run(tmp_path / "a", _rows(rng, rounds=40))
