@@ -54,6 +54,15 @@ def test_the_table_names_obstacles_among_compounds():
     assert list(t.obstacle) == [2, 0] == [c.obstacle for c in listed]
     assert list(t.verdict) == ["collision"] * 2
     assert t.toi_hi[0] == listed[0].toi_hi and 1.2 < t.toi_hi[0] < 1.45
+    # ... and gives its name beside the index (an avoidance trial looked the index up by
+    # hand): a model's geom name, else the kind and index; a shared list too
+    assert list(t.to_pandas()["obstacle_name"]) == ["Box #2", "Box #0"]
+    object.__setattr__(obstacles[2], "name", "wall")  # (as obstacles_from_model names it)
+    df = certify_table([m, m], Sphere(0.1), [obstacles, obstacles[::-1]]).to_pandas()
+    assert list(df["obstacle_name"]) == ["wall", "wall"]
+    aside = motions.interpolate([[1, 0, 0, 0]] * 3, [[0, 2, 0], [1, 2, 0], [2, 2, 0]])
+    shared = certify_table([m, aside], Sphere(0.1), obstacles)
+    assert list(shared.obstacle) == [2, -1] and list(shared.obstacle_name) == ["wall", ""]
 
 
 def test_the_tables_accessors_and_refusals(scene):  # noqa: F811

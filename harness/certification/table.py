@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -19,6 +19,7 @@ import numpy as np
 from motions import Motion
 from motions.pieces import UNIT_ROUNDOFF
 
+from ..shapes import as_obstacles
 from .api import (
     DEFAULT_MAX_NODES,
     ENGINE_BOUNDS,
@@ -71,6 +72,9 @@ class CertificateTable:
     penetration: np.ndarray
     pose_tests: np.ndarray
     obstacle: np.ndarray
+    obstacle_name: np.ndarray | None = None
+    """Per motion, the name of ``obstacle`` (its geom's name for obstacles from a model,
+    else ``Kind #index``; "" where ``obstacle`` is -1). Set by :func:`certify_table`."""
 
     def __len__(self) -> int:
         return len(self.verdict)
@@ -105,13 +109,16 @@ class CertificateTable:
         return (self[i] for i in range(len(self)))
 
     def to_pandas(self):
-        """One row per motion, one column per field (``unresolved_tolerance``, ...)."""
+        """One row per motion, one column per field (``unresolved_tolerance``, ...;
+        ``obstacle_name`` beside ``obstacle``, from :func:`certify_table`)."""
         import pandas as pd
 
         cols: dict[str, Any] = {}
         n = len(self)
         for f in fields(self):
             v = getattr(self, f.name)
+            if v is None:  # (obstacle_name of a table not from certify_table)
+                continue
             if f.name == "unresolved":
                 for j, k in enumerate(UNRESOLVED):
                     cols[f"unresolved_{k}"] = v[:, j]
@@ -226,4 +233,22 @@ def certify_table(
             f" {o['bound']!r}: the external comparators answer through certify_many."
         )
     out = checked_engine(motions, body, obstacles, o, table=True)
-    return from_certificates([], o["bound"], o["tol"]) if out is None else out
+    if out is None:
+        return from_certificates([], o["bound"], o["tol"])
+    return replace(out, obstacle_name=_names(obstacles, out.obstacle))
+
+
+def _names(obstacles: Any, index: np.ndarray) -> np.ndarray:
+    """The name of each motion's obstacle `index` (checked obstacles, as the query got
+    them): its ``name`` (a model's geom), else ``Kind #index``; "" for -1."""
+    names = np.full(len(index), "", dtype=object)
+    per_motion = (  # (the rule of api.obstacle_lists)
+        isinstance(obstacles, list | tuple)
+        and bool(obstacles)
+        and all(isinstance(x, list | tuple) for x in obstacles)
+    )
+    shared = None if per_motion else as_obstacles(obstacles)
+    for i in np.flatnonzero(index >= 0).tolist():
+        o = (obstacles[i] if per_motion else shared)[int(index[i])]
+        names[i] = o.name or f"{type(o).__name__} #{int(index[i])}"
+    return names
