@@ -10,6 +10,7 @@ import contextlib
 import json
 import math
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -249,7 +250,7 @@ def _run_suite(args) -> int:
         # load_suite allows only plain folder names; this holds whatever it allows
         if not out.resolve().is_relative_to(results.resolve()):
             raise UsageError(f"Suite name {suite.name!r} would write outside {results}/.")
-    resume = ["rsmbench", "run", args.suite, "--out", str(out)]
+    resume = [_program(), "run", args.suite, "--out", str(out)]
     if args.seed is not None:
         resume += ["--seed", str(args.seed)]
     if args.scheduler is not None:
@@ -298,6 +299,19 @@ def _report(args) -> int:
     return 0
 
 
+def _program() -> str:
+    """How the user started rsmbench, for a command to copy: `rsmbench` when that name
+    finds this program, else the path they typed (`.venv/bin/rsmbench`: a researcher's
+    trial copied the printed `rsmbench run ...` and got "command not found")."""
+    typed = sys.argv[0] if sys.argv and Path(sys.argv[0]).name == "rsmbench" else ""
+    if not typed:
+        return "rsmbench"
+    found = shutil.which("rsmbench")
+    if found and Path(found).resolve() == Path(typed).resolve():
+        return "rsmbench"
+    return typed
+
+
 def _fraction(text: str, option: str, most: float, below: bool = False) -> float:
     """A fraction in [0, `most`] (in [0, `most`) if `below`) given as "15%" or "0.15".
     Beyond, a gate that could never fail: most likely a percentage without its sign ("75"
@@ -310,7 +324,11 @@ def _fraction(text: str, option: str, most: float, below: bool = False) -> float
     except ValueError:
         value = float("nan")
     if not np.isfinite(value) or value < 0:
-        raise UsageError(f"Expected `{option}` >= 0, like 15% or 0.15, got {_clip(text)}.")
+        what = "negative" if value < 0 else "not finite" if np.isinf(value) else "not a number"
+        raise UsageError(
+            f"Expected `{option}` to be a fraction >= 0 or a percentage, like 15% or 0.15,"
+            f" got {_clip(text)}: {what}."
+        )
     if value > most or (below and value == most):
         hint = f" (for {t} %, write {t}%)" if not t.endswith("%") else ""
         raise UsageError(

@@ -388,7 +388,15 @@ def test_negative_thresholds_get_their_own_message_not_argparses(tmp_path, capsy
     ):
         r = _cli(capsys, "compare", base, base, option, text)
         full = "--time-threshold" if option.startswith("--time") else option
-        _one_line_error(r, f"Expected `{full}` >= 0, like 15% or 0.15, got {text!r}.")
+        _one_line_error(
+            r,
+            f"Expected `{full}` to be a fraction >= 0 or a percentage, like 15% or 0.15, got"
+            f" {text!r}: negative.",
+        )
+    # text that is no number says so (it read ">= 0", a researcher's trial)
+    for text, what in (("abc", "not a number"), ("inf", "not finite"), ("nan%", "not a number")):
+        r = _cli(capsys, "compare", base, base, "--time-threshold", text)
+        _one_line_error(r, f"got {text!r}: {what}.")
     # the other options and the positionals are read as before
     twin = str(shutil.copytree(base, tmp_path / "twin"))
     r = _cli(capsys, "compare", base, twin, "--time-threshold", "15%", "--fp-threshold", "1")

@@ -442,3 +442,22 @@ def test_a_copy_installed_from_the_checkout_it_runs_in_has_its_revision(tmp_path
     assert journal.git_state()[0] == head
     monkeypatch.chdir(tmp_path)  # (run from elsewhere: no checkout to tell)
     assert journal.git_state() == (None, None)
+
+
+def test_the_resume_hint_names_the_program_as_it_was_started(monkeypatch, tmp_path):
+    # a researcher's trial ran `.venv/bin/rsmbench run ...`, copied the printed
+    # `rsmbench run ...` and got "command not found"
+    from harness.cli import _program
+
+    script = tmp_path / "venv" / "bin" / "rsmbench"
+    script.parent.mkdir(parents=True)
+    script.write_text("#!/bin/sh\n")
+    script.chmod(0o755)
+    typed = os.path.relpath(script)
+    monkeypatch.setattr(sys, "argv", [typed, "run", "smoke"])
+    monkeypatch.setenv("PATH", str(tmp_path))  # no rsmbench on PATH
+    assert _program() == typed
+    monkeypatch.setenv("PATH", str(script.parent))  # the same program on PATH
+    assert _program() == "rsmbench"
+    monkeypatch.setattr(sys, "argv", ["/somewhere/harness/cli.py", "run"])  # python -m
+    assert _program() == "rsmbench"
