@@ -172,31 +172,19 @@ def asset_files(path: str | os.PathLike) -> list[Path]:
     skins (``meshdir``), textures and height fields (``texturedir``), each directory
     under ``assetdir`` when unset, relative to the main file's folder. Files that cannot
     be read or parsed are left out (compiling the file reports them)."""
-    import xml.etree.ElementTree as ET
-
     main = Path(path).resolve()
     base = main.parent
     found: list[Path] = []
     dirs = {"meshdir": None, "texturedir": None, "assetdir": None}
-    todo, seen = [main], {main}
     elements = []
-    while todo:
-        f = todo.pop()
-        try:
-            root = ET.parse(f).getroot()
-        except (OSError, ET.ParseError):
-            continue
-        for el in root.iter():
+    for f, root in _parsed_files(main):
+        if f != main:
+            found.append(f)
+        for el in () if root is None else root.iter():
             if el.tag == "compiler":
                 for k in dirs:
                     if el.get(k) is not None:
                         dirs[k] = el.get(k)
-            elif el.tag == "include" and el.get("file"):
-                inc = (base / el.get("file")).resolve()
-                if inc not in seen:
-                    seen.add(inc)
-                    found.append(inc)
-                    todo.append(inc)
             elif el.tag in _ASSET_DIRS and el.get("file"):
                 elements.append((el.tag, el.get("file")))
     for tag, name in elements:  # (the compiler's directories hold wherever it is set)
@@ -244,25 +232,34 @@ def compile_file(path: str | os.PathLike) -> mujoco.MjModel:
 def _keys_of_file(path: Path) -> list:
     """(file, <key> element) of an MJCF file and the files it includes (relative to its
     folder), in document order per file; files that cannot be parsed add none."""
+    return [
+        (f"MJCF file {str(f)!r}", el)
+        for f, root in _parsed_files(path.resolve())
+        if root is not None
+        for el in root.iter("key")
+    ]
+
+
+def _parsed_files(main: Path):
+    """(file, parsed root) of MJCF file `main` (resolved) and of every file it includes,
+    followed (relative to `main`'s folder, as MuJoCo resolves them), each once, in the
+    order found; the root is None for a file that cannot be read or parsed."""
     import xml.etree.ElementTree as ET
 
-    main = path.resolve()
-    keys, todo, seen = [], [main], {main}
+    todo, seen = [main], {main}
     while todo:
         f = todo.pop(0)
         try:
             root = ET.parse(f).getroot()
         except (OSError, ET.ParseError):
+            yield f, None
             continue
-        for el in root.iter():
-            if el.tag == "key":
-                keys.append((f"MJCF file {str(f)!r}", el))
-            elif el.tag == "include" and el.get("file"):
-                inc = (main.parent / el.get("file")).resolve()
-                if inc not in seen:
-                    seen.add(inc)
-                    todo.append(inc)
-    return keys
+        yield f, root
+        for el in root.iter("include"):
+            inc = (main.parent / el.get("file")).resolve() if el.get("file") else None
+            if inc is not None and inc not in seen:
+                seen.add(inc)
+                todo.append(inc)
 
 
 def _keys_of_string(xml: str) -> list:
