@@ -15,9 +15,11 @@ is the sum of its figures' medians. The ratio NEW / BASE gets a 95 % bootstrap i
 :func:`harness.timing.ratio_interval`). A group is a **regression only when the slowdown
 is significant (the interval lies above 1) and larger than the threshold in the medians
 and in the fastest rounds alike** (the ratio, and the ratio of the sums of each figure's
-fastest round, exceed 1 + threshold): load from other processes only adds time, in bursts
-that can cover most of a figure's rounds in one run, while a slower code slows its fastest
-round too. Groups below :data:`MIN_TIMING_SECONDS` (runs; ``min_time``,
+fastest round, exceed 1 + threshold; a benchmark file without per-round ``data`` gives
+its ``stats.min``; rounds of 0 s are no time, and a side without any leaves the decision
+to the medians): load from other processes only adds time, in bursts that can cover most
+of a figure's rounds in one run, while a slower code slows its fastest round too. What it
+gives up: a code slower in every round but one of each figure passes. Groups below :data:`MIN_TIMING_SECONDS` (runs; ``min_time``,
 ``--min-time``, sets this floor: 0 gates the small groups too), with fewer than
 :data:`MIN_ROUNDS` samples, or whose base or new cost is below :data:`TIMER_RESOLUTION`
 are printed as "not gated", with the reason.

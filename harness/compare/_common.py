@@ -174,17 +174,27 @@ def _environments(out: Comparison, *runs: tuple[Any, dict]) -> None:
 
 # ----------------------------------------------------------------------------- timing
 def _decide(
-    name: str, xb: list[np.ndarray], xn: list[np.ndarray], thr: float, floor: float
+    name: str,
+    xb: list[np.ndarray],
+    xn: list[np.ndarray],
+    thr: float,
+    floor: float,
+    fastest_of: tuple[list, list] | None = None,
 ) -> TimingRow:
+    """The timing decision of one group: `xb`, `xn` the rounds of its figures in base and
+    new; `fastest_of` each figure's fastest round where the rounds themselves are not
+    known (a benchmark file's ``stats.min`` beside a stand-in sample), else None."""
     samples = (sum(a.size for a in xb), sum(a.size for a in xn))
+    fb, fn = (_fastest(xb), _fastest(xn)) if fastest_of is None else fastest_of
     xb, xn = [_thin(a) for a in xb], [_thin(a) for a in xn]
     mb = sum(float(np.median(a)) for a in xb)
     mn = sum(float(np.median(a)) for a in xn)
     low = max(floor, TIMER_RESOLUTION)
     if min(mb, mn) >= TIMER_RESOLUTION:  # shown for groups below `floor` too
         ratio, lo, hi = ratio_interval(xb, xn)
-        fb = sum(float(a.min()) for a in xb)
-        fastest = sum(float(a.min()) for a in xn) / fb if fb > 0 else math.inf
+        # (NaN where a side's fastest rounds are no measurement: then the medians decide)
+        sb, sn = math.fsum(fb), math.fsum(fn)
+        fastest = sn / sb if sb >= TIMER_RESOLUTION and sn >= TIMER_RESOLUTION else math.nan
     else:  # a time of 0 (or a subnormal number) is no measurement: its ratio is 0 or inf
         ratio = lo = hi = fastest = math.nan
     if min(samples) < MIN_ROUNDS:
@@ -193,7 +203,7 @@ def _decide(
         status = f"not gated: base {_fmt_s(mb)} < {_fmt_s(low)}"
     elif mn < TIMER_RESOLUTION:
         status = f"not gated: new {_fmt_s(mn)} < {_fmt_s(TIMER_RESOLUTION)}"
-    elif lo > 1 and ratio > 1 + thr and fastest > 1 + thr:
+    elif lo > 1 and ratio > 1 + thr and not fastest <= 1 + thr:
         # Significant by the medians' interval, and beyond the threshold by the medians
         # and by the fastest rounds alike. Load from other processes only ever adds time,
         # and on this shared machine it comes in bursts of up to several seconds that slow
@@ -207,6 +217,16 @@ def _decide(
     else:
         status = "ok"
     return TimingRow(name, mb, mn, ratio, lo, hi, samples, status, fastest)
+
+
+def _fastest(xs: list[np.ndarray]) -> list[float]:
+    """Each figure's fastest round among those that are measurements (at least
+    TIMER_RESOLUTION: a round of 0 s is no time); NaN for a figure without one."""
+    out = []
+    for a in xs:
+        timed = a[a >= TIMER_RESOLUTION]
+        out.append(float(timed.min()) if timed.size else math.nan)
+    return out
 
 
 def _thin(a: np.ndarray) -> np.ndarray:
@@ -243,7 +263,8 @@ def _timing_lines(
         if r.status == "regression":
             out.regressions.append(
                 f"timing: {r.name} takes {r.ratio:.2f}x the base (95% interval [{r.lo:.2f}, {r.hi:.2f}],"
-                f" fastest rounds {r.fastest:.2f}x, threshold {1 + thr:.2f}x)"
+                f"{f' fastest rounds {r.fastest:.2f}x,' if np.isfinite(r.fastest) else ''}"
+                f" threshold {1 + thr:.2f}x)"
             )
     for name, base, new, status in absent:
         out.lines.append(

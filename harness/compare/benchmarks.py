@@ -13,12 +13,14 @@ import numpy as np
 from ._common import (
     MAX_ROUND_SECONDS,
     MAX_SAMPLE,
+    TIMER_RESOLUTION,
     CompareError,
     Comparison,
     _bad_times,
     _clip,
     _decide,
     _environments,
+    _fastest,
     _time,
     _timing_lines,
 )
@@ -156,6 +158,17 @@ def _benchmark_sample(stats: dict) -> np.ndarray:
     return np.maximum(0.0, stats["median"] + z * stats["iqr"] / 1.349)
 
 
+def _benchmark_fastest(stats: dict) -> float:
+    """The fastest round: of ``data`` where the file has it, else ``stats.min`` (not the
+    stand-in sample's, which the IQR makes up); NaN when neither is a time (0 s is no
+    measurement), and then the medians alone decide."""
+    if stats.get("data") is not None:
+        (x,) = _fastest([np.asarray(stats["data"], dtype=float)])
+        return x
+    x = stats.get("min")
+    return float(x) if _time(x) and x >= TIMER_RESOLUTION else math.nan
+
+
 def _normal_quantiles(n: int) -> np.ndarray:
     from scipy.stats import norm
 
@@ -191,7 +204,14 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
         f" only in the new file; {_timer_label({tb[k] for k in base} | {tn[k] for k in new})}"
     )
     rows = [
-        _decide(name, [_benchmark_sample(base[name])], [_benchmark_sample(new[name])], thr, 0.0)
+        _decide(
+            name,
+            [_benchmark_sample(base[name])],
+            [_benchmark_sample(new[name])],
+            thr,
+            0.0,
+            ([_benchmark_fastest(base[name])], [_benchmark_fastest(new[name])]),
+        )
         for name in common
     ]
     absent = tuple(
