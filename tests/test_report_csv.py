@@ -30,7 +30,7 @@ FIT = 1e-12
 0 to within its rounding (8e-16), not 0."""
 
 TEXT = {
-    "method", "scene", "scheme", "verdict", "reason", "figure", "quantity", "workload", "mode",
+    "method", "scene", "scenes", "scheme", "verdict", "reason", "figure", "quantity", "workload", "mode",
     "implementation", "kernel_cache", "compiled_modules", "continuity_class", "study",
     "measured_per", "memory_method", "family", "truth_class", "tag", "basis",
 }  # fmt: skip
@@ -55,7 +55,13 @@ def report(tmp_path_factory) -> tuple[pd.DataFrame, dict[str, pd.DataFrame], str
         {**r, "scene": "post.xml", "keyframes": "scene", "certified_clearance": 1e-3}
         for r in _repair_rows(1e-3, 0.0) + _repair_rows(1e-3, 4e-3)
     ]
-    rows = pd.DataFrame(synthetic_rows() + repair)
+    base = synthetic_rows()
+    # a method that ran in a scene and, for another keyframe set there, had no motion:
+    # it keeps its row in that scene's table, its n/a row goes to `not_applicable`
+    ran = next(r for r in base if r.get("study") == "certify" and r.get("bound") == "hull")
+    unbuilt = {**ran, "keyframes": "random-99", "verdict": "n/a"}
+    unbuilt["reason"] = "motion not built: two keyframes coincide"
+    rows = pd.DataFrame([*base, unbuilt, *repair])
     rows.to_parquet(run / "results.parquet", index=False)
     (run / "meta.json").write_text(json.dumps(META))
     md = write_report(run).read_text()
@@ -149,7 +155,7 @@ def test_certify_tables_count_the_rows(report):
         "method",
         {m: _counts(g) for m, g in cert.groupby("method")},
     )
-    seen = 0
+    seen, seen_partly = 0, set()
     for (scene, tol), at in cert.groupby(["scene", "tolerance"]):
         t = tables[f"certify_{scene}_{tol * 1e3:g}mm"]
         assert set(t["scene"]) == {scene}
@@ -169,6 +175,8 @@ def test_certify_tables_count_the_rows(report):
         assert set(at[at["verdict"] == "n/a"]["method"]) - set(want) <= set(
             tables["not_applicable"]["method"]
         )
+        partly = set(at[at["verdict"] == "n/a"]["method"]) & set(want)
+        seen_partly = seen_partly | partly
         for m in want:
             g, row = at[at["method"] == m], t.set_index("method").loc[m]
             cpu = g["cpu_median"].dropna() * 1e3
@@ -177,6 +185,16 @@ def test_certify_tables_count_the_rows(report):
             _close(row["median_nodes"], g["nodes"].median())
         seen += 1
     assert seen == 4
+    assert seen_partly == {"rational/hull"}  # (the fixture's partly built method: kept)
+    # every n/a row once in `not_applicable`, by method and reason, with its scenes
+    na = cert[cert["verdict"] == "n/a"]
+    got = tables["not_applicable"].set_index(["method", "reason"])
+    want = na.groupby(["method", "reason"]).size()
+    assert sorted(got.index) == sorted(want.index)
+    for k, n in want.items():
+        assert got.loc[k, "rows"] == n
+        scenes = sorted(set(na[(na["method"] == k[0]) & (na["reason"] == k[1])]["scene"]))
+        assert got.loc[k, "scenes"] == ", ".join(scenes)
 
 
 def test_workload_tables_count_the_pairs_and_time_the_rounds(report):

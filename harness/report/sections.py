@@ -128,17 +128,23 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
         doc.h(f"{name}, tolerance {tol:g} mm", 3)
         doc.table(
             _per_scene_display(g),
-            f"Scene {where} at tolerance {tol:g} mm, every keyframe set: verdicts, accuracy with denominators, median nodes (what each method counts as one step: hull and aabb a bound evaluation of a piece against an obstacle part, lipschitz a distance evaluation, sampled a sample, each against an obstacle part; so not comparable across methods: the CPU time is), and the median CPU time per single certify call with its interquartile range over the rows (each row: its median over rounds). certified: the answers that are proofs; `sampled` is two algorithms: on the fair grid in the kernels from a proven speed bound where the scheme has one (rational, slerp, sclerp, ...), a proof when every cell is proven; host poses at an estimated speed for squad, Bézier-slerp and RotationSpline, never a proof. Combinations that do not apply are listed apart, below.",
+            f"Scene {where} at tolerance {tol:g} mm, every keyframe set: verdicts, accuracy with denominators, median nodes (what each method counts as one step: hull and aabb a bound evaluation of a piece against an obstacle part, lipschitz a distance evaluation, sampled a sample, each against an obstacle part; so not comparable across methods: the CPU time is), and the median CPU time per single certify call with its interquartile range over the rows (each row: its median over rounds). certified: the answers that are proofs; `sampled` is two algorithms: on the fair grid in the kernels from a proven speed bound where the scheme has one (rational, slerp, sclerp, ...), a proof when every cell is proven; host poses at an estimated speed for squad, Bézier-slerp and RotationSpline, never a proof. A method with no row that could run in this scene (not applicable, or no motion built) is listed apart, below.",
             f"certify_{name}_{tol:g}mm",
             data=g,
         )
-    na = (
-        cert[column(cert, "verdict", "") == "n/a"].groupby("method")["reason"].first().reset_index()
-    )
-    if len(na):
+    skipped = cert[column(cert, "verdict", "") == "n/a"]
+    if len(skipped):
+        na = (
+            skipped.groupby(["method", "reason"], sort=True)
+            .agg(
+                scenes=("scene", lambda x: ", ".join(sorted(set(map(str, x))))),
+                rows=("scene", "size"),
+            )
+            .reset_index()
+        )
         doc.table(
             na,
-            "Combinations that do not apply (a bound needs a rational control structure or a proven speed bound).",
+            "Combinations that do not apply (a bound needs a rational control structure, or a proven speed bound) or whose motion could not be built, by reason, with the scenes and the number of rows; the per-scene tables above leave out a method that has no other row in that scene.",
             "not_applicable",
         )
     _toi_figure(doc, cert, plt)
