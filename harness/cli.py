@@ -250,7 +250,7 @@ def _run_suite(args) -> int:
         # load_suite allows only plain folder names; this holds whatever it allows
         if not out.resolve().is_relative_to(results.resolve()):
             raise UsageError(f"Suite name {suite.name!r} would write outside {results}/.")
-    resume = [_program(), "run", args.suite, "--out", str(out)]
+    resume = [*_program(), "run", args.suite, "--out", str(out)]
     if args.seed is not None:
         resume += ["--seed", str(args.seed)]
     if args.scheduler is not None:
@@ -299,17 +299,20 @@ def _report(args) -> int:
     return 0
 
 
-def _program() -> str:
+def _program() -> list[str]:
     """How the user started rsmbench, for a command to copy: `rsmbench` when that name
     finds this program, else the path they typed (`.venv/bin/rsmbench`: a researcher's
-    trial copied the printed `rsmbench run ...` and got "command not found")."""
-    typed = sys.argv[0] if sys.argv and Path(sys.argv[0]).name == "rsmbench" else ""
-    if not typed:
-        return "rsmbench"
+    trial copied the printed `rsmbench run ...` and got "command not found"), or this
+    Python with ``-m harness.cli``."""
+    typed = Path(sys.argv[0]) if sys.argv and sys.argv[0] else Path("rsmbench")
+    if typed.name == "cli.py" and typed.parent.name == "harness":  # python -m harness.cli
+        return [sys.executable, "-m", "harness.cli"]
+    if typed.name != "rsmbench":
+        return ["rsmbench"]
     found = shutil.which("rsmbench")
-    if found and Path(found).resolve() == Path(typed).resolve():
-        return "rsmbench"
-    return typed
+    if found and Path(found).resolve() == typed.resolve():
+        return ["rsmbench"]
+    return [str(sys.argv[0])]
 
 
 def _fraction(text: str, option: str, most: float, below: bool = False) -> float:

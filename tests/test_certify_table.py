@@ -63,6 +63,8 @@ def test_the_table_names_obstacles_among_compounds():
     aside = motions.interpolate([[1, 0, 0, 0]] * 3, [[0, 2, 0], [1, 2, 0], [2, 2, 0]])
     shared = certify_table([m, aside], Sphere(0.1), obstacles)
     assert list(shared.obstacle) == [2, -1] and list(shared.obstacle_name) == ["wall", ""]
+    empty = certify_table([], Sphere(0.1), obstacles).to_pandas()
+    assert len(empty) == 0 and "obstacle_name" in empty.columns
 
 
 def test_the_tables_accessors_and_refusals(scene):  # noqa: F811

@@ -230,7 +230,8 @@ def test_ctrl_c_stops_after_the_case_and_says_how_to_resume(mini, tmp_path):
     _, err = proc.communicate(timeout=300)
     assert proc.returncode == 130, err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
-    assert f"Resume with: rsmbench run {mini} --out {out}" in err
+    # (started as `python -m harness.cli`, so resumed the same way)
+    assert f"Resume with: {sys.executable} -m harness.cli run {mini} --out {out}" in err
     recs = records(out)  # every line a whole record
     assert 1 <= len(recs) < N_CASES
     assert not (out / "results.parquet").exists()
@@ -456,8 +457,8 @@ def test_the_resume_hint_names_the_program_as_it_was_started(monkeypatch, tmp_pa
     typed = os.path.relpath(script)
     monkeypatch.setattr(sys, "argv", [typed, "run", "smoke"])
     monkeypatch.setenv("PATH", str(tmp_path))  # no rsmbench on PATH
-    assert _program() == typed
+    assert _program() == [typed]
     monkeypatch.setenv("PATH", str(script.parent))  # the same program on PATH
-    assert _program() == "rsmbench"
+    assert _program() == ["rsmbench"]
     monkeypatch.setattr(sys, "argv", ["/somewhere/harness/cli.py", "run"])  # python -m
-    assert _program() == "rsmbench"
+    assert _program() == [sys.executable, "-m", "harness.cli"]

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -72,9 +72,14 @@ class CertificateTable:
     penetration: np.ndarray
     pose_tests: np.ndarray
     obstacle: np.ndarray
-    obstacle_name: np.ndarray | None = None
-    """Per motion, the name of ``obstacle`` (its geom's name for obstacles from a model,
-    else ``Kind #index``; "" where ``obstacle`` is -1). Set by :func:`certify_table`."""
+    _obstacles: Any = field(default=None, repr=False)  # (the query's, for obstacle_name)
+
+    @property
+    def obstacle_name(self) -> np.ndarray:
+        """Per motion, the name of ``obstacle``: its geom's name for obstacles from a
+        model, else ``Kind #index`` ("" where ``obstacle`` is -1). Looked up when asked
+        (a table not from :func:`certify_table` knows no obstacles: ``#index``)."""
+        return _names(self._obstacles, self.obstacle)
 
     def __len__(self) -> int:
         return len(self.verdict)
@@ -116,14 +121,16 @@ class CertificateTable:
         cols: dict[str, Any] = {}
         n = len(self)
         for f in fields(self):
-            v = getattr(self, f.name)
-            if v is None:  # (obstacle_name of a table not from certify_table)
+            if f.name == "_obstacles":
                 continue
+            v = getattr(self, f.name)
             if f.name == "unresolved":
                 for j, k in enumerate(UNRESOLVED):
                     cols[f"unresolved_{k}"] = v[:, j]
             else:
                 cols[f.name] = np.full(n, v) if np.ndim(v) == 0 else v
+            if f.name == "obstacle":
+                cols["obstacle_name"] = self.obstacle_name
         return pd.DataFrame(cols)
 
 
@@ -234,21 +241,27 @@ def certify_table(
         )
     out = checked_engine(motions, body, obstacles, o, table=True)
     if out is None:
-        return from_certificates([], o["bound"], o["tol"])
-    return replace(out, obstacle_name=_names(obstacles, out.obstacle))
+        out = from_certificates([], o["bound"], o["tol"])
+    return replace(out, _obstacles=obstacles)
 
 
 def _names(obstacles: Any, index: np.ndarray) -> np.ndarray:
-    """The name of each motion's obstacle `index` (checked obstacles, as the query got
-    them): its ``name`` (a model's geom), else ``Kind #index``; "" for -1."""
+    """The name of each motion's obstacle `index` in `obstacles` as a query accepted them
+    (None: unknown): its ``name`` (a model's geom), else ``Kind #index``; "" for -1."""
     names = np.full(len(index), "", dtype=object)
+    hits = np.flatnonzero(index >= 0)
+    if not hits.size:
+        return names
+    if obstacles is None:
+        names[hits] = [f"#{i}" for i in index[hits].tolist()]
+        return names
     per_motion = (  # (the rule of api.obstacle_lists)
         isinstance(obstacles, list | tuple)
         and bool(obstacles)
         and all(isinstance(x, list | tuple) for x in obstacles)
     )
     shared = None if per_motion else as_obstacles(obstacles)
-    for i in np.flatnonzero(index >= 0).tolist():
+    for i in hits.tolist():
         o = (obstacles[i] if per_motion else shared)[int(index[i])]
         names[i] = o.name or f"{type(o).__name__} #{int(index[i])}"
     return names
