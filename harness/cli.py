@@ -439,10 +439,16 @@ def _json_target(value: str, *inputs: str) -> Path:
         p = p.resolve()
     if not value or p.is_dir():
         raise UsageError(f"Expected `--json` to name a file, got {value!r}.")
-    if (p.exists() and not p.is_file()) or (p.is_symlink() and not p.resolve().is_file()):
+    if (
+        (p.exists() and not p.is_file())
+        or (p.is_symlink() and not p.resolve().is_file())
+        or p.parts[1:2] in (("proc",), ("dev",))  # (/dev/stdout into a pipe: /proc/N/fd/..)
+        or _is_std_stream(p)  # (/dev/stdout redirected to a file: the table was lost)
+    ):
         # (a CI trial's /dev/stdout and a pipe were replaced by regular files, exit 0)
         raise UsageError(
-            f"`--json` {value} is not a regular file (a device, a pipe): give a file path."
+            f"`--json` {value} is not a regular file of its own (a device, a pipe, the"
+            " output or error stream): give a file path."
         )
     if not p.parent.is_dir():
         what = "is not a folder" if p.parent.exists() else "does not exist"
@@ -464,6 +470,23 @@ def _json_target(value: str, *inputs: str) -> Path:
             f"`--json` {value}: cannot write in {p.parent} ({e.strerror or e})."
         ) from None
     return p
+
+
+def _is_std_stream(p: Path) -> bool:
+    """Whether `p` is the file this process's output or error stream writes to (a CI
+    trial's ``--json /dev/stdout > log.txt`` kept the JSON and lost the table)."""
+    try:
+        st = p.stat()
+    except OSError:
+        return False
+    for fd in (1, 2):
+        try:
+            out = os.fstat(fd)
+        except OSError:
+            continue
+        if (out.st_dev, out.st_ino) == (st.st_dev, st.st_ino):
+            return True
+    return False
 
 
 def _write_json(path: Path, doc: dict) -> None:
@@ -671,8 +694,9 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument(
         "--min-time",
         default="5ms",
-        help="runs: groups whose base cost is below this are shown, not gated (default 5ms,"
-        " below which the drift between runs of unchanged code decides; 0 gates every group)",
+        help="runs: groups whose base cost is below this fail only beyond a 3x slowdown"
+        " (default 5ms, below which the drift between runs of unchanged code reaches ~2x; 0"
+        " holds every group to the threshold)",
     )
     c.add_argument(
         "--json",

@@ -19,10 +19,12 @@ fastest round, exceed 1 + threshold; a benchmark file without per-round ``data``
 its ``stats.min``; rounds of 0 s are no time, and a side without any leaves the decision
 to the medians): load from other processes only adds time, in bursts that can cover most
 of a figure's rounds in one run, while a slower code slows its fastest round too. What it
-gives up: a code slower in every round but one of each figure passes. Groups below :data:`MIN_TIMING_SECONDS` (runs; ``min_time``,
-``--min-time``, sets this floor: 0 gates the small groups too), with fewer than
-:data:`MIN_ROUNDS` samples, or whose base or new cost is below :data:`TIMER_RESOLUTION`
-are printed as "not gated", with the reason.
+gives up: a code slower in every round but one of each figure passes. Groups whose base
+cost is below :data:`MIN_TIMING_SECONDS` (runs; ``min_time``, ``--min-time``, sets this
+floor: 0 holds every group to the threshold) fail only beyond
+:data:`SMALL_GROUP_SLOWDOWN` (3x). Groups with fewer than :data:`MIN_ROUNDS` samples, or
+whose base or new cost is below :data:`TIMER_RESOLUTION`, are printed as "not gated",
+with the reason.
 
 The interval captures the noise between rounds of one run, not the drift between runs:
 on a shared machine a whole case can run while another process holds the other hardware
@@ -67,6 +69,7 @@ from ._common import (
     MAX_TIME_THRESHOLD,
     MIN_ROUNDS,
     MIN_TIMING_SECONDS,
+    SMALL_GROUP_SLOWDOWN,
     TIMER_RESOLUTION,
     TIMERS,
     CompareError,
@@ -85,6 +88,7 @@ __all__ = [
     "MAX_TIME_THRESHOLD",
     "MIN_ROUNDS",
     "MIN_TIMING_SECONDS",
+    "SMALL_GROUP_SLOWDOWN",
     "TIMERS",
     "TIMER_RESOLUTION",
     "CompareError",
@@ -178,8 +182,9 @@ def compare(
             and below 1 (a rate rises by 1 at most: 1 is a gate that never fails).
         timer: "cpu" (process CPU time) or "wall", for runs; benchmark files are compared in
             the timer they were recorded with (each benchmark's ``options.timer``, printed).
-        min_time: runs only: groups whose base cost is below this many seconds are
-            printed, not gated (default :data:`MIN_TIMING_SECONDS`; 0 gates every group).
+        min_time: runs only: groups whose base cost is below this many seconds fail only
+            beyond a :data:`SMALL_GROUP_SLOWDOWN` slowdown (default
+            :data:`MIN_TIMING_SECONDS`; 0 holds every group to `time_threshold`).
 
     Raises:
         CompareError: a threshold or the timer is invalid, an input cannot be read, or the
