@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from datetime import UTC
+from datetime import UTC, datetime
 from typing import Any
 
 import numpy as np
@@ -191,8 +191,6 @@ def _environments(out: Comparison, *runs: tuple[Any, dict]) -> None:
 def _started(meta: dict):
     """The start time a run's meta.json or a benchmark file records, as an aware datetime
     (UTC where it names no zone), or None."""
-    from datetime import datetime
-
     try:
         t = datetime.fromisoformat(str(meta.get("started")))
     except ValueError:
@@ -310,7 +308,7 @@ def _timing_lines(
     loose = sum(r.status.startswith("not gated") for r in rows)
     if loose:
         out.lines.append(f"({loose} of {len(rows)} group(s) not gated: see their status)")
-    if rows and loose == len(rows):  # (a CI trial's `--min-time 10s` passed on nothing)
+    if rows and loose == len(rows):  # (a CI trial's gate passed with 17 of 17 ungated)
         out.lines.append("(no timing group was gated: this comparison says nothing of speed)")
 
 
