@@ -284,6 +284,26 @@ def test_benchmark_summaries_take_their_fastest_round_from_stats_min(tmp_path):
     assert t.status == "ok" and t.fastest == pytest.approx(0.0096 / 0.0095)
     (t,) = compare(tmp_path / "base.json", tmp_path / "no_min.json").timing
     assert t.status == "regression" and np.isnan(t.fastest)
+    # ... and the output says that such an interval is estimated (a second CI trial)
+    assert any(
+        "no per-round data for x: their intervals are estimated" in line for line in slower.lines
+    )
+
+
+def test_benchmark_files_json_settings_and_unversioned_header(tmp_path, capsys):
+    # a second CI trial: benchmark files' JSON settings said "timer: cpu, min_time 0.005",
+    # which they are not gated on; a revision "unversioned" printed as "git unversione"
+    doc = _bench({"x": [0.01, 0.011, 0.0105, 0.0102, 0.0108]})
+    doc["commit_info"] = {"id": "unversioned"}
+    for name in ("a", "b"):
+        (tmp_path / f"{name}.json").write_text(json.dumps(doc))
+    out = tmp_path / "out.json"
+    r = _cli(
+        capsys, "compare", str(tmp_path / "a.json"), str(tmp_path / "b.json"), "--json", str(out)
+    )
+    assert r.returncode == 0 and "git unversioned;" in r.stdout, r.stdout
+    settings = json.loads(out.read_text())["settings"]
+    assert settings["timer"] == "as recorded in the files" and settings["min_time"] is None
 
 
 def test_rounds_of_zero_seconds_are_no_fastest_round(tmp_path):

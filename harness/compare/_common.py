@@ -152,7 +152,8 @@ def _environments(out: Comparison, *runs: tuple[Any, dict]) -> None:
             k: meta.get(k) for k in ("git_revision", "git_dirty", "code_digest", "started")
         }
         rev = meta.get("git_revision")
-        rev = "no git revision" if not rev else f"git {str(rev)[:10]}"
+        short_rev = str(rev)[:10] if all(c in "0123456789abcdef" for c in str(rev)) else rev
+        rev = "no git revision" if not rev else f"git {short_rev}"
         if meta.get("git_dirty"):
             rev += " (uncommitted changes)"
         if meta.get("code_digest"):

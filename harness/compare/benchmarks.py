@@ -218,6 +218,12 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
         (name, _median(base[name]), math.nan, "missing from the new file") for name in lost
     ) + tuple((name, math.nan, _median(new[name]), "new: not gated") for name in added)
     _timing_lines(out, rows, thr, "benchmark", absent)
+    made_up = [k for k in common if base[k].get("data") is None or new[k].get("data") is None]
+    if made_up:  # (a second CI trial: nothing said the interval of such files is estimated)
+        out.lines.append(
+            f"(no per-round data for {_names(made_up)}: their intervals are estimated from"
+            " each file's median and IQR, their fastest rounds are `stats.min`)"
+        )
     if lost:
         out.regressions.append(
             f"missing: {len(lost)} benchmark(s) of the base are not in the new file"
