@@ -435,3 +435,29 @@ def test_the_false_free_line_says_how_many_are_certified(tmp_path, capsys):
     r = _cli(capsys, "compare", a, str(shutil.copytree(a, tmp_path / "a2")))
     assert r.returncode == 0, r.stdout
     assert "false free: base 1, new 1 (0 and 0 of them certified" in r.stdout
+
+
+def test_an_unknown_argument_is_the_subcommands_error(tmp_path, capsys):
+    # a CI trial's `--time-threshold 75 %` left "%" over, which read "rsmbench: error"
+    base = str(_run(tmp_path / "base", _rows(np.random.default_rng(29))))
+    r = _cli(capsys, "compare", base, base, "--time-threshold", "75", "%")
+    _one_line_error(r, "rsmbench compare: error: unrecognized arguments: %")
+
+
+def test_studies_without_timing_rounds_are_named(tmp_path):
+    # a CI trial: the scaling and start-up rows were left out of the table without a word
+    def rows(seed):
+        out = _rows(np.random.default_rng(seed))
+        scaling = {k: v for k, v in out[0].items() if k not in ("cpu_rounds", "wall_rounds")}
+        return [*out, {**scaling, "study": "scaling", "case_id": "scaling-0"}]
+
+    a, b = _run(tmp_path / "a", rows(30)), _run(tmp_path / "b", rows(31))
+    res = compare(a, b)
+    assert "(studies without timing rounds, so not in this table: scaling)" in res.lines
+    assert (
+        "(studies without"
+        not in compare(
+            _run(tmp_path / "c", _rows(np.random.default_rng(30))),
+            _run(tmp_path / "d", _rows(np.random.default_rng(31))),
+        ).text()
+    )

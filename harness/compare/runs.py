@@ -271,6 +271,13 @@ def _run_timing(
         return
     rows = [_decide(name, gb, gn, thr, floor) for name, (gb, gn) in sorted(groups.items())]
     _timing_lines(out, rows, thr, "study/scheme/bound/mode")
+    if "study" in bi:  # (a CI trial: they were left out of the table without a word)
+        timed = {str(bi["study"].iloc[j]) for j in range(len(bi)) if rb[j] is not None}
+        untimed = sorted(set(map(str, bi["study"].dropna())) - timed)
+        if untimed:
+            out.lines.append(
+                f"(studies without timing rounds, so not in this table: {', '.join(untimed)})"
+            )
     if any(r.note for r in rows):
         out.lines.append(
             f"(groups below {_fmt_s(floor)} fail only beyond {SMALL_GROUP_SLOWDOWN:g}x, where"
