@@ -256,8 +256,10 @@ def _parsed_files(main: Path):
             continue
         yield f, root
         for el in root.iter("include"):
-            inc = (main.parent / el.get("file")).resolve() if el.get("file") else None
-            if inc is not None and inc not in seen:
+            if not el.get("file"):
+                continue
+            inc = (main.parent / el.get("file")).resolve()
+            if inc not in seen:
                 seen.add(inc)
                 todo.append(inc)
 

@@ -19,7 +19,6 @@ import numpy as np
 from motions import Motion
 from motions.pieces import UNIT_ROUNDOFF
 
-from ..shapes import as_obstacles
 from .api import (
     DEFAULT_MAX_NODES,
     ENGINE_BOUNDS,
@@ -29,6 +28,7 @@ from .api import (
     QueryError,
     check_options,
     checked_engine,
+    obstacle_lists,
 )
 from .refine import BIG
 from .refine import REASONS as KERNEL_REASONS
@@ -255,13 +255,8 @@ def _names(obstacles: Any, index: np.ndarray) -> np.ndarray:
     if obstacles is None:
         names[hits] = [f"#{i}" for i in index[hits].tolist()]
         return names
-    per_motion = (  # (the rule of api.obstacle_lists)
-        isinstance(obstacles, list | tuple)
-        and bool(obstacles)
-        and all(isinstance(x, list | tuple) for x in obstacles)
-    )
-    shared = None if per_motion else as_obstacles(obstacles)
+    lists = obstacle_lists(obstacles, len(index))  # (as the query read them)
     for i in hits.tolist():
-        o = (obstacles[i] if per_motion else shared)[int(index[i])]
+        o = lists[i][int(index[i])]
         names[i] = o.name or f"{type(o).__name__} #{int(index[i])}"
     return names

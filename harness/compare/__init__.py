@@ -31,10 +31,11 @@ on a shared machine a whole case can run while another process holds the other h
 thread. Measured here (2 cores shared with other jobs) on 10 smoke runs of unchanged code
 (13 gated groups, 90 ordered pairs): by the medians alone 2 pairs would fail at the
 default threshold of 75 % (a burst had slowed four of a figure's five rounds 1.8x, not its
-fastest); with the fastest rounds too, none (none at 50 % either). Doubling every round of
-one run is caught in every pair and in 85 % of the groups, doubling one group alone in
-23 of 30 pairs. A failing gate is therefore worth confirming by running base and new back
-to back. On a quiet machine use ``--time-threshold 15%``.
+fastest); with the fastest rounds too, none. A CI trial's 7 runs (42 pairs) confirmed 0
+at 75 %, and 2 at 50 % (a whole run 1.5x slower, its fastest round too); a real 2x
+slowdown of every certification call was caught in all 21 pairs, of one method alone in
+9-12 of 14 (README "Why 75 %"). A failing gate is therefore worth confirming by running
+base and new back to back. On a quiet machine use ``--time-threshold 15%``.
 
 **Rows.** Two runs of one suite and seed hold the same rows, so a row of BASE missing from
 NEW (a case that stopped running) is a regression, and so is a figure timed in BASE that

@@ -272,8 +272,8 @@ def _run_timing(
     rows = [_decide(name, gb, gn, thr, floor) for name, (gb, gn) in sorted(groups.items())]
     _timing_lines(out, rows, thr, "study/scheme/bound/mode")
     if "study" in bi:  # (a CI trial: they were left out of the table without a word)
-        timed = {str(bi["study"].iloc[j]) for j in range(len(bi)) if rb[j] is not None}
-        untimed = sorted(set(map(str, bi["study"].dropna())) - timed)
+        has = np.array([r is not None for r in rb], dtype=bool)
+        untimed = sorted(set(map(str, bi["study"].dropna())) - set(map(str, bi["study"][has])))
         if untimed:
             out.lines.append(
                 f"(studies without timing rounds, so not in this table: {', '.join(untimed)})"
