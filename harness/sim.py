@@ -27,7 +27,7 @@ from mujoco import rollout
 
 import scenes as scenes_pkg
 from motions import Motion, RationalMotion, quat_from_matrix
-from motions._checks import as_count, short
+from motions._checks import as_count, as_flag, short
 
 from .errors import HarnessError
 from .geoms import (
@@ -188,8 +188,7 @@ def simulate(
         `record`: time, pose and the carried bodies' positions, through ``mujoco.rollout``.
     """
     sc = _scene(scene)
-    if not isinstance(record, bool | np.bool_):
-        raise TypeError(f"Expected `record` to be True or False, got {record!r}.")
+    record = as_flag(record, "record")
     step, tau = _control_times(motion, sc.model, dt, duration)
     model, data, mid = _prepared(sc, step)
     pos, quat = _poses(motion, tau)

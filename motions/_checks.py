@@ -209,6 +209,13 @@ def as_count(value: Any, name: str, lo: int, hi: int) -> int:
     return int(value)
 
 
+def as_flag(value: Any, name: str) -> bool:
+    """True or False (numpy's bool too; not 1, not "no", which Python reads as true)."""
+    if not isinstance(value, bool | np.bool_):
+        raise TypeError(f"Expected `{name}` to be True or False, got {short(value)}.")
+    return bool(value)
+
+
 def check_choice(value: Any, name: str, choices) -> str:
     """`value` must be one of `choices` (strings)."""
     if not isinstance(value, str) or value not in choices:

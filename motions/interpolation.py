@@ -20,7 +20,7 @@ from scipy.linalg import solve_banded
 from scipy.sparse.linalg import MatrixRankWarning, spsolve
 from scipy.special import comb
 
-from ._checks import as_float, as_points, as_rotations, as_times, check_choice, short
+from ._checks import as_flag, as_float, as_points, as_rotations, as_times, check_choice, short
 from ._spline import clamped_knots, gauss_nodes
 from .bernstein import bezier_derivative, bezier_eval
 from .errors import DegenerateMotionError, MotionError
@@ -536,11 +536,13 @@ def fit(
         scale_weight: μ of the local scale term; smaller is less biased for preimages whose
             norm varies, larger is steadier on noisy data.
     """
+    ok = segments is None or (isinstance(segments, int | np.integer) and segments >= 1)
+    if isinstance(segments, bool) or not ok:  # (before the poses: their count depends on it)
+        raise ValueError(f"Expected `segments` to be a positive integer, got {short(segments)}.")
+    homogeneous = as_flag(homogeneous, "homogeneous")
     q, p, t = keyframes(rotations, positions, times, omega=omega, min_count=4)
     n = q.shape[0]
     s = max(1, n // 8) if segments is None else segments
-    if isinstance(s, bool) or not isinstance(s, int | np.integer) or s < 1:
-        raise ValueError(f"Expected `segments` to be a positive integer, got {short(segments)}.")
     if n < s + 3:
         raise ValueError(
             f"Expected at least segments + 3 = {s + 3} poses to fit {s} segments, got {n}."

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import as_count, as_points, short
+from ._checks import as_count, as_flag, as_points, short
 from ._spline import gauss_nodes
 from .motion import Motion
 from .quaternion import quat_from_matrix, rotation_matrix
@@ -206,6 +206,7 @@ def smoothness(
     """
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
+    invariance = as_flag(invariance, "invariance")
     pts = _body_points(body)
     t0 = time.perf_counter()
     jumps = knot_jumps(motion, offsets)

@@ -459,3 +459,28 @@ def test_a_value_that_is_not_finite_is_named_with_its_index():
     q[3, 1] = np.inf
     with pytest.raises(ValueError, match=r"finite, got inf at index \(3, 1\)"):
         motions.interpolate(q, demo_keyframes(7)[1])
+
+
+@pytest.mark.parametrize("flag", ["no", 1, None, np.array([True])])
+def test_flags_are_true_or_false(flag):
+    # fit(homogeneous="no") ran as homogeneous=True: Python reads a non-empty string as true
+    q, p = demo_keyframes(9)
+    with pytest.raises(TypeError, match=r"`homogeneous` to be True or False"):
+        motions.fit(q, p, homogeneous=flag)
+    with pytest.raises(TypeError, match=r"`invariance` to be True or False"):
+        motions.smoothness(motions.interpolate(q, p), invariance=flag)
+    # numpy's booleans are flags: the same fit as Python's
+    t = np.linspace(0.0, 8.0, 7)
+    np.testing.assert_array_equal(
+        motions.fit(q, p, homogeneous=np.False_).motion.pose(t)[0],
+        motions.fit(q, p, homogeneous=False).motion.pose(t)[0],
+    )
+
+
+def test_fit_names_segments_before_counting_poses():
+    # with 3 poses and segments=0 the error was "at least 4 keyframes, got 3"
+    q, p = demo_keyframes(3)
+    with pytest.raises(ValueError, match=r"`segments` to be a positive integer, got 0"):
+        motions.fit(q, p, segments=0)
+    with pytest.raises(ValueError, match=r"at least 4"):
+        motions.fit(q, p, segments=1)

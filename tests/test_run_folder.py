@@ -462,3 +462,12 @@ def test_the_resume_hint_names_the_program_as_it_was_started(monkeypatch, tmp_pa
     assert _program() == ["rsmbench"]
     monkeypatch.setattr(sys, "argv", ["/somewhere/harness/cli.py", "run"])  # python -m
     assert _program() == [sys.executable, "-m", "harness.cli"]
+
+
+@pytest.mark.parametrize("flag", ["progress", "report", "hard_stop"])
+def test_run_flags_are_true_or_false(mini, tmp_path, flag):
+    # progress="no" read as true; refused before the folder is made
+    out = tmp_path / "run"
+    with pytest.raises(TypeError, match=f"`{flag}` to be True or False, got 'no'"):
+        run_suite(load_suite(mini), out, **{"progress": False, flag: "no"})
+    assert not out.exists()

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from motions._checks import short
+from motions._checks import as_flag, short
 
 from ..errors import SuiteError
 from ..timing import code_digest
@@ -136,6 +136,8 @@ def run_suite(
         raise ValueError(f"Expected `seed` to be an integer in [0, 2**63 - 1], got {short(seed)}.")
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise ValueError(f"Expected `jobs` to be an integer >= 1, got {short(jobs)}.")
+    progress, report = as_flag(progress, "progress"), as_flag(report, "report")
+    hard_stop = as_flag(hard_stop, "hard_stop")
     if scheduler is not None and jobs > 1:
         raise ValueError(
             f"Give `jobs` (local processes) or `scheduler` (a Dask cluster), not both; got"
