@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import sys
+import warnings
+
 from scenes.errors import InvalidMocapBody, SceneError
 
 __all__ = [
     "DegenerateMeshError",
     "HarnessError",
     "InvalidMocapBody",
+    "NoObstaclesWarning",
     "NoSpeedBoundError",
     "SceneError",
     "ShapeError",
@@ -40,3 +46,33 @@ class UnsupportedGeomError(SceneError):
 
 class SuiteError(HarnessError):
     """A malformed benchmark suite file."""
+
+
+class NoObstaclesWarning(UserWarning):
+    """A query was given no obstacle at all, so every motion in it is free, trivially: a
+    proof about nothing (a filter that kept no obstacle, a model without static geoms)."""
+
+
+def warn_no_obstacles(lists: list[list], n: int, name: str = "obstacles") -> None:
+    """:class:`NoObstaclesWarning` when `n` >= 1 motions were given no obstacle (lists:
+    the motions' obstacle lists; one empty list among others is a choice, not a slip)."""
+    if n and not any(lists):
+        warn_user(
+            NoObstaclesWarning(
+                f"`{name}` holds no obstacle: every motion is free, trivially (did a filter"
+                " keep none?)."
+            )
+        )
+
+
+def warn_user(warning: Warning) -> None:
+    """Issue `warning` at the first line outside the harness package that led to it (the
+    user's call, however deep inside the harness it was found; contextlib's frames, of the
+    harness's decorators, skipped too)."""
+    here = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    frame, level = sys._getframe(1), 2
+    while frame is not None and (
+        frame.f_code.co_filename.startswith(here) or frame.f_code.co_filename == contextlib.__file__
+    ):
+        frame, level = frame.f_back, level + 1
+    warnings.warn(warning, stacklevel=level)

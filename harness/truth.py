@@ -19,7 +19,7 @@ from motions._checks import as_float, short
 from .certification.advance import pose_matrices, pose_rows
 from .certification.api import Certificate, cover_half_spaces, obstacle_lists
 from .certification.tables import ShapeTable
-from .errors import NoSpeedBoundError
+from .errors import NoSpeedBoundError, warn_no_obstacles
 from .mjdistance import CCD_TOLERANCE, MujocoDistance
 from .shapes import Shape, as_shape, parts
 
@@ -137,6 +137,7 @@ def ground_truth(
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     body = as_shape(body)
     obst = obstacle_lists(obstacles, 1)[0]
+    warn_no_obstacles([obst], 1)
     res = as_float(resolution, "resolution")
     if not math.isfinite(res) or res <= 0:
         raise ValueError(f"Expected `resolution` > 0 (a length), got {short(resolution)}.")

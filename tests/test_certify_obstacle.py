@@ -215,3 +215,36 @@ def test_slerp_family_and_host_paths_name_the_obstacle(scenes):
     for j in (0, 2, 3):
         alone = certify(ms[j], bodies[j], obst[j], bound="sampled", tolerance=TOL)
         assert alone.obstacle == runs["sampled"][1][j].obstacle
+
+
+def test_no_obstacle_at_all_warns_at_the_callers_line():
+    # a filter that kept no obstacle gave a certified `free` without a word
+    import warnings
+
+    from harness import NoObstaclesWarning, certify_table, clearance, repair
+
+    q, p = motions.demo.demo_keyframes(4)
+    m, body = motions.interpolate(q, p), Box([0.1, 0.1, 0.1])
+    far = Sphere(0.1, center=[1e3, 0.0, 0.0])
+    for call in (
+        lambda: certify(m, body, []),
+        lambda: certify_many([m, m], body, [[], ()]),
+        lambda: certify_table([m], body, []),
+        lambda: clearance(m, body, []),
+        lambda: repair(m, body, []),
+    ):
+        with warnings.catch_warnings(record=True) as got:
+            warnings.simplefilter("always")
+            call()
+        assert [w.category for w in got] == [NoObstaclesWarning]  # once, repair too
+        assert got[0].filename == __file__, got[0].filename
+    # still a true answer: free
+    with pytest.warns(NoObstaclesWarning):
+        assert certify(m, body, []).verdict == "free"
+    # one motion without obstacles among others with some is a choice: no warning; nor is
+    # an empty batch
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", NoObstaclesWarning)
+        out = certify_many([m, m], body, [[], [far]])
+        assert [c.verdict for c in out] == ["free", "free"]
+        assert certify_many([], body, []) == []

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -51,7 +52,7 @@ from motions._checks import short
 from ..certification import Certificate, Clearance, certify
 from ..certification import clearance as certified_clearance
 from ..certification.api import check_keywords
-from ..errors import HarnessError
+from ..errors import HarnessError, NoObstaclesWarning, warn_no_obstacles
 from ..shapes import Shape, as_obstacles, as_shape
 from .cuts import MAX_KNOTS, Constraints, Search, solve
 from .distance import DistanceModel
@@ -148,6 +149,7 @@ def _check(motion, body, obstacles, tolerance, clearance_) -> tuple:
         )
     body = as_shape(body)
     obst = as_obstacles(obstacles)  # (none: the input is clear, and returned)
+    warn_no_obstacles([obst], 1)
     tol = _number(tolerance, "tolerance")
     if not math.isfinite(tol) or tol <= 0:
         raise RepairError(f"Expected `tolerance` > 0 (a length), got {short(tolerance)}.")
@@ -466,10 +468,12 @@ def repair(
     anchors = _anchors(motion)
 
     def proven(m) -> tuple[bool, Clearance, Certificate | None]:
-        cl = certified_clearance(m, body, obst, tolerance=tol, **cert_opts)
-        if not (cl.lower >= c):
-            return False, cl, None
-        cert = certify(m, body, obst, tolerance=tol, **cert_opts)
+        with warnings.catch_warnings():  # (no obstacle: said once, by _check)
+            warnings.simplefilter("ignore", NoObstaclesWarning)
+            cl = certified_clearance(m, body, obst, tolerance=tol, **cert_opts)
+            if not (cl.lower >= c):
+                return False, cl, None
+            cert = certify(m, body, obst, tolerance=tol, **cert_opts)
         return cert.verdict == "free", cl, cert
 
     ok, cl, cert = proven(motion)

@@ -24,7 +24,7 @@ from motions import Motion, RationalMotion
 from motions._checks import short
 from motions.pieces import UNIT_ROUNDOFF, gamma
 
-from ..errors import HarnessError
+from ..errors import HarnessError, warn_no_obstacles
 from ..shapes import Compound, HalfSpace, Shape, as_obstacles, as_shape, part_owners
 from ..timing import collector_paused
 from .device import resolve_device
@@ -504,6 +504,7 @@ def certify_many(
     if o["bound"] in ("fcl", "ipctk"):
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
+        warn_no_obstacles(obst, len(ms))
         with naming(ms):
             obst = cover_half_spaces(ms, bodies, obst)
         if not ms:
@@ -518,6 +519,7 @@ def checked_engine(motions: Any, body: Any, obstacles: Any, o: dict, *, table: b
     with collector_paused():
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
+        warn_no_obstacles(obst, len(ms))
         with naming(ms):
             obst = cover_half_spaces(ms, bodies, obst)
             return engine(ms, bodies, obst, o, table=table) if ms else None

@@ -18,6 +18,7 @@ import numpy as np
 
 from motions import Motion, RationalMotion
 
+from ..errors import warn_no_obstacles
 from ..timing import collector_paused
 from .api import (
     DEFAULT_MAX_NODES,
@@ -134,8 +135,10 @@ def clearance_many(
     ms = list(motions)
     bodies = body_list(body, len(ms))
     ts, ns = [], []
+    lists = obstacle_lists(obstacles, len(ms))
+    warn_no_obstacles(lists, len(ms))
     with naming(ms):
-        obst = cover_half_spaces(ms, bodies, obstacle_lists(obstacles, len(ms)))
+        obst = cover_half_spaces(ms, bodies, lists)
         if not ms:
             return []
         start = time.perf_counter()
