@@ -146,7 +146,7 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     counts = {}
     for g in obst:
         counts[kind(g)] = counts.get(kind(g), 0) + 1
-    print(f"obstacles: {len(obst)} static colliding geoms {counts}")
+    print(f"obstacles: {len(obst)} static colliding geom{'s' * (len(obst) != 1)} {counts}")
     unusable = unusable_obstacles(model)
     if unusable:
         why = ", ".join(f"{model.geom(g).name or f'#{g}'!r} ({r})" for g, r in unusable.items())
@@ -155,9 +155,10 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
             if any(r.startswith("unsupported type") for r in unusable.values())
             else ""
         )
+        # (a trial read "obstacles: 2 ..." then "cannot be obstacles: 1" as a contradiction)
         print(
-            f"cannot be obstacles: {len(unusable)} static colliding geoms, which "
-            f"harness.obstacles_from_model refuses: {why}{supported}"
+            f"  of which {len(unusable)} cannot be obstacles, so harness.obstacles_from_model"
+            f" refuses the model: {why}{supported}"
         )
     moving = moving_geoms(model)
     if moving.size:

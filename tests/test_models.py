@@ -666,7 +666,7 @@ def test_colliding_geoms_that_joints_move_are_named_not_dropped_silently(tmp_pat
 
     assert main(["scenes", str(tmp_path / "scene.xml")]) == 0
     out = capsys.readouterr().out
-    assert "obstacles: 1 static colliding geoms {'box': 1}" in out
+    assert "obstacles: 1 static colliding geom {'box': 1}" in out
     assert (
         "not obstacles: 4 colliding geoms on bodies that joints move ['block', 'door', 'lid']"
         in out

@@ -239,12 +239,14 @@ def test_scenes_command_names_static_geoms_that_cannot_be_obstacles(tmp_path, ca
     )
     assert main(["scenes", str(xml)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    said = [line for line in lines if line.startswith("cannot be obstacles")]
-    assert said == [
-        "cannot be obstacles: 2 static colliding geoms, which harness.obstacles_from_model "
-        "refuses: 'can' (unsupported type 'cylinder'), 'egg' (unsupported type 'ellipsoid'); "
+    at = lines.index(
+        "obstacles: 3 static colliding geoms {'cylinder': 1, 'ellipsoid': 1, 'box': 1}"
+    )
+    assert lines[at + 1] == (
+        "  of which 2 cannot be obstacles, so harness.obstacles_from_model refuses the model: "
+        "'can' (unsupported type 'cylinder'), 'egg' (unsupported type 'ellipsoid'); "
         "supported geom types: ['box', 'sphere', 'capsule', 'mesh', 'plane']"
-    ]
+    )
     model = scenes.compile_file(xml)
     assert harness.geoms.unusable_obstacles(model) == {
         model.geom("can").id: "unsupported type 'cylinder'",
