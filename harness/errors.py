@@ -53,13 +53,13 @@ class NoObstaclesWarning(UserWarning):
     proof about nothing (a filter that kept no obstacle, a model without static geoms)."""
 
 
-def warn_no_obstacles(lists: list[list], n: int, name: str = "obstacles") -> None:
+def warn_no_obstacles(lists: list[list], n: int) -> None:
     """:class:`NoObstaclesWarning` when `n` >= 1 motions were given no obstacle (lists:
     the motions' obstacle lists; one empty list among others is a choice, not a slip)."""
     if n and not any(lists):
         warn_user(
             NoObstaclesWarning(
-                f"`{name}` holds no obstacle: every motion is free, trivially (did a filter"
+                "`obstacles` holds no obstacle: every motion is free, trivially (did a filter"
                 " keep none?)."
             )
         )
