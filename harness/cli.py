@@ -156,14 +156,18 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
             else ""
         )
         # (a trial read "obstacles: 2 ..." then "cannot be obstacles: 1" as a contradiction)
+        n = len(unusable)
         print(
-            f"  of which {len(unusable)} cannot be obstacles, so harness.obstacles_from_model"
-            f" refuses the model: {why}{supported}"
+            f"  of which {n} cannot be {'an obstacle' if n == 1 else 'obstacles'}, so"
+            f" harness.obstacles_from_model refuses the model: {why}{supported}"
         )
     moving = moving_geoms(model)
     if moving.size:
         moved = sorted({model.body(b).name or f"#{b}" for b in model.geom_bodyid[moving]})
-        print(f"not obstacles: {moving.size} colliding geoms on bodies that joints move {moved}")
+        print(
+            f"not obstacles: {moving.size} colliding geom{'s' * (moving.size != 1)} on bodies"
+            f" that joints move {moved}"
+        )
     if model.nkey:
         keys = [model.key(k).name or f"#{k}" for k in range(model.nkey)]
         print(f"keyframes: {model.nkey} at t = {np.round(model.key_time, 6).tolist()} {keys}")

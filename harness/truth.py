@@ -137,10 +137,10 @@ def ground_truth(
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     body = as_shape(body)
     obst = obstacle_lists(obstacles, 1)[0]
-    warn_no_obstacles([obst], 1)
     res = as_float(resolution, "resolution")
     if not math.isfinite(res) or res <= 0:
         raise ValueError(f"Expected `resolution` > 0 (a length), got {short(resolution)}.")
+    warn_no_obstacles([obst], 1)
     obst = cover_half_spaces([motion], [body], [obst])[0]
     start = time.perf_counter()
     common = dict(depth=0, certified=True, bound="truth", tolerance=res)

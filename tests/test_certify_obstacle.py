@@ -221,7 +221,8 @@ def test_no_obstacle_at_all_warns_at_the_callers_line():
     # a filter that kept no obstacle gave a certified `free` without a word
     import warnings
 
-    from harness import NoObstaclesWarning, certify_table, clearance, repair
+    from harness import NoObstaclesWarning, certify_table, clearance, ground_truth, repair
+    from harness.avoid.baseline import sampled_repair
 
     q, p = motions.demo.demo_keyframes(4)
     m, body = motions.interpolate(q, p), Box([0.1, 0.1, 0.1])
@@ -232,12 +233,24 @@ def test_no_obstacle_at_all_warns_at_the_callers_line():
         lambda: certify_table([m], body, []),
         lambda: clearance(m, body, []),
         lambda: repair(m, body, []),
+        lambda: sampled_repair(m, body, []),
+        lambda: ground_truth(m, body, [], resolution=0.01),
     ):
         with warnings.catch_warnings(record=True) as got:
             warnings.simplefilter("always")
             call()
         assert [w.category for w in got] == [NoObstaclesWarning]  # once, repair too
         assert got[0].filename == __file__, got[0].filename
+    # a call refused for another argument says only that
+    for call in (
+        lambda: repair(m, body, [], tolerance=-1.0),
+        lambda: ground_truth(m, body, [], resolution=-1.0),
+        lambda: certify(m, body, [], tolerance=-1.0),
+    ):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", NoObstaclesWarning)
+            with pytest.raises(ValueError, match=r"`(tolerance|resolution)`"):
+                call()
     # still a true answer: free
     with pytest.warns(NoObstaclesWarning):
         assert certify(m, body, []).verdict == "free"

@@ -222,6 +222,7 @@ def test_one_motion_shape_packing_is_the_general_one():
 
 
 @pytest.mark.parametrize("n", [3, 12])  # the small-batch packing cache, and the batch path
+@pytest.mark.filterwarnings("ignore::harness.NoObstaclesWarning")  # (empty lists: single queries)
 def test_batch_after_its_lists_change_in_place_meets_a_planted_contact(scene, n):
     # the obstacle lists are the caller's own objects: changed in place between two calls,
     # the second must see the change (a cache keyed on a list, not on its shapes, would

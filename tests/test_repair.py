@@ -129,7 +129,8 @@ def test_clear_motion_is_returned_unchanged():
     assert r.clearance.lower >= 0.5
     # no obstacle at all: clear too (it was refused; its docstring says clear motions come
     # back), with the exact bracket [inf, inf]
-    r = repair(m, Sphere(0.1), [], clearance=0.5)
+    with pytest.warns(harness.NoObstaclesWarning):
+        r = repair(m, Sphere(0.1), [], clearance=0.5)
     assert r.motion is m and r.iterations == 0 and r.certificate.verdict == "free"
     assert r.clearance.lower == r.clearance.upper == np.inf and r.clearance.width_ok
 
@@ -620,9 +621,11 @@ def test_no_obstacles_is_clear_for_both_repairs_and_the_truths_distances():
     from harness.truth import sample_distances
 
     m = motions.interpolate([[1.0, 0, 0, 0]] * 3, [[0, 0, 0], [1, 0, 0], [2, 0, 0]])
-    s = sampled_repair(m, Sphere(0.1), [], clearance=0.004, samples=16)
+    with pytest.warns(harness.NoObstaclesWarning):  # (true, but about nothing)
+        s = sampled_repair(m, Sphere(0.1), [], clearance=0.004, samples=16)
     assert s.sampled_free and s.motion is m and s.iterations == 0
-    r = repair(m, Sphere(0.1), [], clearance=0.004)
+    with pytest.warns(harness.NoObstaclesWarning):
+        r = repair(m, Sphere(0.1), [], clearance=0.004)
     assert r.certificate.verdict == "free" and r.moved.max_deviation == 0.0
     lo, hi, eps = sample_distances(m, Sphere(0.1), [], np.array([0.0, 0.5]))
     assert np.all(np.isinf(lo)) and np.all(np.isinf(hi)) and eps == 0.0

@@ -21,6 +21,7 @@ import motions
 from motions import RationalMotion
 from motions._checks import short
 
+from ..errors import warn_no_obstacles
 from ..shapes import Shape, as_obstacles, as_shape
 from .distance import DistanceModel
 from .repair import RepairError
@@ -96,6 +97,7 @@ def sampled_repair(
     t = np.array(motion.keyframe_times)
     opts = {"translation": rec.options.get("translation", "cubic")}
     if not obst:  # nothing to keep clear of (numpy's minimum of an empty row failed)
+        warn_no_obstacles([obst], 1)
         return SampledRepair(motion, True, 0, time.perf_counter() - start, "clear")
     dm = DistanceModel([body], obst)
     grid = np.linspace(*motion.domain, samples)

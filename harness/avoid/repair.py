@@ -37,6 +37,7 @@ cuts' target (:func:`keyframe_margin`).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 import warnings
@@ -149,7 +150,6 @@ def _check(motion, body, obstacles, tolerance, clearance_) -> tuple:
         )
     body = as_shape(body)
     obst = as_obstacles(obstacles)  # (none: the input is clear, and returned)
-    warn_no_obstacles([obst], 1)
     tol = _number(tolerance, "tolerance")
     if not math.isfinite(tol) or tol <= 0:
         raise RepairError(f"Expected `tolerance` > 0 (a length), got {short(tolerance)}.")
@@ -451,6 +451,9 @@ def repair(
             has no preimage); a keyframe pose inside an obstacle or closer to it than
             :func:`keyframe_margin` (the obstacle is named); or no repair found within
             `max_iterations` (the obstacles still in the way are named).
+
+    Warns:
+        NoObstaclesWarning: `obstacles` holds none (the motion is returned as it is).
     """
     start = time.perf_counter()
     motion, body, obst, tol, c = _check(motion, body, obstacles, tolerance, clearance)
@@ -463,13 +466,17 @@ def repair(
             f"Expected `max_iterations` to be a positive integer, got {short(max_iterations)}."
         )
     check_keywords(options, repair, CERTIFIER_OPTIONS)
+    warn_no_obstacles([obst], 1)
     cert_opts = dict(options)
     dm = DistanceModel([body], obst)
     anchors = _anchors(motion)
 
     def proven(m) -> tuple[bool, Clearance, Certificate | None]:
-        with warnings.catch_warnings():  # (no obstacle: said once, by _check)
-            warnings.simplefilter("ignore", NoObstaclesWarning)
+        # (no obstacle: said once, above; catch_warnings is process-wide and resets the
+        # warnings' once-only memory, so only then)
+        with warnings.catch_warnings() if not obst else contextlib.nullcontext():
+            if not obst:
+                warnings.simplefilter("ignore", NoObstaclesWarning)
             cl = certified_clearance(m, body, obst, tolerance=tol, **cert_opts)
             if not (cl.lower >= c):
                 return False, cl, None

@@ -381,6 +381,11 @@ def certify(
         QueryError: a bound that does not apply to the motion (the engine's or a
             comparator's: where :func:`certify_many` answers a comparator's
             ``NotApplicable`` in a batch, one query raises, as the engine's bounds do).
+
+    Warns:
+        NoObstaclesWarning: `obstacles` holds none (the answer is ``free``, trivially); so
+        do the other queries (:func:`certify_many`, :func:`certify_table`, clearance,
+        ground truth, repair) when no motion of theirs has an obstacle.
     """
     check_keywords(options, certify, certify_many)
     if not isinstance(motion, Motion):
@@ -504,12 +509,13 @@ def certify_many(
     if o["bound"] in ("fcl", "ipctk"):
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
-        warn_no_obstacles(obst, len(ms))
         with naming(ms):
-            obst = cover_half_spaces(ms, bodies, obst)
+            covered = cover_half_spaces(ms, bodies, obst)
         if not ms:
             return []
-        return _comparators(o["bound"], ms, bodies, obst, o["tol"], comparator_options)
+        out = _comparators(o["bound"], ms, bodies, covered, o["tol"], comparator_options)
+        warn_no_obstacles(obst, len(ms))  # (once the tool is known to be there)
+        return out
     out = checked_engine(motions, body, obstacles, o)
     return [] if out is None else out
 

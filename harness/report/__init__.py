@@ -27,6 +27,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from motions._checks import as_flag
+
 from ..errors import HarnessError
 from ..run.journal import OutputLock, atomic_json
 from .avoid import repair_section
@@ -119,6 +121,7 @@ def write_report(
         ReportError: the run cannot be read, or the report cannot be written there.
         OutputLocked: another rsmbench process is writing the folder.
     """
+    lock = as_flag(lock, "lock")
     run = Path(run_dir)
     df, meta = _read_run(run)
     dest = run if out is None else Path(out)
