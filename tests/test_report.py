@@ -1364,3 +1364,9 @@ def test_repeats_are_timed_not_counted_again(tmp_path):
     assert per["median CPU ms/query"].iloc[0] == pytest.approx(2.0)
     (toi,) = [ax for name, ax in figures if name == "toi_error"]
     assert [t.get_text() for t in toi.get_xticklabels()] == ["hull\nn=1"]
+
+
+def test_write_report_lock_is_true_or_false(tmp_path):
+    # lock="no" read as true
+    with pytest.raises(TypeError, match=r"`lock` to be True or False, got 'no'"):
+        write_report(tmp_path, lock="no")
