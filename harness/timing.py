@@ -423,6 +423,51 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+VECTOR_ISAS = (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"), ("sse4_2", "SSE4.2"),
+               ("sve", "SVE"), ("asimd", "NEON"))  # fmt: skip
+"""(``/proc/cpuinfo`` flag, name), widest first: the widest vector instruction set the CPU
+has, which Warp's CPU kernels are compiled for (``-march=native``). The README's engine
+table shows two 2-vCPU AMD EPYC machines, one with AVX-512 and one without, ~2.5x apart."""
+
+
+def _cpu_features() -> dict[str, Any]:
+    """``cpu_vector_isa`` (the widest of :data:`VECTOR_ISAS`, None when unknown) and
+    ``cpu_mhz`` (the first CPU's clock as ``/proc/cpuinfo`` reads it at start, None
+    without): what ``model name`` alone does not tell of a cloud machine ("AMD EPYC")."""
+    flags: set[str] = set()
+    mhz = None
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            key, _, value = line.partition(":")
+            key = key.strip()
+            if key in ("flags", "Features") and not flags:
+                flags = set(value.split())
+            elif key == "cpu MHz" and mhz is None:
+                with contextlib.suppress(ValueError):
+                    mhz = round(float(value), 0)
+    except OSError:
+        pass
+    return {"cpu_vector_isa": vector_isa(flags), "cpu_mhz": mhz}
+
+
+def vector_isa(flags) -> str | None:
+    """The widest of :data:`VECTOR_ISAS` among a CPU's `flags` (None: none known)."""
+    have = set(flags or ())
+    return next((name for flag, name in VECTOR_ISAS if flag in have), None)
+
+
+def cpu_label(meta: dict) -> str:
+    """A run's CPU as its report and comparisons name it: the model, with the vector
+    instruction set and clock where ``meta.json`` has them ("AMD EPYC (AVX-512, 2.60
+    GHz)"; older runs: the model alone)."""
+    model = meta.get("cpu_model") or meta.get("cpu") or "?"
+    isa, mhz = meta.get("cpu_vector_isa"), meta.get("cpu_mhz")
+    more = [isa] if isa else []
+    if isinstance(mhz, int | float) and mhz > 0:
+        more.append(f"{mhz / 1000:.2f} GHz")
+    return f"{model} ({', '.join(more)})" if more else model
+
+
 def _ram_gb() -> float:
     try:
         kb = float(Path("/proc/meminfo").read_text().split("MemTotal:")[1].split()[0])
@@ -504,6 +549,7 @@ def machine_info() -> dict[str, Any]:
     return {
         "device": device,
         "cpu_model": _cpu_model(),
+        **_cpu_features(),
         "logical_cpus": os.cpu_count(),
         "usable_cpus": usable,
         "ram_gb": round(_ram_gb(), 2),

@@ -532,7 +532,9 @@ def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
     assert res.exit_code == 1, res.text()
     assert res.regressions and all(r.startswith("timing:") for r in res.regressions)
     slow = [t for t in res.timing if t.status == "regression"]
-    assert slow and all(1.75 < t.ratio < 9.0 and t.lo > 1 for t in slow)
+    # (the fastest rounds bound the slowdown: a burst of load from another process made
+    # a 108 us group's median ratio 11.6 once, its fastest-round ratio 2.9)
+    assert slow and all(t.ratio > 1.75 and t.lo > 1 and 1.75 < t.fastest < 9.0 for t in slow)
     # nothing but timing fails: the same runs pass once slowdowns up to the bound above
     # are allowed (an injected 2x measured up to 3.06x on a short group of this loaded
     # machine, so "allow 3x" would be flaky)
@@ -961,3 +963,21 @@ def test_a_ci_trials_mistakes_are_named(tmp_path):
     assert {t.status[:9] for t in res.timing} == {"not gated"}
     assert any("no timing group was gated" in line for line in res.lines), res.text()
     assert not any("no timing group" in line for line in compare(base, slow).lines)
+
+
+def test_benchmark_files_of_one_cpu_model_on_other_vector_units_are_noted(tmp_path):
+    # two cloud machines both named "AMD EPYC", one with AVX-512 and one without, ran
+    # the engine ~2.5x apart; the CPU model alone said nothing
+    def doc(flags: list[str]) -> dict:
+        d = _bench({"x": [1.0, 1.1, 0.9, 1.0, 1.05]})
+        d["machine_info"] = {"cpu": {"brand_raw": "AMD EPYC", "count": 2, "flags": flags}}
+        return d
+
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps(doc(["sse4_2", "avx", "avx2", "avx512f"])))
+    b.write_text(json.dumps(doc(["sse4_2", "avx", "avx2"])))
+    res = compare(a, b)
+    assert res.lines[0].startswith(f"base: {a}: ") and "AMD EPYC (AVX-512)" in res.lines[0]
+    assert "AMD EPYC (AVX2)" in res.lines[1]
+    notes = [line for line in res.lines if line.startswith("note:")]
+    assert notes == ["note: the runs differ in cpu_vector_isa: AVX-512 -> AVX2"]

@@ -361,8 +361,12 @@ def test_a_run_of_other_code_is_neither_resumed_nor_reused(mini_clean, tmp_path,
     shutil.copytree(d / "run", out)
     meta = json.loads((out / "meta.json").read_text())
     assert meta["legs"][-1]["code_digest"] == meta["code_digest"] == code_digest()
+    before = (out / "meta.json").read_bytes()
     same_rows(run_suite(suite, out, progress=False), clean)
     assert "holds a finished run of these 10 cases: nothing to run" in capsys.readouterr().err
+    # nothing ran: no leg is added and `finished` stays (a trial's report then said "over
+    # 3 legs (resumed)" of a run given again)
+    assert (out / "meta.json").read_bytes() == before
     meta = json.loads((out / "meta.json").read_text())
     meta["legs"][-1]["code_digest"] = "0123456789abcdef"
     (out / "meta.json").write_text(json.dumps(meta))

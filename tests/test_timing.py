@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -105,6 +107,30 @@ def test_machine_info_names_the_machine():
         assert key in info
     assert info["ram_gb"] > 0 and info["logical_cpus"] >= 1
     assert isinstance(info["kernel_cache_modules"], list)
+
+
+def test_machine_info_names_the_vector_instruction_set_and_clock():
+    # meta.json said "AMD EPYC" of two machines ~2.5x apart (AVX-512 and AVX2)
+    info = timing.machine_info()
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        pytest.skip("no /proc/cpuinfo here")
+    flags = re.search(r"^(?:flags|Features)\s*:(.*)$", text, re.M)
+    if flags is None:
+        pytest.skip("/proc/cpuinfo lists no flags here")
+    have = flags.group(1).split()
+    expect = next(
+        (n for f, n in (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("asimd", "NEON")) if f in have),
+        info["cpu_vector_isa"],  # (an older or other instruction set: not checked here)
+    )
+    assert info["cpu_vector_isa"] == expect
+    mhz = re.search(r"^cpu MHz\s*:\s*([0-9.]+)", text, re.M)
+    if mhz:
+        assert abs(info["cpu_mhz"] - float(mhz.group(1))) <= 0.5
+    label = timing.cpu_label({"cpu_model": "AMD EPYC", "cpu_vector_isa": "AVX2", "cpu_mhz": 2450.0})
+    assert label == "AMD EPYC (AVX2, 2.45 GHz)"
+    assert timing.cpu_label({"cpu": "Old CPU"}) == "Old CPU"  # a run from before
 
 
 def test_machine_info_names_warps_kernel_cache_in_a_fresh_process():

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HarnessError
-from ..timing import ratio_interval
+from ..timing import cpu_label, ratio_interval
 
 DEFAULT_THRESHOLD = 0.75
 """Allowed slowdown by default: above the drift measured between runs of unchanged code
@@ -138,7 +138,10 @@ class Comparison:
         return "\n".join(out)
 
 
-_MACHINE = ("cpu_model", "cores", "usable_cpus", "device", "python", "versions", "platform")
+_MACHINE = (
+    "cpu_model", "cpu_vector_isa", "cores", "usable_cpus", "device", "python", "versions",
+    "platform",
+)  # fmt: skip
 """meta.json keys on which two runs' machines or software can differ: each difference is
 printed as a note (timings then compare more than code); a key one run lacks (written
 by an older rsmbench) is not compared."""
@@ -165,7 +168,7 @@ def _environments(out: Comparison, *runs: tuple[Any, dict]) -> None:
         )
         device = f", device {meta['device']}" if meta.get("device") else ""
         out.lines.append(
-            f"{side + ':':5s} {p}: {rev}; {meta.get('cpu_model') or meta.get('cpu') or '?'},"
+            f"{side + ':':5s} {p}: {rev}; {cpu_label(meta)},"
             f" {cpus}{device}, Python {meta.get('python', '?')}; started {meta.get('started', '?')}"
         )
     (_, mb), (_, mn) = runs

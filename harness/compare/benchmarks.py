@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..timing import vector_isa
 from ._common import (
     MAX_ROUND_SECONDS,
     MAX_SAMPLE,
@@ -51,6 +52,9 @@ def _environment(doc: dict) -> dict:
     system = " ".join(str(x) for x in (get(mi, "system"), get(mi, "release")) if x)
     env = {
         "cpu_model": get(cpu, "brand_raw"),
+        "cpu_vector_isa": vector_isa(flags)
+        if isinstance(flags := get(cpu, "flags"), list)
+        else None,
         "cores": get(cpu, "count"),
         "python": get(mi, "python_version"),
         "platform": system or None,

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
-from ..timing import ratio_interval
+from ..timing import cpu_label, ratio_interval
 from .data import (
     EXTERNAL_PREFIX,
     cheaper_text,
@@ -258,7 +258,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
         return []
     out = []
     machine = (
-        f"{meta.get('cpu_model') or meta.get('cpu', '?')},"
+        f"{cpu_label(meta)},"
         f" {meta.get('usable_cpus') or meta.get('cores', '?')} CPUs, device {meta.get('device', 'cpu')}"
     )
     what = {

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pandas as pd
 
+from ..timing import cpu_label
 from .data import column, numeric, study_rows
 from .document import Document
 
@@ -42,7 +43,7 @@ def machine_text(meta: dict, rows: int) -> str:
     load = meta.get("load_average")
     load_txt = f", load average at start {load[0]}" if isinstance(load, list) and load else ""
     return (
-        f"Run of {meta.get('started', '?')} on {meta.get('cpu_model') or meta.get('cpu', '?')}"
+        f"Run of {meta.get('started', '?')} on {cpu_label(meta)}"
         f" ({meta.get('usable_cpus') or meta.get('cores', '?')} usable CPUs{ram_txt}{load_txt}),"
         f" device {meta.get('device', 'cpu')}, certify threads {meta.get('certify_threads', '?')};"
         f" {_code(meta)};"

@@ -219,14 +219,25 @@ def _run_locked(
             f" {suite.digest}) does not have: the folder belongs to another suite. Use another"
             " --out folder."
         )
+    if old is not None and old.get("finished") and len(done) == len(cases):
+        # nothing ran: meta.json stays as the run left it (a leg of 0.8 s had been added
+        # and `finished` moved, and the report said "over 3 legs (resumed)")
+        _checked_legs(old)  # (the report reads them)
+        print(
+            f"rsmbench: {out} holds a finished run of these {len(cases)} cases: nothing to"
+            " run; its tables are written again from its journal.",
+            file=sys.stderr,
+        )
+        journal.write_tables([c["case_id"] for c in cases])
+        return pd.read_parquet(out / "results.parquet")
     meta, leg = _start_meta(
         old, suite, seed, len(cases), len(done), jobs, scheduler, journal.last_written
     )
     leg["git_revision"], leg["git_dirty"], leg["code_digest"] = rev, dirty, code
     if old is not None and len(done) == len(cases):
         print(
-            f"rsmbench: {out} holds a finished run of these {len(cases)} cases: nothing to"
-            " run; its tables are written again from its journal.",
+            f"rsmbench: {out} holds all {len(cases)} cases of a run that stopped before"
+            " writing its tables: nothing to run; they are written from its journal.",
             file=sys.stderr,
         )
     meta_path = out / "meta.json"
@@ -356,15 +367,19 @@ def _start_meta(
         meta.pop("finished", None)
         if "legs" not in meta:  # written before legs were kept: its total is one leg
             meta["legs"] = [{"wall_seconds": float(meta.get("wall_seconds", 0.0))}]
-        legs = meta["legs"]
-        if not isinstance(legs, list) or not all(isinstance(g, dict) for g in legs):
-            raise JournalError(
-                f"meta.json: key `legs`: expected a list of objects, got {short(legs)}."
-            )
+        legs = _checked_legs(meta)
         if legs:
             _mend_killed_leg(legs[-1], done, last_case)
     meta["legs"].append(leg)
     return meta, leg
+
+
+def _checked_legs(meta: dict) -> list:
+    """meta.json's `legs` (absent: none), which must be a list of objects."""
+    legs = meta.get("legs", [])
+    if not isinstance(legs, list) or not all(isinstance(g, dict) for g in legs):
+        raise JournalError(f"meta.json: key `legs`: expected a list of objects, got {short(legs)}.")
+    return legs
 
 
 def _mend_killed_leg(last: dict, done: int, last_case: float | None) -> None:
