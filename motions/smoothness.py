@@ -99,6 +99,23 @@ def _continuous(jumps: np.ndarray, scale: np.ndarray, offs: np.ndarray) -> np.nd
     return tiny | decays
 
 
+def limit_jumps(jumps: np.ndarray, offs: np.ndarray) -> np.ndarray:
+    """(K,) one-sided jumps at the knots themselves, ``|f(k+) - f(k-)|``, from the
+    :func:`knot_jumps` rows (K, O): the jump at offset o is smooth in o (the norm of
+    ``f(k+) - f(k-) + o (f'(k+) + f'(k-)) + o² (...)``, whether or not the limit is 0), so
+    the polynomial through the three smallest offsets' jumps (two when only two are given),
+    evaluated at 0, gives the limit (to O(o1 o2 o3)), clipped at 0. A continuous quantity
+    gives round-off (the finite-offset jump is the offset times the next derivative: a C²
+    motion's acceleration "jumped" by 1e-4 at the offset 1e-5, the same for every scheme
+    sharing its origin spline); a discontinuous one, its jump."""
+    if jumps.shape[0] == 0:
+        return np.zeros(0)
+    x = np.asarray(offs[-3:], dtype=float)
+    # Lagrange weights of the value at 0 (the offsets are distinct: knot_jumps checks)
+    w = np.array([np.prod([-xj / (xi - xj) for xj in x if xj != xi]) for xi in x])
+    return np.maximum(jumps[:, -len(x) :] @ w, 0.0)
+
+
 def continuity_order(jumps: dict[str, np.ndarray]) -> int:
     """Measured continuity class: 2 (C²), 1 (C¹) or 0 (C⁰) from :func:`knot_jumps` output."""
     offs = jumps.get("offsets")
@@ -199,7 +216,8 @@ def smoothness(
 
     Returns:
         dict with ``scheme``, ``continuity`` ("C0"/"C1"/"C2"), ``continuity_order``, the
-        largest jump of each quantity at the smallest offset (``jump_velocity`` ...),
+        largest jump of each quantity at the smallest offset (``jump_velocity`` ...) and
+        at the knots themselves (``knot_jump_velocity`` ...: :func:`limit_jumps`),
         ``angular_acceleration_energy`` ∫|ω'|², ``jerk_energy`` ∫|p'''|², ``peak_angular_velocity``,
         ``peak_vertex_speed``, ``invariance_world``, ``invariance_body`` and, for schemes that
         solve iteratively, ``solve_iterations`` and ``solve_seconds``.
@@ -219,6 +237,7 @@ def smoothness(
     for q in QUANTITIES:
         j = jumps[q]
         row[f"jump_{q}"] = float(j[:, -1].max()) if j.size else 0.0
+        row[f"knot_jump_{q}"] = float(limit_jumps(j, jumps["offsets"]).max()) if j.size else 0.0
     knots = motion.knots
     xg, wg = gauss_nodes(knots, ENERGY_NODES)
     # Jerk by a central difference of the analytic acceleration at interior Gauss points;

@@ -327,3 +327,33 @@ def test_exact_180_degree_steps_stay_frame_invariant(rng):
         m = motions.build(scheme, q, p)
         world, body = invariance_errors(m, np.random.default_rng(1))
         assert world < 1e-9 and body < 1e-9, (scheme, world, body)
+
+
+def test_jumps_at_the_knots_are_the_one_sided_limits():
+    # the report's continuity table showed each scheme's jump at the smallest offset: for
+    # a C² motion the offset times the jerk (1e-4, the same for every scheme sharing its
+    # origin spline), which a researcher's trial read as the scheme's own jump
+    rng = np.random.default_rng(11)
+    t = np.array([0.0, 0.7, 1.9, 2.5, 4.0])
+    p = rng.normal(size=(5, 3))
+    v = rng.normal(size=(5, 3))
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (5, 1))
+    m = motions.hermite(q, p, t, velocities=v, angular_velocities=np.zeros((5, 3)))
+    # the origin is the cubic Hermite spline of (p, v): its acceleration at the ends of
+    # [t_i, t_i + h] is 6 dp / h² - (4 v_i + 2 v_i+1) / h and -6 dp / h² + (2 v_i + 4 v_i+1) / h
+    h, dp = np.diff(t), np.diff(p, axis=0)
+    start = 6 * dp / h[:, None] ** 2 - (4 * v[:-1] + 2 * v[1:]) / h[:, None]
+    end = -6 * dp / h[:, None] ** 2 + (2 * v[:-1] + 4 * v[1:]) / h[:, None]
+    exact = np.linalg.norm(start[1:] - end[:-1], axis=1).max()
+    row = motions.smoothness(m, invariance=False)
+    assert row["continuity"] == "C1"
+    assert row["knot_jump_acceleration"] == pytest.approx(exact, rel=1e-7)
+    assert row["knot_jump_velocity"] <= 1e-9 * np.abs(v).max()  # C¹: no velocity jump
+    assert row["knot_jump_angular_acceleration"] <= 1e-12  # (no rotation)
+    # a C² motion through the same poses: no acceleration jump at the knots, where its
+    # finite-offset jump is far from 0
+    c2 = motions.smoothness(motions.interpolate(q, p, t), invariance=False)
+    assert c2["continuity"] == "C2"
+    accel = np.linalg.norm(motions.interpolate(q, p, t).kinematics(t, 2).acceleration, axis=1)
+    assert c2["knot_jump_acceleration"] <= 1e-9 * (1 + accel.max())
+    assert c2["jump_acceleration"] > 1e3 * max(c2["knot_jump_acceleration"], 1e-15)

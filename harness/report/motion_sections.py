@@ -19,6 +19,7 @@ CONTINUITY_COLUMNS = {
     "max jump of acceleration": "max_jump_acceleration_m_per_t2",
     "max jump of angular acceleration": "max_jump_angular_acceleration_rad_per_t2",
     "max jump of angular velocity": "max_jump_angular_velocity_rad_per_t",
+    "max jump of velocity": "max_jump_velocity_m_per_t",
     "world-frame invariance error": "invariance_error_world",
     "body-frame invariance error": "invariance_error_body",
 }
@@ -34,21 +35,34 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     src = src.dropna(subset=["continuity"]).drop_duplicates(["scene", "keyframes", "scheme"])
     if not len(src):
         return
+    # the jumps at the knots themselves (runs from before them: at the smallest offset,
+    # where a C² scheme "jumps" by the offset times its jerk, the same for every scheme
+    # sharing an origin spline: a trial read that as the schemes' own)
+    at_knot = "knot_jump_acceleration" in src.columns
+    jump = (lambda q: f"knot_jump_{q}") if at_knot else (lambda q: f"jump_{q}")
     g = src.groupby("scheme")
+    jumps = {
+        f"max jump of {q.replace('_', ' ')}": g[jump(q)].max()
+        for q in ("acceleration", "angular_acceleration", "angular_velocity", "velocity")
+        if jump(q) in src.columns  # (velocity: not kept by runs before the knots' jumps)
+    }
     t = pd.DataFrame(
         {
             "motions": g.size(),
             "measured class": g["continuity"].agg(lambda v: "/".join(sorted(set(map(str, v))))),
-            "max jump of acceleration": g["jump_acceleration"].max(),
-            "max jump of angular acceleration": g["jump_angular_acceleration"].max(),
-            "max jump of angular velocity": g["jump_angular_velocity"].max(),
+            **jumps,
             "world-frame invariance error": g["invariance_world"].max(),
             "body-frame invariance error": g["invariance_body"].max(),
         }
     ).reset_index()
+    where = (
+        "the largest one-sided jumps at the knots themselves, |f(k+) − f(k−)| (extrapolated to offset 0 from the two smallest offsets: a derivative that the scheme keeps continuous shows round-off, about 1e-9 of its size or less, or 0)"
+        if at_knot
+        else "the largest jumps at the smallest offset (a run from before the jumps at the knots were kept: a continuous derivative shows the offset times the next derivative here)"
+    )
     doc.table(
         t,
-        "Measured continuity class (a derivative counts as continuous when its one-sided jump at a knot falls at least 5× per decade of the offset) and the largest jumps at the smallest offset, in scene units per motion-parameter unit: m/s², rad/s², rad/s for scene keyframes, whose times are seconds; random keyframe sets are timed by chord length, so theirs are per metre of parameter (m/m², rad/m²), pooled here with the scene's because a class does not depend on the parametrisation; invariance: largest matrix difference after moving the world frame or turning the body.",
+        f"Measured continuity class (a derivative counts as continuous when its one-sided jump at a knot falls at least 5× per decade of the offset) and {where}, in scene units per motion-parameter unit: m/s², rad/s², rad/s, m/s for scene keyframes, whose times are seconds; random keyframe sets are timed by chord length, so theirs are per metre of parameter (m/m², rad/m²), pooled here with the scene's because a class does not depend on the parametrisation; invariance: largest matrix difference after moving the world frame or turning the body.",
         "continuity",
         data=t.rename(columns=CONTINUITY_COLUMNS),
     )
@@ -56,8 +70,8 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     use = scene_kf if len(scene_kf) else src
     unit_t = "s" if len(scene_kf) else "t"
     gg = use.groupby("scheme")
-    lin = gg["jump_acceleration"].max()
-    ang = gg["jump_angular_acceleration"].max()
+    lin = gg[jump("acceleration")].max()
+    ang = gg[jump("angular_acceleration")].max()
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
     for ax, series, label in (
         (axes[0], lin, f"jump of acceleration (m/{unit_t}²)"),
@@ -90,7 +104,7 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     doc.figure(
         fig,
         "continuity_jumps",
-        f"Largest one-sided jumps of acceleration (left) and angular acceleration (right) at interior knots, at the smallest offset, {'scene keyframes (time in seconds)' if len(scene_kf) else 'random keyframes (t: the chordal parameter)'}: a C² scheme jumps here only by the offset times the jerk, a C¹ one by a finite amount; a scheme that is C⁰ (slerp's corners) jumps already in velocity or angular velocity, which these panels do not show (the continuity table gives those jumps and every scheme's measured class): its acceleration can be 0 on both sides of a knot (slerp turns at a constant rate), so its bar reads 0.",
+        f"Largest one-sided jumps of acceleration (left) and angular acceleration (right) at interior knots, {'at the knots themselves (extrapolated to offset 0)' if at_knot else 'at the smallest offset'}, {'scene keyframes (time in seconds)' if len(scene_kf) else 'random keyframes (t: the chordal parameter)'}: a C² scheme {'shows round-off here (or 0)' if at_knot else 'jumps here only by the offset times the jerk'}, a C¹ one a finite jump; a scheme that is C⁰ (slerp's corners) jumps already in velocity or angular velocity, which these panels do not show (the continuity table gives those jumps and every scheme's measured class): its acceleration can be 0 on both sides of a knot (slerp turns at a constant rate), so its bar reads 0.",
     )
 
 
