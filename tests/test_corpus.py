@@ -415,3 +415,12 @@ def test_a_case_must_be_stored_as_its_scheme_says(tmp_path, corpus):
     schema = json.loads((tmp_path / "ok" / "corpus.schema.json").read_text())
     mesh = next(s for s in schema["$defs"]["shape"]["oneOf"] if "vertices" in s["required"])
     assert mesh["properties"]["vertices"]["minItems"] == 4  # (the loader needs 4: it said 1)
+
+
+def test_truth_times_lie_in_the_motions_domain(corpus):
+    # darboux-007's first contact was written 1 ulp before its motion's domain
+    # (-1.843585447386151 against -1.8435854473861508), which a strict reader flags
+    for c in corpus:
+        a, b = c.motion.domain
+        for x in (c.truth.toi, c.truth.toi_lo, c.truth.toi_hi):
+            assert x == math.inf or a <= x <= b, (c.id, x, a, b)

@@ -83,6 +83,7 @@ def _cases(family, index, reals, body, obstacles, truth_of, tags) -> list[Case]:
         truth = truth_of(r)
         if truth is None:
             continue
+        truth = _in_domain(truth, r.motion.domain)
         tg = set(tags)
         if r.scheme == "sclerp" and "translation" in tg:
             tg.add("fcl:screw-translation")
@@ -107,6 +108,18 @@ def _cases(family, index, reals, body, obstacles, truth_of, tags) -> list[Case]:
             )
         )
     return out
+
+
+def _in_domain(truth: Truth, domain: tuple[float, float]) -> Truth:
+    """`truth` with its contact times clamped into the motion's domain: a time computed as
+    1 ulp before its start (``darboux-007``: -1.843585447386151 against -1.8435854473861508)
+    is the start (the same pose to round-off, and still a lower bound as ``toi_lo``)."""
+    a, b = domain
+    clamp = lambda x: min(max(x, a), b) if math.isfinite(x) else x  # noqa: E731
+    times = (clamp(truth.toi), clamp(truth.toi_lo), clamp(truth.toi_hi))
+    if times == (truth.toi, truth.toi_lo, truth.toi_hi):
+        return truth
+    return dataclasses.replace(truth, toi=times[0], toi_lo=times[1], toi_hi=times[2])
 
 
 # ----------------------------------------------------------------------------- translation
