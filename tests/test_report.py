@@ -347,6 +347,21 @@ def test_toi_error_is_relative_to_the_duration(written):
     assert "each box pools the schemes its bound answers" in caption, caption
 
 
+def test_toi_error_table_gives_the_figures_numbers(written):
+    # a researcher's trial: the errors were a figure only; a paper quotes n, median, max
+    _, run, _ = written
+    t = pd.read_csv(run / "tables" / "toi_error.csv").set_index("bound")
+    # the synthetic rows: per bound, 2 scenes x 2 tolerances of errors -1e-3 (k=0) and,
+    # where a collision is answered for k=2 (not by sampled), -1e-5, of motions lasting 2
+    assert t.loc["hull", "n"] == t.loc["lipschitz", "n"] == 8 and t.loc["sampled", "n"] == 4
+    np.testing.assert_allclose(
+        t.loc["hull", "median_abs_error_fraction"], np.median([5e-4] * 4 + [5e-6] * 4)
+    )
+    np.testing.assert_allclose(t.loc["hull", "max_abs_error_fraction"], 5e-4)
+    np.testing.assert_allclose(t.loc["sampled", "median_abs_error_fraction"], 5e-4)
+    assert (t["late"] == 0).all() and (t["exact"] == 0).all()
+
+
 def test_scaling_marks_censored_data_and_fits_only_measured_series(written):
     _, run, figures = written
     t = pd.read_csv(run / "tables" / "scaling_slopes.csv").set_index("method")
