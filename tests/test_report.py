@@ -350,7 +350,7 @@ def test_toi_error_is_relative_to_the_duration(written):
 def test_toi_error_table_gives_the_figures_numbers(written):
     # a researcher's trial: the errors were a figure only; a paper quotes n, median, max
     _, run, _ = written
-    t = pd.read_csv(run / "tables" / "toi_error.csv").set_index("bound")
+    t = pd.read_csv(run / "tables" / "toi_error.csv").set_index("method")
     # the synthetic rows: per bound, 2 scenes x 2 tolerances of errors -1e-3 (k=0) and,
     # where a collision is answered for k=2 (not by sampled), -1e-5, of motions lasting 2
     assert t.loc["hull", "n"] == t.loc["lipschitz", "n"] == 8 and t.loc["sampled", "n"] == 4

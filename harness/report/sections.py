@@ -300,6 +300,7 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
         "toi_error",
         data=t.rename(
             columns={
+                "bound": "method",  # (as the other tables name a query method)
                 "median |error|": f"median_abs_error_{'fraction' if relative else 'param'}",
                 "90th percentile": f"p90_abs_error_{'fraction' if relative else 'param'}",
                 "max |error|": f"max_abs_error_{'fraction' if relative else 'param'}",
