@@ -56,7 +56,7 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         }
     ).reset_index()
     where = (
-        "the largest one-sided jumps at the knots themselves, |f(k+) − f(k−)| (extrapolated to offset 0 from the two smallest offsets: a derivative that the scheme keeps continuous shows round-off, about 1e-9 of its size or less, or 0)"
+        "the largest one-sided jumps at the knots themselves, |f(k+) − f(k−)| (extrapolated to offset 0 from the three smallest offsets: a derivative that the scheme keeps continuous shows round-off, about 1e-12 of its size, or 0)"
         if at_knot
         else "the largest jumps at the smallest offset (a run from before the jumps at the knots were kept: a continuous derivative shows the offset times the next derivative here)"
     )
