@@ -424,7 +424,8 @@ def _cpu_model() -> str:
 
 
 VECTOR_ISAS = (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"), ("sse4_2", "SSE4.2"),
-               ("sve", "SVE"), ("asimd", "NEON"))  # fmt: skip
+               ("sve", "SVE"), ("asimd", "NEON"), ("neon", "NEON"), ("vsx", "VSX"),
+               ("altivec", "AltiVec"))  # fmt: skip
 """(``/proc/cpuinfo`` flag, name), widest first: the widest vector instruction set the CPU
 has, which Warp's CPU kernels are compiled for (``-march=native``). The README's engine
 table shows two 2-vCPU AMD EPYC machines, one with AVX-512 and one without, ~2.5x apart."""
@@ -432,10 +433,14 @@ table shows two 2-vCPU AMD EPYC machines, one with AVX-512 and one without, ~2.5
 
 def _cpu_features() -> dict[str, Any]:
     """``cpu_vector_isa`` (the widest of :data:`VECTOR_ISAS`, None when unknown) and
-    ``cpu_mhz`` (the first CPU's clock as ``/proc/cpuinfo`` reads it at start, None
-    without): what ``model name`` alone does not tell of a cloud machine ("AMD EPYC")."""
+    ``cpu_mhz`` (the first CPU's highest clock as cpufreq gives it, else its clock as
+    ``/proc/cpuinfo`` reads it at start, which frequency scaling moves; None without):
+    what ``model name`` alone does not tell of a cloud machine ("AMD EPYC")."""
     flags: set[str] = set()
     mhz = None
+    with contextlib.suppress(OSError, ValueError):
+        khz = Path("/sys/devices/system/cpu/cpu0/cpufreq/cpuinfo_max_freq").read_text()
+        mhz = round(float(khz) / 1000.0, 0)
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             key, _, value = line.partition(":")

@@ -357,3 +357,22 @@ def test_jumps_at_the_knots_are_the_one_sided_limits():
     accel = np.linalg.norm(motions.interpolate(q, p, t).kinematics(t, 2).acceleration, axis=1)
     assert c2["knot_jump_acceleration"] <= 1e-9 * (1 + accel.max())
     assert c2["jump_acceleration"] > 1e3 * max(c2["knot_jump_acceleration"], 1e-15)
+
+
+def test_a_small_jump_at_an_angle_to_the_offsets_slope_is_measured():
+    # the norms |f(k + o) - f(k - o)| extrapolated to 0 reported a rotation spline's small
+    # angular-acceleration jumps (its iterative solve's residue) as 0 and a third of
+    # themselves; the differences extrapolated as vectors give them (a review)
+    rng = np.random.default_rng(3)
+    q = motions.sign_continuity(rng.normal(size=(7, 4)))
+    m = motions.build("rotation-spline", q, rng.normal(size=(7, 3)))
+    row = motions.smoothness(m, invariance=False)
+    kn = m.knots
+    k, h = kn[1:-1], np.minimum(np.diff(kn)[:-1], np.diff(kn)[1:])
+    a, b = m.kinematics(k - 1e-11 * h, 2), m.kinematics(k + 1e-11 * h, 2)
+    direct = np.linalg.norm(b.angular_acceleration - a.angular_acceleration, axis=1).max()
+    assert direct > 1e3 * 1e-12  # a real (small) jump, well above round-off
+    assert row["knot_jump_angular_acceleration"] == pytest.approx(direct, rel=1e-2)
+    # two offsets cannot give the limit to better than o1 o2: no figure
+    two = motions.smoothness(m, offsets=(1e-3, 1e-4), invariance=False)
+    assert np.isnan(two["knot_jump_angular_acceleration"])

@@ -1385,3 +1385,29 @@ def test_write_report_lock_is_true_or_false(tmp_path):
     # lock="no" read as true
     with pytest.raises(TypeError, match=r"`lock` to be True or False, got 'no'"):
         write_report(tmp_path, lock="no")
+
+
+def test_continuity_table_gives_the_jumps_at_the_knots_when_the_run_has_them(tmp_path):
+    # runs of this version keep knot_jump_* (the jumps at the knots themselves); the table
+    # shows those under their own CSV names, and falls back to the smallest offset's jumps
+    # for any run that lacks one of them
+    rows = pd.DataFrame(synthetic_rows())
+    cert = rows["study"].isin(["certify", "simulate"])
+    for q, v in (("acceleration", 3e-15), ("angular_acceleration", 2.5), ("angular_velocity", 0.0),
+                 ("velocity", 1e-14)):  # fmt: skip
+        rows.loc[cert, f"knot_jump_{q}"] = v
+        rows.loc[cert, f"jump_{q}"] = 1e-4
+    for name, frame in (("new", rows), ("mixed", rows.assign(knot_jump_velocity=np.nan))):
+        run = tmp_path / name
+        run.mkdir()
+        frame.to_parquet(run / "results.parquet", index=False)
+        (run / "meta.json").write_text(json.dumps(META))
+        write_report(run)
+        t = pd.read_csv(run / "tables" / "continuity.csv").set_index("scheme")
+        if name == "new":
+            assert t.loc["rational", "max_knot_jump_angular_acceleration_rad_per_t2"] == 2.5
+            assert t.loc["rational", "max_knot_jump_acceleration_m_per_t2"] == 3e-15
+            assert not any(c.startswith("max_jump_") for c in t.columns)
+        else:
+            assert t.loc["rational", "max_jump_acceleration_m_per_t2"] == 1e-4
+            assert not any(c.startswith("max_knot_jump_") for c in t.columns)

@@ -85,6 +85,11 @@ def test_smoke_suite_end_to_end(smoke_run):
     # every scheme x bound of the suite has a row; certified bounds never say free wrongly
     assert set(cert["bound"]) == {"hull", "aabb", "lipschitz", "sampled"}
     assert not (cert["false_negative"] & cert["certified"].fillna(False).astype(bool)).any()
+    # ... on proven collisions too (the random set of slot collides: without it the smoke
+    # suite's certify accuracy line read "n/a (0 rows)")
+    proven = cert["certified"].fillna(False).astype(bool) & (cert["truth"] == "collision")
+    verdicts = cert.loc[proven, "verdict"]
+    assert proven.sum() >= 3 and (verdicts != "free").all() and (verdicts == "collision").any()
     assert set(df["study"]) == {"certify", "workload", "scaling", "simulate", "startup"}
     # certify rows say how they were certified (a depth sweep's rows were alike)
     st = load_suite("smoke").studies[0]

@@ -125,9 +125,10 @@ def test_machine_info_names_the_vector_instruction_set_and_clock():
         info["cpu_vector_isa"],  # (an older or other instruction set: not checked here)
     )
     assert info["cpu_vector_isa"] == expect
-    mhz = re.search(r"^cpu MHz\s*:\s*([0-9.]+)", text, re.M)
-    if mhz:
-        assert abs(info["cpu_mhz"] - float(mhz.group(1))) <= 0.5
+    # (the rated clock where cpufreq says, else the clock at start: not re-read here, as
+    # frequency scaling moves it between two reads)
+    if re.search(r"^cpu MHz", text, re.M):
+        assert info["cpu_mhz"] > 0
     label = timing.cpu_label({"cpu_model": "AMD EPYC", "cpu_vector_isa": "AVX2", "cpu_mhz": 2450.0})
     assert label == "AMD EPYC (AVX2, 2.45 GHz)"
     assert timing.cpu_label({"cpu": "Old CPU"}) == "Old CPU"  # a run from before

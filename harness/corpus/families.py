@@ -110,12 +110,26 @@ def _cases(family, index, reals, body, obstacles, truth_of, tags) -> list[Case]:
     return out
 
 
+TIME_ROUNDING = 8
+"""Ulps (of the domain's largest end) by which a truth's computed contact time may fall
+outside the motion's domain and be clamped into it; farther is a bug of the truth."""
+
+
 def _in_domain(truth: Truth, domain: tuple[float, float]) -> Truth:
     """`truth` with its contact times clamped into the motion's domain: a time computed as
     1 ulp before its start (``darboux-007``: -1.843585447386151 against -1.8435854473861508)
-    is the start (the same pose to round-off, and still a lower bound as ``toi_lo``)."""
+    is the start (the same pose to round-off, and still a lower bound as ``toi_lo``). A
+    time farther out than :data:`TIME_ROUNDING` ulps raises: no clamp hides it."""
     a, b = domain
-    clamp = lambda x: min(max(x, a), b) if math.isfinite(x) else x  # noqa: E731
+    slack = TIME_ROUNDING * math.ulp(max(abs(a), abs(b), 1.0))
+
+    def clamp(x: float) -> float:
+        if not math.isfinite(x) or a <= x <= b:
+            return x
+        if not a - slack <= x <= b + slack:
+            raise RuntimeError(f"a truth's contact time {x!r} lies outside the domain {domain}")
+        return min(max(x, a), b)
+
     times = (clamp(truth.toi), clamp(truth.toi_lo), clamp(truth.toi_hi))
     if times == (truth.toi, truth.toi_lo, truth.toi_hi):
         return truth

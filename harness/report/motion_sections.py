@@ -20,6 +20,10 @@ CONTINUITY_COLUMNS = {
     "max jump of angular acceleration": "max_jump_angular_acceleration_rad_per_t2",
     "max jump of angular velocity": "max_jump_angular_velocity_rad_per_t",
     "max jump of velocity": "max_jump_velocity_m_per_t",
+    "max jump at the knots of acceleration": "max_knot_jump_acceleration_m_per_t2",
+    "max jump at the knots of angular acceleration": "max_knot_jump_angular_acceleration_rad_per_t2",
+    "max jump at the knots of angular velocity": "max_knot_jump_angular_velocity_rad_per_t",
+    "max jump at the knots of velocity": "max_knot_jump_velocity_m_per_t",
     "world-frame invariance error": "invariance_error_world",
     "body-frame invariance error": "invariance_error_body",
 }
@@ -35,16 +39,20 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     src = src.dropna(subset=["continuity"]).drop_duplicates(["scene", "keyframes", "scheme"])
     if not len(src):
         return
-    # the jumps at the knots themselves (runs from before them: at the smallest offset,
-    # where a C² scheme "jumps" by the offset times its jerk, the same for every scheme
-    # sharing an origin spline: a trial read that as the schemes' own)
-    at_knot = "knot_jump_acceleration" in src.columns
+    # the jumps at the knots themselves (runs from before them, or resumed across them:
+    # at the smallest offset, where a C² scheme "jumps" by the offset times its jerk, the
+    # same for every scheme sharing an origin spline: a trial read that as the schemes' own)
+    quantities = ("acceleration", "angular_acceleration", "angular_velocity", "velocity")
+    at_knot = all(
+        f"knot_jump_{q}" in src.columns and src[f"knot_jump_{q}"].notna().all() for q in quantities
+    )
     jump = (lambda q: f"knot_jump_{q}") if at_knot else (lambda q: f"jump_{q}")
+    label = "max jump at the knots of" if at_knot else "max jump of"
     g = src.groupby("scheme")
     jumps = {
-        f"max jump of {q.replace('_', ' ')}": g[jump(q)].max()
-        for q in ("acceleration", "angular_acceleration", "angular_velocity", "velocity")
-        if jump(q) in src.columns  # (velocity: not kept by runs before the knots' jumps)
+        f"{label} {q.replace('_', ' ')}": g[jump(q)].max()
+        for q in quantities
+        if jump(q) in src.columns  # (a results file written by hand may lack one)
     }
     t = pd.DataFrame(
         {
@@ -56,7 +64,7 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         }
     ).reset_index()
     where = (
-        "the largest one-sided jumps at the knots themselves, |f(k+) − f(k−)| (extrapolated to offset 0 from the three smallest offsets: a derivative that the scheme keeps continuous shows round-off, about 1e-12 of its size, or 0)"
+        "the largest one-sided jumps at the knots themselves, |f(k+) − f(k−)| (the differences at the three smallest offsets extrapolated to offset 0: a derivative that a scheme keeps continuous in closed form shows round-off, about 1e-12 of its size; a scheme solved iteratively shows what its solve leaves, which can be rated continuous)"
         if at_knot
         else "the largest jumps at the smallest offset (a run from before the jumps at the knots were kept: a continuous derivative shows the offset times the next derivative here)"
     )

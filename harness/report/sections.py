@@ -296,7 +296,7 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
     t = pd.DataFrame(rows)
     doc.table(
         t,
-        f"The time-of-contact errors of the figure above, per bound: |toi_lo − true first contact| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's first intersecting sample (a certified bound has none).",
+        f"The time-of-contact errors of the figure above, per bound: |toi_lo − true first contact| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's first intersecting sample (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''}{bracket}{left_out}",
         "toi_error",
         data=t.rename(
             columns={
