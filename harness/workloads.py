@@ -28,6 +28,7 @@ from typing import NamedTuple
 import numpy as np
 
 import motions
+from motions._checks import as_flag
 from motions.quaternion import qexp, qmul
 
 from .certification import certify, certify_many
@@ -298,6 +299,7 @@ def certify_workload(
             the same motions, bodies and first placements, ``label="unlabelled"``,
             clearance NaN, the witness the placement time. For throughput at scale.
     """
+    prove, measure = as_flag(prove, "prove"), as_flag(measure, "measure")
     rng = np.random.default_rng(seed)
     ms, bodies, obst, target, dirs, placed = [], [], [], [], [], []
     for _ in range(n_pairs):

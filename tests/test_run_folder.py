@@ -362,7 +362,9 @@ def test_a_run_of_other_code_is_neither_resumed_nor_reused(mini_clean, tmp_path,
     meta = json.loads((out / "meta.json").read_text())
     assert meta["legs"][-1]["code_digest"] == meta["code_digest"] == code_digest()
     before = (out / "meta.json").read_bytes()
+    (out / "suite.toml").unlink()  # (restored: the same text)
     same_rows(run_suite(suite, out, progress=False), clean)
+    assert (out / "suite.toml").read_text() == suite.source
     assert "holds a finished run of these 10 cases: nothing to run" in capsys.readouterr().err
     # nothing ran: no leg is added and `finished` stays (a trial's report then said "over
     # 3 legs (resumed)" of a run given again)

@@ -186,3 +186,15 @@ def test_the_competitors_distances_where_mujoco_answers_its_search_radius():
     assert d[1] == pytest.approx(exact, abs=1e-9)
     assert d[0] == pytest.approx(math.hypot(0.5, 0.09) - 0.1, abs=1e-9)  # the near box
     assert np.isfinite(n).all()
+
+
+def test_workload_and_corpus_flags_are_true_or_false():
+    # prove="no" read as true (a review)
+    from harness.corpus.methods import measure_case
+
+    with pytest.raises(TypeError, match=r"`prove` to be True or False, got 'no'"):
+        certify_workload(2, prove="no")
+    with pytest.raises(TypeError, match=r"`measure` to be True or False, got 1"):
+        certify_workload(2, measure=1)
+    with pytest.raises(TypeError, match=r"`memory` to be True or False, got 'no'"):
+        measure_case([], None, 1e-3, memory="no")

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from motions import RationalMotion
+from motions._checks import as_flag
 
 from ..certification import Certificate, certify_many
 from ..comparators import NotApplicable, available
@@ -158,6 +159,7 @@ def measure_case(
     "sampled" gets its budget), then the other rounds interleaved (A B A B ...), each
     method stopping once its rounds exceed `budget` seconds (at least one round); then one
     call per method under tracemalloc for its memory."""
+    memory = as_flag(memory, "memory")
     order = sorted(methods, key=lambda m: (m.bound not in ("hull", "lipschitz"), m.name != "hull"))
     results: dict = {}
     wall: dict = {m.name: [] for m in order}

@@ -228,6 +228,7 @@ def _run_locked(
             " run; its tables are written again from its journal.",
             file=sys.stderr,
         )
+        (out / "suite.toml").write_text(suite.source)  # (the same text: restored if deleted)
         journal.write_tables([c["case_id"] for c in cases])
         return pd.read_parquet(out / "results.parquet")
     meta, leg = _start_meta(
