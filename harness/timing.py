@@ -413,16 +413,6 @@ def kernel_cache_entries() -> set[str] | None:
         return None
 
 
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
 VECTOR_ISAS = (("avx512f", "AVX-512"), ("avx2", "AVX2"), ("avx", "AVX"), ("sse4_2", "SSE4.2"),
                ("sve", "SVE"), ("asimd", "NEON"), ("neon", "NEON"), ("vsx", "VSX"),
                ("altivec", "AltiVec"))  # fmt: skip
@@ -431,28 +421,32 @@ has, which Warp's CPU kernels are compiled for (``-march=native``). The README's
 table shows two 2-vCPU AMD EPYC machines, one with AVX-512 and one without, ~2.5x apart."""
 
 
-def _cpu_features() -> dict[str, Any]:
-    """``cpu_vector_isa`` (the widest of :data:`VECTOR_ISAS`, None when unknown) and
-    ``cpu_mhz`` (the first CPU's highest clock as cpufreq gives it, else its clock as
-    ``/proc/cpuinfo`` reads it at start, which frequency scaling moves; None without):
-    what ``model name`` alone does not tell of a cloud machine ("AMD EPYC")."""
-    flags: set[str] = set()
-    mhz = None
+def cpu_facts() -> dict[str, Any]:
+    """From one read of ``/proc/cpuinfo``: ``cpu_model`` (its ``model name``, else what
+    :mod:`platform` says), ``cpu_vector_isa`` (the widest of :data:`VECTOR_ISAS`, None
+    when unknown) and ``cpu_mhz`` (the first CPU's highest clock as cpufreq gives it, else
+    its clock as ``/proc/cpuinfo`` reads it at start, which frequency scaling moves; None
+    without): what ``model name`` alone does not tell of a cloud machine ("AMD EPYC")."""
+    model, flags, mhz = None, set(), None
     with contextlib.suppress(OSError, ValueError):
         khz = Path("/sys/devices/system/cpu/cpu0/cpufreq/cpuinfo_max_freq").read_text()
         mhz = round(float(khz) / 1000.0, 0)
-    try:
+    with contextlib.suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             key, _, value = line.partition(":")
             key = key.strip()
-            if key in ("flags", "Features") and not flags:
+            if key == "model name" and model is None:
+                model = value.strip()
+            elif key in ("flags", "Features") and not flags:
                 flags = set(value.split())
             elif key == "cpu MHz" and mhz is None:
                 with contextlib.suppress(ValueError):
                     mhz = round(float(value), 0)
-    except OSError:
-        pass
-    return {"cpu_vector_isa": vector_isa(flags), "cpu_mhz": mhz}
+    return {
+        "cpu_model": model or platform.processor() or platform.machine(),
+        "cpu_vector_isa": vector_isa(flags),
+        "cpu_mhz": mhz,
+    }
 
 
 def vector_isa(flags) -> str | None:
@@ -553,8 +547,7 @@ def machine_info() -> dict[str, Any]:
         cache = str(wp.config.kernel_cache_dir) if wp.config.kernel_cache_dir else None
     return {
         "device": device,
-        "cpu_model": _cpu_model(),
-        **_cpu_features(),
+        **cpu_facts(),
         "logical_cpus": os.cpu_count(),
         "usable_cpus": usable,
         "ram_gb": round(_ram_gb(), 2),

@@ -65,7 +65,7 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
         )
     knots = motion.knots
     inner = knots[1:-1]
-    out: dict[str, np.ndarray] = {}
+    out: dict[str, np.ndarray] = {"offsets": offs}
     if inner.size == 0:
         for q in QUANTITIES:
             out[q] = np.zeros((0, offs.size))
@@ -84,7 +84,6 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
         out[q + "_scale"] = np.maximum(np.linalg.norm(a, axis=-1), np.linalg.norm(b, axis=-1)).max(
             axis=1
         )
-    out["offsets"] = offs
     return out
 
 
@@ -125,9 +124,7 @@ def limit_jumps(diffs: np.ndarray, offs: np.ndarray) -> np.ndarray:
 
 def continuity_order(jumps: dict[str, np.ndarray]) -> int:
     """Measured continuity class: 2 (C²), 1 (C¹) or 0 (C⁰) from :func:`knot_jumps` output."""
-    offs = jumps.get("offsets")
-    if offs is None:
-        return 2
+    offs = jumps["offsets"]
     c = {q: _continuous(jumps[q], jumps[q + "_scale"], offs) for q in QUANTITIES}
     if not (np.all(c["velocity"]) and np.all(c["angular_velocity"])):
         return 0
@@ -244,7 +241,7 @@ def smoothness(
     for q in QUANTITIES:
         j = jumps[q]
         row[f"jump_{q}"] = float(j[:, -1].max()) if j.size else 0.0
-        lim = limit_jumps(jumps[q + "_diff"], jumps.get("offsets", np.zeros(0)))
+        lim = limit_jumps(jumps[q + "_diff"], jumps["offsets"])
         row[f"knot_jump_{q}"] = float(lim.max()) if lim.size else 0.0
     knots = motion.knots
     xg, wg = gauss_nodes(knots, ENERGY_NODES)

@@ -425,15 +425,7 @@ def machine_meta() -> dict:
     import scipy
     import warp
 
-    cpu = platform.processor() or ""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-
+    info = machine_info()  # device, CPU model, RAM, threads, load, Warp kernel cache
     rev, dirty = git_state()
     return {
         "python": sys.version.split()[0],
@@ -446,13 +438,13 @@ def machine_meta() -> dict:
             "mujoco": mujoco.__version__,
             "warp": warp.config.version,
         },
-        "cpu": cpu,
+        "cpu": info["cpu_model"],
         "cores": os.cpu_count(),
         "platform": platform.platform(),
         "git_revision": rev,
         "git_dirty": dirty,
         "code_digest": code_digest(),
-        **machine_info(),  # device, CPU model, RAM, threads, load, Warp kernel cache
+        **info,
     }
 
 
