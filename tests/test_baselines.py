@@ -56,6 +56,30 @@ def test_measured_continuity_class(scheme, built):
 
 
 @pytest.mark.parametrize("scheme", sorted(EXPECTED_CLASS))
+@pytest.mark.parametrize(
+    "length, time", [(1e-12, 1.0), (1.0, 1e5), (1.0, 1e-4), (1e3, 1e3)], ids=str
+)
+def test_measured_class_does_not_depend_on_units(scheme, length, time, built):
+    # a floor of 1e-9 (1 + size) made slerp-linear C² with its positions in units 1e12
+    # times larger, and squad with keyframes 1e5 time units apart (a review): every
+    # quantity's jump then fell below it
+    q, p, ms = built
+    m = motions.build(scheme, q, p * length, ms[scheme].keyframe_times * time)
+    assert motions.smoothness(m, invariance=False)["continuity"] == EXPECTED_CLASS[scheme]
+
+
+@pytest.mark.parametrize("scheme", ["slerp-linear", "sclerp", "rational-hermite", "rational"])
+def test_measured_class_of_a_translation_in_small_units(scheme, built):
+    # without rotation only the translation's jumps tell the class: at lengths of 1e-12
+    # they all fell below a floor of 1e-9 (1 + size), slerp-linear's velocity corners too
+    _, p, ms = built
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (len(p), 1))
+    m = motions.build(scheme, q, p * 1e-12, ms[scheme].keyframe_times)
+    want = {"slerp-linear": "C0", "sclerp": "C0", "rational": "C2"}.get(scheme, "C1")
+    assert motions.smoothness(m, invariance=False)["continuity"] == want
+
+
+@pytest.mark.parametrize("scheme", sorted(EXPECTED_CLASS))
 def test_rates_match_finite_differences(scheme, built):
     *_, ms = built
     m = ms[scheme]

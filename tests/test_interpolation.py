@@ -359,6 +359,24 @@ def test_jumps_at_the_knots_are_the_one_sided_limits():
     assert c2["jump_acceleration"] > 1e3 * max(c2["knot_jump_acceleration"], 1e-15)
 
 
+@pytest.mark.parametrize("jump", [1e-3, 1e-2, 1.0])
+def test_a_small_acceleration_jump_makes_a_motion_c1(jump):
+    # a jump below about the offset times the acceleration's slope passed the earlier
+    # rule (a jump falling 5x per decade of the offset): this C¹ motion, with an
+    # acceleration jump of 1e-3 at t = 1, was called C² (a review). The origin is the
+    # cubic Hermite spline of (p, v) on [0, 1] and [1, 2]: its acceleration at t = 1 is
+    # -6 (p1 - p0) + 2 v0 + 4 v1 from the left and 6 (p2 - p1) - 4 v1 - 2 v2 from the
+    # right, so with p = (-a, 0, a + e/2), v = (3 a, 0, 3 a + e) they are 0 and e.
+    a = 10.0
+    p = np.array([[-a, 0, 0], [0, 0, 0], [a + jump / 2, 0, 0]])
+    v = np.array([[3 * a, 0, 0], [0, 0, 0], [3 * a + jump, 0, 0]])
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))
+    m = motions.hermite(q, p, [0.0, 1.0, 2.0], velocities=v, angular_velocities=np.zeros((3, 3)))
+    row = motions.smoothness(m, invariance=False)
+    assert row["knot_jump_acceleration"] == pytest.approx(jump, rel=1e-6)
+    assert row["continuity"] == "C1", row
+
+
 def test_a_small_jump_at_an_angle_to_the_offsets_slope_is_measured():
     # the norms |f(k + o) - f(k - o)| extrapolated to 0 reported a rotation spline's small
     # angular-acceleration jumps (its iterative solve's residue) as 0 and a third of
