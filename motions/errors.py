@@ -16,6 +16,7 @@ class MotionError(ValueError):
 class DegenerateMotionError(MotionError):
     """The weight ``u0 = |Q|^2`` of a rational motion vanishes (or nearly) somewhere.
 
-    Such a motion has no bounded control structure there (seed §6.3); near-180° steps
-    between interpolated keyframes are the usual cause.
+    Such a motion has no bounded control structure there (seed §6.3). For interpolated
+    keyframes the usual causes are turns near 180° and keyframe times far from evenly
+    spaced, where the quaternion spline overshoots towards 0.
     """

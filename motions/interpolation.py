@@ -200,8 +200,10 @@ def interpolate(
         A :class:`RationalMotion` that meets every keyframe, C² for N >= 4.
 
     Raises:
-        DegenerateMotionError: if ``min u0 / max u0 <= 1e-8`` (a near-180° step); the
-            message names the keyframe pair.
+        DegenerateMotionError: if ``min u0 / max u0 <= 1e-8`` (the quaternion spline
+            passes near 0: a turn near 180°, or keyframe times far from even, where the
+            cubic overshoots); the message names the keyframe pair, its turn and its
+            interval against its neighbours'.
     """
     check_choice(translation, "translation", TRANSLATIONS)
     q, p, t = keyframes(rotations, positions, times, omega=omega)
@@ -212,14 +214,14 @@ def interpolate(
         motion = RationalMotion.from_preimage(d, sq.t, sq.c, (d, so.t, so.c), keyframe_times=t)
     else:
         base = RationalMotion.from_preimage(d, sq.t, sq.c, keyframe_times=t)
-        _check_weight(base, t)  # before dividing by u0 in the energy
+        _check_weight(base, t, q)  # before dividing by u0 in the energy
         motion = RationalMotion(
             base.breaks,
             preimage=base.preimage_pieces,
             numerator=_minimal_numerator(base, t, p),
             keyframe_times=t,
         )
-    _check_weight(motion, t)
+    _check_weight(motion, t, q)
     motion.recipe = Recipe(
         "rational",
         q,
@@ -230,8 +232,9 @@ def interpolate(
     return motion
 
 
-def _check_weight(motion: RationalMotion, t: np.ndarray) -> None:
-    """Refuse a preimage whose norm nearly vanishes; name the keyframe pair.
+def _check_weight(motion: RationalMotion, t: np.ndarray, q: np.ndarray) -> None:
+    """Refuse a preimage whose norm nearly vanishes; name the keyframe pair (times `t`,
+    sign-continuous quaternions `q`), its turn and its interval's length.
 
     ``u0 = |Q|²`` at its own degree 2d (not raised to the motion's degree, where the
     leading power coefficients are round-off): segments whose Bernstein coefficients all
@@ -249,10 +252,19 @@ def _check_weight(motion: RationalMotion, t: np.ndarray) -> None:
     where = br[:-1][low] + u * np.diff(br)[low]
     if vals[i] <= MIN_WEIGHT_RATIO * wmax:
         k = int(np.clip(np.searchsorted(t, where[i], side="right") - 1, 0, t.size - 2))
+        # (a turn of 180° is a quaternion step of 90°, whose chord keeps |Q| >= 0.707: the
+        # spline's overshoot does the rest, and uneven spacing makes it large, a review
+        # found: turns of 59-90° with intervals 0.54-0.82 beside one of 170)
+        turn = np.degrees(2 * np.arccos(min(1.0, abs(float(np.dot(q[k], q[k + 1]))))))
+        h = np.diff(t)
         raise DegenerateMotionError(
             f"The interpolating preimage nearly vanishes (min u0 / max u0 = {vals[i] / wmax:.3g}"
-            f" <= {MIN_WEIGHT_RATIO:g}) at t = {where[i]:.6g}, between keyframes {k} and {k + 1}:"
-            " a near-180° step. Insert an intermediate keyframe there."
+            f" <= {MIN_WEIGHT_RATIO:g}) at t = {where[i]:.6g}, between keyframes {k} and {k + 1}"
+            f" (a turn of {turn:.0f}° over an interval of {h[k]:.3g}; the keyframe intervals"
+            f" range from {h.min():.3g} to {h.max():.3g}): the quaternion spline overshoots"
+            " towards 0 there, as it does at turns near 180° and where keyframe times are far"
+            " from evenly spaced. Insert an intermediate keyframe there, or give more even"
+            " times."
         )
 
 
@@ -429,7 +441,7 @@ def hermite(
 
         motion = RationalMotion(t, preimage=pieces(q, dq), origin=pieces(p, dp), keyframe_times=t)
     motion.scheme = "rational-hermite"
-    _check_weight(motion, t)
+    _check_weight(motion, t, q)
     # Given derivatives go into the recipe (world frame), so that the motion can be
     # rebuilt from moved keyframes (motions.smoothness rotates them with the world).
     opts = {
@@ -485,7 +497,9 @@ class FitResult:
         max_position_error: largest origin distance between data and fit.
         rms_angle_error, rms_position_error: root-mean-square of the same.
         preimage_energy: ``∫|Q''|² dt``, the fairing proxy that was penalised.
-        angular_acceleration_energy: the true ``∫|ω'|² dt`` of the result.
+        angular_acceleration_energy: ``∫|ω'|² dt`` of the result itself (not the
+            proxy's), by 8-point Gauss–Legendre per knot interval: the integrand is
+            rational, so this is a quadrature, not exact.
     """
 
     motion: RationalMotion

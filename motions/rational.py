@@ -514,7 +514,8 @@ class RationalMotion(Motion):
         return n, clamped_knots(self._breaks, n, n), mats
 
     def bezier_form(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(breaks (S+1,), ctrl (S, n+1, 4, 4))``, exact control matrices (eq. (27)–(28)).
+        """``(breaks (S+1,), ctrl (S, n+1, 4, 4))``, the control matrices (eq. (27)–(28)),
+        exact up to the round-off that :attr:`ctrl_error` bounds.
 
         On segment s with ``u = (t - breaks[s]) / (breaks[s+1] - breaks[s])``,
         ``M_h(t) = sum_i B_i^n(u) ctrl[s, i]`` and ``matrix(t) = M_h / M_h[3, 3]``.

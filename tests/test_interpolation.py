@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -210,6 +212,26 @@ def test_near_180_steps_work_or_fail_clearly(rng, monkeypatch):
     monkeypatch.setattr(motions.interpolation, "MIN_WEIGHT_RATIO", ratio * 1.01)
     with pytest.raises(DegenerateMotionError, match=r"between keyframes \d and \d"):
         interpolate(q, p, times=[0.0, 1.0, 2.0, 3.0])
+
+
+def test_a_vanishing_weight_from_uneven_times_is_named_as_such():
+    # turns of 60-90° with one keyframe interval 300x the others: the message blamed "a
+    # near-180° step", which a turn of 180° (a quaternion step of 90°) never is alone
+    rng = np.random.default_rng(0)
+    rots = [Rotation.identity()]
+    for _ in range(4):
+        axis = rng.normal(size=3)
+        turn = np.radians(60 + rng.uniform(0, 30))
+        rots.append(Rotation.from_rotvec(axis / np.linalg.norm(axis) * turn) * rots[-1])
+    q = np.array([r.as_quat(scalar_first=True) for r in rots])
+    t = np.concatenate([[0.0], np.cumsum([0.6, 0.54, 0.82, 170.3])])
+    with pytest.raises(DegenerateMotionError) as e:
+        interpolate(q, np.zeros((5, 3)), t)
+    k = int(re.search(r"between keyframes (\d) and", str(e.value)).group(1))
+    turn = np.degrees((rots[k + 1] * rots[k].inv()).magnitude())
+    assert f"a turn of {turn:.0f}°" in str(e.value)
+    assert "intervals range from 0.54 to 170" in str(e.value)
+    assert "far from evenly spaced" in str(e.value)
 
 
 def test_hermite_meets_given_derivatives(rng):
