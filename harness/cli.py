@@ -639,9 +639,57 @@ class _Parser(argparse.ArgumentParser):
             (sub or self).error(f"unrecognized arguments: {' '.join(extra)}")
         return ns
 
+    last_error = ""  # (the usage error of the last parse, for `compare --json`)
+
     def error(self, message: str):
+        _Parser.last_error = f"{self.prog}: error: {message}"
         print(f"{self.prog}: error: {message} (see {self.prog} --help)", file=sys.stderr)
         raise SystemExit(2)
+
+
+class _Once(argparse.Action):
+    """An option that may be given once (``--json``: a second would leave the first
+    file holding an earlier comparison's result, a CI trial found)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if getattr(namespace, self.dest, None) is not None:
+            parser.error(
+                f"`{option_string}` given twice ({getattr(namespace, self.dest)!r} and"
+                f" {values!r}): give it once."
+            )
+        setattr(namespace, self.dest, values)
+
+
+def _json_values(argv: list[str]) -> list[tuple[int, str]]:
+    """(index, value) of every ``--json`` (or an abbreviation argparse accepts) in the
+    arguments of ``rsmbench compare``."""
+    out = []
+    for i, a in enumerate(argv):
+        name, eq, value = a.partition("=")
+        if len(name) >= 3 and "--json".startswith(name):
+            if eq:
+                out.append((i, value))
+            elif i + 1 < len(argv):
+                out.append((i + 1, argv[i + 1]))
+    return out
+
+
+def _json_on_usage_error(argv: list[str], message: str) -> None:
+    """A usage error of ``rsmbench compare ... --json FILE`` (an unknown option, a missing
+    run, ``--json`` twice) leaves in each FILE that can be written the exit code and the
+    error, as the comparison's own errors do: the file held an earlier comparison's
+    ``exit_code`` 0 (a CI trial)."""
+    if "compare" not in argv:
+        return
+    values = _json_values(argv[argv.index("compare") + 1 :])
+    shift = argv.index("compare") + 1
+    taken = {i + shift for i, _ in values}
+    others = [a for i, a in enumerate(argv) if i not in taken]  # (never overwrite an input)
+    written = datetime.now().astimezone().isoformat(timespec="seconds")
+    for _i, value in values:
+        with contextlib.suppress(Exception):
+            target = _json_target(value, *others)
+            _write_json(target, {"exit_code": 2, "error": message, "written": written})
 
 
 def _version() -> str:
@@ -724,8 +772,10 @@ def parser() -> argparse.ArgumentParser:
         "--json",
         default=None,
         metavar="FILE",
+        action=_Once,
         help="also write the result to FILE as JSON (groups, seconds, ratios, intervals,"
-        " statuses, regressions, exit code), whenever the comparison ran (exit 0 or 1)",
+        " statuses, regressions, exit code); on an error (exit 2) the file holds the exit"
+        " code and the error",
     )
     cp = sub.add_parser("corpus", help="export or check the rigid-motion CCD corpus")
     cp.add_argument("action", choices=["export", "check"], help="export DIR, or check FILE")
@@ -776,10 +826,14 @@ def _stdout_closed() -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     try:
         args = parser().parse_args(argv)
     except SystemExit as e:  # --help (0) or a usage error (2, one line on stderr)
-        return e.code if isinstance(e.code, int) else 2
+        code = e.code if isinstance(e.code, int) else 2
+        if code == 2:
+            _json_on_usage_error(argv, _Parser.last_error)
+        return code
     handlers = {
         "run": _run,
         "report": _report,

@@ -148,6 +148,11 @@ def test_a_significant_slowdown_below_the_threshold_passes(tmp_path):
     b = _run(tmp_path / "b", _rows(rng, factor=1.08, rounds=40))
     res = compare(a, b, time_threshold=0.15)
     assert res.exit_code == 0, res.text()
+    # the shift of every group is said, though it passes (a CI trial's 1.3x did unseen)
+    gated = [r.ratio for r in res.timing if not r.status.startswith("not gated")]
+    line = next(x for x in res.lines if x.startswith(f"(over the {len(gated)} gated groups"))
+    assert f"median ratio {np.median(gated):.3g}, {sum(x > 1 for x in gated)} slower" in line
+    assert sum(x > 1 for x in gated) > len(gated) / 2
     # ... but fails at a threshold of 0 once it is significant
     assert compare(a, b, time_threshold=0.0).exit_code == 1
 
@@ -248,6 +253,11 @@ def test_benchmark_json_uses_the_rounds(tmp_path):
     (tmp_path / "b.json").write_text(json.dumps(_bench({"x": draw(1.0), "y": draw(0.01)})))
     (tmp_path / "c.json").write_text(json.dumps(_bench({"x": draw(2.0), "y": draw(0.01)})))
     assert compare(tmp_path / "a.json", tmp_path / "b.json").exit_code == 0
+    assert not compare(tmp_path / "a.json", tmp_path / "b.json").identical_timings
+    # a copy of the file is said to be one (a CI cache restoring base.json as new.json)
+    shutil.copy(tmp_path / "a.json", tmp_path / "copy.json")
+    twin = compare(tmp_path / "a.json", tmp_path / "copy.json")
+    assert twin.identical_timings and "a copy of one file" in twin.text()
     res = compare(tmp_path / "a.json", tmp_path / "c.json")
     assert res.exit_code == 1 and [t.name for t in res.timing if t.status == "regression"] == ["x"]
     # without per-round data the median and IQR stand in for the rounds
@@ -259,6 +269,32 @@ def test_benchmark_json_uses_the_rounds(tmp_path):
     }
     (tmp_path / "d.json").write_text(json.dumps(summary))
     assert compare(tmp_path / "a.json", tmp_path / "d.json").exit_code == 1
+
+
+def test_a_cold_first_round_does_not_hide_a_slowdown(tmp_path):
+    # 5 rounds without a warm-up: the first call, ~20x the others, was the median of ~6 %
+    # of the bootstrap's resamples on each side, so every interval spanned 1 and files
+    # 2x, 3x and 10x slower passed (a CI trial, rounds as measured there in ms)
+    base = [0.261, 0.0120, 0.0139, 0.0121, 0.0117]
+    slow = [0.260, 0.0213, 0.0225, 0.0212, 0.0227]
+    same = [0.262, 0.0118, 0.0131, 0.0125, 0.0119]
+    for name, rounds in (
+        ("a", base),
+        ("b", slow),
+        ("c", base[:1] + [r * 10 for r in base[1:]]),
+        ("d", same),
+    ):
+        (tmp_path / f"{name}.json").write_text(json.dumps(_bench({"x": rounds})))
+    for new in ("b", "c"):
+        res = compare(tmp_path / "a.json", tmp_path / f"{new}.json")
+        row = res.timing[0]
+        assert res.exit_code == 1 and row.status == "regression", res.text()
+        assert row.dropped[0] == 1 and row.lo > 1
+    row = compare(tmp_path / "a.json", tmp_path / "c.json").timing[0]
+    assert row.dropped == (1, 0)  # (c's first round, 0.261 s, is under 3x its median)
+    res = compare(tmp_path / "a.json", tmp_path / "d.json")
+    assert res.exit_code == 0 and res.timing[0].status == "ok"
+    assert "1+1 slow round(s) left out" in res.text()
 
 
 def test_benchmark_summaries_take_their_fastest_round_from_stats_min(tmp_path):
@@ -409,6 +445,30 @@ def _every_study_rows(rng: np.random.Generator) -> list[dict]:
     return rows
 
 
+def test_single_calls_that_answer_otherwise_than_the_batch_fail_the_gate(tmp_path):
+    # a CI trial made single certify calls answer `free` on 27 of 80 pairs: the run
+    # counted it (single_agrees_with_batch 53) and the gate passed
+    rng = np.random.default_rng(13)
+    rows = _every_study_rows(rng)
+    for r in rows:
+        if r.get("mode") == "single" and r["bound"] == "hull":
+            r["single_agrees_with_batch"] = 3
+    base = _run(tmp_path / "base", rows)
+    same = _run(tmp_path / "same", [dict(r) for r in rows])
+    assert compare(base, same).exit_code == 0
+    for r in rows:
+        if r.get("mode") == "single" and r["bound"] == "hull":
+            r["single_agrees_with_batch"] = 1
+    res = compare(base, _run(tmp_path / "new", rows))
+    assert res.exit_code == 1
+    assert [x for x in res.regressions if x.startswith("accuracy")] == [
+        "accuracy: single certify calls of workload/rational/hull/single gave another verdict"
+        " than the batch on 2 of 3 pairs (the base: 0)"
+    ]
+    # a base that already disagreed on as many is no regression of the new run
+    assert compare(_run(tmp_path / "new2", rows), _run(tmp_path / "new3", rows)).exit_code == 0
+
+
 def test_every_study_kind_has_distinct_row_keys(tmp_path):
     """A run of every study kind compares against itself: every row matched, no regression
     (the corpus rows of one chunk share case_id and have no pair/method/mode)."""
@@ -462,6 +522,8 @@ def test_cli_exit_codes_and_one_line_errors(tmp_path, capsys):
     r = _cli(capsys, "compare", str(a), str(b))
     assert r.returncode == 2 and "not a readable parquet" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+    r = _cli(capsys, "compare", str(a / "meta.json"), str(b))
+    assert r.returncode == 2 and f"give the run's folder {a}." in r.stderr
     (tmp_path / "bad.json").write_text("{}")
     (tmp_path / "good.json").write_text(json.dumps(_bench({"x": [1.0] * 5})))
     r = _cli(capsys, "compare", str(tmp_path / "good.json"), str(tmp_path / "bad.json"))
@@ -777,7 +839,7 @@ def test_benchmark_files_name_their_machines_and_note_differences(tmp_path):
     edited one file to another CPU, Python and CPU count: nothing was said)."""
 
     def doc(cpu: str, count: int, python: str) -> dict:
-        d = _bench({"x": [1.0, 1.1, 0.9, 1.0, 1.05]})
+        d = _bench({"x": [1.0, 1.1, 0.9, 1.0, 1.05 if count == 2 else 1.04]})  # (two runs)
         d["machine_info"] = {"python_version": python, "system": "Linux", "release": "6.1",
                              "cpu": {"brand_raw": cpu, "count": count}}  # fmt: skip
         d["commit_info"] = {"id": "c" * 40, "dirty": False}
@@ -864,6 +926,29 @@ def test_json_output_for_a_pipeline(tmp_path, capsys):
             assert r.returncode == 2 and json.loads(bad.read_text())["exit_code"] == 2
         else:
             assert r.returncode == 1 and json.loads(bad.read_text())["exit_code"] == 1
+    # so too where the command line itself is refused: an unknown option, a run missing,
+    # a bad choice, `--json` twice (each file of the two), abbreviated or with "=" (a CI
+    # trial found its earlier `exit_code: 0` kept)
+    other = tmp_path / "other.json"
+    for args in (
+        [str(a), str(b), "--json", str(bad), "--bogus"],
+        [str(a), "--json", str(bad)],
+        [str(a), str(b), f"--json={bad}", "--timer", "cpux"],
+        [str(a), str(b), "--js", str(bad), "--json", str(other)],
+    ):
+        bad.write_text(ok.read_text())
+        other.write_text(ok.read_text())
+        r = _cli(capsys, "compare", *args)
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, args
+        err = json.loads(bad.read_text())
+        assert err["exit_code"] == 2 and err["error"] in r.stderr, args
+        if str(other) in args:
+            assert "given twice" in r.stderr
+            assert json.loads(other.read_text())["exit_code"] == 2
+    # ... but never into an input
+    before = (b / "meta.json").read_text()
+    r = _cli(capsys, "compare", str(a), str(b), "--json", str(b / "meta.json"), "--bogus")
+    assert r.returncode == 2 and (b / "meta.json").read_text() == before
     # a symbolic link to the file is written through, and stays a link
     link = tmp_path / "link.json"
     link.symlink_to(ok)
@@ -969,7 +1054,7 @@ def test_benchmark_files_of_one_cpu_model_on_other_vector_units_are_noted(tmp_pa
     # two cloud machines both named "AMD EPYC", one with AVX-512 and one without, ran
     # the engine ~2.5x apart; the CPU model alone said nothing
     def doc(flags: list[str]) -> dict:
-        d = _bench({"x": [1.0, 1.1, 0.9, 1.0, 1.05]})
+        d = _bench({"x": [1.0, 1.1, 0.9, 1.0, 1.05 + 0.01 * len(flags)]})  # (two runs)
         d["machine_info"] = {"cpu": {"brand_raw": "AMD EPYC", "count": 2, "flags": flags}}
         return d
 

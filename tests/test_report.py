@@ -619,6 +619,22 @@ def test_chunked_workload_costs_add_up():
     assert f"{PAIRS} pairs" in text["hull cost per pair, batch (one certify_many call)"]["basis"]
 
 
+def test_single_calls_that_disagree_with_the_batch_are_named_in_the_headline():
+    # a CI trial's single calls answered `free` on 27 of 80 pairs: the run's rows said so
+    # (single_agrees_with_batch) and nothing read them
+    rows = synthetic_rows()
+    singles = [r for r in rows if r.get("mode") == "single"]
+    assert singles
+    for r in singles:
+        r["single_agrees_with_batch"] = r["pairs"] if r["bound"] != "hull" else r["pairs"] - 2
+    text = {r["figure"]: r["value"] for r in headline(pd.DataFrame(rows), META)}
+    hull = text["hull cost per pair, single queries (one call per pair)"]
+    pairs = next(r["pairs"] for r in singles if r["bound"] == "hull")
+    assert hull.endswith(f"; single calls gave another verdict than the batch on 2/{pairs} pairs")
+    others = [v for k, v in text.items() if k.endswith(", single") and k.startswith("cost of")]
+    assert others and not any("another verdict" in v for v in others)
+
+
 def _with_workload_rounds(rows: list[dict], bound: str, rounds: np.ndarray) -> list[dict]:
     """`rows` with `bound`'s batch rounds replaced (single queries: 3x, as in the fixture)."""
     out = []

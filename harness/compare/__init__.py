@@ -153,6 +153,11 @@ def _kind(p: Path) -> str:
                 " into it, or give a pytest-benchmark JSON file)."
             )
         return "run"
+    if p.is_file() and p.name == "meta.json" and (p.parent / "results.parquet").exists():
+        # (a CI trial's `compare runs/a/meta.json runs/b` read "Cannot compare a benchmark")
+        raise CompareError(
+            f"{p} is a run's record, not a benchmark file: give the run's folder {p.parent}."
+        )
     if p.is_file() and p.suffix == ".json":
         return "benchmark"
     if not p.exists():

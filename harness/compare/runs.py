@@ -414,6 +414,8 @@ def _run_accuracy(
             out.regressions.append(
                 f"accuracy: larger |TOI error| in {_where(ni.loc[key])}: {eb[key]:.3g} -> {en[key]:.3g}"
             )
+    if "single_agrees_with_batch" in ni:
+        _single_accuracy(out, bi, ni)
     if "continuity_order" in bi:
         cb = pd.to_numeric(bi["continuity_order"], errors="coerce").groupby(bi["scheme"]).min()
         cn = pd.to_numeric(ni["continuity_order"], errors="coerce").groupby(ni["scheme"]).min()
@@ -423,6 +425,33 @@ def _run_accuracy(
                     out.regressions.append(
                         f"accuracy: scheme {scheme} measured C{int(cn[scheme])}, the base C{int(cb[scheme])}"
                     )
+
+
+def _single_accuracy(out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame) -> None:
+    """The workload's single `certify` calls answer as its batch did, pair by pair (a
+    certificate never depends on its batch): more pairs where they did not than in the
+    base fail the gate. A CI trial made single calls answer `free` on 27 of 80 pairs;
+    the run counted it, and the gate passed."""
+    agree_n = pd.to_numeric(ni["single_agrees_with_batch"], errors="coerce")
+    agree_b = (
+        pd.to_numeric(bi["single_agrees_with_batch"], errors="coerce")
+        if "single_agrees_with_batch" in bi
+        else pd.Series(math.nan, index=bi.index)
+    )
+    pairs = pd.to_numeric(ni.get("pairs", pd.Series(math.nan, index=ni.index)), errors="coerce")
+    pairs_b = pd.to_numeric(bi.get("pairs", pd.Series(math.nan, index=bi.index)), errors="coerce")
+    for key in ni.index[agree_n.notna().to_numpy()]:
+        n, a = pairs[key], agree_n[key]
+        if not np.isfinite(n) or a >= n:
+            continue
+        before = pairs_b.get(key, math.nan) - agree_b.get(key, math.nan)
+        if np.isfinite(before) and n - a <= before:
+            continue
+        was = f" (the base: {int(before)})" if np.isfinite(before) else ""
+        out.regressions.append(
+            f"accuracy: single certify calls of {_group_name(ni.loc[key])} gave another verdict than"
+            f" the batch on {int(n - a)} of {int(n)} pairs{was}"
+        )
 
 
 def _repair_accuracy(

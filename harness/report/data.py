@@ -293,9 +293,19 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
                 "wall_us_q1": sw.q1 * 1e6,
                 "wall_us_q3": sw.q3 * 1e6,
                 "_cpu": cpu_pp,
+                "agree": _agreeing(g),
             }
         )
     return pd.DataFrame(rows)
+
+
+def _agreeing(g: pd.DataFrame) -> float:
+    """Of a single-query timing's pairs, those whose verdict was the batch's (summed over
+    chunks; NaN where the rows do not say: a batch, an external tool, an older run)."""
+    if "single_agrees_with_batch" not in g:
+        return math.nan
+    v = pd.to_numeric(g["single_agrees_with_batch"], errors="coerce")
+    return float(v.sum()) if v.notna().all() else math.nan
 
 
 def us_span(lo_us: float, hi_us: float) -> str:

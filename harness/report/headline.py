@@ -4,9 +4,11 @@ and basis (printed by ``rsmbench run`` and the report's first table) and its num
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 
+import numpy as np
 import pandas as pd
 
 from ..timing import cpu_label, ratio_interval
@@ -281,7 +283,8 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
         out.append(
             HeadlineLine(
                 figure=f"hull cost per pair, {what.get(mode, mode)}{which}",
-                value=f"{fmt_time(h['cpu_us_per_pair'] * 1e-6)} CPU ({fmt_time(h['wall_us_per_pair'] * 1e-6)} wall)",
+                value=f"{fmt_time(h['cpu_us_per_pair'] * 1e-6)} CPU ({fmt_time(h['wall_us_per_pair'] * 1e-6)} wall)"
+                + _disagreeing(h),
                 spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, 95% CI {us_span(h['cpu_us_ci95_lo'], h['cpu_us_ci95_hi'])}, {h['rounds']} rounds",
                 basis=work,
                 numbers={
@@ -308,6 +311,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 "cpu_us_per_pair": float(o["cpu_us_per_pair"]),
                 "hull_cpu_us_per_pair": float(h["cpu_us_per_pair"]),
             }
+            unknown += _disagreeing(o)
             u = part.get((name, tol, o["method"]))
             if u is not None:
                 hu = part.get((name, tol, "hull"), (0, u[1]))
@@ -315,7 +319,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 if u[0] > 0:
                     # a cost is only comparable with what it bought: say how often the
                     # method left the question open
-                    unknown = f"; {o['method']} answered unknown on {u[0]}/{u[1]} pairs, the hull on {hu[0]}/{hu[1]}"
+                    unknown += f"; {o['method']} answered unknown on {u[0]}/{u[1]} pairs, the hull on {hu[0]}/{hu[1]}"
             out.append(
                 HeadlineLine(
                     figure=f"cost of {o['method']}{ext} / cost of hull, {mode}{which}",
@@ -326,6 +330,16 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 )
             )
     return out
+
+
+def _disagreeing(row: pd.Series) -> str:
+    """ "; single calls gave another verdict than the batch on k/n pairs" where they did
+    (a certificate never depends on its batch: that is a bug, shown where it is read)."""
+    agree = row.get("agree", math.nan)
+    if not np.isfinite(agree) or agree >= row["pairs"]:
+        return ""
+    bad = int(row["pairs"] - agree)
+    return f"; single calls gave another verdict than the batch on {bad}/{int(row['pairs'])} pairs"
 
 
 def _workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple[int, int]]:
