@@ -232,9 +232,12 @@ def interpolate(
     return motion
 
 
-def _check_weight(motion: RationalMotion, t: np.ndarray, q: np.ndarray) -> None:
+def _check_weight(
+    motion: RationalMotion, t: np.ndarray, q: np.ndarray, *, rates: bool = False
+) -> None:
     """Refuse a preimage whose norm nearly vanishes; name the keyframe pair (times `t`,
-    sign-continuous quaternions `q`), its turn and its interval's length.
+    sign-continuous quaternions `q`), its turn and its interval's length, and (`rates`:
+    :func:`hermite` given angular velocities) the angular velocities as a cause.
 
     ``u0 = |Q|²`` at its own degree 2d (not raised to the motion's degree, where the
     leading power coefficients are round-off): segments whose Bernstein coefficients all
@@ -257,14 +260,20 @@ def _check_weight(motion: RationalMotion, t: np.ndarray, q: np.ndarray) -> None:
         # found: turns of 59-90° with intervals 0.54-0.82 beside one of 170)
         turn = np.degrees(2 * np.arccos(min(1.0, abs(float(np.dot(q[k], q[k + 1]))))))
         h = np.diff(t)
+        causes, fixes = (
+            "at turns near 180° and where keyframe times are far from evenly spaced",
+            "give more even times",
+        )
+        if rates:  # (a review: hermite's given rates, with even times, read "give more even times")
+            causes = "where the given angular velocities are large against the turns, " + causes
+            fixes = "give smaller angular velocities there, or " + fixes
         raise DegenerateMotionError(
-            f"The interpolating preimage nearly vanishes (min u0 / max u0 = {vals[i] / wmax:.3g}"
-            f" <= {MIN_WEIGHT_RATIO:g}) at t = {where[i]:.6g}, between keyframes {k} and {k + 1}"
-            f" (a turn of {turn:.0f}° over an interval of {h[k]:.3g}; the keyframe intervals"
-            f" range from {h.min():.3g} to {h.max():.3g}): the quaternion spline overshoots"
-            " towards 0 there, as it does at turns near 180° and where keyframe times are far"
-            " from evenly spaced. Insert an intermediate keyframe there, or give more even"
-            " times."
+            f"The preimage through the keyframes nearly vanishes (min u0 / max u0 ="
+            f" {vals[i] / wmax:.3g} <= {MIN_WEIGHT_RATIO:g}) at t = {where[i]:.6g}, between"
+            f" keyframes {k} and {k + 1} (a turn of {turn:.0f}° over an interval of"
+            f" {h[k]:.3g}; the keyframe intervals range from {h.min():.3g} to {h.max():.3g}):"
+            f" the quaternion spline overshoots towards 0 there, as it does {causes}. Insert"
+            f" an intermediate keyframe there, or {fixes}."
         )
 
 
@@ -441,7 +450,7 @@ def hermite(
 
         motion = RationalMotion(t, preimage=pieces(q, dq), origin=pieces(p, dp), keyframe_times=t)
     motion.scheme = "rational-hermite"
-    _check_weight(motion, t, q)
+    _check_weight(motion, t, q, rates=angular_velocities is not None)
     # Given derivatives go into the recipe (world frame), so that the motion can be
     # rebuilt from moved keyframes (motions.smoothness rotates them with the world).
     opts = {

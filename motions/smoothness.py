@@ -5,8 +5,9 @@ Continuity is *measured*, never assumed: a derivative is called continuous at a 
 its jump at the knot itself (:func:`limit_jumps`: the differences between ``knot - δ`` and
 ``knot + δ`` extrapolated to δ = 0) is below :data:`JUMP_FLOOR` of the derivative's size
 over the two knot intervals around the knot (at least the order below it over the
-shorter interval), plus the round-off of evaluating it there.
-Both terms scale with the motion's units of length and time, so the class does not
+longer interval), plus the round-off of evaluating it there and twice the
+extrapolation's own error estimate (:func:`limit_error`).
+Every term scales with the motion's units of length and time, so the class does not
 depend on them. A C¹ motion's acceleration jump tends to a non-zero limit and fails that
 test. (The earlier rule, a jump falling 5× per decade of δ, passed any jump smaller than
 about δ times the derivative's slope: a C¹ Hermite motion with an acceleration jump of
@@ -28,28 +29,40 @@ from .motion import Motion
 from .quaternion import quat_from_matrix, rotation_matrix
 from .schemes import build
 
-__all__ = ["DECAY_PER_DECADE", "continuity_order", "invariance_errors", "knot_jumps", "smoothness"]
+__all__ = [
+    "JUMP_FLOOR",
+    "continuity_order",
+    "invariance_errors",
+    "knot_jumps",
+    "limit_error",
+    "limit_jumps",
+    "smoothness",
+]
 
 DECAY_PER_DECADE = 5.0
 JUMP_FLOOR = 1e-6
 """A jump at a knot below this fraction of its quantity's size around the knot counts as
-zero (plus the evaluation's round-off, :data:`ROUNDOFF_ULPS`). The size of an
-acceleration is at least the velocity's size over the shorter knot interval h (and
-likewise angular), and a velocity's at least the spread of the positions over h, so that
-a quantity that vanishes on both sides of a knot (a straight path's acceleration, slerp's
-angular acceleration) is measured against the motion's own scale, not its round-off (a
-repaired straight path's acceleration evaluates to 4e-11 there, with jumps of 1e-11).
-Over 25 random keyframe sets of every scheme, at unit scale, with positions scaled by
-1e-12 and moved 1e3 away, the continuous quantities gave at most 5e-10 of their own size
-(every scheme but scipy's RotationSpline below 1e-11) and the discontinuous ones at
-least 5e-2. RotationSpline's iterative solve stops at an absolute change of 1e-9 rad/s in
-its rates, which leaves angular-acceleration jumps of 3e-7 of their size where keyframes
-are 1e4 or more time units apart (1.3e-8 at 1e3)."""
-ROUNDOFF_ULPS = 2.0**14
+zero (plus the evaluation's round-off, :data:`ROUNDOFF_ULPS`, and the extrapolation's
+own error, :func:`limit_error`). The size of an acceleration is at least the velocity's
+size over the longer of the two knot intervals (and likewise angular), and a velocity's
+at least the spread of the positions over it, so that a quantity that vanishes on both
+sides of a knot (a straight path's acceleration, slerp's angular acceleration) is
+measured against the motion's own scale, not its round-off (a repaired straight path's
+acceleration evaluates to 4e-11 there, with jumps of 1e-11). (Over the shorter interval,
+a speed change of 1e-3 next to an interval of 1e-4 passed: a review.) Over 25 random
+keyframe sets of every scheme, at unit scale, with positions scaled by 1e-12 and moved
+1e3 away, the continuous quantities gave at most 5e-10 of their own size (every scheme
+but scipy's RotationSpline below 1e-11) and the discontinuous ones at least 5e-2.
+RotationSpline's iterative solve stops at an absolute change of 1e-9 rad/s in its
+rates, which leaves angular-acceleration jumps of 3e-7 of their size where keyframes are
+1e4 or more time units apart (1.3e-8 at 1e3)."""
+ROUNDOFF_ULPS = 256.0
 """The round-off of a derivative of order k at a knot, in units of ``2^-53 |p| / h^k``
-for translation (|p| the largest distance from the origin of a position around the knot)
-and ``2^-53 / h^k`` for rotation: it matters where a motion is far from the origin
-compared with its size, where the positions' round-off outgrows :data:`JUMP_FLOOR`."""
+for translation (|p| the largest distance from the origin of a position around the knot,
+h the shorter knot interval) and ``2^-53 / h^k`` for rotation: it matters where a motion
+is far from the origin compared with its size, where the positions' round-off outgrows
+:data:`JUMP_FLOOR`. Every C² scheme moved 1e3 to 1e12 away jumped by at most ~20 of these
+units (a review); the rest is margin."""
 SCALE_SAMPLES = 8
 """Times per knot interval at which a quantity's size around a knot is taken."""
 ORDER = {"velocity": 1, "angular_velocity": 1, "acceleration": 2, "angular_acceleration": 2}
@@ -103,6 +116,7 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
             out[q + "_roundoff"] = np.zeros(0)
         return out
     h = np.minimum(np.diff(knots)[:-1], np.diff(knots)[1:])
+    h_long = np.maximum(np.diff(knots)[:-1], np.diff(knots)[1:])
     delta = h[:, None] * offs[None, :]  # (K, O)
     lo = inner[:, None] - delta
     hi = inner[:, None] + delta
@@ -125,7 +139,8 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
         ).max(axis=1)
         for q in QUANTITIES
     }
-    # a quantity's scale: its own size, and what the order below it gives over h
+    # a quantity's scale: its own size, and what the order below it gives over the
+    # longer interval (the shorter made it large next to a short interval: a review)
     lower = {
         "velocity": np.linalg.norm(np.ptp(pos, axis=1), axis=-1),
         "angular_velocity": np.zeros_like(h),  # (a turn's angle over h would hide small turns)
@@ -136,7 +151,7 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
         a, b = getattr(ka, q), getattr(kb, q)
         out[q + "_diff"] = b - a
         out[q] = np.linalg.norm(b - a, axis=-1)
-        out[q + "_scale"] = np.maximum(size[q], lower[q] / h)
+        out[q + "_scale"] = np.maximum(size[q], lower[q] / h_long)
         length = reach if q in ("velocity", "acceleration") else 1.0
         out[q + "_roundoff"] = ROUNDOFF_ULPS * 2.0**-53 * length / h ** ORDER[q]
     return out
@@ -152,7 +167,8 @@ def _continuous(jumps: dict[str, np.ndarray], q: str) -> np.ndarray:
         return np.ones(0, dtype=bool)
     floor = JUMP_FLOOR * jumps[q + "_scale"] + jumps[q + "_roundoff"]
     if offs.size >= 3:
-        return limit_jumps(jumps[q + "_diff"], offs) <= floor
+        diffs = jumps[q + "_diff"]
+        return limit_jumps(diffs, offs) <= floor + 2.0 * limit_error(diffs, offs)
     j = jumps[q]
     tiny = j[:, -1] <= floor
     decades = np.log10(offs[:-1] / offs[1:])
@@ -182,6 +198,25 @@ def limit_jumps(diffs: np.ndarray, offs: np.ndarray) -> np.ndarray:
     # Lagrange weights of the value at 0 (the offsets are distinct: knot_jumps checks)
     w = np.array([np.prod([-xj / (xi - xj) for xj in x if xj != xi]) for xi in x])
     return np.linalg.norm(np.einsum("koc,o->kc", diffs[:, -3:], w), axis=-1)
+
+
+def limit_error(diffs: np.ndarray, offs: np.ndarray) -> np.ndarray:
+    """(K,) an estimate of :func:`limit_jumps`' own error: how far it lies from the line
+    through the two smallest offsets' differences, extrapolated to 0. For a smooth
+    quantity the differences are odd in the offset, ``2 f' o + f''' o^3 / 3 + ...``, so
+    the quadratic's error is ``f''' o1 o2 o3 / 3`` and the line's ``f''' o2 o3 (o2 + o3)
+    / 3``: at offsets a decade apart their difference is ~0.9 of the quadratic's error
+    (the floor adds twice it). Where a quantity varies fast (a knot next to an interval
+    1/200 of the others), that error outgrew the floor at offsets of 1e-3 and a C² motion
+    read C⁰ (a review). NaN with fewer than three offsets."""
+    if diffs.shape[1] < 3:
+        return np.full(diffs.shape[0], np.nan)
+    if diffs.shape[0] == 0:
+        return np.zeros(0)
+    x = np.asarray(offs[-3:], dtype=float)
+    quad = np.array([np.prod([-xj / (xi - xj) for xj in x if xj != xi]) for xi in x])
+    line = np.array([0.0, x[2] / (x[2] - x[1]), x[1] / (x[1] - x[2])])
+    return np.linalg.norm(np.einsum("koc,o->kc", diffs[:, -3:], quad - line), axis=-1)
 
 
 def continuity_order(jumps: dict[str, np.ndarray]) -> int:

@@ -24,6 +24,7 @@ EXPECTED_CLASS = {
     "slerp-linear": "C0",
 }
 FD_H = 1e-6
+KNOT_JUMP_RTOL = 1e-6  # a jump extrapolated to its knot: O(o1 o2 o3) of the next term
 FD_TOL = 1e-6  # central differences of O(1) rates: h² |f'''| + eps/h
 
 
@@ -77,6 +78,33 @@ def test_measured_class_of_a_translation_in_small_units(scheme, built):
     m = motions.build(scheme, q, p * 1e-12, ms[scheme].keyframe_times)
     want = {"slerp-linear": "C0", "sclerp": "C0", "rational": "C2"}.get(scheme, "C1")
     assert motions.smoothness(m, invariance=False)["continuity"] == want
+
+
+@pytest.mark.parametrize("short", [1e-2, 1e-3, 1e-4])
+@pytest.mark.parametrize("change", [1e-2, 1e-4])
+def test_a_speed_change_next_to_a_short_interval_is_a_corner(short, change):
+    # slerp-linear's speed changing by `change` at a knot next to an interval `short`
+    # long: a scale taken over the shorter interval called it C² (a review)
+    t = np.array([0.0, 1.0, 1.0 + short, 2.0 + short])
+    x = np.array([0.0, 1.0, 1.0 + short * (1 + change), 1.0 + (short + 1) * (1 + change)])
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (4, 1))
+    m = motions.build("slerp-linear", q, np.c_[x, np.zeros(4), np.zeros(4)], t)
+    row = motions.smoothness(m, invariance=False)
+    assert row["continuity"] == "C0"
+    assert row["knot_jump_velocity"] == pytest.approx(change, rel=KNOT_JUMP_RTOL)
+
+
+@pytest.mark.parametrize("scheme", ["rational", "rational-hermite", "squad", "slerp"])
+@pytest.mark.parametrize("where", [0, 3, 6])
+@pytest.mark.parametrize("shrink", [1e-1, 5e-3])
+def test_measured_class_next_to_a_short_interval(scheme, where, shrink, built):
+    # one keyframe interval 1/200 of the others: the extrapolation's own error outgrew
+    # the floor and a C² rational motion read C⁰ (a review)
+    q, p, ms = built
+    d = np.diff(ms["rational"].keyframe_times)
+    d[where] *= shrink
+    m = motions.build(scheme, q, p, np.concatenate([[0.0], np.cumsum(d)]))
+    assert motions.smoothness(m, invariance=False)["continuity"] == EXPECTED_CLASS[scheme]
 
 
 @pytest.mark.parametrize("scheme", sorted(EXPECTED_CLASS))

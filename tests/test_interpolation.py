@@ -15,6 +15,8 @@ from motions.smoothness import continuity_order, invariance_errors, knot_jumps
 KEYFRAME_TOL = 1e-10  # DESIGN: keyframes met to round-off
 INVARIANCE_TOL = 1e-10
 
+KNOT_JUMP_RTOL = 1e-6  # the extrapolation to the knot: O(o1 o2 o3) of the next term
+
 
 def keyframe_set(rng, n=8, spread=2.0):
     # a random walk of rotations (steps ~0.6 rad) keeps u0 well away from 0
@@ -234,6 +236,20 @@ def test_a_vanishing_weight_from_uneven_times_is_named_as_such():
     assert "far from evenly spaced" in str(e.value)
 
 
+def test_a_vanishing_weight_from_given_angular_velocities_names_them():
+    # hermite with even times, 90° turns and large opposing rates: the message advised
+    # "give more even times" (a review)
+    q = Rotation.from_euler("z", [[0], [90], [180]], degrees=True).as_quat(scalar_first=True)
+    av = np.zeros((3, 3))
+    av[:, 2] = [-15.92285156, -26.41529541, -15.92285156]
+    with pytest.raises(DegenerateMotionError) as e:
+        motions.hermite(q, np.zeros((3, 3)), [0.0, 1.0, 2.0], velocities=np.zeros((3, 3)),
+                        angular_velocities=av)  # fmt: skip
+    assert "where the given angular velocities are large" in str(e.value)
+    assert "give smaller angular velocities there" in str(e.value)
+    assert "a turn of 90° over an interval of 1;" in str(e.value)
+
+
 def test_hermite_meets_given_derivatives(rng):
     q, p = keyframe_set(rng, 6)
     w = rng.normal(size=(6, 3))
@@ -395,7 +411,7 @@ def test_a_small_acceleration_jump_makes_a_motion_c1(jump):
     q = np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))
     m = motions.hermite(q, p, [0.0, 1.0, 2.0], velocities=v, angular_velocities=np.zeros((3, 3)))
     row = motions.smoothness(m, invariance=False)
-    assert row["knot_jump_acceleration"] == pytest.approx(jump, rel=1e-6)
+    assert row["knot_jump_acceleration"] == pytest.approx(jump, rel=KNOT_JUMP_RTOL)
     assert row["continuity"] == "C1", row
 
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from motions.smoothness import JUMP_FLOOR
+
 from .data import numeric, study_rows
 from .document import Document, cell
 from .sections import scene_label, scene_labels
@@ -70,7 +72,7 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     )
     doc.table(
         t,
-        f"Measured continuity class (a derivative counts as continuous when its jump at a knot, extrapolated to the knot from offsets of 1e-3 to 1e-5 of the knot interval, is below 1e-6 of its size over the two intervals around the knot plus its round-off) and {where}, in scene units per motion-parameter unit: m/s², rad/s², rad/s, m/s for scene keyframes, whose times are seconds; random keyframe sets are timed by chord length, so theirs are per metre of parameter (m/m², rad/m²), pooled here with the scene's because a class does not depend on the parametrisation; invariance: largest matrix difference after moving the world frame or turning the body.",
+        f"Measured continuity class (a derivative counts as continuous when its jump at a knot, extrapolated to the knot from offsets of 1e-3 to 1e-5 of the shorter knot interval, is below {JUMP_FLOOR:g} of its size over the two intervals around the knot, at least the next lower derivative's size over the longer interval, plus its round-off and the extrapolation's own error estimate) and {where}, in scene units per motion-parameter unit: m/s², rad/s², rad/s, m/s for scene keyframes, whose times are seconds; random keyframe sets are timed by chord length, so theirs are per metre of parameter (m/m², rad/m²), pooled here with the scene's because a class does not depend on the parametrisation; invariance: largest matrix difference after moving the world frame or turning the body.",
         "continuity",
         data=t.rename(columns=CONTINUITY_COLUMNS),
     )
