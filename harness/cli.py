@@ -675,21 +675,36 @@ def _json_values(argv: list[str]) -> list[tuple[int, str]]:
 
 
 def _json_on_usage_error(argv: list[str], message: str) -> None:
-    """A usage error of ``rsmbench compare ... --json FILE`` (an unknown option, a missing
-    run, ``--json`` twice) leaves in each FILE that can be written the exit code and the
-    error, as the comparison's own errors do: the file held an earlier comparison's
-    ``exit_code`` 0 (a CI trial)."""
-    if "compare" not in argv:
+    """A usage error of ``rsmbench compare ... --json FILE`` (an unknown option, a run
+    missing, ``--json`` twice) leaves in each FILE the exit code and the error, as the
+    comparison's own errors do: the file held an earlier comparison's ``exit_code`` 0 (a
+    CI trial). Only where the command is ``compare`` and FILE is absent or holds an
+    earlier comparison's result: a usage error is no sure reading of the arguments, and
+    ``compare base.json --json new.json`` (NEW forgotten) overwrote an input (a review)."""
+    if not argv or argv[0] != "compare":
         return
-    values = _json_values(argv[argv.index("compare") + 1 :])
-    shift = argv.index("compare") + 1
-    taken = {i + shift for i, _ in values}
-    others = [a for i, a in enumerate(argv) if i not in taken]  # (never overwrite an input)
+    values = _json_values(argv[1:])
+    taken = {i + 1 for i, _ in values}
+    others = [a for i, a in enumerate(argv) if i not in taken]
     written = datetime.now().astimezone().isoformat(timespec="seconds")
     for _i, value in values:
+        if value.startswith("-") or not _a_compare_result_or_absent(Path(value).expanduser()):
+            continue
         with contextlib.suppress(Exception):
             target = _json_target(value, *others)
             _write_json(target, {"exit_code": 2, "error": message, "written": written})
+
+
+def _a_compare_result_or_absent(p: Path) -> bool:
+    """Whether `p` does not exist, or holds a JSON object with an ``exit_code`` (what
+    ``compare --json`` writes)."""
+    if not p.exists():
+        return True
+    try:
+        doc = json.loads(p.read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(doc, dict) and "exit_code" in doc
 
 
 def _version() -> str:

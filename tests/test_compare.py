@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -149,10 +150,10 @@ def test_a_significant_slowdown_below_the_threshold_passes(tmp_path):
     res = compare(a, b, time_threshold=0.15)
     assert res.exit_code == 0, res.text()
     # the shift of every group is said, though it passes (a CI trial's 1.3x did unseen)
-    gated = [r.ratio for r in res.timing if not r.status.startswith("not gated")]
-    line = next(x for x in res.lines if x.startswith(f"(over the {len(gated)} gated groups"))
-    assert f"median ratio {np.median(gated):.3g}, {sum(x > 1 for x in gated)} slower" in line
-    assert sum(x > 1 for x in gated) > len(gated) / 2
+    line = next(x for x in res.lines if x.startswith("(over the "))
+    m = re.search(r"over the (\d+) gated groups: median ratio ([\d.]+), (\d+) slower", line)
+    groups, median, slower = int(m[1]), float(m[2]), int(m[3])
+    assert groups >= 3 and slower > groups / 2 and 1.02 < median < 1.15  # (8 % slower)
     # ... but fails at a threshold of 0 once it is significant
     assert compare(a, b, time_threshold=0.0).exit_code == 1
 
@@ -945,10 +946,32 @@ def test_json_output_for_a_pipeline(tmp_path, capsys):
         if str(other) in args:
             assert "given twice" in r.stderr
             assert json.loads(other.read_text())["exit_code"] == 2
-    # ... but never into an input
+    # ... but never into an input, nor a file that is no comparison's result, nor for
+    # another command, nor into an option taken for a value (a review: a forgotten
+    # argument made `--json` name an input, which was overwritten)
     before = (b / "meta.json").read_text()
     r = _cli(capsys, "compare", str(a), str(b), "--json", str(b / "meta.json"), "--bogus")
     assert r.returncode == 2 and (b / "meta.json").read_text() == before
+    files = {}
+    for name, text in (("base.json", _bench({"x": [1.0] * 5})), ("notes.txt", "mine")):
+        files[name] = tmp_path / name
+        files[name].write_text(json.dumps(text) if name.endswith(".json") else text)
+    snapshot = {k: p.read_text() for k, p in files.items()}
+    for args in (
+        ["compare", "--json", str(files["base.json"]), str(b)],  # FILE forgotten
+        ["compare", str(a), "--json", str(files["base.json"])],  # NEW forgotten
+        ["compare", str(a), str(b), "--json", str(files["notes.txt"]), "--bogus"],
+        ["report", "compare", "--json", str(files["notes.txt"])],
+    ):
+        assert _cli(capsys, *args).returncode == 2, args
+        assert {k: p.read_text() for k, p in files.items()} == snapshot, args
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        assert _cli(capsys, "compare", str(a), str(b), "--json", "--timer", "cpu").returncode == 2
+        assert not (tmp_path / "--timer").exists()
+    finally:
+        os.chdir(cwd)
     # a symbolic link to the file is written through, and stays a link
     link = tmp_path / "link.json"
     link.symlink_to(ok)

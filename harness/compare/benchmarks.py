@@ -24,6 +24,7 @@ from ._common import (
     _fastest,
     _time,
     _timing_lines,
+    copy_note,
 )
 
 TIMER_KINDS = {
@@ -212,10 +213,7 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
         for k in common
     ]
     if all(same):  # (as for runs: a CI cache that restored base.json as new.json passed)
-        out.lines.append(
-            "note: every timing round of NEW equals BASE's: a copy of one file, not two"
-            " runs; its timing cannot fail the gate"
-        )
+        out.lines.append(copy_note("file"))
         out.identical_timings = True
     rows = [
         _decide(

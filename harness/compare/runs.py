@@ -24,6 +24,7 @@ from ._common import (
     _environments,
     _fmt_s,
     _timing_lines,
+    copy_note,
 )
 
 TOI_SLACK = 1e-9
@@ -190,10 +191,7 @@ def _compare_runs(
         if both.any() and (bi.loc[both, col].astype(str) == ni.loc[both, col].astype(str)).all():
             # (a CI trial compared a run with a copy of it, an artifact, and passed: two
             # runs never time every round alike)
-            out.lines.append(
-                "note: every timing round of NEW equals BASE's: a copy of one run, not two"
-                " runs; its timing cannot fail the gate"
-            )
+            out.lines.append(copy_note("run"))
             out.identical_timings = True
     _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"), floor)
     _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
