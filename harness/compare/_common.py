@@ -348,7 +348,7 @@ def _timing_lines(
     out.lines.append(
         f"(gate rule: a group fails when its ratio of medians and the ratio of its fastest rounds"
         f" both exceed {1 + thr:.2f} and the ratio's 95% bootstrap interval lies above 1;"
-        f" rounds over {OUTLIER:g}x their figure's median are left out)"
+        f" a figure's longest round, over {OUTLIER:g}x the median of the others, is left out)"
     )
     gated = [r.ratio for r in rows if not r.status.startswith("not gated")]
     if len(gated) >= 3:  # (a CI trial's 1.3x slowdown of every query passed unseen)
