@@ -12,6 +12,7 @@ import math
 import os
 import shutil
 import signal
+import stat
 import sys
 import tempfile
 from datetime import datetime
@@ -446,7 +447,10 @@ def _json_target(value: str, *inputs: str) -> Path:
     """`--json`'s file, checked before the comparison runs: a file in an existing folder
     that can be written, and neither input nor inside an input run's folder (``--json
     NEW.json`` replaced the benchmark file it compared)."""
-    p = Path(value).expanduser()
+    try:
+        p = Path(value).expanduser()
+    except RuntimeError:  # (`~nosuchuser/x`: a traceback, a review found)
+        raise UsageError(f"`--json` {value}: no such user's home folder.") from None
     if p.is_symlink():  # (written through, as other tools do: the link stays a link)
         p = p.resolve()
     if not value or p.is_dir():
@@ -688,18 +692,29 @@ def _json_on_usage_error(argv: list[str], message: str) -> None:
     others = [a for i, a in enumerate(argv) if i not in taken]
     written = datetime.now().astimezone().isoformat(timespec="seconds")
     for _i, value in values:
-        if value.startswith("-") or not _a_compare_result_or_absent(Path(value).expanduser()):
-            continue
+        # (anything that goes wrong here leaves the file alone: the usage error is the
+        # message; a review's `~nosuchuser/x` and a 300-character name raised)
         with contextlib.suppress(Exception):
+            if value.startswith("-") or not _a_compare_result_or_absent(Path(value).expanduser()):
+                continue
             target = _json_target(value, *others)
             _write_json(target, {"exit_code": 2, "error": message, "written": written})
 
 
+COMPARE_RESULT_BYTES = 1 << 24
+"""Largest file read to tell whether it holds an earlier comparison's result."""
+
+
 def _a_compare_result_or_absent(p: Path) -> bool:
-    """Whether `p` does not exist, or holds a JSON object with an ``exit_code`` (what
-    ``compare --json`` writes)."""
-    if not p.exists():
-        return True
+    """Whether `p` does not exist, or is a regular file holding a JSON object with an
+    ``exit_code`` (what ``compare --json`` writes). Never reads a device or a pipe (a
+    review's `--json /dev/stdout` hung, `/dev/zero` ran out of memory)."""
+    try:
+        st = os.stat(p)
+    except FileNotFoundError:
+        return not p.is_symlink()  # (a dangling link: not ours to follow)
+    if not stat.S_ISREG(st.st_mode) or st.st_size > COMPARE_RESULT_BYTES:
+        return False
     try:
         doc = json.loads(p.read_text())
     except (OSError, ValueError):

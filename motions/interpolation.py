@@ -232,6 +232,11 @@ def interpolate(
     return motion
 
 
+UNEVEN = 2.0
+"""Keyframe intervals whose longest is this many times the shortest are called uneven in
+the vanishing-weight message."""
+
+
 def _check_weight(
     motion: RationalMotion, t: np.ndarray, q: np.ndarray, *, rates: bool = False
 ) -> None:
@@ -260,20 +265,20 @@ def _check_weight(
         # found: turns of 59-90° with intervals 0.54-0.82 beside one of 170)
         turn = np.degrees(2 * np.arccos(min(1.0, abs(float(np.dot(q[k], q[k + 1]))))))
         h = np.diff(t)
-        causes, fixes = (
-            "at turns near 180° and where keyframe times are far from evenly spaced",
-            "give more even times",
-        )
+        causes = ["at turns near 180°", "where keyframe times are far from evenly spaced"]
+        fixes = ["give more even times"] if h.max() > UNEVEN * h.min() else []
         if rates:  # (a review: hermite's given rates, with even times, read "give more even times")
-            causes = "where the given angular velocities are large against the turns, " + causes
-            fixes = "give smaller angular velocities there, or " + fixes
+            causes.insert(0, "where the given angular velocities are large against the turns")
+            fixes.insert(0, "give smaller angular velocities there")
+        because = ", ".join(causes[:-1]) + " and " + causes[-1]
+        fix = ", or ".join(["insert an intermediate keyframe there", *fixes])
         raise DegenerateMotionError(
             f"The preimage through the keyframes nearly vanishes (min u0 / max u0 ="
             f" {vals[i] / wmax:.3g} <= {MIN_WEIGHT_RATIO:g}) at t = {where[i]:.6g}, between"
             f" keyframes {k} and {k + 1} (a turn of {turn:.0f}° over an interval of"
             f" {h[k]:.3g}; the keyframe intervals range from {h.min():.3g} to {h.max():.3g}):"
-            f" the quaternion spline overshoots towards 0 there, as it does {causes}. Insert"
-            f" an intermediate keyframe there, or {fixes}."
+            f" the quaternion spline overshoots towards 0 there, as it does {because}."
+            f" {fix[0].upper()}{fix[1:]}."
         )
 
 

@@ -63,6 +63,10 @@ h the shorter knot interval) and ``2^-53 / h^k`` for rotation: it matters where 
 is far from the origin compared with its size, where the positions' round-off outgrows
 :data:`JUMP_FLOOR`. Every C² scheme moved 1e3 to 1e12 away jumped by at most ~20 of these
 units (a review); the rest is margin."""
+TIME_ROUNDING = 4.0
+"""The probe times' rounding in the floor, in units of their slope times an ulp of the
+time: each probe is within half an ulp, the extrapolation's weights sum to ~1.24 in
+absolute value, and the rest is margin."""
 SCALE_SAMPLES = 8
 """Times per knot interval at which a quantity's size around a knot is taken."""
 ORDER = {"velocity": 1, "angular_velocity": 1, "acceleration": 2, "angular_acceleration": 2}
@@ -153,7 +157,16 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
         out[q] = np.linalg.norm(b - a, axis=-1)
         out[q + "_scale"] = np.maximum(size[q], lower[q] / h_long)
         length = reach if q in ("velocity", "acceleration") else 1.0
-        out[q + "_roundoff"] = ROUNDOFF_ULPS * 2.0**-53 * length / h ** ORDER[q]
+        # the probe times' own rounding: each is within half an ulp of k ± δ, which
+        # moves f by its slope (the differences' over the offsets) times that; at times
+        # like 1.7e9, δ = 1e-5 h is a few ulps, and a C² motion read C⁰ (a review)
+        slope = np.linalg.norm(b[:, 0] - a[:, 0] - (b[:, -1] - a[:, -1]), axis=-1) / (
+            (offs[0] - offs[-1]) * h
+        )
+        ulp = np.spacing(np.maximum(np.abs(lo), np.abs(hi)).max(axis=1))
+        out[q + "_roundoff"] = (
+            ROUNDOFF_ULPS * 2.0**-53 * length / h ** ORDER[q] + TIME_ROUNDING * slope * ulp
+        )
     return out
 
 

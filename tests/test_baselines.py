@@ -107,6 +107,15 @@ def test_measured_class_next_to_a_short_interval(scheme, where, shrink, built):
     assert motions.smoothness(m, invariance=False)["continuity"] == EXPECTED_CLASS[scheme]
 
 
+@pytest.mark.parametrize("scheme", ["rational", "rational-hermite", "squad", "slerp"])
+def test_measured_class_at_epoch_times(scheme, built):
+    # keyframes 10 ms apart at t ~ 1.7e9 s (Unix time): the probes 1e-5 of an interval
+    # from a knot are a few ulps of t, and every scheme read C⁰ (a review)
+    q, p, _ = built
+    m = motions.build(scheme, q, p, 1.7e9 + 0.01 * np.arange(len(q)))
+    assert motions.smoothness(m, invariance=False)["continuity"] == EXPECTED_CLASS[scheme]
+
+
 @pytest.mark.parametrize("scheme", sorted(EXPECTED_CLASS))
 def test_rates_match_finite_differences(scheme, built):
     *_, ms = built

@@ -296,6 +296,14 @@ def test_a_cold_first_round_does_not_hide_a_slowdown(tmp_path):
     res = compare(tmp_path / "a.json", tmp_path / "d.json")
     assert res.exit_code == 0 and res.timing[0].status == "ok"
     assert "1+1 slow round(s) left out" in res.text()
+    # a file without per-round data gets a stand-in sample from its median and IQR,
+    # whose top quantile is no round to leave out (a review: its median fell 1 -> 0.73)
+    wide = {"benchmarks": [{"fullname": "x", "stats": {"median": 1.0, "iqr": 1.4, "rounds": 5}}]}
+    narrow = {"benchmarks": [{"fullname": "x", "stats": {"median": 1.0, "iqr": 0.1, "rounds": 5}}]}
+    (tmp_path / "wide.json").write_text(json.dumps(wide))
+    (tmp_path / "narrow.json").write_text(json.dumps(narrow))
+    row = compare(tmp_path / "wide.json", tmp_path / "narrow.json").timing[0]
+    assert row.dropped == (0, 0) and row.base == pytest.approx(1.0)
 
 
 def test_benchmark_summaries_take_their_fastest_round_from_stats_min(tmp_path):
@@ -972,6 +980,15 @@ def test_json_output_for_a_pipeline(tmp_path, capsys):
         assert not (tmp_path / "--timer").exists()
     finally:
         os.chdir(cwd)
+    # a device, a pipe, an unknown user's home or an overlong name: one line, exit 2, not
+    # read (a review's `--json /dev/stdout --bogus | cat` hung, /dev/zero ran out of memory)
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    for value in ("/dev/zero", str(fifo), "~nosuchuser4242/x.json", "x" * 300):
+        for more in (["--bogus"], []):
+            r = _cli(capsys, "compare", str(a), str(b), "--json", value, *more)
+            assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, (value, more)
+            assert "Traceback" not in r.stderr
     # a symbolic link to the file is written through, and stays a link
     link = tmp_path / "link.json"
     link.symlink_to(ok)

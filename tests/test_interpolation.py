@@ -248,6 +248,7 @@ def test_a_vanishing_weight_from_given_angular_velocities_names_them():
     assert "where the given angular velocities are large" in str(e.value)
     assert "give smaller angular velocities there" in str(e.value)
     assert "a turn of 90° over an interval of 1;" in str(e.value)
+    assert "more even times" not in str(e.value)  # (they are even)
 
 
 def test_hermite_meets_given_derivatives(rng):

@@ -221,14 +221,18 @@ def _decide(
     thr: float,
     floor: float,
     fastest_of: tuple[list, list] | None = None,
+    measured: bool = True,
 ) -> TimingRow:
     """The timing decision of one group: `xb`, `xn` the rounds of its figures in base and
     new; `fastest_of` each figure's fastest round where the rounds themselves are not
-    known (a benchmark file's ``stats.min`` beside a stand-in sample), else None."""
+    known (a benchmark file's ``stats.min`` beside a stand-in sample), else None;
+    `measured` False where a side's rounds are such a stand-in, whose top quantile is no
+    round to leave out (a review)."""
     samples = (sum(a.size for a in xb), sum(a.size for a in xn))
     fb, fn = (_fastest(xb), _fastest(xn)) if fastest_of is None else fastest_of
     xb, xn = [_thin(a) for a in xb], [_thin(a) for a in xn]
-    kept_b, kept_n = [_steady(a) for a in xb], [_steady(a) for a in xn]
+    steady = _steady if measured else (lambda a: a)
+    kept_b, kept_n = [steady(a) for a in xb], [steady(a) for a in xn]
     dropped = (
         sum(a.size - k.size for a, k in zip(xb, kept_b, strict=True)),
         sum(a.size - k.size for a, k in zip(xn, kept_n, strict=True)),

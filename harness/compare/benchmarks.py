@@ -223,6 +223,7 @@ def _compare_benchmarks(b: Path, n: Path, thr: float) -> Comparison:
             thr,
             0.0,
             ([_benchmark_fastest(base[name])], [_benchmark_fastest(new[name])]),
+            measured=base[name].get("data") is not None and new[name].get("data") is not None,
         )
         for name in common
     ]
