@@ -605,7 +605,8 @@ def test_real_runs_fail_on_an_injected_2x_slowdown(tmp_path, monkeypatch):
     slow = [t for t in res.timing if t.status == "regression"]
     # (the fastest rounds bound the slowdown: a burst of load from another process made
     # a 108 us group's median ratio 11.6 once, its fastest-round ratio 2.9)
-    assert slow and all(t.ratio > 1.75 and t.lo > 1 and 1.75 < t.fastest < 9.0 for t in slow)
+    bad = [t for t in slow if not (t.ratio > 1.75 and t.lo > 1 and 1.75 < t.fastest < 9.0)]
+    assert slow and not bad, (bad, res.text())
     # nothing but timing fails: the same runs pass once slowdowns up to the bound above
     # are allowed (an injected 2x measured up to 3.06x on a short group of this loaded
     # machine, so "allow 3x" would be flaky)
