@@ -203,14 +203,7 @@ def limit_jumps(diffs: np.ndarray, offs: np.ndarray) -> np.ndarray:
     spline's jumps of 7e-5 as 0 and 2.3e-5, a review found.) A continuous quantity gives
     round-off; a discontinuous one, its jump. NaN with fewer than three offsets (two leave
     an error of order o1 o2: 3e-6 for a C² motion at offsets 1e-3 and 1e-4)."""
-    if diffs.shape[1] < 3:
-        return np.full(diffs.shape[0], np.nan)
-    if diffs.shape[0] == 0:
-        return np.zeros(0)
-    x = np.asarray(offs[-3:], dtype=float)
-    # Lagrange weights of the value at 0 (the offsets are distinct: knot_jumps checks)
-    w = np.array([np.prod([-xj / (xi - xj) for xj in x if xj != xi]) for xi in x])
-    return np.linalg.norm(np.einsum("koc,o->kc", diffs[:, -3:], w), axis=-1)
+    return _at_zero(diffs, offs, line=False)
 
 
 def limit_error(diffs: np.ndarray, offs: np.ndarray) -> np.ndarray:
@@ -222,14 +215,23 @@ def limit_error(diffs: np.ndarray, offs: np.ndarray) -> np.ndarray:
     (the floor adds twice it). Where a quantity varies fast (a knot next to an interval
     1/200 of the others), that error outgrew the floor at offsets of 1e-3 and a C² motion
     read C⁰ (a review). NaN with fewer than three offsets."""
+    return _at_zero(diffs, offs, line=True)
+
+
+def _at_zero(diffs: np.ndarray, offs: np.ndarray, *, line: bool) -> np.ndarray:
+    """(K,) the norm of the three smallest offsets' differences extrapolated to offset 0
+    by their quadratic, less (`line`) the line through the two smallest; NaN with fewer
+    than three offsets."""
     if diffs.shape[1] < 3:
         return np.full(diffs.shape[0], np.nan)
     if diffs.shape[0] == 0:
         return np.zeros(0)
     x = np.asarray(offs[-3:], dtype=float)
-    quad = np.array([np.prod([-xj / (xi - xj) for xj in x if xj != xi]) for xi in x])
-    line = np.array([0.0, x[2] / (x[2] - x[1]), x[1] / (x[1] - x[2])])
-    return np.linalg.norm(np.einsum("koc,o->kc", diffs[:, -3:], quad - line), axis=-1)
+    # Lagrange weights of the value at 0 (the offsets are distinct: knot_jumps checks)
+    w = np.array([np.prod([-xj / (xi - xj) for xj in x if xj != xi]) for xi in x])
+    if line:
+        w = w - np.array([0.0, x[2] / (x[2] - x[1]), x[1] / (x[1] - x[2])])
+    return np.linalg.norm(np.einsum("koc,o->kc", diffs[:, -3:], w), axis=-1)
 
 
 def continuity_order(jumps: dict[str, np.ndarray]) -> int:

@@ -80,7 +80,7 @@ class TimingRow:
     fastest: float = math.nan  # sum of the figures' fastest rounds, new / base
     limit: float = math.nan  # the slowdown beyond which it fails (1 + threshold, or 3x)
     note: str = ""  # why `limit` is not 1 + threshold
-    dropped: tuple[int, int] = (0, 0)  # rounds beyond OUTLIER x their median, base and new
+    dropped: tuple[int, int] = (0, 0)  # slow rounds left out (one a figure at most): base, new
 
 
 @dataclass
