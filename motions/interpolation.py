@@ -202,8 +202,8 @@ def interpolate(
     Raises:
         DegenerateMotionError: if ``min u0 / max u0 <= 1e-8`` (the quaternion spline
             passes near 0: a turn near 180°, or keyframe times far from even, where the
-            cubic overshoots); the message names the keyframe pair, its turn and its
-            interval against its neighbours'.
+            cubic overshoots); the message names the keyframe pair, its turn, its
+            interval and the range of the keyframe intervals.
     """
     check_choice(translation, "translation", TRANSLATIONS)
     q, p, t = keyframes(rotations, positions, times, omega=omega)

@@ -88,7 +88,7 @@ def knot_jumps(motion: Motion, offsets=(1e-3, 1e-4, 1e-5)) -> dict[str, np.ndarr
         {quantity: (K, len(offsets)) jumps, quantity + "_diff": (K, len(offsets), 3) the
         differences ``f(k + δ) - f(k - δ)`` themselves, quantity + "_scale": (K,) its
         largest size over the two knot intervals around each knot, at least the order
-        below it over the shorter interval (:data:`JUMP_FLOOR`), quantity +
+        below it over the longer interval (:data:`JUMP_FLOOR`), quantity +
         "_roundoff": (K,) the round-off of evaluating it there (:data:`ROUNDOFF_ULPS`)},
         for the four quantities velocity, angular_velocity, acceleration,
         angular_acceleration, and "offsets".
