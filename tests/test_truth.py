@@ -6,13 +6,14 @@ import math
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 import harness
 import motions
 from harness import Box, ConvexMesh, Sphere, ground_truth
 from harness.shapes import HalfSpace
 
-from .cases import translation
+from .cases import linear_turn, translation
 
 Q = [1.0, 0.0, 0.0, 0.0]
 
@@ -132,3 +133,68 @@ def test_a_collision_names_the_obstacle_it_meets(method):
         assert (g.verdict, g.obstacle) == ("collision", want), (want, g)
         c = harness.certify(m, Sphere(0.2), obst)
         assert c.obstacle == want, c
+
+
+@pytest.mark.parametrize("method", ["mujoco", "gjk"])
+def test_the_first_contact_is_bracketed_far_inside_one_sample_spacing(method):
+    # analytic first contacts: a unit sphere sliding into a wall, and a box turning about z
+    # into a wall (Q(t) = (1 - t) q_a + t q_b: tan(θ/2) = t sin φ / (1 - t + t cos φ))
+    slide = translation(Q, [-2.0, 0.0, 0.0], [2.0, 0.0, 0.0])
+    wall = Box([0.01, 1.0, 1.0], center=[1.0, 0.0, 0.0])
+    cases = [(slide, Sphere(0.5), wall, (0.99 - 0.5 + 2.0) / 4.0)]
+    phi = 1.2  # quaternion angle of the end turn: 2.4 rad
+    turn = linear_turn([1.0, 0, 0, 0], [math.cos(phi), 0, 0, math.sin(phi)])
+    half, c = (1.0, 0.1), 0.7  # the box's corner (1, 0.1) reaches y = 0.7
+    theta = brentq(lambda a: half[0] * math.sin(a) + half[1] * math.cos(a) - c, 0.0, 1.4)
+    s = math.tan(theta / 2)
+    t_turn = s / (math.sin(phi) + s * (1 - math.cos(phi)))
+    cases.append(
+        (turn, Box([1.0, 0.1, 0.1]), Box([2.0, 0.05, 1.0], center=[0, c + 0.05, 0]), t_turn)
+    )
+    for m, body, obst, t_star in cases:
+        res = 1e-3
+        g = ground_truth(m, body, [obst], resolution=res, method=method)
+        assert g.verdict == "collision" and g.certified
+        assert g.toi_lo <= t_star <= g.toi_hi
+        # one sample spacing here is res / V >= 1e-4 (V <= 10); the bracket is 1e-6 of it
+        assert g.toi_hi - g.toi_lo <= 1e-9, (g.toi_lo, g.toi_hi, t_star)
+        r, p = m.pose(np.array([g.toi_hi]))  # the pose at toi_hi intersects, by MuJoCo too
+        from harness.mjdistance import MujocoDistance
+
+        assert MujocoDistance(body, [obst]).distances(r, p).item() < 0
+
+
+def test_a_grazing_stretch_spends_a_bounded_number_of_poses_and_stays_a_bracket():
+    # a sphere rolling along a plate's face at distance exactly 0 (touching, not
+    # intersecting: never proven free, never proven to intersect), then into a wall
+    from harness.truth import BRACKET_EVALUATIONS
+
+    m = translation(Q, [-2.0, 0.0, 0.5], [2.0, 0.0, 0.5])
+    plate = Box([3.0, 1.0, 0.5], center=[0.0, 0.0, -0.5])
+    wall = Box([0.01, 1.0, 1.0], center=[1.0, 0.0, 1.0])
+    obst = [plate, wall]
+    res = 1e-3
+    g = ground_truth(m, Sphere(0.5), obst, resolution=res)
+    coarse = ground_truth(m, Sphere(0.5), obst, resolution=res * 1.0000001)
+    assert g.verdict == "collision"
+    assert g.toi_lo <= 0.0 + 1e-12  # touching from the start: nothing before it is free
+    assert g.toi_hi <= (0.99 - 0.5 + 2.0) / 4.0 + res  # the wall (or the plate, deeper)
+    assert g.nodes - coarse.nodes <= 2 * BRACKET_EVALUATIONS * len(obst) + len(obst)
+
+
+def test_a_huge_speed_bound_is_refused_by_its_sample_count_without_a_numpy_warning():
+    # a trial: a weight nearly vanishing gives a speed bound of 1.8e17; the int64 count of
+    # samples overflowed (numpy's RuntimeWarning) into a negative one, and the "truth" was
+    # unknown from 2 samples
+    q0, q2 = np.array([1.0, 0, 0, 0]), np.array([0.0, 0, 0, 1])
+    q1 = -(q0 + q2) / 2 + [0, 1e-4, 0, 0]
+    kn = [0.0, 0, 0, 1, 1, 1]
+    m = motions.RationalMotion.from_preimage(
+        2, kn, np.array([q0, q1, q2]), (1, [0.0, 0, 1, 1], np.array([[0.0, 0, 0], [1, 0, 0]]))
+    )
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match=r"needs .* samples \(> max_samples"):
+            ground_truth(m, Box([0.05, 0.03, 0.02]), [Box([0.01, 0.2, 0.2], center=[0.5, 0.3, 0])])
