@@ -524,6 +524,15 @@ def test_device_and_limit_errors():
             certify(m, box, [box], device="cuda:0")
     with pytest.raises(TypeError, match="device"):
         certify(m, box, [box], device=3)
+    # a device from the environment: the message names the variable (a trial's user never
+    # passed `device` and read "`device` 'cuda:0' is not available")
+    want = certify(m, box, [box])
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("RSMBENCH_DEVICE", "tpu")
+        with pytest.raises(DeviceError, match=r"^Unknown \$RSMBENCH_DEVICE .*'tpu'"):
+            certify(m, box, [box])
+        # (a `device` given overrides it)
+        assert certify(m, box, [box], device="cpu").toi_lo == want.toi_lo
     with pytest.raises(QueryError, match="samples"):
         certify(m, box, [box], bound="sampled", samples=10**12)
     with pytest.raises(QueryError, match="max_depth"):

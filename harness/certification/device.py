@@ -115,25 +115,27 @@ def resolve_device(device: Any) -> str:
     if device == "cpu" or (device is None and "RSMBENCH_DEVICE" not in os.environ):
         return "cpu"
     name = default_device() if device is None else device
+    # (a device from the environment is named so: a trial's user never passed `device`)
+    what = "`device`" if device is not None else "$RSMBENCH_DEVICE (the default `device`)"
     if not isinstance(name, str):
         raise TypeError(
-            f"Expected `device` to be a string such as 'cpu' or 'cuda:0', got {short(device)}."
+            f"Expected {what} to be a string such as 'cpu' or 'cuda:0', got {short(device)}."
         )
     if name != "cpu" and not (name == "cuda" or name.startswith("cuda:")):
-        raise DeviceError(f"Unknown `device` {short(name)}; expected 'cpu', 'cuda' or 'cuda:N'.")
+        raise DeviceError(f"Unknown {what} {short(name)}; expected 'cpu', 'cuda' or 'cuda:N'.")
     wp = warp()
     if name == "cpu":
         return name
     if not wp.is_cuda_available():
         raise DeviceError(
-            f"`device` {short(name)} is not available: this machine has no CUDA device."
+            f"{what} {short(name)} is not available: this machine has no CUDA device."
         )
     try:
         return str(wp.get_device(name))
     except (RuntimeError, ValueError):
         n = wp.get_cuda_device_count()
         raise DeviceError(
-            f"`device` {short(name)} is not available; CUDA devices: {[f'cuda:{i}' for i in range(n)]}."
+            f"{what} {short(name)} is not available; CUDA devices: {[f'cuda:{i}' for i in range(n)]}."
         ) from None
 
 
