@@ -354,6 +354,11 @@ def _static_bodies(model: mujoco.MjModel) -> np.ndarray:
     return static
 
 
+def static_geoms(model: mujoco.MjModel) -> np.ndarray:
+    """Ids of every geom on the world body or a body welded to it, colliding or not."""
+    return np.flatnonzero(_static_bodies(model)[model.geom_bodyid])
+
+
 def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
     """Ids of the static, colliding geoms (contype or conaffinity non-zero, or named in an
     explicit ``<contact><pair>``), in `groups`."""
@@ -364,7 +369,11 @@ def obstacle_geoms(model: mujoco.MjModel, groups: Any = None) -> np.ndarray:
 
 
 def obstacles_from_model(
-    model: mujoco.MjModel, *, groups: Any = None, carried: Iterable[str] = ()
+    model: mujoco.MjModel,
+    *,
+    groups: Any = None,
+    carried: Iterable[str] = (),
+    names: Iterable[str] | None = None,
 ) -> list[Shape]:
     """The static colliding geoms in world coordinates: geoms of the world body and of
     bodies fixed to it (no joint up the tree, not mocap), with contype or conaffinity
@@ -373,6 +382,10 @@ def obstacles_from_model(
     that could leave them.
     `groups` (MuJoCo geom groups) selects some; a HarnessError when it selects none of
     the model's (an empty list would make every motion free).
+    `names` (geom names) selects those static geoms instead, in that order, whether or
+    not MuJoCo collides them (a visual-only post counts once named); a name that is no
+    geom of the model, or a geom that moves, is a ValueError naming it (a typo in a
+    filter of the list made every motion free, about nothing).
 
     Colliding geoms on bodies that joints move (a free block, a door) are not obstacles:
     a :class:`MovingGeomsWarning` names their bodies, except those in `carried` (bodies
@@ -391,9 +404,17 @@ def obstacles_from_model(
                 f"Expected `carried` to name bodies of the model, got {c!r}; its bodies:"
                 f" {short(sorted(bodies))}."
             )
-    geoms = obstacle_geoms(model, groups)
-    _warn_moving(model, groups, set(carried))
-    _warn_mocaps(model, groups)
+    if names is not None:
+        if groups is not None:
+            raise ValueError(
+                f"Expected `names` or `groups`, not both; got names={short(names)} and"
+                f" groups={short(groups)}."
+            )
+        geoms = _named_static_geoms(model, names)
+    else:
+        geoms = obstacle_geoms(model, groups)
+        _warn_moving(model, groups, set(carried))
+        _warn_mocaps(model, groups)
     _warn_flexes(model)
     if geoms.size == 0 and groups is not None:
         # (an empty list would certify every motion free, as body_from_model refuses it)
@@ -413,6 +434,40 @@ def obstacles_from_model(
         object.__setattr__(shape, "name", name or f"geom #{int(g)}")
         out.append(shape)
     return out
+
+
+def _named_static_geoms(model: mujoco.MjModel, names: Any) -> np.ndarray:
+    """Ids of the geoms `names` names, in that order (each once), each static."""
+    if isinstance(names, str) or not isinstance(names, Iterable):
+        raise TypeError(f"Expected `names` to be a list of geom names, got {short(names)}.")
+    names = list(names)
+    static = _static_bodies(model)
+    usable = sorted(_name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in static_geoms(model))
+    usable = f"{usable[:20]}{' and more' if len(usable) > 20 else ''}"
+    if not names:
+        raise ValueError(
+            f"Expected `names` to name at least one geom, got an empty list (every motion"
+            f" would be free, about nothing); the model's static geoms: {usable}."
+        )
+    out: list[int] = []
+    for n in names:
+        if not isinstance(n, str):
+            raise TypeError(f"Expected `names` to hold geom names, got {short(n)}.")
+        g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, n)
+        if g < 0:
+            raise ValueError(
+                f"Expected `names` to name geoms of the model, got {n!r}; its static geoms:"
+                f" {usable}."
+            )
+        if not static[model.geom_bodyid[g]]:
+            body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g]))
+            raise ValueError(
+                f"Expected `names` to name static geoms, got {n!r}, on body {body!r}, which"
+                " a joint or a mocap moves: it is no obstacle."
+            )
+        if g not in out:
+            out.append(int(g))
+    return np.array(out, dtype=int)
 
 
 def _static_shapes(model: mujoco.MjModel, geoms: np.ndarray):

@@ -781,3 +781,76 @@ def test_a_key_with_too_few_pose_numbers_is_named(tmp_path):
     )
     with pytest.raises(scenes.SceneError, match=r"<key> 1 of MJCF file .*keys.xml.* got 2"):
         scenes.load(str(tmp_path / "main.xml"))
+
+
+# A visual-only post (contype = conaffinity = 0, group 2) on the path of the CHILD_XML
+# hand, a table, and a free block.
+POST_XML = """<mujoco><worldbody>
+<geom name="table" type="box" size="1 1 0.05" pos="0 0 -0.05"/>
+<geom name="post" type="capsule" size="0.03 0.4" pos="0.1 0 0.4" contype="0" conaffinity="0"
+ group="2"/>
+<body name="hand" mocap="true" pos="0 0 0.5">
+  <geom name="palm" type="sphere" size="0.1" contype="0" conaffinity="0"/>
+</body>
+<body name="block" pos="0.5 0.5 0.2"><freejoint/><geom type="box" size=".05 .05 .05"/></body>
+</worldbody></mujoco>"""
+
+
+def test_obstacles_chosen_by_name_include_visual_geoms_and_refuse_typos():
+    # a trial: a visual-only post was left out of the obstacles without a word, and a
+    # filter by name with a typo ([o for o in obstacles if o.name == "pst"]) certified a
+    # motion through the post free, about nothing
+    model = mujoco.MjModel.from_xml_string(POST_XML)
+    with pytest.warns(harness.sim.MovingGeomsWarning):
+        default = obstacles_from_model(model)
+    assert [o.name for o in default] == ["table"]
+    named = obstacles_from_model(model, names=["post", "table", "post"])
+    assert [o.name for o in named] == ["post", "table"]  # in the order given, each once
+    post = named[0]
+    assert post.kind == "capsule" and np.allclose(post.center, [0.1, 0, 0.4])
+    body = harness.Sphere(0.1)
+    m = _dip_motion(0.5)  # the palm passes through the post at x = 0.1
+    with pytest.warns(harness.sim.MovingGeomsWarning):
+        assert harness.certify(m, body, obstacles_from_model(model)).verdict == "free"
+    cert = harness.certify(m, body, named)
+    assert cert.verdict == "collision" and named[cert.obstacle].name == "post"
+    r, p = m.pose(np.array([cert.toi_hi]))  # MuJoCo's distance agrees: the pose intersects
+    d = mujoco.mj_geomDistance(
+        model, _posed(model, r[0], p[0]), model.geom("palm").id, model.geom("post").id, 1.0, None
+    )
+    assert d < 0
+    with pytest.raises(
+        ValueError, match=r"`names` .* got 'pst'; its static geoms: \['post', 'table'\]"
+    ):
+        obstacles_from_model(model, names=["pst"])
+    with pytest.raises(
+        ValueError, match=r"got 'palm', on body 'hand', which a joint or a mocap moves"
+    ):
+        obstacles_from_model(model, names=["palm"])
+    with pytest.raises(ValueError, match="at least one geom"):
+        obstacles_from_model(model, names=[])
+    with pytest.raises(TypeError, match="`names` to be a list"):
+        obstacles_from_model(model, names="post")
+    with pytest.raises(ValueError, match="`names` or `groups`, not both"):
+        obstacles_from_model(model, names=["post"], groups=[2])
+
+
+def _posed(model, r, p):
+    data = mujoco.MjData(model)
+    data.mocap_pos[0] = p
+    q = np.zeros(4)
+    mujoco.mju_mat2Quat(q, np.asarray(r, dtype=float).reshape(9))
+    data.mocap_quat[0] = q
+    mujoco.mj_kinematics(model, data)
+    return data
+
+
+def test_scenes_lists_obstacles_by_name_and_the_static_geoms_left_out(tmp_path, capsys):
+    from harness.cli import main
+
+    path = tmp_path / "post.xml"
+    path.write_text(POST_XML)
+    assert main(["scenes", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "  ['table']" in out
+    assert "static geoms MuJoCo does not collide: ['post']" in out
