@@ -367,6 +367,7 @@ class CumulativeBSplineMotion(_JetRotationMotion):
         c, total, res = self._newton(q.copy(), q, t, 12)
         if res <= CUMULATIVE_TOL:
             return c, total, res
+        res0 = res
         logs = qlog(qmul(qconj(q[:-1]), q[1:]))
         s, ds, c = 0.0, 0.25, np.tile(q[0], (q.shape[0], 1))
         while s < 1.0 and ds > 1e-3 and total < CUMULATIVE_MAX_ITER:
@@ -386,8 +387,9 @@ class CumulativeBSplineMotion(_JetRotationMotion):
         self._set_controls(c)
         if s < 1.0 or res > CUMULATIVE_TOL:
             raise MotionError(
-                f"The cumulative B-spline cannot be made to meet the keyframes (Newton and continuation"
-                f" stalled at residual {res:.3g} after {total} iterations): this scheme's nonlinear"
+                f"The cumulative B-spline cannot be made to meet the keyframes (Newton from them"
+                f" stalled at residual {res0:.3g}; continuation in the size of their turns reached"
+                f" {s:.0%} of them within {total} iterations): this scheme's nonlinear"
                 " interpolation problem has no reachable solution for these keyframes and times."
             )
         return c, total, res

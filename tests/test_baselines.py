@@ -329,3 +329,19 @@ def test_sclerp_nearly_pure_slides_pose_accurately(theta):
             np.testing.assert_allclose(x[[0, 2]], p, rtol=0, atol=1e-12 * scale)
             twice = x[1] + r[1] @ r[0].T @ (x[1] - x[0])
             np.testing.assert_allclose(x[2], twice, rtol=0, atol=1e-12 * scale)
+
+
+def test_a_cumulative_refusal_says_how_far_continuation_got_not_a_step_residual():
+    # a trial: the refusal printed "stalled at residual 2.85e-15", a continuation step's
+    # (solved), not the keyframes'
+    from harness.workloads import random_keyframes
+
+    q, p = random_keyframes(np.random.default_rng(37), 8)
+    with pytest.raises(motions.MotionError, match="cannot be made to meet") as e:
+        motions.build("cumulative-bspline", q, p)
+    msg = str(e.value)
+    import re
+
+    res0 = float(re.search(r"Newton from them stalled at residual (\S+);", msg).group(1))
+    share = float(re.search(r"reached (\d+)% of them", msg).group(1))
+    assert res0 > 1e-9 and share < 100, msg

@@ -289,8 +289,13 @@ def test_case_warnings_are_recorded_not_printed(tmp_path):
 def test_bad_suites(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("[suite\nname=1")
-    with pytest.raises(SuiteError, match="not valid TOML"):
+    with pytest.raises(SuiteError, match="not valid TOML") as e:
         load_suite(bad)
+    assert "MJCF" not in str(e.value)
+    model = tmp_path / "gripper.xml"  # a trial ran `rsmbench run gripper.xml`
+    model.write_text("<mujoco><worldbody/></mujoco>")
+    with pytest.raises(SuiteError, match=r"not valid TOML: .*an MJCF model goes in a suite's"):
+        load_suite(model)
     bad.write_text('[[study]]\nkind = "certify"\nschemes = ["rational", "nurbs"]\n')
     with pytest.raises(
         SuiteError,

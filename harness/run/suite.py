@@ -107,7 +107,14 @@ def load_suite(name_or_path: str | os.PathLike) -> Suite:
     try:
         doc = tomllib.loads(text_)
     except tomllib.TOMLDecodeError as e:
-        raise SuiteError(f"{file}: not valid TOML: {e}") from None
+        # (a trial ran `rsmbench run robot/gripper.xml`: say where a model goes)
+        hint = (
+            "; an MJCF model goes in a suite's `scenes` list (docs/suites.md), and"
+            " `rsmbench scenes FILE` describes it"
+            if file.suffix.lower() == ".xml"
+            else ""
+        )
+        raise SuiteError(f"{file}: not valid TOML: {e}{hint}") from None
     extra = sorted(set(doc) - {"suite", "study"})
     need(
         not extra,
