@@ -526,6 +526,9 @@ def test_device_and_limit_errors():
         certify(m, box, [box], device=3)
     # a device from the environment: the message names the variable (a trial's user never
     # passed `device` and read "`device` 'cuda:0' is not available")
+    # a single query given per-motion lists: told to give one flat list
+    with pytest.raises(QueryError, match=r"got 2 lists; for one motion, give its obstacles"):
+        certify(m, box, [[box], [box]])
     want = certify(m, box, [box])
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("RSMBENCH_DEVICE", "tpu")

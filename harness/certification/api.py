@@ -228,7 +228,17 @@ def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
     if not all(issubclass(k, list | tuple) for k in set(map(type, obstacles))):
         return [as_obstacles(obstacles)] * n
     if len(obstacles) != n:
-        raise QueryError(f"Expected one obstacle list per motion ({n}), got {len(obstacles)}.")
+        # (a trial's single query given [[wall], [post]] read "one obstacle list per
+        # motion (1), got 2": say how to give one motion several obstacles)
+        flat = (
+            "; for one motion, give its obstacles as one flat list ([wall, post], not"
+            " [[wall], [post]])"
+            if n == 1
+            else ""
+        )
+        raise QueryError(
+            f"Expected one obstacle list per motion ({n}), got {len(obstacles)} lists{flat}."
+        )
     if all(issubclass(k, Shape) for k in set(map(type, chain.from_iterable(obstacles)))):
         # the lists as given (the kernels' inputs are packed from them before the query
         # returns)
