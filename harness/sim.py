@@ -341,6 +341,19 @@ def _check_smoothness_args(frame: Any, motion: Any, carried: Any, window: Any) -
     as_count(window, "window", 1, 2**31 - 1)
     needed = ["time"] + [f"{c}_{s}" for c in carried for s in ("force", "acc_x", "acc_y", "acc_z")]
     missing = [c for c in needed if c not in frame.columns]
+    # a body the recording carries none of: named as unknown (a trial read "missing
+    # columns" for a misspelt body)
+    recorded = sorted(
+        str(c)[: -len("_force")]
+        for c in frame.columns
+        if str(c).endswith("_force") and not str(c).endswith("_contact_force")
+    )
+    unknown = [c for c in carried if f"{c}_force" not in frame.columns]
+    if unknown and recorded:
+        raise ValueError(
+            f"Expected `carried` to name bodies the recording carries {recorded}, got"
+            f" {unknown[0]!r}."
+        )
     if missing:
         raise ValueError(
             f"Expected `frame` to have the columns of a recorded simulation "

@@ -242,11 +242,15 @@ def rmf_motion(
 def _spine_domain(spine: Any, domain: Any) -> tuple[float, float]:
     if domain is not None:
         d = as_array(domain, "domain", shape=(2,))
+        if not d[0] < d[1]:  # (a reversed one was reported as "`t` strictly increasing")
+            raise ValueError(f"Expected `domain` = (t0, t1) with t0 < t1, got {short(domain)}.")
         return float(d[0]), float(d[1])
     if isinstance(spine, BSpline):
         return float(spine.t[spine.k]), float(spine.t[-spine.k - 1])
     if isinstance(spine, PPoly):
         return float(spine.x[0]), float(spine.x[-1])
+    if not callable(spine):  # (an array of points was asked for a domain, as if callable)
+        _spine_eval(spine, np.zeros(1), 0)  # (its TypeError)
     raise ValueError("Expected `domain` = (t0, t1) for a callable spine.")
 
 
@@ -299,9 +303,11 @@ class SweepSurface:
         return self.homogeneous[..., 3]
 
     def evaluate(self, s: Any, t: Any) -> np.ndarray:
-        """Surface points (T, S, 3) at profile parameters s (S,) and times t (T,)."""
-        ss = as_array(s, "s", ndim=1)
-        tt = as_array(t, "t", ndim=1)
+        """Surface points (T, S, 3) at profile parameters s (S,) and times t (T,); a scalar
+        s or t drops its axis, as a scalar time does in ``Motion.pose``."""
+        drop = tuple(i for i, x in enumerate((t, s)) if np.ndim(x) == 0)
+        ss = as_array(np.atleast_1d(s) if np.ndim(s) == 0 else s, "s", ndim=1)
+        tt = as_array(np.atleast_1d(t) if np.ndim(t) == 0 else t, "t", ndim=1)
         for name, x, kn, k in (
             ("s", ss, self.knots_s, self.degree_s),
             ("t", tt, self.knots_t, self.degree_t),
@@ -324,7 +330,7 @@ class SweepSurface:
         # two matrix products (a plain three-operand einsum loops over every index)
         h = np.tensordot(bt, np.tensordot(self.homogeneous, bs, axes=(1, 1)), axes=(1, 0))
         h = np.moveaxis(h, 2, 1)  # (T, S, 4)
-        return h[..., :3] / h[..., 3:]
+        return np.squeeze(h[..., :3] / h[..., 3:], axis=drop)
 
     def to_mesh(
         self, tolerance: float, *, max_vertices: int = MAX_MESH_VERTICES
@@ -445,7 +451,7 @@ def sweep_surface(profile: Any, motion: RationalMotion) -> SweepSurface:
     w = np.ones(len(pts)) if profile[3] is None else as_array(profile[3], "profile[3]", ndim=1)
     if w.shape != (len(pts),) or np.any(w <= 0):
         raise ValueError(
-            f"Expected `profile[3]` to be {len(pts)} positive weights, got {short(w)}."
+            f"Expected `profile[3]` to be {len(pts)} positive weights, got {w.size}: {short(w)}."
         )
     n, knots_t, mats = motion.bspline_form()  # mats (S n + 1, 4, 4)
     hp = np.concatenate([pts * w[:, None], w[:, None]], axis=1)  # (m, 4)

@@ -83,6 +83,15 @@ def test_rmf_approximation_converges_at_fourth_order():
     assert m.preimage_degree == 3 and m.scheme == "rational-hermite"
 
 
+def test_rmf_motion_names_a_spine_of_points_and_a_reversed_domain():
+    # a trial: an array of points was asked for a `domain` as a callable spine, and a
+    # reversed domain was reported as "`t` strictly increasing"
+    with pytest.raises(TypeError, match=r"`spine` to be a scipy BSpline/PPoly .* got ndarray"):
+        motions.rmf_motion(np.zeros((5, 3)), 4)
+    with pytest.raises(ValueError, match=r"`domain` = \(t0, t1\) with t0 < t1, got \[1"):
+        motions.rmf_motion(lambda t, nu: np.zeros((len(t), 3)), 4, domain=(1.0, 0.0))
+
+
 def test_rmf_error_samples_are_checked():
     sp = helix()
     m = motions.rmf_motion(sp, 8)
@@ -123,6 +132,10 @@ def test_sweep_surface_is_the_moved_profile(preimage, tmp_path):
         np.linalg.norm(curve[:, 1:], axis=1), 0.2, atol=1e-15
     )  # exact circle
     np.testing.assert_allclose(surf.evaluate(s, t), f.transform(curve, t), atol=1e-12)
+    # scalars drop their axis, as a scalar time does in pose (a trial's scalars were refused)
+    np.testing.assert_allclose(surf.evaluate(s[3], t), f.transform(curve, t)[:, 3], atol=1e-12)
+    np.testing.assert_allclose(surf.evaluate(s, t[5]), f.transform(curve, t)[5], atol=1e-12)
+    np.testing.assert_allclose(surf.evaluate(s[3], t[5]), f.transform(curve, t)[5, 3], atol=1e-12)
     v, faces = surf.to_mesh(1e-2)
     assert faces.max() < len(v) and faces.min() >= 0
     path = surf.to_obj(tmp_path / "sweep.obj", tolerance=1e-2)
@@ -213,6 +226,8 @@ def test_bad_input(preimage):
         motions.sweep_surface((2, [0, 0, 0.5, 1, 1, 1.0], np.zeros((3, 3)), None), f)
     with pytest.raises(ValueError, match="positive weights"):
         motions.sweep_surface((1, [0, 0, 1, 1.0], np.zeros((2, 3)), [1.0, -1.0]), f)
+    with pytest.raises(ValueError, match="2 positive weights, got 3: "):  # (how many given)
+        motions.sweep_surface((1, [0, 0, 1, 1.0], np.zeros((2, 3)), [1.0, 1.0, 1.0]), f)
     surf = motions.sweep_surface((1, [0, 0, 1, 1.0], np.eye(3)[:2], None), f)
     with pytest.raises(ValueError, match="tolerance"):
         surf.to_mesh(0.0)

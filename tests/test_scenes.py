@@ -219,7 +219,11 @@ def test_physics_smoothness_checks_its_arguments():
         physics_smoothness(df, m, "payload")
     with pytest.raises(TypeError, match="`carried`"):
         physics_smoothness(df, m, None)
-    with pytest.raises(ValueError, match=r"`frame` .*missing \['nope_force'"):
+    # (a body the recording does not carry is named as such, with those it carries)
+    with pytest.raises(
+        ValueError,
+        match=r"`carried` to name bodies the recording carries \['payload'\], got 'nope'",
+    ):
         physics_smoothness(df, m, ["nope"])
     unrecorded = simulate(sc, m, duration=0.2, record=False)
     with pytest.raises(ValueError, match=r"record=True.*missing \['payload_force'"):
