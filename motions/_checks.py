@@ -157,7 +157,15 @@ def as_rotations(x: Any, name: str = "rotations") -> np.ndarray:
             i = int(bad[0])
             raise ValueError(
                 f"Expected `{name}` to be rotation matrices (R^T R = I within {ROTATION_TOL:g},"
-                f" det 1), got |R^T R - I| = {err[i]:.3g}, det = {det[i]:.6g} at index {i}."
+                f" det 1), got |R^T R - I| = {err[i]:.3g}, det = {det[i]:.6g} at index {i}"
+                + (
+                    # (a trial's matrices rounded to 4 decimals: say how to mend them)
+                    "; rounded matrices can be made orthonormal first, e.g. by scipy's"
+                    " Rotation.from_matrix(R).as_quat(scalar_first=True) (quaternions are"
+                    " normalised for you)."
+                    if det[i] > 0 and err[i] < 0.1
+                    else "."
+                )
             )
         return quat_from_matrix(a)
     raise ValueError(

@@ -433,3 +433,20 @@ def test_a_small_jump_at_an_angle_to_the_offsets_slope_is_measured():
     # two offsets cannot give the limit to better than o1 o2: no figure
     two = motions.smoothness(m, offsets=(1e-3, 1e-4), invariance=False)
     assert np.isnan(two["knot_jump_angular_acceleration"])
+
+
+def test_rounded_rotation_matrices_are_refused_with_a_way_to_mend_them():
+    # a trial: matrices rounded to 4 decimals were refused without a hint
+    from scipy.spatial.transform import Rotation
+
+    rot = Rotation.random(4, random_state=1)
+    rounded = np.round(rot.as_matrix(), 4)
+    p = np.arange(12.0).reshape(4, 3)
+    with pytest.raises(ValueError, match=r"R\^T R = I within .* rounded matrices can be made"):
+        interpolate(rounded, p)
+    mended = Rotation.from_matrix(rounded).as_quat(scalar_first=True)  # the hint, followed
+    r, _ = interpolate(mended, p).pose(np.array([0.0]))
+    np.testing.assert_allclose(r[0], rot.as_matrix()[0], atol=1e-3)
+    mirrored = rot.as_matrix() * np.array([1.0, 1.0, -1.0])[:, None]  # det -1: no such hint
+    with pytest.raises(ValueError, match=r"det = -1 at index 0\.$"):
+        interpolate(mirrored, p)
