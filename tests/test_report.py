@@ -1271,7 +1271,8 @@ def test_a_repairs_success_is_keeping_the_requested_clearance():
     (line,) = [x for x in headline(pd.DataFrame(rows + more)) if "sampled repair" in x["figure"]]
     assert "still collide 1, below clearance 2" in line["value"]
     assert (
-        "of its 12 claims the ground truth confirms 10 free (6 keep the clearance)" in line["basis"]
+        "of its 12 claims the ground truth proves 10 free, 6 of them with the clearance kept,"
+        " and cannot decide 3 (whether free, or whether the clearance is kept)" in line["basis"]
     )
     # the headline of a study that repaired nothing says so, not "moved by nan m"
     refused = pd.DataFrame([dict(rows[-1], case=k) for k in range(3)])

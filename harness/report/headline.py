@@ -172,11 +172,18 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
             else f"{r['motions']} motions ({r['colliding']} colliding)"
         )
         refused = int(r["motions"]) - int(r["claimed_all"])
-        keeps = f" ({r['keeps_clearance']} keep the clearance)" if float(r["clearance"]) > 0 else ""
+        # (a trial found "confirms 1 free (0 keep the clearance) and cannot decide 1" hard
+        # to parse: say of which the clearance is kept, and what undecided means)
+        keeps = (
+            f", {r['keeps_clearance']} of them with the clearance kept"
+            if float(r["clearance"]) > 0
+            else ""
+        )
         # (every count over its claims, claimed_all; `claimed` is the repairable ones')
         checked = (
-            f"of its {r['claimed_all']} claims the ground truth confirms {r['truly_free']}"
-            f" free{keeps} and cannot decide {r['truth_undecided']}"
+            f"of its {r['claimed_all']} claims the ground truth proves {r['truly_free']}"
+            f" free{keeps}, and cannot decide {r['truth_undecided']} (whether free, or"
+            " whether the clearance is kept)"
         )
         if r["method"] == "certified":
             value = (
