@@ -149,16 +149,6 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     for g in obst:
         counts[kind(g)] = counts.get(kind(g), 0) + 1
     print(f"obstacles: {len(obst)} static colliding geom{'s' * (len(obst) != 1)} {counts}")
-    gname = lambda g: model.geom(g).name or f"#{g}"  # noqa: E731
-    if len(obst):
-        print(f"  {[gname(g) for g in obst]}")
-    # (a trial's visual-only post was left out without a word: say which, and how to add one)
-    quiet = np.setdiff1d(static_geoms(model), obst)
-    if quiet.size:
-        print(
-            f"static geoms MuJoCo does not collide: {[gname(g) for g in quiet]} (obstacles"
-            " only when named: harness.obstacles_from_model(model, names=[...]))"
-        )
     unusable = unusable_obstacles(model)
     if unusable:
         why = ", ".join(f"{model.geom(g).name or f'#{g}'!r} ({r})" for g, r in unusable.items())
@@ -172,6 +162,16 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
         print(
             f"  of which {n} cannot be {'an obstacle' if n == 1 else 'obstacles'}, so"
             f" harness.obstacles_from_model refuses the model: {why}{supported}"
+        )
+    gname = lambda g: model.geom(g).name or f"#{g}"  # noqa: E731
+    if len(obst):
+        print(f"  by name: {[gname(g) for g in obst]}")
+    # (a trial's visual-only post was left out without a word: say which, and how to add one)
+    quiet = np.setdiff1d(static_geoms(model), obst)
+    if quiet.size:
+        print(
+            f"static geoms MuJoCo does not collide: {[gname(g) for g in quiet]} (obstacles"
+            " only when named: harness.obstacles_from_model(model, names=[...]))"
         )
     moving = moving_geoms(model)
     if moving.size:

@@ -852,5 +852,5 @@ def test_scenes_lists_obstacles_by_name_and_the_static_geoms_left_out(tmp_path, 
     path.write_text(POST_XML)
     assert main(["scenes", str(path)]) == 0
     out = capsys.readouterr().out
-    assert "  ['table']" in out
+    assert "  by name: ['table']" in out
     assert "static geoms MuJoCo does not collide: ['post']" in out
