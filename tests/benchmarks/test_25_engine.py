@@ -347,7 +347,11 @@ def _kernel_alone(w) -> tuple[tuple[int, int, int], float]:
 def test_kernel_time_per_evaluation(benchmark, workload):
     """Kernel CPU time (the launch alone, one thread) per bound evaluation and pose test,
     and its floating-point rate from an operation count of the kernel's code (constants
-    above, counted by hand from _refine_kernels/_geometry; an estimate, stated as such)."""
+    above, counted by hand from _refine_kernels/_geometry; an estimate, stated as such),
+    against one core's measured peak (``peak.py``: FMA chains, scalar and vector), and the
+    rate that 300 ns per evaluation (the §9 target) would take at the same count."""
+    from tests.benchmarks.peak import core_peak
+
     w = workload
     (nodes, tests, supports), sec = _kernel_alone(w)
     k = 10  # control matrices per piece (degree 9, the cubic translation mode)
@@ -368,7 +372,14 @@ def test_kernel_time_per_evaluation(benchmark, workload):
         "ns_per_evaluation": sec / (nodes + tests) * 1e9,
         "evaluations_per_second_one_thread": (nodes + tests) / sec,
         "gflops_estimate": flops / sec / 1e9,
+        "flops_per_evaluation": flops / (nodes + tests),
+        "gflops_for_300_ns": flops / (nodes + tests) / 300.0,
     }
+    peak = core_peak()
+    if peak is not None:  # (no C compiler: the kernel's own figures only)
+        info["core_peak_gflops"] = peak
+        info["share_of_scalar_peak"] = info["gflops_estimate"] / peak["scalar"]
+        info["share_of_vector_peak"] = info["gflops_estimate"] / max(peak.values())
     benchmark.extra_info.update(info)
     print("\n" + json.dumps(info, indent=1))
     benchmark.pedantic(lambda: None, rounds=1, iterations=1)

@@ -1,0 +1,55 @@
+"""One core's double-precision peak, measured: ``peak.c`` (12 independent FMA chains in
+registers, scalar and 4- and 8-wide vectors, best of 5 by process CPU time) built with the
+C compiler at ``-O2 -march=native``, so that the engine's kernel figures can be read
+against the core they run on (DESIGN §9 "Kernel efficiency": GFLOP/s against the core's
+peak). Optional: :func:`core_peak` returns None without a compiler.
+
+On the AMD EPYC (Zen 4) machines of 2026-12: 14.7 GFLOP/s scalar (two FMA pipes at a
+boost clock of ~3.7 GHz), 58.7 with 4-wide vectors and the same with 8-wide (Zen 4 runs
+AVX-512 as two 256-bit halves).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+__all__ = ["core_peak"]
+
+SOURCE = Path(__file__).with_name("peak.c")
+FLAGS = ["-O2", "-march=native", "-ffp-contract=fast"]
+
+
+def _build() -> Path | None:
+    cc = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
+    if cc is None:
+        return None
+    cmd = [cc, *FLAGS, str(SOURCE)]
+    key = hashlib.sha256(SOURCE.read_bytes() + " ".join(cmd).encode()).hexdigest()[:16]
+    cache = Path(os.environ.get("RSMBENCH_CACHE", Path.home() / ".cache/rsmbench"))
+    out = cache / "peak" / key / "peak"
+    if out.is_file():
+        return out
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_suffix(f".{os.getpid()}.tmp")
+    if subprocess.run([*cmd, "-o", str(tmp)], capture_output=True).returncode != 0:
+        tmp.unlink(missing_ok=True)
+        return None
+    os.replace(tmp, out)
+    return out
+
+
+def core_peak(iterations: int = 20_000_000) -> dict[str, float] | None:
+    """GFLOP/s of one core: {"scalar", "vec4", "vec8"} (an FMA counts as 2), or None."""
+    exe = _build()
+    if exe is None:
+        return None
+    out = subprocess.run([str(exe), str(iterations)], capture_output=True, text=True, check=True)
+    return {line.split()[0]: float(line.split()[1]) for line in out.stdout.splitlines()}
+
+
+if __name__ == "__main__":
+    print(core_peak())
