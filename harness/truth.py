@@ -93,13 +93,15 @@ BRACKET_WIDTH = 2.0**-20
 
 
 def _bracket_contact(dist: _Distances, intervals: list, hit: float) -> tuple[float, float, int]:
-    """(toi_lo, toi_hi, poses evaluated): a proven bracket of the first contact, from the sampling's first
-    intersecting sample `hit` and the `intervals` before it not proven free, (a, b, lo_a,
-    lo_b, V) in time order (lo: lower bounds of the exact distance at a and b; V the speed
-    bound there). Depth first, earliest first: an interval is free where ``lo_a + lo_b >
-    V (b - a)``; else its midpoint is sampled, and an intersecting midpoint becomes the
-    new `hit` (what lies after it no longer matters). toi_lo is the start of the earliest
-    interval left undecided (narrower than :data:`BRACKET_WIDTH` of its spacing, or once
+    """(toi_lo, toi_hi, poses evaluated): a proven bracket of the first contact, from the
+    sampling's first intersecting sample `hit` and the `intervals` before it not proven
+    free, (a, b, lo_a, lo_b, V) in time order (lo: lower bounds of the exact distance at
+    a and b, less ε; V the speed bound there).
+
+    Depth first, earliest first: an interval is free where ``lo_a + lo_b > V (b - a)``;
+    else its midpoint is sampled, and an intersecting midpoint becomes the new `hit`
+    (what lies after it no longer matters). toi_lo is the start of the earliest interval
+    left undecided (narrower than :data:`BRACKET_WIDTH` of its spacing, or once
     :data:`BRACKET_EVALUATIONS` poses are spent); where the contact is transversal the
     bracket closes to about that width.
 
@@ -192,9 +194,9 @@ def ground_truth(
         (the intervals not proven free before that sample, earliest first, up to
         :data:`BRACKET_EVALUATIONS` poses), so that where the contact is transversal they
         bracket it to about :data:`BRACKET_WIDTH` of a sample spacing, not one spacing
-        (the first contact is in ``[toi_lo, toi_hi]``, not at ``toi_hi``), ``clearance`` a proven lower bound on the
-        minimum distance (free; below the true minimum by at most
-        `resolution`), ``penetration`` the largest proven depth, ``obstacle`` the index
+        (the first contact is in ``[toi_lo, toi_hi]``, not at ``toi_hi``);
+        ``clearance`` a proven lower bound on the minimum distance (free; below the true
+        minimum by at most `resolution`), ``penetration`` the largest proven depth, ``obstacle`` the index
         of an obstacle the pose at ``toi_hi`` is proven to intersect (as ``certify``'s).
 
     Raises:
