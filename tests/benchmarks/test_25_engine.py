@@ -479,7 +479,8 @@ def test_batch_size_scaling(benchmark, workload, tmp_path):
             )  # fmt: skip (Warp may print before it)
             n, cost, before, _first, after = int(out[0]), float(out[1]), *map(int, out[2:])
             per.setdefault(n, []).append(cost)
-            rss[n] = max(rss.get(n, (0, 0)), (after, after - before))
+            old = rss.get(n, (0, 0))  # (the largest of each over the rounds)
+            rss[n] = (max(old[0], after), max(old[1], after - before))
     rows = {
         n: {
             "us_per_pair_cpu": float(np.median(v)) * 1e6,
