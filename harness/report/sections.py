@@ -226,7 +226,7 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
     if not len(both):
         doc.p(
             f"(No collision case with a proven truth: no TOI-error figure.{left_out} {late}"
-            " row(s) had toi_lo later than the ground truth's first intersecting sample.)"
+            " row(s) had toi_lo later than the ground truth's earliest pose proven to intersect (toi_true).)"
         )
         return
     dur = numeric(both, "duration")
@@ -286,14 +286,14 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
     doc.figure(
         fig,
         "toi_error",
-        f"Time-of-contact error of collision verdicts whose truth is a proven collision: |toi_lo minus the ground truth's first intersecting sample|, {'as a fraction of the motion duration' if relative else 'in motion parameter units'}, log scale; n per box{f' (each box pools the schemes its bound answers, so the boxes are not the same motions: {pooled})' if pooled else ''}. A certified toi_lo never lies after the true contact: {late} row(s) had toi_lo later than the ground truth's first intersecting sample.{bracket}{left_out}",
+        f"Time-of-contact error of collision verdicts whose truth is a proven collision: |toi_lo minus the ground truth's earliest pose proven to intersect (toi_true)|, {'as a fraction of the motion duration' if relative else 'in motion parameter units'}, log scale; n per box{f' (each box pools the schemes its bound answers, so the boxes are not the same motions: {pooled})' if pooled else ''}. A certified toi_lo never lies after the true contact: {late} row(s) had toi_lo later than the ground truth's earliest pose proven to intersect (toi_true).{bracket}{left_out}",
     )
     # the figure's numbers as a table (a researcher's trial: a paper quotes n, median, max)
     unit = "fraction of the duration" if relative else "parameter units"
     t = pd.DataFrame(rows)
     doc.table(
         t,
-        f"The time-of-contact errors of the figure above, per bound: |toi_lo − true first contact| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's first intersecting sample (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''}{bracket}{left_out}",
+        f"The time-of-contact errors of the figure above, per bound: |toi_lo − true first contact| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's earliest pose proven to intersect (toi_true) (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''}{bracket}{left_out}",
         "toi_error",
         data=t.rename(
             columns={
