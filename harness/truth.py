@@ -92,28 +92,50 @@ BRACKET_WIDTH = 2.0**-20
 """Width, relative to its sample spacing, below which a bisected interval is not split."""
 
 
-def _bracket_contact(dist: _Distances, intervals: list, hit: float) -> tuple[float, float, int]:
+def _bracket_contact(
+    dist: _Distances, intervals: list, hit: float, before: float | None
+) -> tuple[float, float, int]:
     """(toi_lo, toi_hi, poses evaluated): a proven bracket of the first contact, from the
-    sampling's first intersecting sample `hit` and the `intervals` before it not proven
-    free, (a, b, lo_a, lo_b, V) in time order (lo: lower bounds of the exact distance at
-    a and b, less ε; V the speed bound there).
+    sampling's first intersecting sample `hit`, the sample `before` it (not proven to
+    intersect; None when `hit` is the first sample) and the `intervals` before `hit` not
+    proven free, (a, b, lo_a, lo_b, V) in time order (lo: lower bounds of the exact
+    distance at a and b, less ε; V the speed bound there).
 
-    Depth first, earliest first: an interval is free where ``lo_a + lo_b > V (b - a)``;
-    else its midpoint is sampled, and an intersecting midpoint becomes the new `hit`
-    (what lies after it no longer matters). toi_lo is the start of the earliest interval
-    left undecided (narrower than :data:`BRACKET_WIDTH` of its spacing, or once
-    :data:`BRACKET_EVALUATIONS` poses are spent); where the contact is transversal the
-    bracket closes to about that width.
+    First toi_hi: the poses between `before` and `hit` bisected (an intersecting midpoint
+    is the new `hit`), to :data:`BRACKET_WIDTH` of that spacing: a crossing into the
+    obstacle found that closely, whatever the speed bound. Then toi_lo, depth first,
+    earliest first: an interval is free where ``lo_a + lo_b > V (b - a)``; else its
+    midpoint is sampled (an intersecting one is the new `hit`: what lies after it no
+    longer matters). toi_lo is the start of the earliest interval left undecided, narrower
+    than :data:`BRACKET_WIDTH` of its spacing, or once :data:`BRACKET_EVALUATIONS` poses
+    are spent. How close that comes depends on how loose V is: where the distance closes
+    at rate r, proving intervals free up to δ before the contact takes ~(V / 2r) ln(spacing
+    / δ) poses, so the budget reaches ~1e-5 of a spacing for V / r up to ~20, and no
+    closer than a spacing for V / r ~ 200 (a review's sphere meeting a plate at 0.3°).
 
     Both ends stay proofs: before toi_lo every interval is proven free, and the pose at
     toi_hi is proven to intersect."""
+    evals = 0
+    if before is not None:
+        a, floor = before, BRACKET_WIDTH * (hit - before)
+        while hit - a > floor and evals < BRACKET_EVALUATIONS:
+            mid = 0.5 * (a + hit)
+            if not a < mid < hit:
+                break
+            _lm, hm, em = _at(dist, mid)
+            evals += 1
+            if hm < -em:
+                hit = mid
+            else:
+                a = mid
     lo_t = hit
     stack = [(a, b, la, lb, v, BRACKET_WIDTH * (b - a)) for a, b, la, lb, v in intervals[::-1]]
-    evals = 0
     while stack:
         a, b, la, lb, v, floor = stack.pop()
         if a >= hit:
             continue
+        if b > hit:  # (the interval that held the first intersecting sample)
+            b, lb = hit, -math.inf
         if la + lb - v * (b - a) > 0:
             continue  # proven free (lo already less ε)
         mid = 0.5 * (a + b)
@@ -123,7 +145,7 @@ def _bracket_contact(dist: _Distances, intervals: list, hit: float) -> tuple[flo
                 lo_t = min([lo_t] + [x[0] for x in stack])
                 break
             continue
-        lm, hm, em = (float(x[0]) if np.ndim(x) else float(x) for x in dist(np.array([mid])))
+        lm, hm, em = _at(dist, mid)
         evals += 1
         if hm < -em:
             hit = mid  # intersecting: only [a, mid] can hold an earlier contact
@@ -133,6 +155,12 @@ def _bracket_contact(dist: _Distances, intervals: list, hit: float) -> tuple[flo
         stack.append((mid, b, lm - em, lb, v, floor))
         stack.append((a, mid, la, lm - em, v, floor))
     return float(min(lo_t, hit)), float(hit), evals
+
+
+def _at(dist: _Distances, t: float) -> tuple[float, float, float]:
+    """(lo, hi, ε) of :func:`sample_distances` at one time."""
+    lo, hi, eps = dist(np.array([t]))
+    return float(lo[0]), float(hi[0]), float(eps)
 
 
 def _pair_eps(md: MujocoDistance, reach: float) -> np.ndarray:
@@ -191,10 +219,11 @@ def ground_truth(
         ``toi_hi`` a pose proven to intersect and ``toi_lo`` a proven lower bound of the
         first contact (every pose before it is proven free): the first intersecting sample
         and the start of the first interval not proven free, then bisected between them
-        (the intervals not proven free before that sample, earliest first, up to
-        :data:`BRACKET_EVALUATIONS` poses), so that where the contact is transversal they
-        bracket it to about :data:`BRACKET_WIDTH` of a sample spacing, not one spacing
-        (the first contact is in ``[toi_lo, toi_hi]``, not at ``toi_hi``);
+        (:func:`_bracket_contact`, up to :data:`BRACKET_EVALUATIONS` poses): toi_hi to
+        :data:`BRACKET_WIDTH` of a sample spacing of a crossing into the obstacle, toi_lo
+        as close as the speed bound allows within that budget (~1e-5 of a spacing where
+        it is within ~20 times the rate at which the distance closes); the first contact
+        is in ``[toi_lo, toi_hi]``, not at ``toi_hi``;
         ``clearance`` a proven lower bound on the minimum distance (free; below the true
         minimum by at most `resolution`), ``penetration`` the largest proven depth, ``obstacle`` the index
         of an obstacle the pose at ``toi_hi`` is proven to intersect (as ``certify``'s).
@@ -268,7 +297,10 @@ def ground_truth(
         # bisected: the first contact bracketed far more closely than a sample spacing
         bad = np.flatnonzero(~free_iv[:k])
         toi_lo, first_hit, evals = _bracket_contact(
-            dist, [(t[j], t[j + 1], lo[j] - eps, lo[j + 1] - eps, vi[j]) for j in bad], t[k]
+            dist,
+            [(t[j], t[j + 1], lo[j] - eps, lo[j + 1] - eps, vi[j]) for j in bad],
+            t[k],
+            t[k - 1] if k else None,
         )
         common["nodes"] += evals * sum(len(parts(o)) for o in obst) * len(parts(body))
         seconds = time.perf_counter() - start
