@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import platform
 import shutil
 import subprocess
 from pathlib import Path
@@ -23,12 +24,25 @@ SOURCE = Path(__file__).with_name("peak.c")
 FLAGS = ["-O2", "-march=native", "-ffp-contract=fast"]
 
 
+def _cpu() -> str:
+    """The host CPU's model and feature flags (a cached binary built with -march=native
+    must not run on another CPU sharing the home folder)."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        return platform.processor() or platform.machine()
+    keep = [x for x in lines if x.startswith(("model name", "flags"))]
+    return "\n".join(dict.fromkeys(keep))
+
+
 def _build() -> Path | None:
     cc = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
     if cc is None:
         return None
     cmd = [cc, *FLAGS, str(SOURCE)]
-    key = hashlib.sha256(SOURCE.read_bytes() + " ".join(cmd).encode()).hexdigest()[:16]
+    key = hashlib.sha256(
+        SOURCE.read_bytes() + " ".join(cmd).encode() + _cpu().encode()
+    ).hexdigest()[:16]
     cache = Path(os.environ.get("RSMBENCH_CACHE", Path.home() / ".cache/rsmbench"))
     out = cache / "peak" / key / "peak"
     if out.is_file():
@@ -43,7 +57,8 @@ def _build() -> Path | None:
 
 
 def core_peak(iterations: int = 20_000_000) -> dict[str, float] | None:
-    """GFLOP/s of one core: {"scalar", "vec4", "vec8"} (an FMA counts as 2), or None."""
+    """GFLOP/s of one core: {"scalar", "vec4", "vec8"} (an FMA counts as 2; a vector
+    width the CPU lacks is left out), or None without a C compiler or when it fails."""
     exe = _build()
     if exe is None:
         return None

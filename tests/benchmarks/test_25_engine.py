@@ -376,7 +376,7 @@ def test_kernel_time_per_evaluation(benchmark, workload):
         "gflops_for_300_ns": flops / (nodes + tests) / 300.0,
     }
     peak = core_peak()
-    if peak is not None:  # (no C compiler: the kernel's own figures only)
+    if peak is not None:  # (no C compiler, or it failed: the kernel's own figures only)
         info["core_peak_gflops"] = peak
         info["share_of_scalar_peak"] = info["gflops_estimate"] / peak["scalar"]
         info["share_of_vector_peak"] = info["gflops_estimate"] / max(peak.values())
@@ -449,8 +449,8 @@ def test_batch_size_scaling(benchmark, workload, tmp_path):
 
     The sizes alternate over `BATCH_ROUNDS` rounds of fresh processes (1e3 1e4 1e5, then
     1e5 1e4 1e3, ...), so that a slow moment of the shared machine does not fall on one
-    size alone, and each process times about as many pairs (40 calls of 1e3, 8 of 1e4, 4
-    of 1e5), so that the small batch's median is not that of four calls of ~10 ms. The
+    size alone, and the small batch is timed 40 times (1e4 and 1e5: 4 times), so that its
+    median is not that of four calls of ~10 ms. The
     ratio is of the medians over rounds; the ratio of each round's pair is listed beside
     it (a single round's ratio on this machine ranged 0.78-1.17 on unchanged code)."""
     path = tmp_path / "w.pkl"
