@@ -171,7 +171,8 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
     if quiet.size:
         print(
             f"static geoms MuJoCo does not collide: {[gname(g) for g in quiet]} (obstacles"
-            " only when named: harness.obstacles_from_model(model, names=[...]))"
+            " only when chosen by name: harness.obstacles_from_model(model, names=[...]);"
+            " an unnamed one, #N, needs a name in the model)"
         )
     moving = moving_geoms(model)
     if moving.size:

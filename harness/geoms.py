@@ -442,8 +442,13 @@ def _named_static_geoms(model: mujoco.MjModel, names: Any) -> np.ndarray:
         raise TypeError(f"Expected `names` to be a list of geom names, got {short(names)}.")
     names = list(names)
     static = _static_bodies(model)
-    usable = sorted(_name(model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in static_geoms(model))
-    usable = f"{usable[:20]}{' and more' if len(usable) > 20 else ''}"
+    # (only named geoms can be chosen by name: a review found '#1' offered, then refused)
+    ids = static_geoms(model)
+    named = sorted(n for g in ids if (n := mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g)))
+    unnamed = len(ids) - len(named)
+    usable = f"{named[:20]}{' and more' if len(named) > 20 else ''}" + (
+        f" ({unnamed} unnamed: give a geom a name in the model to choose it)" if unnamed else ""
+    )
     if not names:
         raise ValueError(
             f"Expected `names` to name at least one geom, got an empty list (every motion"

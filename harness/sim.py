@@ -343,10 +343,8 @@ def _check_smoothness_args(frame: Any, motion: Any, carried: Any, window: Any) -
     missing = [c for c in needed if c not in frame.columns]
     # a body the recording carries none of: named as unknown (a trial read "missing
     # columns" for a misspelt body)
-    recorded = sorted(
-        str(c)[: -len("_force")]
-        for c in frame.columns
-        if str(c).endswith("_force") and not str(c).endswith("_contact_force")
+    recorded = sorted(  # (by their accelerations: a body may be named "x_contact")
+        str(c)[: -len("_acc_x")] for c in frame.columns if str(c).endswith("_acc_x")
     )
     unknown = [c for c in carried if f"{c}_force" not in frame.columns]
     if unknown and recorded:

@@ -833,6 +833,13 @@ def test_obstacles_chosen_by_name_include_visual_geoms_and_refuse_typos():
         obstacles_from_model(model, names="post")
     with pytest.raises(ValueError, match="`names` or `groups`, not both"):
         obstacles_from_model(model, names=["post"], groups=[2])
+    # an unnamed geom cannot be chosen by name: counted, not offered as '#1' (a review)
+    bare = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><geom name="table" type="box" size="1 1 .1"/>'
+        '<geom type="box" size=".1 .1 .1" contype="0" conaffinity="0"/></worldbody></mujoco>'
+    )
+    with pytest.raises(ValueError, match=r"static geoms: \['table'\] \(1 unnamed: give a geom"):
+        obstacles_from_model(bare, names=["#1"])
 
 
 def _posed(model, r, p):

@@ -1274,6 +1274,13 @@ def test_a_repairs_success_is_keeping_the_requested_clearance():
         "of its 12 claims the ground truth proves 10 free, 6 of them with the clearance kept,"
         " and cannot decide 3 (whether free, or whether the clearance is kept)" in line["basis"]
     )
+    # without a clearance asked for, undecided means undecided whether free, nothing more
+    (line,) = [
+        x
+        for x in headline(pd.DataFrame([dict(r, clearance=0.0) for r in rows + more]))
+        if "sampled repair" in x["figure"]
+    ]
+    assert "cannot decide 1 (whether free)" in line["basis"], line["basis"]  # (case 22)
     # the headline of a study that repaired nothing says so, not "moved by nan m"
     refused = pd.DataFrame([dict(rows[-1], case=k) for k in range(3)])
     (line,) = headline(refused)

@@ -182,8 +182,8 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
         # (every count over its claims, claimed_all; `claimed` is the repairable ones')
         checked = (
             f"of its {r['claimed_all']} claims the ground truth proves {r['truly_free']}"
-            f" free{keeps}, and cannot decide {r['truth_undecided']} (whether free, or"
-            " whether the clearance is kept)"
+            f" free{keeps}, and cannot decide {r['truth_undecided']} (whether free"
+            f"{', or whether the clearance is kept' if keeps else ''})"
         )
         if r["method"] == "certified":
             value = (

@@ -278,9 +278,9 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
     ax.boxplot(data)
     ax.set_xticks(range(1, len(bounds) + 1), labels, fontsize=7)
     ax.set_ylabel(
-        "log10 |toi_lo − true first contact| / duration"
+        "log10 |toi_lo − toi_true| / duration"
         if relative
-        else "log10 |toi_lo − true first contact| (parameter units)"
+        else "log10 |toi_lo − toi_true| (parameter units)"
     )
     ax.set_xlabel("bound")
     doc.figure(
@@ -293,7 +293,7 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
     t = pd.DataFrame(rows)
     doc.table(
         t,
-        f"The time-of-contact errors of the figure above, per bound: |toi_lo − true first contact| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's earliest pose proven to intersect (toi_true) (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''}{bracket}{left_out}",
+        f"The time-of-contact errors of the figure above, per bound: |toi_lo − toi_true| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's earliest pose proven to intersect (toi_true) (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''}{bracket}{left_out}",
         "toi_error",
         data=t.rename(
             columns={
