@@ -11,12 +11,13 @@ AVX-512 as two 256-bit halves).
 
 from __future__ import annotations
 
-import hashlib
 import os
 import platform
 import shutil
 import subprocess
 from pathlib import Path
+
+from .compiled_ca.build import cached_compile
 
 __all__ = ["core_peak"]
 
@@ -40,20 +41,8 @@ def _build() -> Path | None:
     if cc is None:
         return None
     cmd = [cc, *FLAGS, str(SOURCE)]
-    key = hashlib.sha256(
-        SOURCE.read_bytes() + " ".join(cmd).encode() + _cpu().encode()
-    ).hexdigest()[:16]
-    cache = Path(os.environ.get("RSMBENCH_CACHE", Path.home() / ".cache/rsmbench"))
-    out = cache / "peak" / key / "peak"
-    if out.is_file():
-        return out
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_suffix(f".{os.getpid()}.tmp")
-    if subprocess.run([*cmd, "-o", str(tmp)], capture_output=True).returncode != 0:
-        tmp.unlink(missing_ok=True)
-        return None
-    os.replace(tmp, out)
-    return out
+    # (keyed by the host CPU too: -march=native)
+    return cached_compile(cmd, SOURCE.read_bytes() + _cpu().encode(), "peak/peak")
 
 
 def core_peak(iterations: int = 20_000_000) -> dict[str, float] | None:

@@ -24,7 +24,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-__all__ = ["build", "find_coal", "find_eigen"]
+__all__ = ["build", "cached_compile", "find_coal", "find_eigen"]
 
 SOURCE = Path(__file__).with_name("ca.cpp")
 FLAGS = ["-O3", "-DNDEBUG", "-std=c++17", "-fPIC", "-shared"]
@@ -77,9 +77,16 @@ def build(verbose: bool = False) -> Path | None:
         f"-Wl,-rpath,{prefix / 'lib'}",
         "-lcoal",
     ]
-    key = hashlib.sha256(SOURCE.read_bytes() + " ".join(map(str, cmd)).encode()).hexdigest()[:16]
+    return cached_compile(cmd, SOURCE.read_bytes(), "compiled_ca/libca.so", verbose)
+
+
+def cached_compile(cmd: list, source: bytes, name: str, verbose: bool = False) -> Path | None:
+    """Run the compiler command `cmd` (without ``-o``) once per `source` and command: its
+    output is ``RSMBENCH_CACHE/<folder of name>/<hash>/<file of name>``; None if it fails."""
+    key = hashlib.sha256(source + " ".join(map(str, cmd)).encode()).hexdigest()[:16]
     cache = Path(os.environ.get("RSMBENCH_CACHE", Path.home() / ".cache/rsmbench"))
-    out = cache / "compiled_ca" / key / "libca.so"
+    folder, file = name.split("/")
+    out = cache / folder / key / file
     if out.is_file():
         return out
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -87,10 +94,10 @@ def build(verbose: bool = False) -> Path | None:
     proc = subprocess.run([*cmd, "-o", str(tmp)], capture_output=True, text=True)
     if proc.returncode != 0:
         if verbose:
-            print(f"compiled_ca: g++ failed:\n{proc.stderr[-4000:]}")
+            print(f"{folder}: {cmd[0]} failed:\n{proc.stderr[-4000:]}")
         tmp.unlink(missing_ok=True)
         return None
-    os.replace(tmp, out)  # atomic: a concurrent build never sees half a library
+    os.replace(tmp, out)  # atomic: a concurrent build never sees half an output
     return out
 
 
