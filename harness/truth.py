@@ -223,10 +223,10 @@ def ground_truth(
         :data:`BRACKET_WIDTH` of a sample spacing of a crossing into the obstacle, toi_lo
         as close as the speed bound allows within that budget (~1e-5 of a spacing where
         it is within ~20 times the rate at which the distance closes); the first contact
-        is in ``[toi_lo, toi_hi]``, not at ``toi_hi``;
-        ``clearance`` a proven lower bound on the minimum distance (free; below the true
-        minimum by at most `resolution`), ``penetration`` the largest proven depth, ``obstacle`` the index
-        of an obstacle the pose at ``toi_hi`` is proven to intersect (as ``certify``'s).
+        is in ``[toi_lo, toi_hi]``, not at ``toi_hi``; ``clearance`` a proven lower bound
+        on the minimum distance (free; below the true minimum by at most `resolution`),
+        ``penetration`` the largest proven depth, ``obstacle`` the index of an obstacle
+        the pose at ``toi_hi`` is proven to intersect (as ``certify``'s).
 
     Raises:
         NoSpeedBoundError: the motion's scheme has no proven speed bound, so there is no
