@@ -465,7 +465,10 @@ def test_headline_has_units_spread_basis_and_ratios_from_rounds():
     # unproven sampled rows are not passes: only the proven collisions count
     samp = text["sampled false free (certify study)"]
     assert samp["value"] == "4/8"
-    assert "4 sampled rows with unproven truth are not counted" in samp["basis"]
+    assert "4 sampled rows with unproven truth (a scheme without" in samp["basis"]
+    # (and how many of the counted rows are certified: an audit read the line as covering
+    # every sampled row; here the synthetic rows are not certified)
+    assert "(0 of the 8 certified, also in the line above)" in samp["basis"], samp["basis"]
     # the certified line names the methods it counts (it said "hull, aabb, lipschitz"
     # whatever rows were there, certified sampled rows included)
     assert (
@@ -494,13 +497,15 @@ def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
     flipped = 0
     for r in rows:
         if r.get("mode") == "pair" and r["bound"] == "sampled" and flipped < 3:
-            r["verdict"] = "unknown"
+            r["verdict"], r["reason"] = "unknown", "depth" if flipped else "budget"
             flipped += 1
     text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
     for mode in ("batch", "single"):
         value = text[f"cost of sampled / cost of hull, {mode}"]["value"]
+        # (and why: an audit read aabb's 593 unknowns as indecision, not its depth limit)
         assert value.endswith(
-            f"sampled answered unknown on 3/{PAIRS} pairs, the hull on 0/{PAIRS})"
+            f"sampled answered unknown on 3/{PAIRS} pairs (reason depth 2, budget 1), the hull"
+            f" on 0/{PAIRS})"
         ), value
     assert "unknown" not in text["hull cost per pair, batch (one certify_many call)"]["value"]
     # single queries timed on the first k pairs count the unknowns among those (a trial:
@@ -510,13 +515,14 @@ def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
         if r.get("mode") == "single":
             r["pairs"] = k
         if r.get("mode") == "pair" and r["bound"] == "sampled" and r["pair"] == PAIRS - 1:
-            r["verdict"] = "unknown"  # (beyond the first k: batch only)
+            r["verdict"], r["reason"] = "unknown", "depth"  # (beyond the first k: batch only)
     text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
     assert text["cost of sampled / cost of hull, single"]["value"].endswith(
-        f"sampled answered unknown on 3/{k} pairs, the hull on 0/{k})"
+        f"sampled answered unknown on 3/{k} pairs (reason depth 2, budget 1), the hull on 0/{k})"
     )
     assert text["cost of sampled / cost of hull, batch"]["value"].endswith(
-        f"sampled answered unknown on 4/{PAIRS} pairs, the hull on 0/{PAIRS})"
+        f"sampled answered unknown on 4/{PAIRS} pairs (reason depth 3, budget 1), the hull"
+        f" on 0/{PAIRS})"
     )
 
 

@@ -14,6 +14,7 @@ import pandas as pd
 from ..timing import cpu_label, ratio_interval
 from .data import (
     EXTERNAL_PREFIX,
+    RAN,
     cheaper_text,
     column,
     first_repeat,
@@ -104,11 +105,19 @@ def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineL
         samp = cert[column(cert, "bound", "").astype(str) == "sampled"]
         if len(samp):
             r = rates(samp)
+            # (an audit read the line as covering every sampled row, while only rows of
+            # schemes with a proven speed bound have a proven truth: say how many of the
+            # counted rows are certified, and what the uncounted ones are)
+            counted = samp[
+                (column(samp, "truth", "").astype(str) == "collision")
+                & column(samp, "verdict", "").astype(str).isin(RAN)
+            ]
+            n_cert = int(flag(counted, "certified").sum())
             out.append(
                 _false_free_line(
                     "sampled false free (certify study)",
                     r,
-                    f"sampled verdicts against a proven collision truth (its certified rows are in the line above too); {r['truth not proven']} sampled rows with unproven truth are not counted as passes",
+                    f"sampled verdicts against a proven collision truth ({n_cert} of the {len(counted)} certified, also in the line above); {r['truth not proven']} sampled rows with unproven truth (a scheme without a proven speed bound has none) are not counted, neither as passes nor as misses",
                 )
             )
     wl = study_rows(df, "workload")
@@ -321,12 +330,13 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
             unknown += _disagreeing(o)
             u = part.get((name, tol, o["method"]))
             if u is not None:
-                hu = part.get((name, tol, "hull"), (0, u[1]))
+                hu = part.get((name, tol, "hull"), (0, u[1], ""))
                 numbers.update(unknown=u[0], pairs=u[1], hull_unknown=hu[0], hull_pairs=hu[1])
                 if u[0] > 0:
                     # a cost is only comparable with what it bought: say how often the
                     # method left the question open
-                    unknown += f"; {o['method']} answered unknown on {u[0]}/{u[1]} pairs, the hull on {hu[0]}/{hu[1]}"
+                    why = f" (reason {u[2]})" if u[2] else ""
+                    unknown += f"; {o['method']} answered unknown on {u[0]}/{u[1]} pairs{why}, the hull on {hu[0]}/{hu[1]}"
             out.append(
                 HeadlineLine(
                     figure=f"cost of {o['method']}{ext} / cost of hull, {mode}{which}",
@@ -349,10 +359,11 @@ def _disagreeing(row: pd.Series) -> str:
     return f"; single calls gave another verdict than the batch on {bad}/{int(row['pairs'])} pairs"
 
 
-def _workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple[int, int]]:
-    """(unknown verdicts, pairs) per (workload, tolerance, method) from the per-pair rows,
-    over the first `first` pairs of each workload if given (a trial's single-query line
-    counted the unknowns of all 1,000 pairs beside a timing of the first 100)."""
+def _workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple]:
+    """(unknown verdicts, pairs, their reasons as text) per (workload, tolerance, method)
+    from the per-pair rows, over the first `first` pairs of each workload if given (a
+    trial's single-query line counted the unknowns of all 1,000 pairs beside a timing of
+    the first 100)."""
     pair = wl[column(wl, "mode", "") == "pair"]
     if not len(pair) or any(k not in pair for k in ("keyframes", "tolerance", "bound", "verdict")):
         return {}
@@ -361,9 +372,19 @@ def _workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple
             return {}
         pair = pair[pd.to_numeric(pair["pair"], errors="coerce") < first]
     return {
-        key: (int((g["verdict"] == "unknown").sum()), len(g))
+        key: (int((g["verdict"] == "unknown").sum()), len(g), _reasons(g))
         for key, g in pair.groupby(["keyframes", "tolerance", "bound"], sort=False)
     }
+
+
+def _reasons(g: pd.DataFrame) -> str:
+    """The unknowns' reasons, counted: "reason depth 593" (an audit: aabb's 593 unknowns
+    read as indecision where they were its depth limit, a box never shrinking onto a
+    turning body)."""
+    if "reason" not in g:
+        return ""
+    why = g.loc[g["verdict"] == "unknown", "reason"].dropna().astype(str).value_counts()
+    return ", ".join(f"{k} {v}" for k, v in why.items())
 
 
 def format_headline(rows: list[dict[str, str]]) -> list[str]:

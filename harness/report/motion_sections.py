@@ -192,5 +192,5 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
         doc.figure(
             fig,
             "force_jumps",
-            f"Jump of the rate of change of the force on carried bodies at keyframes ({len(has)} simulations of scenes that carry something). By the schemes' classes one expects C⁰ to jump most and C² least; the bars are what the simulations measured, a scene at a time, and need not follow that order (the contact forces depend on the path too).",
+            f"Jump of the rate of change of the force on carried bodies at keyframes ({len(has)} simulations of scenes that carry something). By the schemes' classes one expects C⁰ to jump most and C² least; the points are what the simulations measured, a scene at a time, and need not follow that order (the contact forces depend on the path too).",
         )

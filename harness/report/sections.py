@@ -447,7 +447,10 @@ def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt, which: str) -> None
         ax.set_yscale("log")
         ax.set_xlabel("clearance label (mm)")
         ax.set_ylabel("bound evaluations per pair")
-        ax.set_title(f"hull, n = {len(hull)} free pairs", fontsize=8)
+        # (pairs cleared before any bound evaluation have no point on a log axis: said)
+        zero = int((numeric(hull, "nodes") <= 0).sum())
+        unseen = f"; {zero} with 0 evaluations not drawn" if zero else ""
+        ax.set_title(f"hull, n = {len(hull)} free pairs{unseen}", fontsize=8)
         doc.figure(
             fig,
             "workload_nodes",
