@@ -1447,3 +1447,25 @@ def test_continuity_table_gives_the_jumps_at_the_knots_when_the_run_has_them(tmp
         else:
             assert t.loc["rational", "max_jump_acceleration_m_per_t2"] == 1e-4
             assert not any(c.startswith("max_knot_jump_") for c in t.columns)
+
+
+def test_continuity_jump_maxima_are_over_scene_keyframes_in_seconds(tmp_path):
+    # an audit: the maxima were taken over scene keyframes (per second²) and random sets
+    # (timed by chord length: per metre²) alike; the class pools both, the sizes do not
+    rows = pd.DataFrame(synthetic_rows())
+    cert = rows["study"].isin(["certify", "simulate"])
+    scene = rows["keyframes"] == "scene"
+    for q in ("acceleration", "angular_acceleration", "angular_velocity", "velocity"):
+        rows.loc[cert & scene, f"knot_jump_{q}"] = 2.0
+        rows.loc[cert & ~scene, f"knot_jump_{q}"] = 50.0  # larger, in other units
+    rows.loc[cert & ~scene, "continuity"] = "C1"  # (the class still pools them)
+    run = tmp_path / "run"
+    run.mkdir()
+    rows.to_parquet(run / "results.parquet", index=False)
+    (run / "meta.json").write_text(json.dumps(META))
+    write_report(run)
+    t = pd.read_csv(run / "tables" / "continuity.csv").set_index("scheme")
+    assert t.loc["rational", "max_knot_jump_angular_acceleration_rad_per_t2"] == 2.0
+    assert t.loc["rational", "max_knot_jump_velocity_m_per_t"] == 2.0
+    assert "C1" in t.loc["rational", "continuity_class"], t.loc["rational"]
+    assert "over the scene keyframes only" in (run / "report.md").read_text()

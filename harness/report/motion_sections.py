@@ -51,8 +51,13 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     jump = (lambda q: f"knot_jump_{q}") if at_knot else (lambda q: f"jump_{q}")
     label = "max jump at the knots of" if at_knot else "max jump of"
     g = src.groupby("scheme")
+    # the jump sizes over scene keyframes (seconds) where there are any: an audit found
+    # maxima taken over both, per second² for some schemes and per metre² of the chordal
+    # parameter for others (the class pools both: it does not depend on the timing)
+    scene_kf = src[src["keyframes"] == "scene"]
+    gj = (scene_kf if len(scene_kf) else src).groupby("scheme")
     jumps = {
-        f"{label} {q.replace('_', ' ')}": g[jump(q)].max()
+        f"{label} {q.replace('_', ' ')}": gj[jump(q)].max()
         for q in quantities
         if jump(q) in src.columns  # (a results file written by hand may lack one)
     }
@@ -72,11 +77,10 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     )
     doc.table(
         t,
-        f"Measured continuity class (a derivative counts as continuous when its jump at a knot, extrapolated to the knot from offsets of 1e-3 to 1e-5 of the shorter knot interval, is below {JUMP_FLOOR:g} of its size over the two intervals around the knot, at least the next lower derivative's size over the longer interval, plus its round-off and the extrapolation's own error estimate) and {where}, in scene units per motion-parameter unit: m/s², rad/s², rad/s, m/s for scene keyframes, whose times are seconds; random keyframe sets are timed by chord length, so theirs are per metre of parameter (m/m², rad/m²), pooled here with the scene's because a class does not depend on the parametrisation; invariance: largest matrix difference after moving the world frame or turning the body. A scheme's class is that of its worst motion: scipy's RotationSpline is C² only where its iterative solve converges (10 iterations, to 1e-9 rad/s), and with very uneven keyframe times it measures C¹ or C⁰, which is what it computes.",
+        f"Measured continuity class (a derivative counts as continuous when its jump at a knot, extrapolated to the knot from offsets of 1e-3 to 1e-5 of the shorter knot interval, is below {JUMP_FLOOR:g} of its size over the two intervals around the knot, at least the next lower derivative's size over the longer interval, plus its round-off and the extrapolation's own error estimate) and {where}, {'over the scene keyframes only, whose times are seconds (m/s², rad/s², rad/s, m/s): random keyframe sets are timed by chord length, per metre of parameter, and the class alone pools them with the scene keyframes, since a class does not depend on the timing' if len(scene_kf) else 'per unit of the motion parameter (random keyframe sets, timed by chord length: m/m², rad/m²)'}; invariance: largest matrix difference after moving the world frame or turning the body. A scheme's class is that of its worst motion: scipy's RotationSpline is C² only where its iterative solve converges (10 iterations, to 1e-9 rad/s), and with very uneven keyframe times it measures C¹ or C⁰, which is what it computes.",
         "continuity",
         data=t.rename(columns=CONTINUITY_COLUMNS),
     )
-    scene_kf = src[src["keyframes"] == "scene"]
     use = scene_kf if len(scene_kf) else src
     unit_t = "s" if len(scene_kf) else "t"
     gg = use.groupby("scheme")
