@@ -1469,3 +1469,19 @@ def test_continuity_jump_maxima_are_over_scene_keyframes_in_seconds(tmp_path):
     assert t.loc["rational", "max_knot_jump_velocity_m_per_t"] == 2.0
     assert "C1" in t.loc["rational", "continuity_class"], t.loc["rational"]
     assert "over the scene keyframes only" in (run / "report.md").read_text()
+
+
+def test_a_report_redrawn_by_other_code_says_so(tmp_path):
+    # an audit redrew an older run with newer captions; the header named the run's code only
+    from harness.timing import code_digest
+
+    rows = pd.DataFrame(synthetic_rows())
+    for name, digest in (("same", code_digest()), ("older", "0123456789abcdef")):
+        run = tmp_path / name
+        run.mkdir()
+        rows.to_parquet(run / "results.parquet", index=False)
+        (run / "meta.json").write_text(json.dumps(dict(META, code_digest=digest)))
+        write_report(run)
+        md = (run / "report.md").read_text()
+        assert (f"this report drawn later by code {code_digest()}" in md) == (name == "older")
+        assert f"code {digest}" in md

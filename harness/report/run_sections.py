@@ -30,6 +30,20 @@ def _code(meta: dict) -> str:
     return ", ".join(parts) or "git revision unknown"
 
 
+def _redrawn(meta: dict) -> str:
+    """Where the code drawing this report is not the run's: say so, and which it is (an
+    audit redrew an older run with newer captions, under the old run's revision alone)."""
+    from ..timing import code_digest
+
+    now = code_digest()
+    if not meta.get("code_digest") or meta["code_digest"] == now:
+        return ""
+    return (
+        f" (this report drawn later by code {now}: the figures are the run's, the captions"
+        " and tables the drawing code's; re-run to publish figures of that code)"
+    )
+
+
 def machine_text(meta: dict, rows: int) -> str:
     wall = meta.get("wall_seconds")
     legs = meta.get("legs")
@@ -46,7 +60,7 @@ def machine_text(meta: dict, rows: int) -> str:
         f"Run of {meta.get('started', '?')} on {cpu_label(meta)}"
         f" ({meta.get('usable_cpus') or meta.get('cores', '?')} usable CPUs{ram_txt}{load_txt}),"
         f" device {meta.get('device', 'cpu')}, certify threads {meta.get('certify_threads', '?')};"
-        f" {_code(meta)};"
+        f" {_code(meta)}{_redrawn(meta)};"
         f" wall time running the cases {wall_txt} (start-up and this report's drawing not"
         f" included); {rows} rows."
         f" Versions: {', '.join(f'{k} {v}' for k, v in meta.get('versions', {}).items())}."
