@@ -764,6 +764,13 @@ def test_corpus_headline_lines_with_denominators_and_wall_time():
     assert fcl["spread"].startswith("2 ms wall per query")
     assert "2 of 4 corpus cases" in hull["basis"] and "free is a proof" in hull["basis"]
     assert "4 of 4 corpus cases" in samp["basis"] and "its own claim" in samp["basis"]
+    # each median is over its method's own cases: the paired ratio on the hull's cases
+    # beside it (by construction: sampled 2 and 3 ms where the hull took 1 ms; fcl shares
+    # no case with the hull)
+    assert samp["spread"].endswith(
+        "; on the 2 cases the hull answered too, 2.5x the hull's (median of the per-case ratios)"
+    ), samp["spread"]
+    assert "hull answered too" not in fcl["spread"] + hull["spread"]
 
 
 def test_corpus_tables_are_named_and_labelled_whole(written):
