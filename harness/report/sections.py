@@ -238,7 +238,8 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
     inside = int((((hi_t + err) > lo_t) & (err <= 0)).sum())  # toi_lo = toi_true + error
     bracket = (
         f" The ground truth brackets the first contact in [toi_true_lo, toi_true], of median"
-        f" width {float(width.median()):.2g}{'' if relative else ' parameter units'}"
+        f" width {float(width.median()):.2g} (90th percentile {float(width.quantile(0.9)):.2g},"
+        f" largest {float(width.max()):.2g}){'' if relative else ' parameter units'}"
         f"{' of the duration' if relative else ''}: errors below that are not resolved, and"
         f" {inside} row(s) whose toi_lo lies inside the bracket are checked against its upper"
         " end only."
