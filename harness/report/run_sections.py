@@ -39,8 +39,9 @@ def _redrawn(meta: dict) -> str:
     if not meta.get("code_digest") or meta["code_digest"] == now:
         return ""
     return (
-        f" (this report drawn later by code {now}: the figures are the run's, the captions"
-        " and tables the drawing code's; re-run to publish figures of that code)"
+        f" (this report drawn later by code {now}: the numbers are the run's, the captions"
+        " and how they are tabled and drawn the later code's; re-run to publish figures of"
+        " that code)"
     )
 
 
