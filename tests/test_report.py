@@ -469,6 +469,29 @@ def test_headline_has_units_spread_basis_and_ratios_from_rounds():
     # (and how many of the counted rows are certified: an audit read the line as covering
     # every sampled row; here the synthetic rows are not certified)
     assert "(0 of the 8 certified, also in the line above)" in samp["basis"], samp["basis"]
+    # the count is of the counted rows (proven collisions) that are certified: certify
+    # three of them and two rows outside the count (a review: 0 could not tell)
+    rows = synthetic_rows()
+    n_in = n_out = 0
+    for r in rows:
+        if r.get("study") == "certify" and r.get("bound") == "sampled":
+            counted = r.get("truth") == "collision" and r.get("verdict") in (
+                "free",
+                "collision",
+                "unknown",
+            )
+            if counted and n_in < 3:
+                r["certified"], n_in = True, n_in + 1
+            elif not counted and n_out < 2:
+                r["certified"], n_out = True, n_out + 1
+    line = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}[
+        "sampled false free (certify study)"
+    ]
+    assert "(3 of the 8 certified" in line["basis"], line["basis"]
+    from harness.report import headline_lines
+
+    nums = {x.figure: x.numbers for x in headline_lines(pd.DataFrame(rows), META)}
+    assert nums["sampled false free (certify study)"]["certified_of_truth_collision"] == 3
     # the certified line names the methods it counts (it said "hull, aabb, lipschitz"
     # whatever rows were there, certified sampled rows included)
     assert (
@@ -504,7 +527,7 @@ def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
         value = text[f"cost of sampled / cost of hull, {mode}"]["value"]
         # (and why: an audit read aabb's 593 unknowns as indecision, not its depth limit)
         assert value.endswith(
-            f"sampled answered unknown on 3/{PAIRS} pairs (reason depth 2, budget 1), the hull"
+            f"sampled answered unknown on 3/{PAIRS} pairs (reasons: 2 depth, 1 budget), the hull"
             f" on 0/{PAIRS})"
         ), value
     assert "unknown" not in text["hull cost per pair, batch (one certify_many call)"]["value"]
@@ -518,10 +541,10 @@ def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
             r["verdict"], r["reason"] = "unknown", "depth"  # (beyond the first k: batch only)
     text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
     assert text["cost of sampled / cost of hull, single"]["value"].endswith(
-        f"sampled answered unknown on 3/{k} pairs (reason depth 2, budget 1), the hull on 0/{k})"
+        f"sampled answered unknown on 3/{k} pairs (reasons: 2 depth, 1 budget), the hull on 0/{k})"
     )
     assert text["cost of sampled / cost of hull, batch"]["value"].endswith(
-        f"sampled answered unknown on 4/{PAIRS} pairs (reason depth 3, budget 1), the hull"
+        f"sampled answered unknown on 4/{PAIRS} pairs (reasons: 3 depth, 1 budget), the hull"
         f" on 0/{PAIRS})"
     )
 
@@ -768,9 +791,34 @@ def test_corpus_headline_lines_with_denominators_and_wall_time():
     # beside it (by construction: sampled 2 and 3 ms where the hull took 1 ms; fcl shares
     # no case with the hull)
     assert samp["spread"].endswith(
-        "; on the 2 cases the hull answered too, 2.5x the hull's (median of the per-case ratios)"
+        "; on the 2 cases the hull answered too, 2.5× the hull's (median of the per-case ratios)"
     ), samp["spread"]
     assert "hull answered too" not in fcl["spread"] + hull["spread"]
+    # the median of the per-case ratios, not the ratio of medians: the hull 1 and 2 ms
+    # where sampled took 2 and 3 ms gives ratios 2 and 1.5 (median 1.75; of medians 1.67)
+    rows = synthetic_rows()
+    for r in rows:
+        if (
+            r["study"] == "corpus"
+            and r["bound"] == "hull"
+            and r["keyframes"] == "thin-wall-001-rational"
+        ):
+            r["seconds"] = 2e-3
+    text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
+    line = text["corpus verdicts of sampled"]
+    assert "the hull answered too, 1.75× the hull's" in line["spread"], line["spread"]
+    from harness.report import headline_lines
+
+    nums = {x.figure: x.numbers for x in headline_lines(pd.DataFrame(rows), META)}
+    assert nums["corpus verdicts of sampled"]["wall_ratio_to_hull_paired"] == pytest.approx(1.75)
+    assert nums["corpus verdicts of sampled"]["cases_with_hull"] == 2
+    # a corpus whose hull answered nothing with a time: no paired ratio, no KeyError (a
+    # review: rsmbench report exited 1)
+    for r in rows:
+        if r["study"] == "corpus" and r["bound"] == "hull":
+            r["seconds"] = np.nan
+    text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
+    assert "hull answered too" not in text["corpus verdicts of sampled"]["spread"]
 
 
 def test_corpus_tables_are_named_and_labelled_whole(written):
@@ -1494,3 +1542,18 @@ def test_a_report_redrawn_by_other_code_says_so(tmp_path):
         md = (run / "report.md").read_text()
         assert (f"this report drawn later by code {code_digest()}" in md) == (name == "older")
         assert f"code {digest}" in md
+
+
+def test_a_run_from_before_code_digests_is_compared_by_git_revision():
+    # a review: runs without a code digest (the oldest, the likeliest to be redrawn) got no
+    # note; they are compared by git revision where both are known
+    from harness.report.run_sections import machine_text
+    from harness.run.journal import git_state
+
+    rev, _ = git_state()
+    old = dict(META, git_revision="0" * 40)
+    text = machine_text(old, 1)
+    assert ("this report drawn later by git" in text) == (rev is not None), (rev, text)
+    if rev is not None:
+        assert "drawn later" not in machine_text(dict(META, git_revision=rev), 1)
+    assert "drawn later" not in machine_text(dict(META), 1)  # (nothing known: nothing said)

@@ -113,13 +113,13 @@ def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineL
                 & column(samp, "verdict", "").astype(str).isin(RAN)
             ]
             n_cert = int(flag(counted, "certified").sum())
-            out.append(
-                _false_free_line(
-                    "sampled false free (certify study)",
-                    r,
-                    f"sampled verdicts against a proven collision truth ({n_cert} of the {len(counted)} certified, also in the line above); {r['truth not proven']} sampled rows with unproven truth (a scheme without a proven speed bound has none) are not counted, neither as passes nor as misses",
-                )
+            line = _false_free_line(
+                "sampled false free (certify study)",
+                r,
+                f"sampled verdicts against a proven collision truth ({n_cert} of the {len(counted)} certified, also in the line above); {r['truth not proven']} sampled rows with unproven truth (a scheme without a proven speed bound has none) are not counted, neither as passes nor as misses",
             )
+            line.numbers["certified_of_truth_collision"] = n_cert
+            out.append(line)
     wl = study_rows(df, "workload")
     groups = workload_groups(wl[column(wl, "mode", "") == "pair"])
     for at, pairs in groups:
@@ -256,43 +256,58 @@ def _corpus_headline(df: pd.DataFrame) -> list[HeadlineLine]:
             HeadlineLine(
                 figure=f"corpus verdicts of {r['method']}",
                 value=f"false negatives {fn}, false positives {fp}, unknown {unk}",
-                spread=f"{fmt_time(med)} wall per query (median; IQR over cases {span(q1, q3)}){paired.get(str(r['method']), '')}",
+                spread=f"{fmt_time(med)} wall per query (median; IQR over cases {span(q1, q3)}){_paired_text(paired.get(str(r['method'])))}",
                 basis=f"{r['cases_applicable']} of {cases} corpus cases applicable ({claim}); false negatives out of applicable collision cases, false positives out of applicable free cases",
                 numbers={
                     **{k: int(r[k]) for k in VERDICT_COUNTS},
                     "corpus_cases": int(cases),
                     **{f"wall_ms_{k}": float(r[f"wall_ms_{k}"]) for k in ("median", "q1", "q3")},
+                    **_paired_numbers(paired.get(str(r["method"]))),
                 },
             )
         )
     return out
 
 
-def _corpus_paired(cor: pd.DataFrame) -> dict[str, str]:
-    """Per corpus method other than the hull: its per-case wall time over the hull's, on
-    the cases both answered (an audit: the lines' medians are over each method's own
-    applicable cases, 34 for the hull and 85 for lipschitz, which read as 2.4x side by
-    side where the paired ratio was 3.2x)."""
+def _corpus_paired(cor: pd.DataFrame) -> dict[str, tuple[int, float]]:
+    """Per corpus method other than the hull: (cases both answered, the median over them
+    of its per-case wall time over the hull's). An audit: the lines' medians are over each
+    method's own applicable cases, 34 for the hull and 85 for lipschitz, which read as
+    2.4x side by side where the paired ratio was 3.2x."""
     need = ("keyframes", "bound", "verdict", "seconds")
-    if any(k not in cor for k in need) or "hull" not in set(cor["bound"].astype(str)):
+    if any(k not in cor for k in need):
         return {}
     app = cor[cor["verdict"].astype(str) != "n/a"]
-    sec = app.assign(seconds=pd.to_numeric(app["seconds"], errors="coerce")).pivot_table(
-        index="keyframes", columns="bound", values="seconds", aggfunc="median", observed=True
-    )
+    sec = app.assign(
+        seconds=pd.to_numeric(app["seconds"], errors="coerce"), bound=app["bound"].astype(str)
+    ).pivot_table(index="keyframes", columns="bound", values="seconds", aggfunc="median")
+    if "hull" not in sec.columns:  # (no hull answer with a time: a review's KeyError)
+        return {}
     out = {}
     for method in sec.columns:
-        if str(method) == "hull":
+        if method == "hull":
             continue
         both = sec[[method, "hull"]].dropna()
         both = both[both["hull"] > 0]
         if len(both):
-            ratio = float((both[method] / both["hull"]).median())
-            out[str(method)] = (
-                f"; on the {len(both)} cases the hull answered too, {ratio:.3g}x the hull's"
-                " (median of the per-case ratios)"
-            )
+            out[method] = (len(both), float((both[method] / both["hull"]).median()))
     return out
+
+
+def _paired_numbers(paired: tuple[int, float] | None) -> dict:
+    if paired is None:
+        return {}
+    return {"cases_with_hull": paired[0], "wall_ratio_to_hull_paired": paired[1]}
+
+
+def _paired_text(paired: tuple[int, float] | None) -> str:
+    if paired is None:
+        return ""
+    n, ratio = paired
+    return (
+        f"; on the {n} cases the hull answered too, {ratio:.3g}× the hull's (median of the"
+        " per-case ratios)"
+    )
 
 
 def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
@@ -363,7 +378,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 if u[0] > 0:
                     # a cost is only comparable with what it bought: say how often the
                     # method left the question open
-                    why = f" (reason {u[2]})" if u[2] else ""
+                    why = f" (reasons: {u[2]})" if u[2] else ""
                     unknown += f"; {o['method']} answered unknown on {u[0]}/{u[1]} pairs{why}, the hull on {hu[0]}/{hu[1]}"
             out.append(
                 HeadlineLine(
@@ -406,13 +421,14 @@ def _workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple
 
 
 def _reasons(g: pd.DataFrame) -> str:
-    """The unknowns' reasons, counted: "reason depth 593" (an audit: aabb's 593 unknowns
-    read as indecision where they were its depth limit, a box never shrinking onto a
-    turning body)."""
+    """The unknowns' reasons, counted: "593 depth" (an audit: aabb's 593 unknowns read as
+    indecision where they were its depth limit, a box never shrinking onto a turning
+    body); a missing reason is counted as "unrecorded"."""
     if "reason" not in g:
         return ""
-    why = g.loc[g["verdict"] == "unknown", "reason"].dropna().astype(str).value_counts()
-    return ", ".join(f"{k} {v}" for k, v in why.items())
+    why = g.loc[g["verdict"] == "unknown", "reason"].astype(object)
+    why = why.where(why.notna() & (why.astype(str) != ""), "unrecorded").astype(str)
+    return ", ".join(f"{v} {k}" for k, v in why.value_counts().items())
 
 
 def format_headline(rows: list[dict[str, str]]) -> list[str]:

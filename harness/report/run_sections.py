@@ -32,16 +32,25 @@ def _code(meta: dict) -> str:
 
 def _redrawn(meta: dict) -> str:
     """Where the code drawing this report is not the run's: say so, and which it is (an
-    audit redrew an older run with newer captions, under the old run's revision alone)."""
+    audit redrew an older run with newer captions, under the old run's revision alone).
+    Runs from before code digests are compared by git revision, where both are known."""
+    from ..run.journal import git_state
     from ..timing import code_digest
 
-    now = code_digest()
-    if not meta.get("code_digest") or meta["code_digest"] == now:
-        return ""
+    if meta.get("code_digest"):
+        now = code_digest()
+        if meta["code_digest"] == now:
+            return ""
+        which = f"code {now}"
+    else:
+        rev, dirty = git_state()
+        if not rev or not meta.get("git_revision") or rev == meta["git_revision"]:
+            return ""
+        which = f"git {rev[:10]}{' (dirty)' if dirty else ''}"
     return (
-        f" (this report drawn later by code {now}: the numbers are the run's, the captions"
-        " and how they are tabled and drawn the later code's; re-run to publish figures of"
-        " that code)"
+        f" (this report drawn later by {which}: the rows are the run's; the medians,"
+        " ratios, tables, figures and captions are the later code's; re-run to publish"
+        " figures of that code)"
     )
 
 
