@@ -251,18 +251,19 @@ def _corpus_headline(df: pd.DataFrame) -> list[HeadlineLine]:
         if m is not None and not m.repeatable:
             claim += "; undefined behaviour: its answers vary between runs of the same code"
         fn, fp, unk = verdict_texts(r)
+        pair = paired.get(str(r["method"]))  # (None for the hull and where none shared)
         med, q1, q3 = (r[f"wall_ms_{k}"] * 1e-3 for k in ("median", "q1", "q3"))
         out.append(
             HeadlineLine(
                 figure=f"corpus verdicts of {r['method']}",
                 value=f"false negatives {fn}, false positives {fp}, unknown {unk}",
-                spread=f"{fmt_time(med)} wall per query (median; IQR over cases {span(q1, q3)}){_paired_text(paired.get(str(r['method'])))}",
+                spread=f"{fmt_time(med)} wall per query (median; IQR over cases {span(q1, q3)}){_paired_text(pair)}",
                 basis=f"{r['cases_applicable']} of {cases} corpus cases applicable ({claim}); false negatives out of applicable collision cases, false positives out of applicable free cases",
                 numbers={
                     **{k: int(r[k]) for k in VERDICT_COUNTS},
                     "corpus_cases": int(cases),
                     **{f"wall_ms_{k}": float(r[f"wall_ms_{k}"]) for k in ("median", "q1", "q3")},
-                    **_paired_numbers(paired.get(str(r["method"]))),
+                    **_paired_numbers(pair),
                 },
             )
         )
