@@ -11,6 +11,7 @@ import harness
 import motions
 from harness import Box, Capsule, Compound, ConvexMesh, ShapeError, Sphere
 from harness.shapes import MAX_LENGTH, HalfSpace
+from motions.quaternion import quat_from_matrix, rotation_matrix
 
 TOL = 1e-12
 
@@ -312,3 +313,28 @@ def test_shapes_of_the_largest_size_are_sampled_right():
     assert harness.certify(m, big, [wall], bound="sampled", samples=50).verdict == "collision"
     small = Box([0.1] * 3)
     assert harness.certify(m, small, [big], bound="sampled", samples=50).verdict == "collision"
+
+
+def test_a_shape_built_from_its_own_rotation_is_the_same_shape():
+    # a rotation as orthonormal as a computed one is kept bit for bit (so a corpus file
+    # reloads its shapes exactly); one further off is re-orthonormalised
+    rng = np.random.default_rng(11)
+    changed = 0
+    for q in rng.normal(size=(200, 4)):
+        for make in (
+            lambda r: Box([0.3, 0.2, 0.1], center=[1, 2, 3], rotation=r),
+            lambda r: Capsule(0.1, 0.5, center=[1, 2, 3], rotation=r),
+        ):
+            first = make(q)
+            again = make(first.rotation)
+            assert np.array_equal(again.rotation, first.rotation)
+            # the matrix the old rule would have made differs in its last bits (most do)
+            changed += not np.array_equal(
+                rotation_matrix(quat_from_matrix(first.rotation)), first.rotation
+            )
+    assert changed > 100
+    r = Box([1.0, 1, 1], rotation=rng.normal(size=4)).rotation
+    off = r + 1e-9 * rng.normal(size=(3, 3))
+    kept = Box([1.0, 1, 1], rotation=off).rotation
+    err = lambda m: np.abs(m.T @ m - np.eye(3)).max()  # noqa: E731
+    assert err(off) > 1e-10 and err(kept) < 1e-14
