@@ -300,7 +300,15 @@ def written(tmp_path_factory):
 
 def _has_data(ax) -> bool:
     lines = [ln for ln in ax.get_lines() if len(ln.get_xdata())]
-    patches = [p for p in ax.patches if p.get_height() != 0 or p.get_width() != 0]
+    patches = [  # (bars: rectangles of some size; boxes of a boxplot: paths)
+        p
+        for p in ax.patches
+        if (
+            (p.get_height() != 0 or p.get_width() != 0)
+            if hasattr(p, "get_height")
+            else len(p.get_path().vertices)
+        )
+    ]
     collections = [c for c in ax.collections if len(c.get_offsets())]
     return bool(lines or patches or collections)
 
@@ -547,6 +555,47 @@ def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
         f"sampled answered unknown on 4/{PAIRS} pairs (reasons: 3 depth, 1 budget), the hull"
         f" on 0/{PAIRS})"
     )
+
+
+def test_cost_table_and_figure_mark_a_method_that_left_pairs_unknown(tmp_path):
+    # a reviewer: aabb's cost per pair (it stopped at its depth limit on 593/1000 pairs)
+    # stood in the cost table and figure as a cost like the others, a lower bound unmarked
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from harness.report.data import study_rows, workload_costs
+    from harness.report.sections import _cost_display, _cost_figure
+
+    rows = synthetic_rows()
+    flipped = 0
+    for r in rows:
+        if r.get("mode") == "pair" and r["bound"] == "sampled" and flipped < 3:
+            r["verdict"], r["reason"] = "unknown", "depth" if flipped else "budget"
+            flipped += 1
+    costs = workload_costs(study_rows(pd.DataFrame(rows), "workload"))
+    data = costs.drop(columns=["_cpu"]).rename(columns={"tolerance": "tolerance_mm"})
+    shown = _cost_display(data).set_index(["method", "mode"])
+    assert shown.loc[("sampled", "batch"), "unknown"] == f"3/{PAIRS} (2 depth, 1 budget)"
+    assert shown.loc[("hull", "batch"), "unknown"] == f"0/{PAIRS}"
+    seen = []
+    doc = Document(tmp_path)
+    doc.figure = lambda fig, name, caption: seen.append(fig)
+    _cost_figure(doc, costs, plt)
+    (ax,) = seen[0].axes
+    hatched = {
+        t.get_text().split("\n")[0]
+        for t, b in zip(ax.get_xticklabels(), ax.patches, strict=True)
+        if b.get_hatch()
+    }
+    assert hatched == {"sampled"}
+    assert all(
+        "≥: 3 unknown" in t.get_text()
+        for t in ax.get_xticklabels()
+        if t.get_text().startswith("sampled")
+    )
+    plt.close(seen[0])
 
 
 def test_workload_accuracy_counts_only_proven_labels(written):

@@ -215,3 +215,26 @@ def test_under_taskset_one_cpu_a_query_launches_one_lane_and_says_so():
     assert (lanes1, threads1) == (1, 1), runs
     assert lanes2 == min(2, len(os.sched_getaffinity(0)))
     assert certs1 == certs2
+
+
+@pytest.mark.parametrize("n", [2, 3, 5, 6, 7, 10, 20])
+def test_median_interval_covers_the_median_as_often_as_it_says(n):
+    # a percentile bootstrap of 5 rounds' median gives their range and called it 95 %;
+    # the order-statistic interval names its coverage, and covers a skewed population's
+    # median that often (4,000 draws of n rounds: 2.5 % slack for the draws' own noise)
+    rng = np.random.default_rng(n)
+    true_median = np.log(2.0)  # of the exponential distribution of scale 1
+    draws = rng.exponential(size=(4000, n))
+    got = [timing.median_interval(d) for d in draws]
+    level = got[0][2]
+    assert all(g[2] == level for g in got)
+    if n >= 6:
+        assert level >= 0.95
+    else:
+        assert level == pytest.approx(1 - 2.0 ** (1 - n))  # the range
+        assert all(g[:2] == (d.min(), d.max()) for g, d in zip(got, draws, strict=True))
+    covered = np.mean([lo <= true_median <= hi for lo, hi, _ in got])
+    assert covered >= level - 0.025, (covered, level)
+    # and the spread of a sample carries it
+    s = timing.spread(draws[0])
+    assert (s.lo, s.hi, s.level) == got[0]

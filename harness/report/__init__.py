@@ -5,8 +5,10 @@ Writes ``report.md`` and a standalone ``report.html``; every figure as PNG and S
 plot); every table as CSV and LaTeX under ``tables/``.
 
 Reading the numbers:
-- a cost is the median over repeated rounds, with the interquartile range and a
-  bootstrap 95 % interval of the median; process CPU time and wall time are both given;
+- a cost is the median over repeated rounds, with the interquartile range and an
+  interval of the median from the rounds' order statistics (95 %, or with 5 rounds the
+  range, 93.8 %); process CPU time and wall time are both given; a method that left pairs
+  unknown is marked: its cost is a lower bound;
 - "cost of X / cost of hull" is the ratio of the median CPU cost per pair of X to that
   of the hull, on the same pairs and tolerance, with a bootstrap 95 % interval from the
   rounds of both;

@@ -18,6 +18,7 @@ __all__ = [
     "EXTERNAL_PREFIX",
     "RAN",
     "RATE_COLUMNS",
+    "ci_name",
     "column",
     "flag",
     "implementation_of",
@@ -35,6 +36,7 @@ __all__ = [
     "timing_rows",
     "us_span",
     "workload_costs",
+    "workload_unknowns",
 ]
 
 
@@ -253,16 +255,21 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
 
     Columns: ``workload``, ``tolerance`` (m), ``method``, ``mode``, ``implementation``,
     ``pairs``, ``rounds``; CPU time per pair in µs, its median over rounds
-    (``cpu_us_per_pair``), quartiles (``cpu_us_q1``, ``cpu_us_q3``) and bootstrap 95 %
-    interval of the median (``cpu_us_ci95_lo``, ``cpu_us_ci95_hi``), its fastest round
+    (``cpu_us_per_pair``), quartiles (``cpu_us_q1``, ``cpu_us_q3``) and the interval of
+    the median from the rounds' order statistics (``cpu_us_ci_lo``, ``cpu_us_ci_hi``, of
+    coverage ``ci_level``: :func:`~harness.timing.median_interval`), its fastest round
     (``cpu_us_fastest``: load from other processes only adds time); wall time per pair
-    likewise (``wall_us_per_pair``, ``wall_us_q1``, ``wall_us_q3``); ``_cpu``, the CPU
-    seconds per pair of each round."""
+    likewise (``wall_us_per_pair``, ``wall_us_q1``, ``wall_us_q3``); ``unknown``, the
+    timed pairs answered unknown (a method that stopped at a limit there: its cost is a
+    lower bound of deciding them), and ``unknown_reasons``; for single calls,
+    ``single_agrees_with_batch``, the pairs whose verdict was the batch's; ``_cpu``, the
+    CPU seconds per pair of each round."""
     rows: list[dict] = []
     t = timing_rows(wl)
     keys = ["keyframes", "tolerance", "bound", "mode"]
     if not len(t) or any(k not in t for k in keys) or "pairs" not in t:
         return pd.DataFrame(rows)
+    undecided = {None: workload_unknowns(wl)}
     for (name, tol, method, mode), g in t.groupby(keys, sort=False, dropna=False):
         cpu = [rounds_of(v) for v in g["cpu_rounds"]]
         wall = [rounds_of(v) for v in g["wall_rounds"]]
@@ -274,6 +281,11 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
         cpu_pp = sum(x[:n] for x in cpu) / total
         wall_pp = sum(x[:n] for x in wall) / total
         sc, sw = spread(cpu_pp), spread(wall_pp)
+        # (single queries run on the first `pairs` pairs: their unknowns are those)
+        first = int(total) if mode == "single" else None
+        if first not in undecided:
+            undecided[first] = workload_unknowns(wl, first)
+        unk, _, why = undecided[first].get((name, tol, method), (math.nan, 0, ""))
         rows.append(
             {
                 "workload": name,
@@ -286,17 +298,49 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
                 "cpu_us_per_pair": sc.median * 1e6,
                 "cpu_us_q1": sc.q1 * 1e6,
                 "cpu_us_q3": sc.q3 * 1e6,
-                "cpu_us_ci95_lo": sc.lo * 1e6,
-                "cpu_us_ci95_hi": sc.hi * 1e6,
+                "cpu_us_ci_lo": sc.lo * 1e6,
+                "cpu_us_ci_hi": sc.hi * 1e6,
+                "ci_level": sc.level,
                 "cpu_us_fastest": float(cpu_pp.min()) * 1e6,
                 "wall_us_per_pair": sw.median * 1e6,
                 "wall_us_q1": sw.q1 * 1e6,
                 "wall_us_q3": sw.q3 * 1e6,
+                "unknown": unk,
+                "unknown_reasons": why,
+                "single_agrees_with_batch": _agreeing(g),
                 "_cpu": cpu_pp,
-                "agree": _agreeing(g),
             }
         )
     return pd.DataFrame(rows)
+
+
+def workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple]:
+    """(unknown verdicts, pairs, their reasons as text) per (workload, tolerance, method)
+    from the per-pair rows, over the first `first` pairs of each workload if given (a
+    trial's single-query line counted the unknowns of all 1,000 pairs beside a timing of
+    the first 100)."""
+    pair = wl[column(wl, "mode", "") == "pair"]
+    if not len(pair) or any(k not in pair for k in ("keyframes", "tolerance", "bound", "verdict")):
+        return {}
+    if first is not None:
+        if "pair" not in pair:
+            return {}
+        pair = pair[pd.to_numeric(pair["pair"], errors="coerce") < first]
+    return {
+        key: (int((g["verdict"] == "unknown").sum()), len(g), unknown_reasons(g))
+        for key, g in pair.groupby(["keyframes", "tolerance", "bound"], sort=False)
+    }
+
+
+def unknown_reasons(g: pd.DataFrame) -> str:
+    """The unknowns' reasons, counted: "593 depth" (an audit: aabb's 593 unknowns read as
+    indecision where they were its depth limit, a box never shrinking onto a turning
+    body); a missing reason is counted as "unrecorded"."""
+    if "reason" not in g:
+        return ""
+    why = g.loc[g["verdict"] == "unknown", "reason"].astype(object)
+    why = why.where(why.notna() & (why.astype(str) != ""), "unrecorded").astype(str)
+    return ", ".join(f"{v} {k}" for k, v in why.value_counts().items())
 
 
 def _agreeing(g: pd.DataFrame) -> float:
@@ -306,6 +350,17 @@ def _agreeing(g: pd.DataFrame) -> float:
         return math.nan
     v = pd.to_numeric(g["single_agrees_with_batch"], errors="coerce")
     return float(v.sum()) if v.notna().all() else math.nan
+
+
+def ci_name(level: float) -> str:
+    """The name of a median's interval of coverage `level` (see
+    :func:`~harness.timing.median_interval`): "95% CI", "93.8% CI (the range of the
+    rounds)", ...; "range" for one round."""
+    if not np.isfinite(level) or level <= 0:
+        return "range"
+    if level >= 0.95:
+        return "95% CI"
+    return f"{100 * level:.3g}% CI (range)"
 
 
 def us_span(lo_us: float, hi_us: float) -> str:

@@ -16,6 +16,7 @@ from .data import (
     EXTERNAL_PREFIX,
     RAN,
     cheaper_text,
+    ci_name,
     column,
     first_repeat,
     flag,
@@ -26,6 +27,7 @@ from .data import (
     us_span,
     workload_costs,
     workload_groups,
+    workload_unknowns,
 )
 from .document import fmt_time, span
 
@@ -327,7 +329,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
         "batch": "batch (one certify_many call)",
         "single": "single queries (one call per pair)",
     }
-    undecided = _workload_unknowns(wl)
+    undecided = workload_unknowns(wl)
     several = len(costs.groupby(["workload", "tolerance"], sort=False)) > 1
     for (name, tol, mode), g in costs.groupby(["workload", "tolerance", "mode"], sort=False):
         hull = g[g["method"] == "hull"]
@@ -339,13 +341,13 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
         # lines do, so that no two lines, nor two rows of headline.csv, read alike)
         which = f" ({name} at tolerance {tol * 1e3:g} mm)" if several else ""
         timed = ("cpu_us_per_pair", "wall_us_per_pair", "cpu_us_q1", "cpu_us_q3",
-                 "cpu_us_ci95_lo", "cpu_us_ci95_hi")  # fmt: skip
+                 "cpu_us_ci_lo", "cpu_us_ci_hi", "ci_level")  # fmt: skip
         out.append(
             HeadlineLine(
                 figure=f"hull cost per pair, {what.get(mode, mode)}{which}",
                 value=f"{fmt_time(h['cpu_us_per_pair'] * 1e-6)} CPU ({fmt_time(h['wall_us_per_pair'] * 1e-6)} wall)"
                 + _disagreeing(h),
-                spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, 95% CI {us_span(h['cpu_us_ci95_lo'], h['cpu_us_ci95_hi'])}, {h['rounds']} rounds",
+                spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, {ci_name(h['ci_level'])} {us_span(h['cpu_us_ci_lo'], h['cpu_us_ci_hi'])}, {h['rounds']} rounds",
                 basis=work,
                 numbers={
                     **{k: float(h[k]) for k in timed},
@@ -356,7 +358,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
             )
         )
         # (single queries run on the first `pairs` pairs: their unknowns are those)
-        part = undecided if mode != "single" else _workload_unknowns(wl, int(h["pairs"]))
+        part = undecided if mode != "single" else workload_unknowns(wl, int(h["pairs"]))
         for _, o in g.iterrows():
             if o["method"] == "hull":
                 continue
@@ -396,40 +398,11 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
 def _disagreeing(row: pd.Series) -> str:
     """ "; single calls gave another verdict than the batch on k/n pairs" where they did
     (a certificate never depends on its batch: that is a bug, shown where it is read)."""
-    agree = row.get("agree", math.nan)
+    agree = row.get("single_agrees_with_batch", math.nan)
     if not np.isfinite(agree) or agree >= row["pairs"]:
         return ""
     bad = int(row["pairs"] - agree)
     return f"; single calls gave another verdict than the batch on {bad}/{int(row['pairs'])} pairs"
-
-
-def _workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple]:
-    """(unknown verdicts, pairs, their reasons as text) per (workload, tolerance, method)
-    from the per-pair rows, over the first `first` pairs of each workload if given (a
-    trial's single-query line counted the unknowns of all 1,000 pairs beside a timing of
-    the first 100)."""
-    pair = wl[column(wl, "mode", "") == "pair"]
-    if not len(pair) or any(k not in pair for k in ("keyframes", "tolerance", "bound", "verdict")):
-        return {}
-    if first is not None:
-        if "pair" not in pair:
-            return {}
-        pair = pair[pd.to_numeric(pair["pair"], errors="coerce") < first]
-    return {
-        key: (int((g["verdict"] == "unknown").sum()), len(g), _reasons(g))
-        for key, g in pair.groupby(["keyframes", "tolerance", "bound"], sort=False)
-    }
-
-
-def _reasons(g: pd.DataFrame) -> str:
-    """The unknowns' reasons, counted: "593 depth" (an audit: aabb's 593 unknowns read as
-    indecision where they were its depth limit, a box never shrinking onto a turning
-    body); a missing reason is counted as "unrecorded"."""
-    if "reason" not in g:
-        return ""
-    why = g.loc[g["verdict"] == "unknown", "reason"].astype(object)
-    why = why.where(why.notna() & (why.astype(str) != ""), "unrecorded").astype(str)
-    return ", ".join(f"{v} {k}" for k, v in why.value_counts().items())
 
 
 def format_headline(rows: list[dict[str, str]]) -> list[str]:
