@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -1221,18 +1222,36 @@ def test_continuity_bars_of_nearly_equal_height_keep_readable_ticks(written):
 
 def test_wide_latex_tables_are_scaled_to_the_line():
     """The headline's table ran 1,468 pt past a page (workload_cost 389 pt): a table
-    estimated wider than the line is wrapped in graphicx's resizebox, a narrow one not."""
+    estimated wider than the line wraps its widest columns, is set sideways where that is
+    not enough, and is scaled down (graphicx's resizebox) only past that; a narrow one is
+    left alone."""
     from harness.report.document import latex_table
 
     narrow = latex_table(pd.DataFrame({"method": ["hull"], "n": [3]}), "narrow")
+    assert "resizebox" not in narrow and "graphicx" not in narrow and "sideways" not in narrow
+    # eight columns of 21 characters: wrapped at their words, they fit the page's height
     wide = latex_table(
         pd.DataFrame({f"column {i}": ["a value of some width"] for i in range(8)}), "wide"
     )
-    assert "resizebox" not in narrow and "graphicx" not in narrow
-    # (shrunk only: the estimate may call a table wide that fits)
+    assert wide.count("p{54pt}") == 8 and "resizebox" not in wide
+    assert "\\begin{sidewaystable}" in wide and "\\usepackage{rotating}" in wide
+    # sixteen: sideways and scaled (shrunk only: the estimate may call a table wide that fits)
+    wider = latex_table(
+        pd.DataFrame({f"column {i}": ["a value of some width"] for i in range(16)}), "wider"
+    )
     shrink = "\\resizebox{\\ifdim\\width>\\linewidth\\linewidth\\else\\width\\fi}{!}{%"
-    assert shrink + "\n\\begin{tabular}" in wide
-    assert "\\end{tabular}}\n\\caption{wide}" in wide and "\\usepackage{graphicx}" in wide
+    assert shrink + "\n\\begin{tabular}" in wider and "\\begin{sidewaystable}" in wider
+    assert "\\end{tabular}}\n\\caption{wider}" in wider and "\\usepackage{graphicx}" in wider
+    # a long text column wraps instead (the headline's 250-character basis column scaled
+    # the whole table to ~1.3 pt type): a paragraph column, no scaling, the others natural
+    basis = "the median CPU time per pair of this method over that of the hull " * 4
+    long = latex_table(pd.DataFrame({"method": ["hull"], "ratio": [2.5], "basis": [basis]}), "")
+    assert "resizebox" not in long and "\\usepackage{array}" in long
+    spec = re.search(r"\\begin\{tabular\}\{(.*)\}\n", long).group(1)
+    width = float(re.search(r"p\{(\d+)pt\}", spec).group(1))
+    assert spec.startswith("lr>{\\raggedright\\arraybackslash}p{") and 100 < width < 345
+    # and text symbols that OT1 fonts print as other glyphs are math: |x| < 2
+    assert "$|$x$|$ $<$ 2" in latex_table(pd.DataFrame({"a": ["|x| < 2"]}), "")
 
 
 def test_continuity_zero_and_missing_jumps_are_labelled_inside_the_axis(tmp_path):

@@ -83,6 +83,9 @@ _TEX = {
     "−": "$-$",
     "→": r"$\rightarrow$",
     "≈": r"$\approx$",
+    "|": "$|$",
+    "<": "$<$",
+    ">": "$>$",
 }
 _GREEK_CAPITALS = {
     "GAMMA",
@@ -137,23 +140,101 @@ def _tex_char(c: str) -> str:
 
 
 LATEX_LINE_PT = 345.0
-r"""\linewidth of a one-column article at 10 pt: a table estimated wider is scaled to it."""
+r"""\linewidth of a one-column article at 10 pt: a table estimated wider is fitted to it."""
+LATEX_PAGE_PT = 550.0
+r"""\textheight of that article: the line of a table set sideways."""
+LATEX_CHAR_PT = 4.5
+"""Estimated width of a character at \\small (an average: digits and lower case)."""
+LATEX_COLUMN_PT = 12.0
+"""Space between two columns (2 \\tabcolsep)."""
+LATEX_WRAP_CHARS = 12
+"""A column is not wrapped narrower than this many characters (nor than its longest word)."""
+
+
+def _column_widths(head: list[str], body: list[list[str]], numeric: list[bool]) -> tuple:
+    """(natural, narrowest) width of each column in characters: a number never wraps, a
+    header or a text cell may, at its spaces, down to its longest word and to
+    :data:`LATEX_WRAP_CHARS` (where it is that wide)."""
+
+    def word(x: str) -> int:
+        return max((len(w) for w in x.split()), default=0)
+
+    natural, floor = [], []
+    for j, h in enumerate(head):
+        vals = [row[j] for row in body]
+        longest = max((len(v) for v in vals), default=0)
+        natural.append(max(longest, len(h)))
+        words = max([word(h), *(longest if numeric[j] else word(v) for v in vals)], default=0)
+        floor.append(max(words, min(natural[-1], LATEX_WRAP_CHARS)))
+    return natural, floor
+
+
+def _total(w: list[int]) -> float:
+    return LATEX_CHAR_PT * sum(w) + LATEX_COLUMN_PT * len(w)
+
+
+def _fit(natural: list[int], floor: list[int], line: float = LATEX_LINE_PT) -> list[int]:
+    """Column widths (characters) that fit `line` (pt) where they can: every column wider
+    than a cap is narrowed to it (not below its floor), with the widest cap that fits;
+    the floors where none does."""
+    total = _total
+
+    def capped(c: int) -> list[int]:
+        return [max(f, min(n, c)) for n, f in zip(natural, floor, strict=True)]
+
+    if total(natural) <= line:
+        return natural
+    lo, hi = 0, max(natural)  # (capped(hi) is natural: too wide; find the widest cap that fits)
+    if total(capped(lo)) > line:
+        return capped(lo)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (mid, hi) if total(capped(mid)) <= line else (lo, mid)
+    return capped(lo)
 
 
 def latex_table(df: pd.DataFrame, caption: str) -> str:
     """A booktabs ``table`` environment of `df` (no pandas/jinja2 needed). A table
-    estimated wider than the line (~4.5 pt per character at \\small, 12 pt between
-    columns) is scaled down to it with graphicx's ``\\resizebox``: the widest ran 1,468 pt
-    past the page."""
-    align = "".join("r" if pd.api.types.is_numeric_dtype(df[c]) else "l" for c in df.columns)
+    estimated wider than the line (:data:`LATEX_CHAR_PT` per character at \\small,
+    :data:`LATEX_COLUMN_PT` between columns) has its widest columns wrapped to fit
+    (paragraph columns, text ragged right and numbers ragged left; headers wrap too),
+    and one still wider, its columns at their narrowest, is set sideways (rotating's
+    ``sidewaystable``: the text height, :data:`LATEX_PAGE_PT`, is its line), fitted to
+    that line the same way and only then scaled down to it with graphicx's
+    ``\\resizebox``: scaling alone had shrunk the headline's table, one of whose columns
+    runs to 250 characters, to 1.3 pt type, and tables of many numeric columns to 3-5 pt."""
+    numeric = [pd.api.types.is_numeric_dtype(df[c]) for c in df.columns]
     head = [str(c) for c in df.columns]
     body = [[cell(v) for v in row] for row in df.itertuples(index=False)]
-    chars = sum(max(len(x) for x in col) for col in zip(head, *body, strict=True)) if head else 0
-    wide = 4.5 * chars + 12.0 * len(head) > LATEX_LINE_PT  # (then only ever shrunk)
+    natural, floor = _column_widths(head, body, numeric)
+    widths = _fit(natural, floor)
+    sideways = _total(widths) > LATEX_LINE_PT
+    if sideways:
+        widths = _fit(natural, floor, LATEX_PAGE_PT)
+    wide = _total(widths) > (LATEX_PAGE_PT if sideways else LATEX_LINE_PT)
+    wrapped = [w < n for w, n in zip(widths, natural, strict=True)]
+    align = "".join(
+        (
+            (r">{\raggedleft\arraybackslash}" if num else r">{\raggedright\arraybackslash}")
+            + f"p{{{LATEX_CHAR_PT * w:.0f}pt}}"
+        )
+        if wrap
+        else ("r" if num else "l")
+        for w, wrap, num in zip(widths, wrapped, numeric, strict=True)
+    )
+    needs = (
+        ["booktabs"]
+        + (["array"] if any(wrapped) else [])
+        + (["rotating"] if sideways else [])
+        + (["graphicx"] if wide else [])
+    )
+    env = "sidewaystable" if sideways else "table"
     lines = [
-        "% rsmbench table: needs \\usepackage{booktabs}"
-        + (" and \\usepackage{graphicx} (scaled to the line width)" if wide else ""),
-        r"\begin{table}[htbp]",
+        "% rsmbench table: needs "
+        + ", ".join(f"\\usepackage{{{x}}}" for x in needs)
+        + (" (set sideways)" if sideways else "")
+        + (" (scaled to the line width)" if wide else ""),
+        rf"\begin{{{env}}}" + ("" if sideways else "[htbp]"),
         r"\centering\small",
         *([r"\resizebox{\ifdim\width>\linewidth\linewidth\else\width\fi}{!}{%"] if wide else []),
         rf"\begin{{tabular}}{{{align}}}",
@@ -164,7 +245,7 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
     for row in body:
         lines.append(" & ".join(_tex(v) for v in row) + r" \\")
     lines += [r"\bottomrule", r"\end{tabular}" + ("}" if wide else "")]
-    lines += [rf"\caption{{{_tex(caption)}}}", r"\end{table}"]
+    lines += [rf"\caption{{{_tex(caption)}}}", rf"\end{{{env}}}"]
     return "\n".join(lines) + "\n"
 
 
