@@ -480,3 +480,14 @@ def test_a_cluster_run_gets_the_cluster_grace(tmp_path, monkeypatch):
         with pytest.raises(orchestrate.RunInterrupted):
             run_suite(suite, tmp_path / f"r{i}", scheduler=scheduler, progress=False)
     assert graces == [Stop.GRACE, Stop.CLUSTER_GRACE] and Stop.CLUSTER_GRACE > Stop.GRACE
+
+
+def test_a_rows_note_is_cut_at_a_word():
+    # a reason cut at 200 characters mid-word ("within 61 iterat") read as a typo
+    from harness.run.studies.context import NOTE_CHARS, note
+
+    text = "motion not built: the solve found no interpolant " + "within 61 iterations " * 12
+    out = note(text)
+    assert len(out) <= NOTE_CHARS and out.endswith("…")
+    assert text.startswith(out[:-1]) and text[len(out) - 1] == " "  # (a whole word before …)
+    assert note("short reason") == "short reason"

@@ -18,6 +18,7 @@ __all__ = ["CONTINUITY_COLUMNS", "PHYSICS_COLUMNS", "continuity_section", "physi
 
 CONTINUITY_COLUMNS = {
     "measured class": "continuity_class",
+    "motions in the jumps": "motions_in_jumps",
     "max jump of acceleration": "max_jump_acceleration_m_per_t2",
     "max jump of angular acceleration": "max_jump_angular_acceleration_rad_per_t2",
     "max jump of angular velocity": "max_jump_angular_velocity_rad_per_t",
@@ -65,6 +66,8 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         {
             "motions": g.size(),
             "measured class": g["continuity"].agg(lambda v: "/".join(sorted(set(map(str, v))))),
+            # (a reviewer read the jump maxima as over every motion the class counts)
+            "motions in the jumps": gj.size().reindex(g.size().index).fillna(0).astype(int),
             **jumps,
             "world-frame invariance error": g["invariance_world"].max(),
             "body-frame invariance error": g["invariance_body"].max(),
@@ -86,7 +89,7 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     gg = use.groupby("scheme")
     lin = gg[jump("acceleration")].max()
     ang = gg[jump("angular_acceleration")].max()
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.2))
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
     for ax, series, label in (
         (axes[0], lin, f"jump of acceleration (m/{unit_t}²)"),
         (axes[1], ang, f"jump of angular acceleration (rad/{unit_t}²)"),
@@ -94,7 +97,10 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         vals = series.to_numpy(dtype=float)
         x = np.arange(len(vals))
         ok = np.isfinite(vals) & (vals > 0)
-        ax.bar(x[ok], vals[ok])
+        # points, not bars: a bar's length on a log axis is set by the axis' limits
+        ax.plot(x[ok], vals[ok], "o")
+        ax.grid(axis="y", which="major", alpha=0.3)
+        ax.set_xlim(-0.6, len(vals) - 0.4)
         for xi in x[~ok]:  # at the axis' foot (x in data, y in axes units): inside any limits
             ax.text(
                 xi, 0.02, "0" if np.isfinite(vals[xi]) else "n/a", ha="center", va="bottom",
@@ -110,15 +116,21 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     counts = gg.size()
     scenes = gg["scene"].agg(lambda v: tuple(sorted(set(map(str, v)))))
     same = scenes.nunique() <= 1
+    each = (
+        f"{int(counts.min())}"
+        if counts.min() == counts.max()
+        else f"{int(counts.min())}–{int(counts.max())}"
+    )
     fig.suptitle(
-        f"largest one-sided jump at interior knots; motions per scheme: {int(counts.min())}–{int(counts.max())}"
+        f"largest one-sided jump at interior knots; {each} motions per scheme"
         + ("" if same else "; the schemes ran on different scenes (see the table)"),
         fontsize=8,
     )
+    fig.tight_layout(rect=(0, 0, 1, 0.95))  # (below the title)
     doc.figure(
         fig,
         "continuity_jumps",
-        f"Largest one-sided jumps of acceleration (left) and angular acceleration (right) at interior knots, {'at the knots themselves (extrapolated to offset 0)' if at_knot else 'at the smallest offset'}, {'scene keyframes (time in seconds)' if len(scene_kf) else 'random keyframes (t: the chordal parameter)'}: a C² scheme {'shows round-off here (or 0)' if at_knot else 'jumps here only by the offset times the jerk'}, a C¹ one a finite jump; a scheme that is C⁰ (slerp's corners) jumps already in velocity or angular velocity, which these panels do not show (the continuity table gives those jumps and every scheme's measured class): its acceleration can be 0 on both sides of a knot (slerp turns at a constant rate), so its bar reads 0.",
+        f"Largest one-sided jumps of acceleration (left) and angular acceleration (right) at interior knots, {'at the knots themselves (extrapolated to offset 0)' if at_knot else 'at the smallest offset'}, {'scene keyframes (time in seconds)' if len(scene_kf) else 'random keyframes (t: the chordal parameter)'}: a C² scheme {'shows round-off here (or 0)' if at_knot else 'jumps here only by the offset times the jerk'}, a C¹ one a finite jump; a scheme that is C⁰ (slerp's corners) jumps already in velocity or angular velocity, which these panels do not show (the continuity table gives those jumps and every scheme's measured class): its acceleration can be 0 on both sides of a knot (slerp turns at a constant rate), so it reads 0. Points, not bars: on a log axis a bar's length is the axis' choice.",
     )
 
 
@@ -193,6 +205,7 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
         ax.set_ylabel("force rate jump (N/s)")
         ax.set_xlabel("scheme")
         ax.legend(fontsize=7, title="scene (carries a body)", title_fontsize=7)
+        ax.set_title(f"n = {len(has)} simulations, one point each", fontsize=8)
         doc.figure(
             fig,
             "force_jumps",

@@ -85,10 +85,23 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
     doc.h("Certification accuracy")
     timed = cert.assign(method=method_labels(cert))  # every repeat: the CPU times
     cert = first_repeat(timed)  # each query once: the counts
-    overall = [(m, rates(g)) for m, g in cert.groupby("method", sort=True)]
+    # (a scheme/bound none of whose rows applies is only in the not-applicable table: a
+    # reviewer counted 17 of this table's 36 rows as zeros that said nothing)
+    applies = column(cert, "verdict", "") != "n/a"
+    overall = [
+        (m, rates(g)) for m, g in cert.groupby("method", sort=True) if applies[g.index].any()
+    ]
+    left = cert.loc[~cert["method"].isin([m for m, _ in overall]), "method"].nunique()
+    apart = (
+        f" {left} scheme/bound combination(s) with no row that applies are listed in the"
+        " not-applicable table below, not here."
+        if left
+        else ""
+    )
     doc.table(
         pd.DataFrame([_accuracy_row(m, r) for m, r in overall]),
-        "Per scheme/bound over every scene, keyframe set and tolerance of the study, each query once (a study's repeats time it again, and are not counted again): verdict counts; false free out of the rows whose proven truth is collision; false collision out of those proven free. The ground truth is dense exact distances (MuJoCo mj_geomDistance) plus the Lipschitz margin of a proven speed bound; schemes without one have truth `unproven`, counted apart.",
+        "Per scheme/bound over every scene, keyframe set and tolerance of the study, each query once (a study's repeats time it again, and are not counted again): verdict counts; false free out of the rows whose proven truth is collision; false collision out of those proven free. The ground truth is dense exact distances (MuJoCo mj_geomDistance) plus the Lipschitz margin of a proven speed bound; schemes without one have truth `unproven`, counted apart."
+        + apart,
         "accuracy_by_method",
         data=pd.DataFrame([{"method": m, **rate_numbers(r)} for m, r in overall]),
     )
@@ -172,33 +185,40 @@ def _rate_figure(
         ("false collision", "of truth free", "false-positive rate (collision, truth free)"),
         ("unknown", "ran", "unknown rate"),
     ]
-    fig, ax = plt.subplots(figsize=(max(6, 0.7 * len(methods) + 2), 3.6))
-    x = np.arange(len(methods))
-    width = 0.27
+    # one row per method, bars across: a column width wide whatever the number of methods
+    # (bars side by side made a default run's figure 15 inches wide, its labels ~2 pt at a
+    # column's width), the axis as long as the largest rate needs (it ran to 1.25 for
+    # rates of at most 1/32)
+    fig, ax = plt.subplots(figsize=(6.5, max(2.5, 0.45 * len(methods) + 1.3)))
+    y = np.arange(len(methods))
+    height = 0.27
+    largest = 0.0
     for j, (k, d, label) in enumerate(kinds):
         num = np.array([s[k] for s in stats], dtype=float)
         den = np.array([s[d] for s in stats], dtype=float)
         rate = np.divide(num, den, out=np.zeros_like(num), where=den > 0)
-        pos = x + (j - 1) * width
-        bars = ax.bar(pos, rate, width, label=label)
+        largest = max(largest, float(rate.max()))
+        pos = y + (j - 1) * height
+        bars = ax.barh(pos, rate, height, label=label)
         # a marker on every measured rate, so that a rate of 0 is visible as a measurement
         ok = den > 0
-        ax.plot(pos[ok], rate[ok], "_", ms=9, mew=2, color=bars.patches[0].get_facecolor())
-        for xi, ni, di, ri in zip(pos, num, den, rate, strict=True):
-            ax.text(
-                xi,
-                ri + 0.02,
+        ax.plot(rate[ok], pos[ok], "|", ms=7, mew=2, color=bars.patches[0].get_facecolor())
+        for yi, ni, di, ri in zip(pos, num, den, rate, strict=True):
+            ax.annotate(
                 f"{int(ni)}/{int(di)}" if di else "n/a",
-                ha="center",
-                va="bottom",
-                rotation=90,
-                fontsize=6,
+                (ri, yi),
+                xytext=(4, 0),
+                textcoords="offset points",
+                va="center",
+                fontsize=7,
             )
-    ax.set_xticks(x, methods, rotation=60, ha="right", fontsize=7)
-    ax.set_ylim(-0.03, 1.25)
-    ax.set_ylabel("rate (fraction of the denominator)")
-    ax.set_xlabel(xlabel)
-    ax.legend(fontsize=7, loc="upper left")
+    ax.set_yticks(y, methods, fontsize=8)
+    ax.invert_yaxis()  # (the first method on top)
+    # room for the largest bar and its label; at least 0.1, so that zero rates read as such
+    ax.set_xlim(0, min(1.0, max(0.1, largest)) * 1.35)
+    ax.set_xlabel("rate (fraction of the denominator)")
+    ax.set_ylabel(xlabel)
+    ax.legend(fontsize=7, loc="lower left", bbox_to_anchor=(0, 1.0), ncol=2, frameon=False)
     doc.figure(
         fig,
         name,
@@ -463,7 +483,11 @@ def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt, which: str) -> None
     )
     if len(hull) and numeric(hull, "nodes").notna().any():
         fig, ax = plt.subplots(figsize=(5.5, 3.2))
-        ax.scatter(numeric(hull, "clearance") * 1e3, numeric(hull, "nodes"), s=6)
+        cl, nd = numeric(hull, "clearance") * 1e3, numeric(hull, "nodes")
+        # counts are integers: hundreds of points on a few values hid their density; a
+        # seeded jitter of ±7 % on the log axis and transparency show it
+        jitter = 10 ** np.random.default_rng(0).uniform(-0.03, 0.03, len(nd))
+        ax.scatter(cl, nd * jitter, s=6, alpha=0.35, linewidths=0)
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("clearance label (mm)")
@@ -475,8 +499,27 @@ def _workload_pairs(doc: Document, pairs: pd.DataFrame, plt, which: str) -> None
         doc.figure(
             fig,
             "workload_nodes",
-            f"Bound evaluations of the adaptive hull subdivision per free pair{which} against its clearance label: the cost grows only slowly as the clearance shrinks towards the tolerance.",
+            f"Bound evaluations of the adaptive hull subdivision per free pair{which} against its clearance label (points jittered vertically by up to ±7 % and translucent, so that equal counts show how many they are){_nodes_trend(cl, nd)}.",
         )
+
+
+def _nodes_trend(clearance: pd.Series, nodes: pd.Series) -> str:
+    """How the evaluations grow as the clearance shrinks, measured (the caption said
+    "only slowly" whatever the run): medians in the lowest and highest fifth of the
+    clearances and Spearman's rank correlation."""
+    from scipy import stats
+
+    ok = clearance.notna() & nodes.notna()
+    c, n = clearance[ok].to_numpy(dtype=float), nodes[ok].to_numpy(dtype=float)
+    if len(c) < 10 or np.ptp(c) == 0 or np.ptp(n) == 0:
+        return ""
+    lo, hi = np.quantile(c, [0.2, 0.8])
+    rho = stats.spearmanr(c, n).statistic
+    return (
+        f": median {np.median(n[c <= lo]):g} evaluations below {lo:.3g} mm of clearance (the"
+        f" lowest fifth), {np.median(n[c >= hi]):g} above {hi:.3g} mm (the highest fifth);"
+        f" Spearman's rank correlation {rho:.2f} over {len(c)} pairs"
+    )
 
 
 def _cost_figure(doc: Document, costs: pd.DataFrame, plt) -> None:
@@ -503,7 +546,7 @@ def _cost_figure(doc: Document, costs: pd.DataFrame, plt) -> None:
     doc.figure(
         fig,
         "workload_cost",
-        "CPU time per pair of each method, one sample per round (n rounds per box; each round covers the pairs given, the same for every method in a mode); log scale. A hatched box marked ≥ is a method that left some of the pairs unknown (it stopped at a limit there, see the table's reasons): its cost is a lower bound of deciding them.",
+        "CPU time per pair of each method, one sample per round (n rounds per box; each round covers the pairs given, the same for every method in a mode); log scale. A box whose label is marked ≥ (and hatched, where the box is wide enough to show it) is a method that left some of the pairs unknown (it stopped at a limit there, see the table's reasons): its cost is a lower bound of deciding them.",
     )
 
 
@@ -517,6 +560,7 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
     intervals = slope_intervals(sc)
     fig, ax = plt.subplots(figsize=(6, 4))
     table = []
+    points = []
     kinds: dict[str, str] = {}
     for method, g in sc.groupby("method"):
         g = g.sort_values("delta")
@@ -525,13 +569,22 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
         d_mm = g["delta"].to_numpy(dtype=float) * 1e3
         cost = g["cost"].to_numpy(dtype=float)
         cens = flag(g, "censored").to_numpy()
+        unit = "poses" if "sampling" in str(method) else "bound evaluations"
         if basis.startswith("formula"):
-            (line,) = ax.loglog(d_mm, cost, "--", label=f"{method} (formula, not run)")
+            (line,) = ax.loglog(d_mm, cost, "--", label=f"{method}: {unit} (formula, not run)")
+        elif cens.all():  # (a lower bound throughout: no line that reads as measured)
+            (line,) = ax.loglog(d_mm, cost, ":", label=f"{method}: {unit} (censored)")
         else:
-            (line,) = ax.loglog(d_mm, cost, "-", label=f"{method} ({basis.split(' ')[0]})")
+            (line,) = ax.loglog(d_mm, cost, "-", label=f"{method}: {unit} ({basis.split(' ')[0]})")
             ax.loglog(d_mm[~cens], cost[~cens], "o", color=line.get_color())
         if cens.any():
             ax.loglog(d_mm[cens], cost[cens], "^", mfc="none", color=line.get_color())
+        pairs = numeric(g, "pairs").to_numpy()
+        points += [
+            {"method": method, "unit": unit, "delta_mm": d, "cost": c, "censored": bool(x),
+             "pairs": p, "basis": basis.split(" ")[0]}
+            for d, c, x, p in zip(d_mm, cost, cens, pairs, strict=True)
+        ]  # fmt: skip
         slope = slopes.get(method, math.nan)
         lo, hi = (
             intervals.get(method, (math.nan, math.nan)) if basis == "measured" else (math.nan,) * 2
@@ -548,14 +601,18 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
             }
         )
     ax.set_xlabel("resolution δ (mm); pairs with clearance 2δ")
-    ax.set_ylabel("cost (poses or bound evaluations, all pairs)")
+    ax.set_ylabel("count over all pairs (each method's own unit)")
     n = numeric(sc, "pairs").dropna().unique()
     if len(n):  # (runs from before rows said it: no n)
         each = f"{int(n[0])}" if len(n) == 1 else f"{int(n.min())}–{int(n.max())}"
         ax.set_title(f"n = {each} pairs per point", fontsize=8)
-    ax.legend(fontsize=7)
+    # below the axes: the lines cross the whole plot
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.15), frameon=False)
     caption = [
-        "Cost to certify pairs with clearance 2δ at resolution δ, log-log.",
+        "Cost to certify pairs with clearance 2δ at resolution δ, log-log, each method in its"
+        " own unit (the legend's): sampling counts poses, subdivision bound evaluations, so"
+        " the lines' levels are not comparable across the two, only their growth (the slopes"
+        " below). Counts are deterministic: no spread.",
         " Solid lines with dots were measured (subdivision: pieces or nodes",
     ]
     if kinds.get("uniform sampling") != "formula":
@@ -570,10 +627,17 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
         )
     if "censored" in kinds.values():
         caption.append(
-            "; open triangles are censored (uniform subdivision stopped at its depth cap"
-            " without clearing, so the cost shown is a lower bound)"
+            "; open triangles are censored, on a dotted line where every point is (uniform"
+            " subdivision stopped at its depth cap without clearing, so the cost shown is a"
+            " lower bound)"
         )
     doc.figure(fig, "scaling", "".join(caption) + ".")
+    doc.table(
+        pd.DataFrame(points),
+        "The points of the figure: each method's count over all pairs at each resolution, in"
+        " its unit; censored: a lower bound (stopped at the depth cap).",
+        "scaling_points",
+    )
     table = pd.DataFrame(table)
     shown = table.drop(columns=["fitted_slope_ci95_lo", "fitted_slope_ci95_hi"])
     shown.insert(

@@ -23,6 +23,7 @@ from .context import (
     Context,
     accuracy_cols,
     cert_cols,
+    note,
     rounds_key,
     smoothness_cols,
     startup_case,
@@ -123,7 +124,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     try:
         m = ctx.motion(scene, kf, scheme)
     except motions.MotionError as e:
-        return [{**row, "verdict": "n/a", "reason": f"motion not built: {e}"[:200]}]
+        return [{**row, "verdict": "n/a", "reason": note(f"motion not built: {e}")}]
     body, obst = ctx.geometry(scene)
     row["duration"] = float(m.domain[1] - m.domain[0])
     row.update(

@@ -23,6 +23,7 @@ __all__ = [
     "Context",
     "accuracy_cols",
     "cert_cols",
+    "note",
     "rounds_key",
     "smoothness_cols",
     "startup_case",
@@ -31,6 +32,20 @@ __all__ = [
 ]
 
 MAX_ROUNDS = 1000
+
+
+NOTE_CHARS = 200
+"""A row's text note (a reason, a truth's note) keeps this many characters at most."""
+
+
+def note(text: str) -> str:
+    """`text` as a row's note: whole if it fits :data:`NOTE_CHARS`, else cut at the last
+    word boundary with '…' (it was cut mid-word: "within 61 iterat")."""
+    text = " ".join(str(text).split())
+    if len(text) <= NOTE_CHARS:
+        return text
+    head = text[: NOTE_CHARS - 1]
+    return (head.rsplit(" ", 1)[0] if " " in head else head).rstrip(" ,;:(") + "…"
 
 
 def rounds_key(st: dict, file, key: str) -> int:
@@ -240,7 +255,7 @@ def truth_cols(
         except NotImplementedError:  # no proven speed bound: no proven truth
             out["truth"] = "unproven"
         except ValueError as e:  # too many samples at this resolution
-            out["truth_note"] = str(e)[:200]
+            out["truth_note"] = note(str(e))
         out["truth_seconds"] = time.perf_counter() - t0
         return out
 

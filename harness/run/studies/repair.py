@@ -19,7 +19,7 @@ import numpy as np
 from ...avoid.baseline import MAX_SAMPLES as SAMPLED_REPAIR_MAX
 from ...avoid.cases import SEEDED_SCENE as SEEDED
 from ..fields import integer, need, number, numbers, scene_names
-from .context import Context
+from .context import Context, note
 
 KEYS = frozenset(
     {"cases", "seed", "clearances", "tolerance", "samples", "truth_resolution", "scenes"}
@@ -126,7 +126,7 @@ def _truth(m, case, res: float) -> dict:
     try:
         g = ground_truth(m, case.body, case.obstacles, resolution=res)
     except (ValueError, NotImplementedError) as e:
-        return {"truth": "unknown", "truth_note": str(e)[:200]}
+        return {"truth": "unknown", "truth_note": note(str(e))}
     return {"truth": g.verdict, "truth_clearance": g.clearance}
 
 
@@ -172,7 +172,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             )
             result = r.motion
         except RepairError as e:
-            row.update(status="refused", verdict="n/a", reason=str(e)[:200], iterations=math.nan)
+            row.update(status="refused", verdict="n/a", reason=note(str(e)), iterations=math.nan)
             result = None
         row["seconds"], row["cpu_seconds"] = time.perf_counter() - w0, time.process_time() - c0
         if result is not None:

@@ -17,7 +17,7 @@ import motions
 from ...certification import certify_many
 from ...timing import repeat
 from ..fields import names, need, number, scene_names
-from .context import Context, rounds_key, smoothness_cols
+from .context import Context, note, rounds_key, smoothness_cols
 
 KEYS = frozenset({"scenes", "schemes", "dt", "rounds"})
 
@@ -62,7 +62,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     try:
         m = ctx.motion(scene, "scene", scheme)
     except motions.MotionError as e:
-        return [{**row, "verdict": "n/a", "reason": f"motion not built: {e}"[:200]}]
+        return [{**row, "verdict": "n/a", "reason": note(f"motion not built: {e}")}]
     t0 = time.perf_counter()
     df = simulate(sc, m, dt=st["dt"])
     row["record_seconds"] = time.perf_counter() - t0
