@@ -1660,3 +1660,11 @@ def test_workload_nodes_caption_measures_the_trend():
     assert f"{high:g} above {hi:.3g} mm" in text
     assert f"rank correlation {rho:.2f} over 200 pairs" in text and rho < -0.5
     assert _nodes_trend(clearance[:5], nodes[:5]) == ""  # (too few to say)
+
+
+def test_cells_keep_one_notation_below_1e5():
+    # a reviewer: "1.997e+04" next to "394" in one column
+    from harness.report.document import cell
+
+    assert [cell(x) for x in (394.0, 1234.5, 19970.0, 99999.0)] == ["394", "1234", "19970", "99999"]
+    assert cell(3.37e5) == "3.37e+05" and cell(2.5e-4) == "0.00025"

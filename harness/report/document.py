@@ -42,6 +42,8 @@ def cell(v: Any) -> str:
             return "∞" if v > 0 else "-∞"
         if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
             return f"{v:.3g}"
+        if abs(v) >= 1e4:  # (":.4g" wrote 19970 as 1.997e+04, beside 394 in a column)
+            return f"{v:.0f}"
         return f"{v:.4g}"
     return str(v)
 

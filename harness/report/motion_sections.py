@@ -138,7 +138,9 @@ PHYSICS_COLUMNS = {
     "force_jump": ("force jump (N)", "force_jump_n"),
     "force_rate_jump": ("force rate jump (N/s)", "force_rate_jump_n_per_s"),
     "jerk_jump": ("jerk jump (m/s³)", "jerk_jump_m_per_s3"),
-    "min_distance": ("min distance (m)", "min_distance_m"),
+    "min_distance": ("min distance (m; < 0: penetration)", "min_distance_m"),
+    "crosscheck_ok": ("certificate agrees", "crosscheck_ok"),
+    "steps_per_second": ("steps per second", "steps_per_second"),
 }
 """The simulation table's columns with a unit: (as shown, in the CSV)."""
 
@@ -183,7 +185,7 @@ def physics_section(doc: Document, df: pd.DataFrame, plt) -> None:
             t[c] = [cell(float(v)) if np.isfinite(v) else "n/a" for v in jump]
     doc.table(
         t.rename(columns={c: PHYSICS_COLUMNS[c][0] for c in t.columns if c in PHYSICS_COLUMNS}),
-        "MuJoCo simulation of every scene and scheme: jumps of the net constraint force on carried bodies and of its rate at the knots (lines fitted over 8 steps each side; n/a where the scene carries nothing or the recording is shorter than two such windows), the smallest simulated clearance, and for rational motions the certificate; crosscheck_ok is False only if a certified-free motion touched in simulation.",
+        "MuJoCo simulation of every scene and scheme: jumps of the net constraint force on carried bodies and of its rate at the knots (lines fitted over 8 steps each side; n/a where the scene carries nothing or the recording is shorter than two such windows), the smallest simulated clearance (negative: a penetration depth), and for rational motions the certificate; 'certificate agrees' is no only if a certified-free motion touched in simulation.",
         "physics",
         data=data.rename(
             columns={c: PHYSICS_COLUMNS[c][1] for c in data.columns if c in PHYSICS_COLUMNS}
