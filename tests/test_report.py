@@ -369,6 +369,11 @@ def test_toi_error_table_gives_the_figures_numbers(written):
     np.testing.assert_allclose(t.loc["hull", "max_abs_error_fraction"], 5e-4)
     np.testing.assert_allclose(t.loc["sampled", "median_abs_error_fraction"], 5e-4)
     assert (t["late"] == 0).all() and (t["exact"] == 0).all()
+    # like for like (an audit: the rows pool different motions per bound): the motions
+    # every bound answered, here the 4 of k = 0 (sampled answers k = 2 free), where the
+    # hull's error is 5e-4 too, not the median of its 8
+    assert (t["n_common"] == 4).all()
+    np.testing.assert_allclose(t["median_abs_error_common_fraction"], 5e-4)
 
 
 def test_scaling_marks_censored_data_and_fits_only_measured_series(written):

@@ -278,11 +278,25 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
         if "scheme" in both
         else ""
     )
+    # like for like beside the pooled figures: the motions every bound answered (an audit:
+    # the rows pool different motions per bound)
+    keys = [k for k in ("scene", "keyframes", "scheme", "tolerance") if k in both]
+    ident = both[keys].astype(str).agg("|".join, axis=1) if keys else None
+    common = (
+        set.intersection(*(set(ident[both["bound"] == b]) for b in bounds))
+        if ident is not None and len(bounds) > 1
+        else set()
+    )
     data, labels, rows = [], [], []  # (the boxes, and the same numbers as a table below)
     for b in bounds:
         mine = (both["bound"] == b).to_numpy()
         v, e = mag[mine].to_numpy(dtype=float), err[mine].to_numpy(dtype=float)
         exact = int((v <= TOI_FLOOR).sum())
+        shared = (
+            mag[mine & ident.isin(common).to_numpy()].to_numpy(dtype=float)
+            if common
+            else np.array([])
+        )
         data.append(np.log10(np.maximum(v, TOI_FLOOR)))
         labels.append(f"{b}\nn={v.size}" + (f"\n({exact} exact)" if exact else ""))
         rows.append(
@@ -294,6 +308,8 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
                 "90th percentile": float(np.percentile(v, 90)),
                 "max |error|": float(v.max()),
                 "late": int((e > 0).sum()),
+                "n common": shared.size,
+                "median |error| common": float(np.median(shared)) if shared.size else math.nan,
             }
         )
     fig, ax = plt.subplots(figsize=(max(4, 1.3 * len(bounds) + 1.5), 3.4))
@@ -315,7 +331,7 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
     t = pd.DataFrame(rows)
     doc.table(
         t,
-        f"The time-of-contact errors of the figure above, per bound: |toi_lo − toi_true| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's earliest pose proven to intersect (toi_true) (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''}{bracket}{left_out}",
+        f"The time-of-contact errors of the figure above, per bound: |toi_lo − toi_true| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's earliest pose proven to intersect (toi_true) (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''} 'common': over the motions (scene, keyframes, scheme, tolerance) that every bound here answered with a collision whose truth is proven, the same motions in every row (– where none are shared).{bracket}{left_out}",
         "toi_error",
         data=t.rename(
             columns={
@@ -323,6 +339,8 @@ def _toi_figure(doc: Document, cert: pd.DataFrame, plt) -> None:
                 "median |error|": f"median_abs_error_{'fraction' if relative else 'param'}",
                 "90th percentile": f"p90_abs_error_{'fraction' if relative else 'param'}",
                 "max |error|": f"max_abs_error_{'fraction' if relative else 'param'}",
+                "n common": "n_common",
+                "median |error| common": f"median_abs_error_common_{'fraction' if relative else 'param'}",
             }
         ),
     )
