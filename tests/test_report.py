@@ -788,6 +788,7 @@ def test_scaling_caption_and_legend_say_what_was_measured(written, tmp_path):
     # each series says its unit (a reviewer: poses and bound evaluations on one axis)
     assert "uniform sampling: poses (measured)" in legend
     assert "adaptive subdivision (hull): bound evaluations (measured)" in legend
+    assert "uniform subdivision (aabb): pieces (censored)" in legend
     assert "not run" not in caption and "dashed" not in caption
     assert "censored" in caption  # the synthetic aabb series is censored
     # a series censored throughout is a dotted line of open triangles, not a solid line
@@ -1240,38 +1241,84 @@ def test_continuity_bars_of_nearly_equal_height_keep_readable_ticks(written):
         assert hi / lo >= 100, (lo, hi)
 
 
+def _layouts() -> dict[str, pd.DataFrame]:
+    """Tables of the shapes a report writes: narrow, a long text column (the headline's
+    basis runs to 250 characters), many columns, many rows, many rows and columns."""
+    basis = "the median CPU time per pair of this method over that of the hull " * 4
+    return {
+        "narrow": pd.DataFrame({"method": ["hull"], "n": [3]}),
+        "text": pd.DataFrame(
+            {"method": ["hull", "aabb"], "ratio": [2.5, 1.0], "basis": [basis] * 2}
+        ),
+        "wide": pd.DataFrame({f"column {i}": ["a value of some width"] for i in range(8)}),
+        "wider": pd.DataFrame({f"column {i}": ["a value of some width"] for i in range(16)}),
+        "long": pd.DataFrame({"figure": [f"figure {i}" for i in range(60)], "basis": [basis] * 60}),
+        "long and wide": pd.DataFrame(
+            {f"column {i}": [f"value {k} of width" for k in range(40)] for i in range(14)}
+        ),
+    }
+
+
 def test_wide_latex_tables_are_scaled_to_the_line():
-    """The headline's table ran 1,468 pt past a page (workload_cost 389 pt): a table
-    estimated wider than the line wraps its widest columns, is set sideways where that is
-    not enough, and is scaled down (graphicx's resizebox) only past that; a narrow one is
-    left alone."""
+    """The headline's table ran 1,468 pt past a page (workload_cost 389 pt), and then,
+    scaled to the line, its 250-character column set it in 1.3 pt type; wrapped to one
+    width for all columns it ran 2,375 pt past the page's foot (a review, compiled): a table
+    wider than the line wraps its columns in proportion to their widths, is set sideways
+    where scaling would take it below 0.8, and is a longtable where it is taller than its
+    page; every float may shrink (never grow) to its line, since widths are estimates."""
     from harness.report.document import latex_table
 
-    narrow = latex_table(pd.DataFrame({"method": ["hull"], "n": [3]}), "narrow")
-    assert "resizebox" not in narrow and "graphicx" not in narrow and "sideways" not in narrow
-    # eight columns of 21 characters: wrapped at their words, they fit the page's height
-    wide = latex_table(
-        pd.DataFrame({f"column {i}": ["a value of some width"] for i in range(8)}), "wide"
-    )
-    assert wide.count("p{54pt}") == 8 and "resizebox" not in wide
-    assert "\\begin{sidewaystable}" in wide and "\\usepackage{rotating}" in wide
-    # sixteen: sideways and scaled (shrunk only: the estimate may call a table wide that fits)
-    wider = latex_table(
-        pd.DataFrame({f"column {i}": ["a value of some width"] for i in range(16)}), "wider"
-    )
+    t = {k: latex_table(df, k) for k, df in _layouts().items()}
     shrink = "\\resizebox{\\ifdim\\width>\\linewidth\\linewidth\\else\\width\\fi}{!}{%"
-    assert shrink + "\n\\begin{tabular}" in wider and "\\begin{sidewaystable}" in wider
-    assert "\\end{tabular}}\n\\caption{wider}" in wider and "\\usepackage{graphicx}" in wider
-    # a long text column wraps instead (the headline's 250-character basis column scaled
-    # the whole table to ~1.3 pt type): a paragraph column, no scaling, the others natural
-    basis = "the median CPU time per pair of this method over that of the hull " * 4
-    long = latex_table(pd.DataFrame({"method": ["hull"], "ratio": [2.5], "basis": [basis]}), "")
-    assert "resizebox" not in long and "\\usepackage{array}" in long
-    spec = re.search(r"\\begin\{tabular\}\{(.*)\}\n", long).group(1)
+    assert shrink + "\n\\begin{tabular}{lr}" in t["narrow"] and "sideways" not in t["narrow"]
+    # the long text column wraps upright, the others at their width
+    spec = re.search(r"\\begin\{tabular\}\{(.*)\}\n", t["text"]).group(1)
     width = float(re.search(r"p\{(\d+)pt\}", spec).group(1))
     assert spec.startswith("lr>{\\raggedright\\arraybackslash}p{") and 100 < width < 345
+    assert "\\begin{table}" in t["text"] and "\\usepackage{array}" in t["text"]
+    # eight columns of 21 characters go sideways, sixteen too (and shrink there)
+    for k in ("wide", "wider"):
+        assert "\\begin{sidewaystable}" in t[k] and "\\usepackage{rotating}" in t[k]
+    # tall ones break across pages, their header repeated; the wide one on landscape pages
+    for k in ("long", "long and wide"):
+        assert "\\begin{longtable}" in t[k] and "\\endhead" in t[k] and "resizebox" not in t[k]
+    assert "\\begin{landscape}" in t["long and wide"] and "landscape" not in t["long"]
     # and text symbols that OT1 fonts print as other glyphs are math: |x| < 2
     assert "$|$x$|$ $<$ 2" in latex_table(pd.DataFrame({"a": ["|x| < 2"]}), "")
+
+
+def test_latex_tables_compile_within_their_pages(tmp_path):
+    """Each layout compiled with pdflatex (where it and the packages are installed): no
+    float taller than its page, nothing wider than its line by more than a few points."""
+    import shutil
+    import subprocess
+
+    from harness.report.document import latex_table
+
+    if shutil.which("pdflatex") is None or shutil.which("kpsewhich") is None:
+        pytest.skip("pdflatex is not installed")
+    pkgs = ["booktabs", "array", "longtable", "graphicx", "rotating", "pdflscape"]
+    if any(
+        not subprocess.run(["kpsewhich", f"{p}.sty"], capture_output=True, text=True).stdout
+        for p in pkgs
+    ):
+        pytest.skip("a LaTeX package the tables use is not installed")
+    for name, df in _layouts().items():
+        doc = tmp_path / f"{name.replace(' ', '_')}.tex"
+        doc.write_text(
+            "\\documentclass[10pt]{article}\n"
+            f"\\usepackage{{{','.join(pkgs)}}}\n"
+            "\\begin{document}\n" + latex_table(df, f"The {name} table.") + "\\end{document}\n"
+        )
+        run = subprocess.run(
+            ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", doc.name],
+            cwd=tmp_path, capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+        log = doc.with_suffix(".log").read_text(errors="replace")
+        assert run.returncode == 0, (name, log[-2000:])
+        assert "Float too large" not in log, name
+        over = [float(x) for x in re.findall(r"Overfull \\hbox \(([\d.]+)pt too wide\)", log)]
+        assert max(over, default=0.0) < 6.0, (name, over)
 
 
 def test_continuity_zero_and_missing_jumps_are_labelled_inside_the_axis(tmp_path):
@@ -1672,4 +1719,6 @@ def test_cells_keep_one_notation_below_1e5():
     from harness.report.document import cell
 
     assert [cell(x) for x in (394.0, 1234.5, 19970.0, 99999.0)] == ["394", "1234", "19970", "99999"]
-    assert cell(3.37e5) == "3.37e+05" and cell(2.5e-4) == "0.00025"
+    # (and counts up to 10^9: a review found 5.69e+05 beside 19968 in median nodes)
+    assert cell(569019.0) == "569019" and cell(3.37e5) == "337000"
+    assert cell(2.5e10) == "2.5e+10" and cell(2.5e-4) == "0.00025"

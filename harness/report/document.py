@@ -40,9 +40,10 @@ def cell(v: Any) -> str:
             return "–"
         if math.isinf(v):
             return "∞" if v > 0 else "-∞"
-        if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
+        if v != 0 and (abs(v) >= 1e9 or abs(v) < 1e-3):
             return f"{v:.3g}"
-        if abs(v) >= 1e4:  # (":.4g" wrote 19970 as 1.997e+04, beside 394 in a column)
+        if abs(v) >= 1e4:  # (whole: ":.4g" wrote 19970 as 1.997e+04 beside 394 in a column,
+            # and counts to 10^9 read as counts: 569019 beside 19968)
             return f"{v:.0f}"
         return f"{v:.4g}"
     return str(v)
@@ -144,81 +145,137 @@ def _tex_char(c: str) -> str:
 LATEX_LINE_PT = 345.0
 r"""\linewidth of a one-column article at 10 pt: a table estimated wider is fitted to it."""
 LATEX_PAGE_PT = 550.0
-r"""\textheight of that article: the line of a table set sideways."""
-LATEX_CHAR_PT = 4.5
-"""Estimated width of a character at \\small (an average: digits and lower case)."""
+r"""\textheight of that article: the height of an upright table, the line of one set
+sideways."""
+LATEX_FONTS = (("small", 4.6, 11.0), ("footnotesize", 4.3, 9.5), ("scriptsize", 4.0, 8.0))
+"""Font sizes a table may be set in: (LaTeX name, estimated width of a character (an
+average of digits and lower case in Computer Modern, whose smaller sizes are drawn
+wider: cmr7's digits are 4.0 pt), line height), in pt. A float is set \\small; a long
+table takes the largest in which it fits the line."""
 LATEX_COLUMN_PT = 12.0
 """Space between two columns (2 \\tabcolsep)."""
 LATEX_WRAP_CHARS = 12
 """A column is not wrapped narrower than this many characters (nor than its longest word)."""
+LATEX_MIN_SCALE = 0.8
+"""A table is scaled down to its line by no more than this; a wider one is set sideways
+(a page of its own)."""
 
 
 def _column_widths(head: list[str], body: list[list[str]], numeric: list[bool]) -> tuple:
-    """(natural, narrowest) width of each column in characters: a number never wraps, a
-    header or a text cell may, at its spaces, down to its longest word and to
-    :data:`LATEX_WRAP_CHARS` (where it is that wide)."""
+    """(natural, narrowest, hardest) width of each column in characters: a number never
+    wraps, a header or a text cell may, at its spaces, down to its longest word and to
+    :data:`LATEX_WRAP_CHARS` (where it is that wide), or, where nothing else fits, to its
+    longest word alone."""
 
     def word(x: str) -> int:
         return max((len(w) for w in x.split()), default=0)
 
-    natural, floor = [], []
+    natural, floor, hard = [], [], []
     for j, h in enumerate(head):
         vals = [row[j] for row in body]
         longest = max((len(v) for v in vals), default=0)
         natural.append(max(longest, len(h)))
         words = max([word(h), *(longest if numeric[j] else word(v) for v in vals)], default=0)
         floor.append(max(words, min(natural[-1], LATEX_WRAP_CHARS)))
-    return natural, floor
+        hard.append(words)
+    return natural, floor, hard
 
 
-def _total(w: list[int]) -> float:
-    return LATEX_CHAR_PT * sum(w) + LATEX_COLUMN_PT * len(w)
+def _total(w: list[int], char: float = LATEX_FONTS[0][1], gap: float = LATEX_COLUMN_PT) -> float:
+    return char * sum(w) + gap * len(w)
 
 
-def _fit(natural: list[int], floor: list[int], line: float = LATEX_LINE_PT) -> list[int]:
-    """Column widths (characters) that fit `line` (pt) where they can: every column wider
-    than a cap is narrowed to it (not below its floor), with the widest cap that fits;
-    the floors where none does."""
-    total = _total
+def _fit(
+    natural: list[int],
+    floor: list[int],
+    line: float = LATEX_LINE_PT,
+    char: float = LATEX_FONTS[0][1],
+    gap: float = LATEX_COLUMN_PT,
+) -> list[int]:
+    """Column widths (characters) that fit `line` (pt) where they can: each column
+    narrowed in proportion to its natural width (so that its cells wrap to about as many
+    lines as the others': one cap for all gave a 250-character column 16 lines a row),
+    not below its floor; the floors where they do not fit."""
 
-    def capped(c: int) -> list[int]:
-        return [max(f, min(n, c)) for n, f in zip(natural, floor, strict=True)]
+    def scaled(s: float) -> list[int]:
+        return [max(f, min(n, math.ceil(s * n))) for n, f in zip(natural, floor, strict=True)]
 
-    if total(natural) <= line:
+    if _total(natural, char, gap) <= line:
         return natural
-    lo, hi = 0, max(natural)  # (capped(hi) is natural: too wide; find the widest cap that fits)
-    if total(capped(lo)) > line:
-        return capped(lo)
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        lo, hi = (mid, hi) if total(capped(mid)) <= line else (lo, mid)
-    return capped(lo)
+    if _total(floor, char, gap) > line:
+        return floor
+    lo, hi = 0.0, 1.0  # (scaled(lo) is the floors: they fit; scaled(hi) does not)
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if _total(scaled(mid), char, gap) <= line else (lo, mid)
+    return scaled(lo)
+
+
+def _rows_height(rows: list[list[str]], widths: list[int], font: tuple) -> float:
+    """Estimated height (pt) of table rows: each as many lines as its most wrapped cell
+    (words do not fill a line: a fifth more), plus the rules."""
+
+    def lines(row: list[str]) -> int:
+        return max(
+            (math.ceil(1.2 * len(c) / max(w, 1)) for c, w in zip(row, widths, strict=True)),
+            default=1,
+        )
+
+    return font[2] * sum(max(1, lines(r)) for r in rows) + 20.0
 
 
 def latex_table(df: pd.DataFrame, caption: str) -> str:
-    """A booktabs ``table`` environment of `df` (no pandas/jinja2 needed). A table
-    estimated wider than the line (:data:`LATEX_CHAR_PT` per character at \\small,
-    :data:`LATEX_COLUMN_PT` between columns) has its widest columns wrapped to fit
-    (paragraph columns, text ragged right and numbers ragged left; headers wrap too),
-    and one still wider, its columns at their narrowest, is set sideways (rotating's
-    ``sidewaystable``: the text height, :data:`LATEX_PAGE_PT`, is its line), fitted to
-    that line the same way and only then scaled down to it with graphicx's
-    ``\\resizebox``: scaling alone had shrunk the headline's table, one of whose columns
-    runs to 250 characters, to 1.3 pt type, and tables of many numeric columns to 3-5 pt."""
+    """A booktabs table of `df` (no pandas/jinja2 needed), laid out for a one-column
+    article from estimated widths (:data:`LATEX_FONTS`, :data:`LATEX_COLUMN_PT` between
+    columns):
+
+    - a table wider than the line wraps its columns, each in proportion to its width
+      (paragraph columns: text ragged right, numbers ragged left; headers wrap too);
+    - a float (\\small) still wider at its narrowest is scaled down to the line
+      (graphicx's ``\\resizebox``, never enlarging: every float has it, since the
+      estimate can be short) by at most :data:`LATEX_MIN_SCALE`, else set sideways
+      (rotating's ``sidewaystable``, the text height its line) and fitted to that;
+    - a table taller than its page is a ``longtable`` (its header repeated on each page),
+      upright where it fits the line, else on landscape pages (pdflscape), in the largest
+      of the sizes that fits.
+
+    Scaling alone had set the headline's table, one of whose columns runs to 250
+    characters, in 1.3 pt type, and tables of many numeric columns in 3-5 pt."""
     numeric = [pd.api.types.is_numeric_dtype(df[c]) for c in df.columns]
     head = [str(c) for c in df.columns]
     body = [[cell(v) for v in row] for row in df.itertuples(index=False)]
-    natural, floor = _column_widths(head, body, numeric)
-    widths = _fit(natural, floor)
-    sideways = _total(widths) > LATEX_LINE_PT
+    natural, floor, hard = _column_widths(head, body, numeric)
+    small = LATEX_FONTS[0]
+    caption_pt = small[2] * math.ceil(1.15 * len(caption) * small[1] / LATEX_LINE_PT) + 10.0
+
+    def layout(line: float, font: tuple) -> tuple[list[int], float]:
+        w = _fit(natural, floor, line, font[1])
+        return w, min(1.0, line / _total(w, font[1]))
+
+    widths, scale = layout(LATEX_LINE_PT, small)
+    sideways = scale < LATEX_MIN_SCALE
     if sideways:
-        widths = _fit(natural, floor, LATEX_PAGE_PT)
-    wide = _total(widths) > (LATEX_PAGE_PT if sideways else LATEX_LINE_PT)
+        widths, scale = layout(LATEX_PAGE_PT, small)
+    room = LATEX_LINE_PT if sideways else LATEX_PAGE_PT  # (the height its page gives it)
+    long = scale * _rows_height([head, *body], widths, small) + caption_pt > room
+    font, landscape = small, False
+    gap = LATEX_COLUMN_PT
+    if long:  # the first of these in which it fits its line (else the last)
+        tries = [(False, f, floor, gap) for f in LATEX_FONTS[:2]]
+        tries += [
+            (True, f, low, g) for g in (gap, gap / 2) for low in (floor, hard) for f in LATEX_FONTS
+        ]
+        for landscape, font, low, gap in tries:
+            line = LATEX_PAGE_PT if landscape else LATEX_LINE_PT
+            widths = _fit(natural, low, line, font[1], gap)
+            if _total(widths, font[1], gap) <= line:
+                break
+        sideways = False
     wrapped = [w < n for w, n in zip(widths, natural, strict=True)]
     align = "".join(
         (
             (r">{\raggedleft\arraybackslash}" if num else r">{\raggedright\arraybackslash}")
-            + f"p{{{LATEX_CHAR_PT * w:.0f}pt}}"
+            + f"p{{{font[1] * w:.0f}pt}}"
         )
         if wrap
         else ("r" if num else "l")
@@ -227,28 +284,60 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
     needs = (
         ["booktabs"]
         + (["array"] if any(wrapped) else [])
+        + (["longtable"] + (["pdflscape"] if landscape else []) if long else ["graphicx"])
         + (["rotating"] if sideways else [])
-        + (["graphicx"] if wide else [])
     )
+    header = [r"\toprule", " & ".join(_tex(c) for c in head) + r" \\", r"\midrule"]
+    rows = [" & ".join(_tex(v) for v in row) + r" \\" for row in body]
+    first = "% rsmbench table: needs " + ", ".join(f"\\usepackage{{{x}}}" for x in needs)
+    if long:
+        where = "on landscape pages" if landscape else "upright"
+        return (
+            "\n".join(
+                [
+                    first + f" (a long table, {where}: it breaks across pages)",
+                    *([r"\begin{landscape}"] if landscape else []),
+                    rf"{{\{font[0]}"
+                    + (
+                        ""
+                        if gap == LATEX_COLUMN_PT
+                        else rf"\setlength{{\tabcolsep}}{{{gap / 2:g}pt}}"
+                    ),
+                    rf"\begin{{longtable}}{{{align}}}",
+                    rf"\caption{{{_tex(caption)}}} \\",
+                    *header,
+                    r"\endfirsthead",
+                    *header,
+                    r"\endhead",
+                    r"\bottomrule",
+                    r"\endlastfoot",
+                    *rows,
+                    r"\end{longtable}}",
+                    *([r"\end{landscape}"] if landscape else []),
+                ]
+            )
+            + "\n"
+        )
     env = "sidewaystable" if sideways else "table"
-    lines = [
-        "% rsmbench table: needs "
-        + ", ".join(f"\\usepackage{{{x}}}" for x in needs)
-        + (" (set sideways)" if sideways else "")
-        + (" (scaled to the line width)" if wide else ""),
-        rf"\begin{{{env}}}" + ("" if sideways else "[htbp]"),
-        r"\centering\small",
-        *([r"\resizebox{\ifdim\width>\linewidth\linewidth\else\width\fi}{!}{%"] if wide else []),
-        rf"\begin{{tabular}}{{{align}}}",
-        r"\toprule",
-        " & ".join(_tex(c) for c in head) + r" \\",
-        r"\midrule",
-    ]
-    for row in body:
-        lines.append(" & ".join(_tex(v) for v in row) + r" \\")
-    lines += [r"\bottomrule", r"\end{tabular}" + ("}" if wide else "")]
-    lines += [rf"\caption{{{_tex(caption)}}}", rf"\end{{{env}}}"]
-    return "\n".join(lines) + "\n"
+    return (
+        "\n".join(
+            [
+                first + (" (set sideways)" if sideways else ""),
+                rf"\begin{{{env}}}" + ("" if sideways else "[htbp]"),
+                r"\centering\small",
+                # (shrinks a table wider than the line, never enlarges one)
+                r"\resizebox{\ifdim\width>\linewidth\linewidth\else\width\fi}{!}{%",
+                rf"\begin{{tabular}}{{{align}}}",
+                *header,
+                *rows,
+                r"\bottomrule",
+                r"\end{tabular}}",
+                rf"\caption{{{_tex(caption)}}}",
+                rf"\end{{{env}}}",
+            ]
+        )
+        + "\n"
+    )
 
 
 def slug(text: str, limit: int = 40) -> str:
