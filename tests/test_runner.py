@@ -491,3 +491,6 @@ def test_a_rows_note_is_cut_at_a_word():
     assert len(out) <= NOTE_CHARS and out.endswith("…")
     assert text.startswith(out[:-1]) and text[len(out) - 1] == " "  # (a whole word before …)
     assert note("short reason") == "short reason"
+    # a word that ends right before the limit is kept whole
+    exact = "x" * (NOTE_CHARS - 1) + " tail of the text"
+    assert note(exact) == "x" * (NOTE_CHARS - 1) + "…"

@@ -354,8 +354,8 @@ def _agreeing(g: pd.DataFrame) -> float:
 
 def ci_name(level: float) -> str:
     """The name of a median's interval of coverage `level` (see
-    :func:`~harness.timing.median_interval`): "95% CI", "93.8% CI (the range of the
-    rounds)", ...; "range" for one round."""
+    :func:`~harness.timing.median_interval`): "95% CI", or below 95 % (the range of the
+    rounds) "93.8% CI (range)"; "range" for one round."""
     if not np.isfinite(level) or level <= 0:
         return "range"
     if level >= 0.95:

@@ -587,7 +587,13 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
         d_mm = g["delta"].to_numpy(dtype=float) * 1e3
         cost = g["cost"].to_numpy(dtype=float)
         cens = flag(g, "censored").to_numpy()
-        unit = "poses" if "sampling" in str(method) else "bound evaluations"
+        unit = (
+            "poses"
+            if "sampling" in str(method)
+            else "pieces"  # (of the first depth at which every piece clears)
+            if str(method).startswith("uniform subdivision")
+            else "bound evaluations"
+        )
         if basis.startswith("formula"):
             (line,) = ax.loglog(d_mm, cost, "--", label=f"{method}: {unit} (formula, not run)")
         elif cens.all():  # (a lower bound throughout: no line that reads as measured)
@@ -628,9 +634,10 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
     ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.15), frameon=False)
     caption = [
         "Cost to certify pairs with clearance 2δ at resolution δ, log-log, each method in its"
-        " own unit (the legend's): sampling counts poses, subdivision bound evaluations, so"
-        " the lines' levels are not comparable across the two, only their growth (the slopes"
-        " below). Counts are deterministic: no spread.",
+        " own unit (the legend's): sampling counts poses, uniform subdivision the pieces of"
+        " the first depth at which every piece clears, adaptive subdivision its bound"
+        " evaluations, so the lines' levels are not comparable across them, only their growth"
+        " (the slopes below). Counts are deterministic: no spread.",
         " Solid lines with dots were measured (subdivision: pieces or nodes",
     ]
     if kinds.get("uniform sampling") != "formula":

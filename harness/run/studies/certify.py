@@ -3,7 +3,8 @@
 Each row holds the certificate, the ground truth of the same motion and obstacles, and
 the motion's smoothness figures. The single-query cost comes from ``rounds`` timed calls
 (default 5, after one untimed warm-up call; the process's first call of each bound is a
-``startup`` row of its own): median, quartiles, bootstrap interval and the rounds
+``startup`` row of its own): median, quartiles, an interval of the median (its
+coverage follows from the rounds: :func:`harness.timing.median_interval`) and the rounds
 themselves, in CPU and wall time (:meth:`harness.timing.Rounds.columns`).
 """
 

@@ -40,12 +40,15 @@ NOTE_CHARS = 200
 
 def note(text: str) -> str:
     """`text` as a row's note: whole if it fits :data:`NOTE_CHARS`, else cut at the last
-    word boundary with '…' (it was cut mid-word: "within 61 iterat")."""
+    word boundary with '…' (it was cut mid-word: "within 61 iterat"). Unlike the report's
+    ``shorten``, a hard limit: a single word longer than it is cut."""
     text = " ".join(str(text).split())
     if len(text) <= NOTE_CHARS:
         return text
     head = text[: NOTE_CHARS - 1]
-    return (head.rsplit(" ", 1)[0] if " " in head else head).rstrip(" ,;:(") + "…"
+    if text[NOTE_CHARS - 1] != " " and " " in head:  # (head ends inside a word: drop it)
+        head = head.rsplit(" ", 1)[0]
+    return head.rstrip(" ,;:(") + "…"
 
 
 def rounds_key(st: dict, file, key: str) -> int:
