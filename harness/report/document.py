@@ -42,8 +42,9 @@ def cell(v: Any) -> str:
             return "∞" if v > 0 else "-∞"
         if v != 0 and (abs(v) >= 1e9 or abs(v) < 1e-3):
             return f"{v:.3g}"
-        if abs(v) >= 1e4:  # (whole: ":.4g" wrote 19970 as 1.997e+04 beside 394 in a column,
-            # and counts to 10^9 read as counts: 569019 beside 19968)
+        # whole: ":.4g" wrote 19970 as 1.997e+04 beside 394 in a column, and counts to
+        # 10^9 read as counts (569019 beside 19968); from 9999.5, which ":.4g" rounds up
+        if abs(v) >= 9999.5:
             return f"{v:.0f}"
         return f"{v:.4g}"
     return str(v)
@@ -217,7 +218,10 @@ def _rows_height(rows: list[list[str]], widths: list[int], font: tuple) -> float
 
     def lines(row: list[str]) -> int:
         return max(
-            (math.ceil(1.2 * len(c) / max(w, 1)) for c, w in zip(row, widths, strict=True)),
+            (
+                1 if len(c) <= w else math.ceil(1.2 * len(c) / max(w, 1))
+                for c, w in zip(row, widths, strict=True)
+            ),
             default=1,
         )
 
@@ -244,13 +248,16 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
     numeric = [pd.api.types.is_numeric_dtype(df[c]) for c in df.columns]
     head = [str(c) for c in df.columns]
     body = [[cell(v) for v in row] for row in df.itertuples(index=False)]
+    caption = " ".join(caption.split())  # (a blank line ends \caption's argument: an error)
+    if not head:  # (no column: nothing to lay out)
+        head, body, numeric = [""], [[""] for _ in body], [False]
     natural, floor, hard = _column_widths(head, body, numeric)
     small = LATEX_FONTS[0]
     caption_pt = small[2] * math.ceil(1.15 * len(caption) * small[1] / LATEX_LINE_PT) + 10.0
 
     def layout(line: float, font: tuple) -> tuple[list[int], float]:
         w = _fit(natural, floor, line, font[1])
-        return w, min(1.0, line / _total(w, font[1]))
+        return w, min(1.0, line / max(_total(w, font[1]), 1e-9))
 
     widths, scale = layout(LATEX_LINE_PT, small)
     sideways = scale < LATEX_MIN_SCALE
@@ -260,22 +267,30 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
     long = scale * _rows_height([head, *body], widths, small) + caption_pt > room
     font, landscape = small, False
     gap = LATEX_COLUMN_PT
-    if long:  # the first of these in which it fits its line (else the last)
+    # a long table, or one that even sideways would shrink below LATEX_MIN_SCALE (a
+    # review: 40 text columns in 1.9 pt type): the first of these in which it fits its
+    # line; a short one that fits none stays a sideways float, shrunk (a last resort)
+    if long or scale < LATEX_MIN_SCALE:
         tries = [(False, f, floor, gap) for f in LATEX_FONTS[:2]]
         tries += [
             (True, f, low, g) for g in (gap, gap / 2) for low in (floor, hard) for f in LATEX_FONTS
         ]
         for landscape, font, low, gap in tries:
             line = LATEX_PAGE_PT if landscape else LATEX_LINE_PT
-            widths = _fit(natural, low, line, font[1], gap)
-            if _total(widths, font[1], gap) <= line:
+            trial = _fit(natural, low, line, font[1], gap)
+            if _total(trial, font[1], gap) <= line:
+                widths, long, sideways = trial, True, False
                 break
-        sideways = False
+        else:
+            if long:
+                widths, sideways = trial, False
+            else:
+                font, landscape, gap = small, False, LATEX_COLUMN_PT
     wrapped = [w < n for w, n in zip(widths, natural, strict=True)]
     align = "".join(
         (
             (r">{\raggedleft\arraybackslash}" if num else r">{\raggedright\arraybackslash}")
-            + f"p{{{font[1] * w:.0f}pt}}"
+            + f"p{{{font[1] * w:.1f}pt}}"
         )
         if wrap
         else ("r" if num else "l")
@@ -287,8 +302,10 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
         + (["longtable"] + (["pdflscape"] if landscape else []) if long else ["graphicx"])
         + (["rotating"] if sideways else [])
     )
-    header = [r"\toprule", " & ".join(_tex(c) for c in head) + r" \\", r"\midrule"]
-    rows = [" & ".join(_tex(v) for v in row) + r" \\" for row in body]
+    # (each row opens with {}: after \\ or a rule, a row starting with '[' was read as an
+    # optional argument, and one starting with '*' lost it)
+    header = [r"\toprule", "{}" + " & ".join(_tex(c) for c in head) + r" \\", r"\midrule"]
+    rows = ["{}" + " & ".join(_tex(v) for v in row) + r" \\" for row in body]
     first = "% rsmbench table: needs " + ", ".join(f"\\usepackage{{{x}}}" for x in needs)
     if long:
         where = "on landscape pages" if landscape else "upright"
@@ -361,7 +378,9 @@ def shorten(text: str, limit: int) -> str:
     head = text[: limit - 1]
     if " " not in head:  # one word longer than the limit: keep it whole
         return text.split(" ", 1)[0] + "…"
-    return head.rsplit(" ", 1)[0].rstrip(" ,;:(") + "…"
+    if text[limit - 1] != " ":  # (head ends inside a word: drop it)
+        head = head.rsplit(" ", 1)[0]
+    return head.rstrip(" ,;:(") + "…"
 
 
 def span(lo: float, hi: float) -> str:
