@@ -533,14 +533,20 @@ def test_headline_has_units_spread_basis_and_ratios_from_rounds():
     assert "hull cost per pair, single queries (one call per pair)" in text
 
 
-def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
-    # a cost ratio headlined alone hid that aabb answered unknown on 593 of 1,000 pairs
+def _three_sampled_unknowns() -> list[dict]:
+    """The synthetic rows with sampled's first three pairs unknown (2 depth, 1 budget)."""
     rows = synthetic_rows()
     flipped = 0
     for r in rows:
         if r.get("mode") == "pair" and r["bound"] == "sampled" and flipped < 3:
             r["verdict"], r["reason"] = "unknown", "depth" if flipped else "budget"
             flipped += 1
+    return rows
+
+
+def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
+    # a cost ratio headlined alone hid that aabb answered unknown on 593 of 1,000 pairs
+    rows = _three_sampled_unknowns()
     text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
     for mode in ("batch", "single"):
         value = text[f"cost of sampled / cost of hull, {mode}"]["value"]
@@ -579,12 +585,7 @@ def test_cost_table_and_figure_mark_a_method_that_left_pairs_unknown(tmp_path):
     from harness.report.data import study_rows, workload_costs
     from harness.report.sections import _cost_display, _cost_figure
 
-    rows = synthetic_rows()
-    flipped = 0
-    for r in rows:
-        if r.get("mode") == "pair" and r["bound"] == "sampled" and flipped < 3:
-            r["verdict"], r["reason"] = "unknown", "depth" if flipped else "budget"
-            flipped += 1
+    rows = _three_sampled_unknowns()
     costs = workload_costs(study_rows(pd.DataFrame(rows), "workload"))
     data = costs.drop(columns=["_cpu"]).rename(columns={"tolerance": "tolerance_mm"})
     shown = _cost_display(data).set_index(["method", "mode"])
