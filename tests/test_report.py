@@ -1742,3 +1742,15 @@ def test_cells_keep_one_notation_below_1e5():
     # (and counts up to 10^9: a review found 5.69e+05 beside 19968 in median nodes)
     assert cell(569019.0) == "569019" and cell(3.37e5) == "337000"
     assert cell(2.5e10) == "2.5e+10" and cell(2.5e-4) == "0.00025"
+
+
+def test_latex_keeps_a_number_with_its_unit_and_says_continued():
+    # a review: "12–12.2 / µs" wrapped apart in a paragraph column; and a long table's
+    # later pages had no "(continued)"
+    from harness.report.document import latex_table
+
+    t = latex_table(pd.DataFrame({"cpu IQR": ["12–12.2 µs", "20 %", "3 months"]}), "x")
+    assert "12--12.2~$\\mu$s" in t and "20~\\%" in t and "3 months" in t
+    long = latex_table(_layouts()["long"], "long")
+    head = long.split("\\endfirsthead")[1].split("\\endhead")[0]
+    assert "\\multicolumn{2}{l}{\\emph{(continued)}} \\\\" in head

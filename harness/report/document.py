@@ -119,12 +119,18 @@ def _tex(s: str) -> str:
     one, an accented Latin letter with its accent command, any other character as its
     code point)."""
     parts = re.split(f"([{''.join(_SUPERSCRIPTS)}]+)", s)  # (odd parts: superscript runs)
-    return "".join(
+    out = "".join(
         "$^{" + "".join(_SUPERSCRIPTS[c] for c in part) + "}$"
         if i % 2
         else "".join(_tex_char(c) for c in part)
         for i, part in enumerate(parts)
     )
+    # a number keeps its unit on its line (a review: "12–12.2 / µs" in a wrapped column)
+    return _UNIT_SPACE.sub("~", out)
+
+
+_UNIT_SPACE = re.compile(r"(?<=\d) (?=(?:\$\\mu\$s|ms|s|mm|m|\\%|\$\\times\$)(?![A-Za-z]))")
+"""A space between a digit and a unit in escaped LaTeX (µs is $\\mu$s by then)."""
 
 
 def _tex_char(c: str) -> str:
@@ -324,6 +330,7 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
                     rf"\caption{{{_tex(caption)}}} \\",
                     *header,
                     r"\endfirsthead",
+                    rf"\multicolumn{{{len(head)}}}{{l}}{{\emph{{(continued)}}}} \\",
                     *header,
                     r"\endhead",
                     r"\bottomrule",
