@@ -441,7 +441,6 @@ def _named_static_geoms(model: mujoco.MjModel, names: Any) -> np.ndarray:
     if isinstance(names, str) or not isinstance(names, Iterable):
         raise TypeError(f"Expected `names` to be a list of geom names, got {short(names)}.")
     names = list(names)
-    static = _static_bodies(model)
     # (only named geoms can be chosen by name: a review found '#1' offered, then refused)
     ids = static_geoms(model)
     named = sorted(n for g in ids if (n := mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g)))
@@ -464,7 +463,7 @@ def _named_static_geoms(model: mujoco.MjModel, names: Any) -> np.ndarray:
                 f"Expected `names` to name geoms of the model, got {n!r}; its static geoms:"
                 f" {usable}."
             )
-        if not static[model.geom_bodyid[g]]:
+        if g not in ids:
             body = _name(model, mujoco.mjtObj.mjOBJ_BODY, int(model.geom_bodyid[g]))
             raise ValueError(
                 f"Expected `names` to name static geoms, got {n!r}, on body {body!r}, which"

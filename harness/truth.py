@@ -9,6 +9,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -59,6 +60,7 @@ class _Distances:
         self.motion, self.body, self.method, self.scale = motion, body, method, 0.0
         if method == "mujoco":
             self.md = MujocoDistance(body, obstacles)
+            self.eps = _pair_eps(self.md)  # (each call's ε at its scale: eps(scale))
             return
         table = ShapeTable.build([body, *obstacles])
         bparts = np.arange(table.offsets[0], table.offsets[1])
@@ -71,7 +73,7 @@ class _Distances:
         self.scale = max(self.scale, 1.0 + np.abs(p).max() + self.body.bounding_radius)
         if self.method == "mujoco":
             d = self.md.distances(r, p).reshape(len(t), -1)
-            eps = _pair_eps(self.md, self.scale)
+            eps = self.eps(self.scale)
             return (d - eps).min(axis=1), (d + eps).min(axis=1), 0.0
         bp, op = self.bp, self.op
         poses = pose_matrices(r, p)
@@ -163,9 +165,10 @@ def _at(dist: _Distances, t: float) -> tuple[float, float, float]:
     return float(lo[0]), float(hi[0]), float(eps)
 
 
-def _pair_eps(md: MujocoDistance, reach: float) -> np.ndarray:
-    """ε of each (body part, obstacle part) distance of `md` (body parts outer), for a body
-    within `reach` of the origin: MuJoCo's ccd tolerance scaled by the pair's size (it
+def _pair_eps(md: MujocoDistance) -> Callable[[float], np.ndarray]:
+    """ε of each (body part, obstacle part) distance of `md` (body parts outer) as a
+    function of the reach, for a body within it of the origin (the sizes measured once: a
+    bracket asks for one pose at a time): MuJoCo's ccd tolerance scaled by the pair's size (it
     rounds to the size of the geoms too: a plane's cube can be far larger than the motion;
     at 1e9, distances came in steps of 3.7e-9), plus for each mesh in the pair
     :data:`MESH_EPS` of the mesh's own diameter (MuJoCo keeps a mesh's vertices in float32,
@@ -184,8 +187,8 @@ def _pair_eps(md: MujocoDistance, reach: float) -> np.ndarray:
     b_mesh = np.array([mesh_size(q) for q in md.body_parts])
     o_mesh = np.array([mesh_size(q) for q in md.obst_parts])
     o_size = np.array([q.bounding_radius for q in md.obst_parts])
-    eps = CCD_TOLERANCE * (reach + o_size)[None, :] + MESH_EPS * (b_mesh[:, None] + o_mesh)
-    return eps.reshape(-1)
+    mesh = MESH_EPS * (b_mesh[:, None] + o_mesh)
+    return lambda reach: (CCD_TOLERANCE * (reach + o_size)[None, :] + mesh).reshape(-1)
 
 
 def _intersected(motion, body, obst: list, t: float, method: str) -> int | None:

@@ -263,7 +263,8 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
     timed pairs answered unknown (a method that stopped at a limit there: its cost is a
     lower bound of deciding them), and ``unknown_reasons``; for single calls,
     ``single_agrees_with_batch``, the pairs whose verdict was the batch's; ``_cpu``, the
-    CPU seconds per pair of each round."""
+    CPU seconds per pair of each round; ``_unknown``, :func:`workload_unknowns`' entry of
+    the timed pairs (None where the rows do not say)."""
     rows: list[dict] = []
     t = timing_rows(wl)
     keys = ["keyframes", "tolerance", "bound", "mode"]
@@ -285,7 +286,7 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
         first = int(total) if mode == "single" else None
         if first not in undecided:
             undecided[first] = workload_unknowns(wl, first)
-        unk, _, why = undecided[first].get((name, tol, method), (math.nan, 0, ""))
+        u = undecided[first].get((name, tol, method))
         rows.append(
             {
                 "workload": name,
@@ -305,10 +306,11 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
                 "wall_us_per_pair": sw.median * 1e6,
                 "wall_us_q1": sw.q1 * 1e6,
                 "wall_us_q3": sw.q3 * 1e6,
-                "unknown": unk,
-                "unknown_reasons": why,
+                "unknown": math.nan if u is None else u[0],
+                "unknown_reasons": "" if u is None else u[2],
                 "single_agrees_with_batch": _agreeing(g),
                 "_cpu": cpu_pp,
+                "_unknown": u,
             }
         )
     return pd.DataFrame(rows)

@@ -27,7 +27,6 @@ from .data import (
     us_span,
     workload_costs,
     workload_groups,
-    workload_unknowns,
 )
 from .document import fmt_time, span
 
@@ -329,7 +328,6 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
         "batch": "batch (one certify_many call)",
         "single": "single queries (one call per pair)",
     }
-    undecided = workload_unknowns(wl)
     several = len(costs.groupby(["workload", "tolerance"], sort=False)) > 1
     for (name, tol, mode), g in costs.groupby(["workload", "tolerance", "mode"], sort=False):
         hull = g[g["method"] == "hull"]
@@ -357,8 +355,6 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 },
             )
         )
-        # (single queries run on the first `pairs` pairs: their unknowns are those)
-        part = undecided if mode != "single" else workload_unknowns(wl, int(h["pairs"]))
         for _, o in g.iterrows():
             if o["method"] == "hull":
                 continue
@@ -374,9 +370,9 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 "hull_cpu_us_per_pair": float(h["cpu_us_per_pair"]),
             }
             unknown += _disagreeing(o)
-            u = part.get((name, tol, o["method"]))
+            u = o["_unknown"]  # (of the pairs its timing covered: workload_costs)
             if u is not None:
-                hu = part.get((name, tol, "hull"), (0, u[1], ""))
+                hu = h["_unknown"] or (0, u[1], "")
                 numbers.update(unknown=u[0], pairs=u[1], hull_unknown=hu[0], hull_pairs=hu[1])
                 if u[0] > 0:
                     # a cost is only comparable with what it bought: say how often the

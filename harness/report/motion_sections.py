@@ -84,11 +84,9 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         "continuity",
         data=t.rename(columns=CONTINUITY_COLUMNS),
     )
-    use = scene_kf if len(scene_kf) else src
     unit_t = "s" if len(scene_kf) else "t"
-    gg = use.groupby("scheme")
-    lin = gg[jump("acceleration")].max()
-    ang = gg[jump("angular_acceleration")].max()
+    lin = gj[jump("acceleration")].max()
+    ang = gj[jump("angular_acceleration")].max()
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.8))
     for ax, series, label in (
         (axes[0], lin, f"jump of acceleration (m/{unit_t}²)"),
@@ -113,8 +111,8 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         ax.set_xticks(x, series.index, rotation=45, ha="right", fontsize=7)
         ax.set_ylabel(label)
         ax.set_xlabel("scheme")
-    counts = gg.size()
-    scenes = gg["scene"].agg(lambda v: tuple(sorted(set(map(str, v)))))
+    counts = gj.size()
+    scenes = gj["scene"].agg(lambda v: tuple(sorted(set(map(str, v)))))
     same = scenes.nunique() <= 1
     each = (
         f"{int(counts.min())}"

@@ -398,7 +398,9 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
         _workload_pairs(doc, g, plt, f" ({label})" if several else "")
     costs = workload_costs(wl)
     if len(costs):
-        data = costs.drop(columns=["_cpu"]).rename(columns={"tolerance": "tolerance_mm"})
+        data = costs.drop(columns=["_cpu", "_unknown"]).rename(
+            columns={"tolerance": "tolerance_mm"}
+        )
         data["tolerance_mm"] = data["tolerance_mm"] * 1e3
         doc.table(
             _cost_display(data),
