@@ -37,6 +37,15 @@ def _median(app: pd.DataFrame, col: str) -> float:
     return float(v.median()) if v.notna().any() else math.nan
 
 
+def _quartiles(sec: pd.Series) -> tuple[float, float, float]:
+    """First quartile, median and third quartile of the non-NaN values (NaN for none)."""
+    sec = sec.astype(float)
+    if not sec.notna().any():
+        return (math.nan,) * 3
+    q1, med, q3 = np.nanpercentile(sec, [25, 50, 75])
+    return float(q1), float(med), float(q3)
+
+
 def _heap(mb: float) -> str:
     """Two significant figures: the figure is a rough size, not a precise measurement."""
     return f"{mb:.2g}" if math.isfinite(mb) else "–"
@@ -66,13 +75,18 @@ def corpus_summary(df: pd.DataFrame) -> pd.DataFrame:
     ``cases`` (all), ``cases_applicable``; ``false_negatives`` out of ``truth_collision``,
     ``false_positives`` out of ``truth_free``, ``unknown`` out of ``cases_applicable``;
     ``wall_ms_median``, ``wall_ms_q1``, ``wall_ms_q3`` (wall time per single query),
-    ``cpu_ms_median`` (process CPU time), ``rounds_median``, ``python_heap_peak_mb``
+    ``cpu_ms_median``, ``cpu_ms_q1``, ``cpu_ms_q3`` (process CPU time), ``rounds_median``, ``python_heap_peak_mb``
     (NaN where nothing was measured)."""
     rows = []
     for method, g in df.groupby("bound", sort=False):
         app = g[g["verdict"] != "n/a"]
         sec = app["seconds"].astype(float) if len(app) else pd.Series(dtype=float)
-        q1, med, q3 = np.nanpercentile(sec, [25, 50, 75]) if sec.notna().any() else (math.nan,) * 3
+        q1, med, q3 = _quartiles(sec)
+        c1, _cm, c3 = _quartiles(
+            pd.to_numeric(app["cpu_seconds"], errors="coerce")
+            if "cpu_seconds" in app
+            else pd.Series(dtype=float)
+        )
         rows.append(
             {
                 "method": method,
@@ -83,6 +97,8 @@ def corpus_summary(df: pd.DataFrame) -> pd.DataFrame:
                 "wall_ms_q1": q1 * 1e3,
                 "wall_ms_q3": q3 * 1e3,
                 "cpu_ms_median": _median(app, "cpu_seconds") * 1e3,
+                "cpu_ms_q1": c1 * 1e3,
+                "cpu_ms_q3": c3 * 1e3,
                 "rounds_median": _median(app, "rounds"),
                 "python_heap_peak_mb": _median(app, "memory_peak_mb"),
             }
@@ -125,6 +141,10 @@ def _summary_display(summary: pd.DataFrame) -> pd.DataFrame:
                 for a, b in zip(summary["wall_ms_q1"], summary["wall_ms_q3"], strict=True)
             ],
             "CPU time per query": summary["cpu_ms_median"].map(_ms),
+            "CPU IQR over cases": [
+                f"{_ms(a)} – {_ms(b)}"
+                for a, b in zip(summary["cpu_ms_q1"], summary["cpu_ms_q3"], strict=True)
+            ],
             "rounds (median)": summary["rounds_median"],
             HEAP: summary["python_heap_peak_mb"].map(_heap),
         }
@@ -187,8 +207,8 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
         "Per method: applicable cases / all cases; false negatives / applicable collision cases; false"
         " positives / applicable free cases; unknown / applicable. Wall time per query: median over cases"
         " of each case's median wall time over timed rounds (interleaved A B A B, single queries, warm"
-        " kernels), with the quartiles over cases; CPU time per query: the same median of process CPU"
-        " time. Memory: Python-heap peak of one query (tracemalloc), a rough size only: it does not see"
+        " kernels), with the quartiles over cases; CPU time per query: the same median and quartiles of"
+        " process CPU time. Memory: Python-heap peak of one query (tracemalloc), a rough size only: it does not see"
         " allocations inside Warp, FCL or ipctk. Each method is timed over the cases it applies to, so"
         " two methods' times are over different case sets where their applicable counts differ. ipctk"
         " runs as its line search is built to: it reports an impact once a distance falls below 20 %"
