@@ -13,14 +13,14 @@ import numpy as np
 import pytest
 
 import motions
-from harness import Box, Capsule, ConvexMesh, Sphere, swept_aabbs
+from harness import Box, Capsule, ConvexMesh, Sphere, certify, clearance, swept_aabbs
 from harness.certification import probes
 from harness.certification.advance import pose_matrices, pose_rows
 from harness.certification.tables import ShapeTable
 from harness.mjdistance import MujocoDistance
 from motions.demo import demo_keyframes
 
-from .exact import add, fr, frvec, kinematic_image, matvec, scale
+from .exact import add, cross, dot, fr, frvec, kinematic_image, matvec, scale, sub
 
 KERNEL_MODULES = (
     "harness.certification._refine_kernels",
@@ -477,6 +477,114 @@ def test_pose_kernel_proves_a_centred_overlap(device, case):
     assert np.all(x) and np.all(ub < 0), ub
     if sd is not None:  # the exact signed distance at the centred pose lies in the bracket
         assert lb[0] <= sd <= ub[0]
+
+
+# the directions of `_probe_depth`'s tetrahedron (its supports pick the mesh's vertices)
+PROBE_DIRECTIONS = np.array(
+    [
+        [0.6604554914477347, 0.4822515809099521, 0.5755275462793967],
+        [0.44090171432080716, -0.2756256027670645, -0.8541874533193904],
+        [-0.770045542177425, 0.6050125454537225, -0.2024590892409697],
+        [-0.33131166359111686, -0.8116385235966102, 0.4811189962809634],
+    ]
+)
+TINY = 1e-30
+
+
+def _sliver_cases(n: int, rng) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Thin tetrahedra (one face 1e-7 to 1e-4 thick: nearly collinear vertices) with a
+    tiny box 2e-12 to 2e-11 (relative to the coordinates) outside that face, exactly
+    (Fractions), oriented so that the probe's supports pick the four vertices (an audit's
+    construction: GJK stalls there, and the probe's face planes decide)."""
+    m = -PROBE_DIRECTIONS
+    z = m[3]
+    x = m[1] - (m[1] @ z) * z
+    x /= np.linalg.norm(x)
+    rot = np.stack([x, np.cross(z, x), z], axis=1)
+    out = []
+    while len(out) < n:
+        delta, ell = 10 ** rng.uniform(-7, -4), 10 ** rng.uniform(-0.5, 0.5)
+        v = np.array(
+            [
+                [-ell * (1 + rng.uniform(-0.05, 0.05)), 0, 0],
+                [rng.uniform(-0.3, 0.3) * ell, 0, delta],
+                [ell * (1 + rng.uniform(-0.05, 0.05)), 0, 0],
+                [rng.uniform(-0.2, 0.2) * ell, ell * rng.uniform(0.8, 1.2), 0],
+            ]
+        )
+        v[3, 2] = rng.uniform(-0.3, 0.3) * delta
+        v = v @ rot.T + rng.normal(size=3) * 10 ** rng.uniform(-1, 0.5)
+        if sorted(np.argmax(m @ v.T, axis=1).tolist()) != [0, 1, 2, 3]:
+            continue
+        vf = [frvec(p) for p in v]
+        n_in = cross(sub(vf[1], vf[0]), sub(vf[2], vf[0]))
+        if dot(sub(vf[3], vf[0]), n_in) < 0:  # (inward)
+            n_in = scale(-1, n_in)
+        nf = np.array([float(t) for t in n_in])
+        nf /= np.linalg.norm(nf)
+        thin = v[1] - (v[0] + v[2]) / 2
+        base = (v[0] + v[2]) / 2 + 0.5 * (thin - (thin @ nf) * nf)
+        for s in np.linspace(2e-12, 2e-11, 4) * (1 + np.abs(base).max()):
+            c = base - s * nf
+            # the box's corner furthest towards the tetrahedron, exactly
+            corner = [fr(c[i]) + fr(TINY) * (1 if n_in[i] > 0 else -1) for i in range(3)]
+            if dot(sub(corner, vf[0]), n_in) < 0:  # outside that face: apart
+                out.append((v, c))
+                break
+    return out
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_pose_kernel_proves_no_overlap_beside_a_sliver_face(device):
+    # an audit: the origin's depth inside a tetrahedron of supports was taken from face
+    # planes whose rounding it ignored; beside a face 1e-7 thick, a box 5e-12 outside it
+    # was 'proven' 1.3e-9 deep (a certified collision, and a clearance upper bound < 0)
+    cases = _sliver_cases(120, np.random.default_rng(2))
+    table = ShapeTable.build([Box([TINY] * 3)] + [ConvexMesh(v) for v, _ in cases])
+    n = len(cases)
+    poses = pose_matrices(np.tile(np.eye(3), (n, 1, 1)), np.array([c for _, c in cases]))
+    ub, _lb, x, _ = pose_rows(
+        poses, np.full(n, table.offsets[0]), np.array(table.offsets[1 : n + 1]), table,
+        device=device,
+    )  # fmt: skip
+    assert not np.any(x), np.flatnonzero(x)
+    assert np.all(ub >= 0)
+
+
+# the audit's case: face (0, 1, 2) is ~1e-7 thick; the box lies 5.2e-12 outside it
+AUDIT_SLIVER = (
+    np.array(
+        [
+            [2.47370460277843, 0.20005368963882852, -2.4873731030830593],
+            [1.5522767659586971, 1.7229341690320288, -0.5528234838468146],
+            [0.8691970504258055, 2.8518869721643387, 0.8813111441970487],
+            [3.4444194318567836, 1.5405508616495847, 0.4424806902029663],
+        ]
+    ),
+    np.array([1.6118637962758093, 1.6244522499672007, -0.6779272316474105]),
+)
+
+
+def test_a_query_beside_a_sliver_face_claims_no_contact():
+    v, c = AUDIT_SLIVER
+    vf = [frvec(p) for p in v]
+    n_in = cross(sub(vf[1], vf[0]), sub(vf[2], vf[0]))
+    n_in = n_in if dot(sub(vf[3], vf[0]), n_in) > 0 else scale(-1, n_in)
+    corner = [fr(c[i]) + fr(TINY) * (1 if n_in[i] > 0 else -1) for i in range(3)]
+    gap = -dot(sub(corner, vf[0]), n_in)  # > 0: the box is outside that face, exactly
+    assert gap > 0
+    gap_lo = float(gap) / float(dot(n_in, n_in)) ** 0.5 * (1 - 1e-9)  # (a lower bound)
+    ctrl = np.zeros((1, 2, 4, 4))
+    ctrl[0, :, :3, :3] = np.eye(3)
+    ctrl[0, :, :3, 3] = c
+    ctrl[0, :, 3, 3] = 1.0
+    m = motions.RationalMotion.from_bezier([0.0, 1.0], ctrl)  # at rest at c
+    body, obstacles = Box([TINY] * 3), [ConvexMesh(v)]
+    for bound in ("hull", "aabb", "lipschitz"):
+        cert = certify(m, body, obstacles, bound=bound)
+        assert cert.verdict != "collision" and cert.toi_hi == np.inf, (bound, cert)
+    cl = clearance(m, body, obstacles)
+    assert not cl.penetrating and cl.upper >= gap_lo
 
 
 def test_swept_aabbs_contain_every_sampled_point(motion):

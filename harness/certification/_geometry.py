@@ -33,6 +33,9 @@ only; the bounds it returns are certified whatever the iteration count."""
 FLAT_REL = wp.constant(wp.float64(1.0e-13))
 """A tetrahedron whose volume is below this fraction of its size is treated as flat (its
 faces cannot decide inside/outside reliably); GJK then continues with its faces."""
+GAMMA_PLANE = wp.constant(wp.float64(32.0 * 2.0**-53 / (1.0 - 32.0 * 2.0**-53)))
+"""γ_32: the relative rounding allowed for a face's plane in `_plane_depth` (its
+derivation needs about γ_17)."""
 
 
 @wp.struct
@@ -261,7 +264,12 @@ def _closest_triangle(
         return b + (e1 / (e1 + e2)) * (c - b), 2, b, c, a
     den = va + vb + vc
     if den > F0:
-        return a + (vb / den) * ab + (vc / den) * ac, 3, a, b, c
+        # barycentric weights clamped to the triangle: in exact arithmetic they are there
+        # already; rounded, a sliver's can stray far, and the point must stay in the
+        # simplex (its length is an upper bound of the distance to the origin)
+        s = wp.min(wp.max(vb / den, F0), F1)
+        t = wp.min(wp.max(vc / den, F0), F1 - s)
+        return a + s * ab + t * ac, 3, a, b, c
     # degenerate (collinear) triangle: the best of its edges
     p1, n1, x1, y1 = _closest_segment(a, b)
     p2, n2, x2, y2 = _closest_segment(a, c)
@@ -275,18 +283,35 @@ def _closest_triangle(
 
 @wp.func
 def _plane_depth(p0: wp.vec3d, p1: wp.vec3d, p2: wp.vec3d, opp: wp.vec3d) -> wp.float64:
-    """Signed distance of the origin from plane p0p1p2, positive on opp's side; -HUGE for
-    a flat tetrahedron (the plane cannot decide)."""
-    n = wp.cross(p1 - p0, p2 - p0)
+    """A lower bound of the signed distance of the origin from the plane through p0, p1,
+    p2 (the points taken as exact), positive on opp's side; -HUGE for a flat tetrahedron
+    (the plane cannot decide).
+
+    With u the unit round-off and γ_k = ku / (1 - ku): the differences e1 = p1 - p0,
+    e2 = p2 - p0 round by u relatively, and each component of their cross product by γ_2
+    |e1||e2|, so the computed normal n is within Δ = γ_8 |e1||e2| of the exact one. Hence
+    the computed sd = (opp - p0).n is within γ_12 |e1||e2| |opp - p0| of the exact, and
+    its sign is the exact one wherever |sd| exceeds FLAT_REL |e1||e2| (|opp - p0| + |p0|)
+    (FLAT_REL >> γ_12); and the computed distance -p0.n / |n| (a dot product within
+    |p0| Δ + γ_3 |p0||n| over a length within Δ + γ_3 |n|, its quotient rounded) is within
+    |p0| (2 Δ / |n| + γ_8) of the exact one, which GAMMA_PLANE |p0| (|e1||e2| / |n| + 1)
+    bounds. A sliver face (nearly collinear points: |n| << |e1||e2|) has a large bound:
+    its plane rounds far from the exact one (an audit found a depth of 1.3e-9 claimed for
+    a box 5e-12 outside a face 1e-7 thick), so the origin counts as inside it only beyond
+    that bound."""
+    e1 = p1 - p0
+    e2 = p2 - p0
+    n = wp.cross(e1, e2)
     nn = wp.length(n)
+    l12 = wp.sqrt(wp.dot(e1, e1) * wp.dot(e2, e2))
+    r0 = wp.length(p0)
     sd = wp.dot(opp - p0, n)
-    scale = nn * (wp.length(opp - p0) + wp.length(p0))
-    if wp.abs(sd) <= FLAT_REL * scale or nn <= F0:
+    if wp.abs(sd) <= FLAT_REL * l12 * (wp.length(opp - p0) + r0) or nn <= F0:
         return -HUGE
     so = -wp.dot(p0, n) / nn
     if sd < F0:
         so = -so
-    return so
+    return so - GAMMA_PLANE * r0 * (l12 / nn + F1)
 
 
 @wp.func
