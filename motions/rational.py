@@ -1046,13 +1046,25 @@ def _vanishing_point(
                 r = np.polynomial.polynomial.polyroots(g)
                 # near-double roots come out as close complex pairs: keep their real part
                 cand += [float(x.real) for x in r if abs(x.imag) <= 1e-6 and -0.5 < x.real < 1.5]
-        u = np.clip(np.array(cand), 0.0, 1.0)
+                # a root of multiplicity j comes out as a ring of j roots ~eps^(1/j) about
+                # it (Q = (1 - 2t)^3 e: <P, P'> has a 5-fold root at 1/2, computed 1e-3
+                # off it; a 7-fold one 6e-3), whose mean is accurate: the mean of the roots
+                # near each root is a candidate too, at a few radii
+                for x in r:
+                    for rad in (1e-3, 1e-2, 5e-2):
+                        near = r[np.abs(r - x) <= rad]
+                        if near.size > 1 and -0.5 < near.mean().real < 1.5:
+                            cand.append(float(near.mean().real))
+        u = u_start = np.clip(np.array(cand), 0.0, 1.0)
         dp = bezier_derivative(pieces[s], axis=0) if k >= 1 else np.zeros((1, m))
         for _ in range(2):  # Gauss–Newton on |P(u)|²
             pv, dv = bezier_eval(pieces[s], u), bezier_eval(dp, u)
             den = np.einsum("ua,ua->u", dv, dv)
             step = np.where(den > 0, np.einsum("ua,ua->u", pv, dv) / np.where(den > 0, den, 1), 0)
             u = np.clip(u - step, 0.0, 1.0)
+        # (at a multiple root P' is rounding noise too, and a step can leave it: the
+        # candidates themselves stay)
+        u = np.concatenate([u, u_start])
         size = np.linalg.norm(bezier_eval(pieces[s], u), axis=1)
         i = int(np.argmin(size))
         if size[i] <= PREIMAGE_ZERO_TOL * np.sqrt(norm2[s]):

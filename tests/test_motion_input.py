@@ -13,6 +13,7 @@ from scipy.interpolate import make_interp_spline
 
 import motions
 from motions import DegenerateMotionError, RationalMotion
+from motions.bernstein import power_to_bernstein
 from motions.demo import demo_keyframes
 
 Q4 = np.tile([1.0, 0, 0, 0], (4, 1))
@@ -56,6 +57,27 @@ def test_preimage_double_root_is_refused(rng):
     ctrl = bezier_from_values(a / 9, a / 36, 4 * a / 9)
     with pytest.raises(DegenerateMotionError, match=r"vanishes at t = 0\.333"):
         RationalMotion.from_preimage(2, [0, 0, 0, 1, 1, 1], ctrl)
+
+
+@pytest.mark.parametrize("mult", [2, 3, 4])
+@pytest.mark.parametrize("root", [0.5, 0.3, 0.871])
+def test_preimage_multiple_root_is_refused(root, mult, rng):
+    # Q(t) = (t - root)^mult (a + b t): a bad-input fuzz found (1 - 2t)^3 e0 built, with
+    # NaN poses at 1/2 (the roots of <Q, Q'> around a multiple root come out as a ring of
+    # complex roots, and a Gauss-Newton step from the root leaves it); so did ph_curve's
+    # frame of (1 - 2t)^2 e0
+    a, b = rng.normal(size=4), rng.normal(size=4)
+    power = np.zeros((mult + 2, 4))
+    factor = np.polynomial.polynomial.polypow([-root, 1.0], mult)  # ascending powers
+    for j in range(4):
+        power[:, j] = np.polynomial.polynomial.polymul(factor, [a[j], b[j]])
+    ctrl = power_to_bernstein(power)
+    knots = [0.0] * (mult + 2) + [1.0] * (mult + 2)
+    with pytest.raises(DegenerateMotionError, match=f"vanishes at t = {root:.3g}"):
+        RationalMotion.from_preimage(mult + 1, knots, ctrl)
+    if root == 0.5 and mult == 2:
+        with pytest.raises(DegenerateMotionError, match="vanishes at t = 0.5"):
+            motions.ph_curve(2, [0, 0, 0, 1, 1, 1], [[1, 0, 0, 0], [-1, 0, 0, 0], [1, 0, 0, 0]])
 
 
 def test_preimage_root_in_a_later_segment_is_found(rng):
