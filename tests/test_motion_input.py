@@ -76,7 +76,7 @@ def test_preimage_multiple_root_is_refused(root, mult, rng):
     with pytest.raises(DegenerateMotionError, match=f"vanishes at t = {root:.3g}"):
         RationalMotion.from_preimage(mult + 1, knots, ctrl)
     if root == 0.5 and mult == 2:
-        with pytest.raises(DegenerateMotionError, match="vanishes at t = 0.5"):
+        with pytest.raises(DegenerateMotionError, match=r"vanishes at t = 0\.5"):
             motions.ph_curve(2, [0, 0, 0, 1, 1, 1], [[1, 0, 0, 0], [-1, 0, 0, 0], [1, 0, 0, 0]])
 
 
