@@ -32,7 +32,7 @@ from scipy.spatial.transform import Rotation, RotationSpline
 
 from ._jet import Jet, qexp_jet, qmul_jet, slerp_jet
 from .bernstein import bspline_bezier_pieces
-from .errors import MotionError
+from .errors import DegenerateMotionError, MotionError
 from .exp_pieces import ExpPieces, assemble, elevate_to_cubic, linear_cubic, spline_cubic
 from .interpolation import interp_spline, keyframes
 from .motion import Motion, Recipe
@@ -196,6 +196,12 @@ def _keyframe_tangents(
     return tp, tm, lp, lm
 
 
+def _slerp(a: np.ndarray, b: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``a exp(u log(conj(a) b))`` of unit quaternions (antipodes give NaN: callers check)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return qmul(a, qexp(u * qlog(qmul(qconj(a), b))))
+
+
 def _const(q: np.ndarray) -> Jet:
     return Jet(q)
 
@@ -223,6 +229,34 @@ class SquadMotion(_JetRotationMotion):
         tp, tm, lp, lm = _keyframe_tangents(q, t)
         self._sp = qmul(q, qexp(0.5 * (tp - lp)))
         self._sm = qmul(q, qexp(-0.5 * (tm + lm)))
+        self._refuse_antipodes()
+
+    def _refuse_antipodes(self) -> None:
+        """Squad's slerps need unit quaternions that are not antipodal (where the geodesic
+        between them, and so the rotation, is undefined: the poses were NaN). Keyframes
+        that alternate between two rotations 180° apart (identity and a half turn) make
+        a segment's inner points antipodal: refuse such a segment, and one whose outer
+        slerp comes within 1e-9 of an antipode on 17 points (its angular velocity is
+        unbounded there)."""
+        u = np.linspace(0.0, 1.0, 17)[:, None, None]
+        pairs = (
+            (self._q[:-1], self._q[1:]),
+            (self._sp[:-1], self._sm[1:]),
+        )
+        worst = np.min([np.einsum("na,na->n", a, b) for a, b in pairs], axis=0)
+        a = _slerp(self._q[:-1], self._q[1:], u)
+        b = _slerp(self._sp[:-1], self._sm[1:], u)
+        worst = np.minimum(worst, np.einsum("una,una->un", a, b).min(axis=0))
+        bad = np.flatnonzero(~(worst > -1.0 + 1e-9))
+        if bad.size:
+            i = int(bad[0])
+            raise DegenerateMotionError(
+                f"Squad is undefined on the segment between keyframes {i} and {i + 1} (t ="
+                f" {self._t[i]:.6g} to {self._t[i + 1]:.6g}): two of the unit quaternions it"
+                " interpolates between are antipodal (cosine"
+                f" {worst[i]:.3g}), as where keyframes alternate between two rotations 180°"
+                " apart. Add a keyframe between them, or use another scheme."
+            )
 
     def _quaternion_jet(self, t, order=2):
         i, h, u = self._segment(t)
