@@ -454,6 +454,15 @@ def hermite(
             return np.stack([y[:-1], y[:-1] + h * m[:-1] / 3, y[1:] - h * m[1:] / 3, y[1:]], axis=1)
 
         motion = RationalMotion(t, preimage=pieces(q, dq), origin=pieces(p, dp), keyframe_times=t)
+    if angular_velocities is not None:
+        try:  # (computed now, once: products of finite pieces can overflow)
+            motion.ctrl  # noqa: B018
+        except ValueError:
+            raise ValueError(
+                "Expected `angular_velocities` small enough for double precision, got"
+                f" components up to {np.abs(w).max():.3g} rad/s: the motion's control matrices"
+                " overflow (their entries grow as the square of a rate times its interval)."
+            ) from None
     motion.scheme = "rational-hermite"
     _check_weight(motion, t, q, rates=angular_velocities is not None)
     # Given derivatives go into the recipe (world frame), so that the motion can be

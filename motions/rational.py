@@ -428,8 +428,17 @@ class RationalMotion(Motion):
     def ctrl(self) -> np.ndarray:
         """(S, n+1, 4, 4) homogeneous control matrices (computed once, read-only)."""
         if self._ctrl is None:
-            self._ctrl = control_matrices(self._q, self._p, self._v)
-            self._ctrl.setflags(write=False)
+            with np.errstate(over="ignore", invalid="ignore"):
+                ctrl = control_matrices(self._q, self._p, self._v)
+            if not np.isfinite(ctrl).all():
+                # (products of finite pieces can overflow: |Q|^2 |p| past 1e308)
+                raise ValueError(
+                    "Expected a motion whose control matrices are finite, got NaN or"
+                    " infinite ones: its preimage or translation pieces are too large for"
+                    f" double precision (|Q| up to {np.abs(self._q).max():.3g}); rescale them."
+                )
+            ctrl.setflags(write=False)
+            self._ctrl = ctrl
         return self._ctrl
 
     @property

@@ -94,6 +94,17 @@ def test_squad_refuses_antipodal_inner_points():
     assert np.all(np.isfinite(r)) and np.all(np.isfinite(p))
 
 
+def test_hermite_refuses_rates_whose_control_matrices_overflow():
+    # a bad-input fuzz: angular velocities of 1e200 built a motion with 520 of its 640
+    # control entries inf or NaN (and NaN angular velocities); then certify blamed u0
+    q, p = demo_keyframes()
+    w = np.full((len(q), 3), 1e200)
+    with pytest.raises(ValueError, match="`angular_velocities` small enough"):
+        motions.hermite(q, p, angular_velocities=w)
+    m = motions.hermite(q, p, angular_velocities=w * 1e-198)  # large, representable
+    assert np.all(np.isfinite(m.bezier_form()[1]))
+
+
 def test_preimage_root_in_a_later_segment_is_found(rng):
     # A cubic B-spline through keyframes whose fourth segment passes through zero.
     t = np.arange(8.0)
