@@ -134,16 +134,18 @@ class Motion(abc.ABC):
             raise TypeError(
                 f"Expected `{name}` to be a number or an array of numbers, got {short(t)}."
             )
-        try:
-            a = np.asarray(t, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise TypeError(
-                f"Expected `{name}` to be a number or an array of numbers, got {short(t)}."
-            ) from None
-        except OverflowError:  # a Python integer beyond the doubles (10**400)
-            raise ValueError(
-                f"Expected `{name}` to be finite, got a number beyond 1e308."
-            ) from None
+        kind = getattr(getattr(t, "dtype", None), "kind", None)
+        if kind in ("f", "i", "u") or (type(t) in (float, int)):
+            try:
+                a = np.asarray(t, dtype=np.float64)
+            except OverflowError:  # a Python integer beyond the doubles (10**400)
+                raise ValueError(
+                    f"Expected `{name}` to be finite, got a number beyond 1e308."
+                ) from None
+        else:
+            # complex, text, booleans, dates and object arrays: numpy would cast them (an
+            # imaginary part dropped, '0.5' parsed, True as 1, a date as its day count)
+            a = as_array(t, name)
         if not np.all(np.isfinite(a)):
             raise ValueError(f"Expected `{name}` to be finite, got {short(a)}.")
         t0, t1 = self._domain

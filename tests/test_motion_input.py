@@ -105,6 +105,33 @@ def test_hermite_refuses_rates_whose_control_matrices_overflow():
     assert np.all(np.isfinite(m.bezier_form()[1]))
 
 
+@pytest.mark.parametrize("scheme", ["rational", "slerp", "squad"])
+def test_times_that_numpy_would_cast_are_refused(scheme):
+    # a bad-input fuzz: pose(np.array([0.5 + 1j])) gave the pose at 0.5 (the imaginary
+    # part dropped with a warning), ["0.5"] was parsed, [True, False] were t = 1 and 0, a
+    # date its day count; a scalar complex was already refused
+    q, p = demo_keyframes()
+    m = motions.build(scheme, q, p)
+    t0 = float(m.domain[0])
+    for t, says in (
+        (np.array([t0 + 1j]), "`t` to hold real numbers"),
+        (t0 + 1j, "`t` to hold real numbers"),
+        (np.array([str(t0)]), "`t` to be an array of numbers"),
+        (np.array([True, False]), "`t` to be an array of numbers"),
+        (True, "`t` to be an array of numbers"),
+        ([t0, True], "True/False among them"),
+        (np.datetime64(0, "D"), "`t` to be an array of numbers"),
+    ):
+        with pytest.raises(TypeError, match=says):
+            m.pose(t)
+        with pytest.raises(TypeError, match=says):
+            m.velocity(t)
+    # real numbers of every kind still work, and agree
+    want = m.pose(t0)[1]
+    for t in (int(t0), np.float32(t0), [t0], np.array([t0]), Fraction(t0), Decimal(t0)):
+        assert np.allclose(m.pose(t)[1].reshape(3), want, atol=1e-6)
+
+
 def test_preimage_root_in_a_later_segment_is_found(rng):
     # A cubic B-spline through keyframes whose fourth segment passes through zero.
     t = np.arange(8.0)
