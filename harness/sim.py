@@ -194,7 +194,8 @@ def simulate(
     pos, quat = _poses(motion, tau)
     data.mocap_pos[mid], data.mocap_quat[mid] = pos[0], quat[0]
     others = [
-        (scenes_pkg.mocap_id(model, name), *_poses(m, tau)) for name, m in (partners or {}).items()
+        (scenes_pkg.mocap_id(model, name), *_poses(m, tau))
+        for name, m in _partners(partners, sc.mocap_body, tau[-1]).items()
     ]
     for oid, opos, oquat in others:
         data.mocap_pos[oid], data.mocap_quat[oid] = opos[0], oquat[0]
@@ -209,6 +210,37 @@ def simulate(
         frame[f"quat_{a}"] = quat[:, k]
     frame.update(_record(model, data, mid, pos, quat, carried, sc.mocap_body, others))
     return pd.DataFrame(frame)
+
+
+def _partners(partners: Any, driven: str, dur: float) -> dict[str, Motion]:
+    """`partners` checked: a dict of mocap body names (not the driven one) to motions whose
+    domains last `dur` (the mocap ids are checked where they are looked up)."""
+    if partners is None:
+        return {}
+    if not isinstance(partners, dict):
+        raise TypeError(
+            "Expected `partners` to be a dict of mocap body names to motions, got"
+            f" {type(partners).__name__}."
+        )
+    for name, m in partners.items():
+        if not isinstance(name, str):
+            raise TypeError(f"Expected the keys of `partners` to be body names, got {short(name)}.")
+        if name == driven:
+            raise ValueError(
+                f"Expected `partners` to drive other mocap bodies than the scene's own, got"
+                f" {name!r}, which `motion` drives."
+            )
+        if not isinstance(m, Motion):
+            raise TypeError(
+                f"Expected `partners[{name!r}]` to be a motions.Motion, got {type(m).__name__}."
+            )
+        t0, t1 = m.domain
+        if dur > (t1 - t0) * (1 + 1e-12):
+            raise DomainError(
+                f"`partners[{name!r}]`'s domain [{short(t0)}, {short(t1)}] covers {t1 - t0:g} s;"
+                f" the simulation lasts {dur:g} s."
+            )
+    return partners
 
 
 def _rollout_inputs(model, data, mid, pos, quat, others=()):

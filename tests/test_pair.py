@@ -174,6 +174,17 @@ def test_two_body_scene_and_simulation():
     assert np.ptp(df["pair_distance"]) > 0.1
     with pytest.raises(scenes.InvalidMocapBody, match="nobody"):
         harness.simulate(sc, a, partners={"nobody": b})
+    # a bad-input fuzz: the driven body as its own partner gave pos_z from `a` and
+    # min_distance from `b`'s pose; a list, a string or None raised AttributeError; a
+    # partner too short for the simulation was blamed on `t`
+    with pytest.raises(ValueError, match="'left', which `motion` drives"):
+        harness.simulate(sc, a, partners={"left": b})
+    for bad, says in (([b], "`partners` to be a dict"), ({"right": "b"}, r"`partners\['right'\]`")):
+        with pytest.raises(TypeError, match=says):
+            harness.simulate(sc, a, partners=bad)
+    short = b.split(b.domain[0] + 0.5 * (b.domain[1] - b.domain[0]))[0]
+    with pytest.raises(harness.sim.DomainError, match=r"`partners\['right'\]`'s domain"):
+        harness.simulate(sc, a, partners={"right": short})
 
 
 @pytest.mark.parametrize("where", ["end", "interior"])
