@@ -224,6 +224,22 @@ def as_flag(value: Any, name: str) -> bool:
     return bool(value)
 
 
+def as_rng(value: Any, name: str, default: int) -> np.random.Generator:
+    """A numpy Generator: `value` itself, one seeded by an integer `value`, or by `default`
+    when `value` is None (numpy's ``default_rng`` would take other things too, or fail
+    inside numpy)."""
+    if value is None:
+        return np.random.default_rng(default)
+    if isinstance(value, np.random.Generator):
+        return value
+    if isinstance(value, int | np.integer) and not isinstance(value, bool) and value >= 0:
+        return np.random.default_rng(int(value))
+    raise TypeError(
+        f"Expected `{name}` to be a numpy Generator or a non-negative integer seed, got"
+        f" {short(value)}."
+    )
+
+
 def check_choice(value: Any, name: str, choices) -> str:
     """`value` must be one of `choices` (strings)."""
     if not isinstance(value, str) or value not in choices:

@@ -317,6 +317,8 @@ class SweepSurface:
                 raise ValueError(
                     f"Expected `{name}` within [{short(lo)}, {short(hi)}], got {short(x)}."
                 )
+        if ss.size == 0 or tt.size == 0:  # (scipy's design matrix refuses no points)
+            return np.squeeze(np.empty((tt.size, ss.size, 3)), axis=drop)
         bs = BSpline.design_matrix(
             np.clip(ss, self.knots_s[self.degree_s], self.knots_s[-self.degree_s - 1]),
             self.knots_s,

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ._checks import as_count, as_flag, as_points, short
+from ._checks import as_count, as_flag, as_points, as_rng, short
 from ._spline import gauss_nodes
 from .motion import Motion
 from .quaternion import quat_from_matrix, rotation_matrix
@@ -276,7 +276,7 @@ MAX_INVARIANCE_SAMPLES = 1_000_000
 
 
 def invariance_errors(
-    motion: Motion, rng: np.random.Generator | None = None, samples: int = 257
+    motion: Motion, rng: np.random.Generator | int | None = None, samples: int = 257
 ) -> tuple[float, float]:
     """Max matrix difference after a change of world frame and of body orientation.
 
@@ -287,7 +287,7 @@ def invariance_errors(
     recipe = motion.recipe
     if recipe is None:
         return float("nan"), float("nan")
-    rng = np.random.default_rng(2024) if rng is None else rng
+    rng = as_rng(rng, "rng", 2024)
     t = np.linspace(*motion.domain, samples)
     m0 = motion.matrix(t)
     rk = rotation_matrix(recipe.rotations)
@@ -318,7 +318,7 @@ def smoothness(
     body: Any = None,
     offsets=(1e-3, 1e-4, 1e-5),
     invariance: bool = True,
-    rng: np.random.Generator | None = None,
+    rng: np.random.Generator | int | None = None,
 ) -> dict[str, Any]:
     """One tidy row of smoothness figures of a motion (DESIGN §8).
 
@@ -328,6 +328,8 @@ def smoothness(
             speed (the origin alone when None).
         offsets: one-sided offsets as fractions of the neighbouring knot interval.
         invariance: rebuild from moved keyframes and report the invariance errors.
+        rng: the random change of frame of the invariance test: a numpy Generator, or an
+            integer seed (None: seed 2024).
 
     Returns:
         dict with ``scheme``, ``continuity`` ("C0"/"C1"/"C2"), ``continuity_order``, the
@@ -340,6 +342,7 @@ def smoothness(
     if not isinstance(motion, Motion):
         raise TypeError(f"Expected `motion` to be a motions.Motion, got {type(motion).__name__}.")
     invariance = as_flag(invariance, "invariance")
+    rng = as_rng(rng, "rng", 2024)
     pts = _body_points(body)
     t0 = time.perf_counter()
     jumps = knot_jumps(motion, offsets)

@@ -132,6 +132,11 @@ def test_sweep_surface_is_the_moved_profile(preimage, tmp_path):
         np.linalg.norm(curve[:, 1:], axis=1), 0.2, atol=1e-15
     )  # exact circle
     np.testing.assert_allclose(surf.evaluate(s, t), f.transform(curve, t), atol=1e-12)
+    # no parameters give no points, as no times give no poses (a bad-input fuzz: scipy's
+    # "min() arg is an empty sequence")
+    assert surf.evaluate(np.array([]), t).shape == (t.size, 0, 3)
+    assert surf.evaluate(s, np.array([])).shape == (0, s.size, 3)
+    assert surf.evaluate(np.array([]), t[0]).shape == (0, 3)
     # scalars drop their axis, as a scalar time does in pose (a trial's scalars were refused)
     np.testing.assert_allclose(surf.evaluate(s[3], t), f.transform(curve, t)[:, 3], atol=1e-12)
     np.testing.assert_allclose(surf.evaluate(s, t[5]), f.transform(curve, t)[5], atol=1e-12)

@@ -323,6 +323,18 @@ def test_smoothness_refuses_bad_bodies(body, exc, match):
         motions.smoothness(m, body=body)
 
 
+def test_smoothness_takes_a_seed_and_refuses_other_rngs():
+    # a bad-input fuzz: rng=5 raised AttributeError ('int' object has no attribute
+    # 'normal'); an integer seed is numpy's convention, and gives the Generator's figures
+    m = motions.interpolate(*demo_keyframes(5))
+    a = motions.smoothness(m, rng=5)
+    b = motions.smoothness(m, rng=np.random.default_rng(5))
+    assert a["invariance_world"] == b["invariance_world"]
+    for bad in ("5", 1.5, True, -1):
+        with pytest.raises(TypeError, match="`rng` to be a numpy Generator"):
+            motions.smoothness(m, rng=bad, invariance=False)
+
+
 def test_smoothness_of_hermite_with_given_derivatives(rng):
     # The recipe keeps the given (world-frame) derivatives and the invariance rebuild
     # rotates them with the world: the motion is invariant, as the scheme is.
