@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion
-from motions._checks import as_float, short
+from motions._checks import as_count, as_float, short
 
 from .certification.advance import pose_matrices, pose_rows
 from .certification.api import Certificate, cover_half_spaces, obstacle_lists
@@ -243,6 +243,7 @@ def ground_truth(
     res = as_float(resolution, "resolution")
     if not math.isfinite(res) or res <= 0:
         raise ValueError(f"Expected `resolution` > 0 (a length), got {short(resolution)}.")
+    max_samples = as_count(max_samples, "max_samples", 1, 2**62)
     warn_no_obstacles([obst], 1)
     obst = cover_half_spaces([motion], [body], [obst])[0]
     start = time.perf_counter()

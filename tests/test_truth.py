@@ -228,3 +228,8 @@ def test_a_huge_speed_bound_is_refused_by_its_sample_count_without_a_numpy_warni
         warnings.simplefilter("error")
         with pytest.raises(ValueError, match=r"needs .* samples \(> max_samples"):
             ground_truth(m, Box([0.05, 0.03, 0.02]), [Box([0.01, 0.2, 0.2], center=[0.5, 0.3, 0])])
+    # max_samples is checked (a bad-input fuzz: 'abc' and None failed comparing, -5 and
+    # 10.0 went into the message)
+    for bad, exc in (("abc", TypeError), (None, TypeError), (10.0, TypeError), (-5, ValueError)):
+        with pytest.raises(exc, match="`max_samples` to be an integer"):
+            ground_truth(m, Box([0.05, 0.03, 0.02]), [Box([0.01, 0.2, 0.2])], max_samples=bad)
