@@ -30,6 +30,7 @@ from scipy.interpolate import BSpline, make_interp_spline
 from scipy.sparse.linalg import spsolve
 from scipy.spatial.transform import Rotation, RotationSpline
 
+from ._checks import short
 from ._jet import Jet, qexp_jet, qmul_jet, slerp_jet
 from .bernstein import bspline_bezier_pieces
 from .errors import DegenerateMotionError, MotionError
@@ -566,6 +567,18 @@ class ScLerpMotion(Motion):
         self._slide = np.where(small[:, None], pd, 0.0)  # pure translation segments
         h = np.diff(t)
         self._h = h
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            acc = (self._theta + np.abs(pd).max(axis=1)) / (h * h)
+        if not np.all(np.isfinite(acc)):
+            # (the other schemes' splines refuse such times; these screws took times 1e-310
+            # apart, with infinite velocities, a bad-input fuzz found)
+            i = int(np.flatnonzero(~np.isfinite(acc))[0])
+            raise ValueError(
+                f"Expected `times` and `positions` whose screw rates are finite, got times"
+                f" {short(t[i])} and {short(t[i + 1])} ({short(h[i])} apart) for a step of"
+                f" {short(np.abs(pd[i]).max())} and a turn of {short(self._theta[i])} rad:"
+                " too close for double precision; rescale them."
+            )
 
     def _kinematics(self, t, order):
         i = np.clip(np.searchsorted(self._t, t, side="right") - 1, 0, self._t.size - 2)

@@ -57,6 +57,9 @@ _CHUNK = 16384  # times per evaluation chunk: temporaries stay in cache
 FROM_BEZIER_TOL = 1e-10
 """Relative tolerance of :meth:`RationalMotion.from_bezier`'s rigidity (``A A^T = w² I``)
 and continuity checks at sample points."""
+MIN_INTERVAL = 1.5e-154
+"""The shortest interval between breakpoints: its reciprocal squared (the scale of an
+acceleration) stays finite."""
 PREIMAGE_ZERO_TOL = 1e-12
 """A preimage value ``|Q(t)|`` at most this fraction of its segment's largest control
 quaternion norm is a root of Q (all four components vanish together). Evaluating Q by de
@@ -175,6 +178,17 @@ class RationalMotion(Motion):
                 "Expected a motion with finite Bézier pieces, got NaN or infinite ones: its"
                 " times are too close or its positions too far apart for double precision;"
                 " rescale them."
+            )
+        h = np.diff(breaks)
+        with np.errstate(over="ignore", divide="ignore"):
+            rates = 1.0 / (h * h)
+        if not np.all(np.isfinite(rates)):
+            # (derivatives scale as 1/h and 1/h^2: knots 1e-320 apart gave infinite and
+            # NaN angular velocities, a bad-input fuzz found)
+            raise ValueError(
+                f"Expected breakpoints at least {MIN_INTERVAL:g} apart, got an interval of"
+                f" {short(float(h[~np.isfinite(rates)][0]))}: the motion's rates overflow"
+                " double precision; rescale its times."
             )
 
     # ------------------------------------------------------------------ construction

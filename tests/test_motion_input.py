@@ -132,6 +132,24 @@ def test_times_that_numpy_would_cast_are_refused(scheme):
         assert np.allclose(m.pose(t)[1].reshape(3), want, atol=1e-6)
 
 
+def test_times_whose_rates_overflow_are_refused():
+    # a bad-input fuzz: sclerp took keyframe times 1e-310 apart (every other scheme's
+    # spline refuses them) and from_preimage knots 1e-320 apart; their velocities were inf
+    q, p = demo_keyframes(5)
+    with pytest.raises(ValueError, match="`times` and `positions` whose screw rates are finite"):
+        motions.build("sclerp", q, p, np.arange(5) * 1e-310)
+    knots = np.array([0, 0, 0, 1, 1, 1.0])
+    with pytest.raises(ValueError, match=r"breakpoints at least 1\.5e-154 apart"):
+        RationalMotion.from_preimage(2, knots * 1e-320, q[:3])
+    # short but representable: finite rates of every order
+    for m in (
+        motions.build("sclerp", q, p, np.arange(5) * 1e-100),
+        RationalMotion.from_preimage(2, knots * 1e-150, q[:3]),
+    ):
+        k = m.kinematics(np.linspace(*m.domain, 9))
+        assert all(np.all(np.isfinite(x)) for x in k)
+
+
 def test_preimage_root_in_a_later_segment_is_found(rng):
     # A cubic B-spline through keyframes whose fourth segment passes through zero.
     t = np.arange(8.0)
