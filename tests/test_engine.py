@@ -555,6 +555,12 @@ def test_device_and_limit_errors():
     for bound in ("hull", "aabb", "lipschitz"):  # (it was ignored)
         with pytest.raises(QueryError, match=f"`samples` .* got bound='{bound}'"):
             certify(m, box, [box], bound=bound, samples=10)
+        # so were a comparator's options (a bad-input fuzz)
+        with pytest.raises(QueryError, match=f"`comparator_options` .* got bound='{bound}'"):
+            certify(m, box, [box], bound=bound, comparator_options={"x": 1})
+    # a 0-d array is a number (a bad-input fuzz: "expected a number, got 0.001")
+    a, b = certify(m, box, [box], tolerance=np.array(1e-3)), certify(m, box, [box])
+    assert (a.verdict, a.toi_lo, a.nodes) == (b.verdict, b.toi_lo, b.nodes)
 
 
 def test_clearance_brackets_the_minimum_distance(scene):

@@ -168,6 +168,8 @@ _checked: dict = {}
 def _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter):
     if not isinstance(bound, str) or bound not in BOUNDS:
         raise QueryError(f"Unknown `bound` {short(bound)}; expected one of {list(BOUNDS)}.")
+    if isinstance(tolerance, np.ndarray) and tolerance.ndim == 0 and tolerance.dtype.kind in "fiu":
+        tolerance = tolerance.item()  # (a 0-d array is a number: its message read "got 0.001")
     if isinstance(tolerance, bool) or not isinstance(
         tolerance, int | float | np.floating | np.integer
     ):
@@ -516,6 +518,12 @@ def certify_many(
     a :class:`harness.comparators.NotApplicable` ("n/a" with the reason) in its place.
     """
     o = check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)
+    if comparator_options is not None and o["bound"] not in ("fcl", "ipctk"):
+        # (it was ignored, as `samples` with another bound was)
+        raise QueryError(
+            "`comparator_options` is an option of bound='fcl' or 'ipctk' only, got"
+            f" bound={o['bound']!r}."
+        )
     if o["bound"] in ("fcl", "ipctk"):
         ms = check_motions(motions, o["bound"])
         bodies, obst = body_list(body, len(ms)), obstacle_lists(obstacles, len(ms))
