@@ -583,3 +583,29 @@ def test_swept_aabbs_hold_the_body_at_every_double_of_their_reported_intervals(t
                     y = sum(mat[i][j] * x[j] for j in range(3)) + mat[i][3]
                     worst = max(worst, y - Fraction(hi[k, i]), Fraction(lo[k, i]) - y)
     assert worst <= 0, float(worst)
+
+
+@pytest.mark.parametrize("shape", ["sphere", "capsule"])
+def test_a_round_part_of_a_nearly_rigid_motion_is_its_ellipsoid(shape):
+    # a numerical audit: from_bezier accepts control matrices rigid to 1e-10, and a posed
+    # sphere or capsule is then an ellipsoid, its semi-axes r times the singular values of
+    # A / w; the pose tests added r to the cores' distance, so lipschitz and sampled
+    # certified free a sphere of radius 1e3 reaching 2e-8 into a box, and clearance's
+    # lower bound was +2e-8 (the hull, which bounds the ellipsoid itself, was sound)
+    d, r = 4e-11, 1e3
+    ctrl = np.zeros((1, 2, 4, 4))
+    ctrl[0, :, 0, 0] = 1 + d
+    ctrl[0, :, 1, 1] = ctrl[0, :, 2, 2] = ctrl[0, :, 3, 3] = 1.0
+    m = RationalMotion.from_bezier([0.0, 1.0], ctrl)  # at rest, x stretched by 1 + d
+    face = r * (1 + d / 2)
+    obstacle = harness.Box([1.0, 2e3, 2e3], center=[face + 1.0, 0, 0])
+    body = harness.Sphere(r) if shape == "sphere" else harness.Capsule(r, 1.0)
+    # exactly: the body's point (r, 0, 0) is posed at r (1 + d), past the box's face
+    depth = Fraction(r) * Fraction(ctrl[0, 0, 0, 0]) - (
+        Fraction(obstacle.center[0]) - Fraction(obstacle.half_extents[0])
+    )
+    assert depth > 0
+    for bound in ("hull", "aabb", "lipschitz", "sampled"):
+        cert = harness.certify(m, body, [obstacle], bound=bound, tolerance=1e-9)
+        assert cert.verdict != "free", (bound, cert)
+    assert harness.clearance(m, body, [obstacle], tolerance=1e-9).lower <= -float(depth)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ._geometry import F0, F1, HUGE, Shape, _core_radius, _gjk, _probed_hi
+from ._geometry import F0, F1, HUGE, Shape, _gjk, _posed_radii, _probed_hi
 from ._refine_kernels import (
     GAMMA_C,
     R_BUDGET,
@@ -257,13 +257,13 @@ def _pose_bracket(
     ub, gap, d, overlap, depth, _c = _gjk(
         0, pre_m, pre_c, lane, 0, 1, part, obst, verts, z, z, 1, warm, max_iter, HUGE, F0, 0, z
     )
-    radii = _core_radius(part) + _core_radius(obst)
-    hi = ub - radii + margin
-    lb = gap - radii - margin
+    radii = _posed_radii(part, pre_m[lane, 0], obst)  # (see _refine_kernels._pose_test)
+    hi = ub - radii[0] + margin
+    lb = gap - radii[1] - margin
     if overlap == 1:
-        hi = -(radii + depth) + margin
+        hi = -(radii[0] + depth) + margin
         lb = -HUGE
-    hi = _probed_hi(hi, lb, radii, margin, pre_m, pre_c, lane, 0, part, obst, verts)
+    hi = _probed_hi(hi, lb, radii[0], margin, pre_m, pre_c, lane, 0, part, obst, verts)
     x = wp.int32(0)
     if hi < F0:
         x = 1

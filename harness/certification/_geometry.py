@@ -126,6 +126,29 @@ def _core_radius(sh: Shape) -> wp.float64:
 
 
 @wp.func
+def _posed_radii(part: Shape, m: wp.mat33d, obst: Shape) -> wp.vec2d:
+    """Bounds (lo, hi) of the radius that separates the cores of the part, posed by the
+    affine map x -> m x + c, and of the obstacle (in world coordinates: its own radius).
+
+    A posed ball of radius r is an ellipsoid whose semi-axes are r times the singular
+    values of m: 1 for a rigid pose, but a motion's matrices need only be rigid to a
+    tolerance (``from_bezier`` accepts 1e-10), and adding r alone to the cores' distance
+    would overstate a lower bound by up to r (sigma_max - 1). The squared singular values
+    are the eigenvalues of m^T m, within e = |m^T m - I|_F of 1; e is taken as its
+    computed value plus GAMMA_PLANE |m|_F^2 (the rounding of the 3-term products, the
+    subtraction and the norm), and the square roots' rounding by GAMMA_PLANE more."""
+    r = _core_radius(part)
+    ro = _core_radius(obst)
+    if r == F0:
+        return wp.vec2d(ro, ro)
+    g = wp.transpose(m) * m - wp.identity(n=3, dtype=wp.float64)
+    e = wp.sqrt(wp.ddot(g, g)) + GAMMA_PLANE * wp.ddot(m, m)
+    hi = wp.sqrt(F1 + e) * (F1 + GAMMA_PLANE)
+    lo = wp.sqrt(wp.max(F1 - e, F0)) * (F1 - GAMMA_PLANE)
+    return wp.vec2d(r * lo + ro, r * hi + ro)
+
+
+@wp.func
 def _affine_support(
     pre_m: wp.array2d(dtype=wp.mat33d),
     pre_c: wp.array2d(dtype=wp.vec3d),

@@ -50,7 +50,7 @@ from ._geometry import (
     Shape,
     _affine_support,
     _boxes_apart,
-    _core_radius,
+    _posed_radii,
     _gjk,
     _local_h,
     _placed_support,
@@ -350,17 +350,19 @@ def _pose_test(
         return HUGE, -HUGE, 0, 1, warm
     margin = prep.margin + GAMMA_C * (prep.scale + obst.rho)
     z = wp.vec3d(F0, F0, F0)
-    radii = _core_radius(part) + _core_radius(obst)
+    # the radii of spheres and capsules (the smaller for an upper bound, the larger for a
+    # lower bound: the posed part's ellipsoid, see _posed_radii)
+    radii = _posed_radii(part, pre_m[lane, slot], obst)
     ub, gap, pdir, overlap, depth, _c = _gjk(
         0, pre_m, pre_c, lane, slot, slot + 1, part, obst, verts, z, z, 1, warm, max_iter,
-        enough + radii + margin, F0, 0, z,
+        enough + radii[1] + margin, F0, 0, z,
     )  # fmt: skip
-    hi = ub - radii + margin
-    lb = gap - radii - margin
+    hi = ub - radii[0] + margin
+    lb = gap - radii[1] - margin
     if overlap == 1:
-        hi = -(radii + depth) + margin
+        hi = -(radii[0] + depth) + margin
         lb = -HUGE
-    hi = _probed_hi(hi, lb, radii, margin, pre_m, pre_c, lane, slot, part, obst, verts)
+    hi = _probed_hi(hi, lb, radii[0], margin, pre_m, pre_c, lane, slot, part, obst, verts)
     x = wp.int32(0)
     if hi < F0:
         x = 1
