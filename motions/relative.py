@@ -28,7 +28,7 @@ from .motion import DOMAIN_SLACK
 from .pieces import UNIT_ROUNDOFF, block_magnitude, gamma
 from .rational import RationalMotion, control_matrices
 
-__all__ = ["inverse_control", "relative_motion", "restrict_control"]
+__all__ = ["inverse_control", "relative_motion", "restrict_control", "rigidity_defect"]
 
 
 def inverse_control(ctrl: np.ndarray) -> np.ndarray:
@@ -171,8 +171,99 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     )  # fmt: skip
     g = gamma(m + 8)
     diff = hi * (1.0 + 2.0 * g) - lo * (1.0 - 2.0 * g)
-    err = block_magnitude(diff)
+    err = block_magnitude(diff) + _inverse_defect(a, ca, cb)
     return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt, ctrl_error=err)
+
+
+def _inverse_defect(a: RationalMotion, ca: np.ndarray, cb: np.ndarray) -> np.ndarray:
+    """(3,) bounds on the entries of the A block, the b column and the weight of
+    ``Δ(t) H_b(t)``: how far the relative motion through ``inverse_control`` (a's inverse
+    by its transpose, ``[[w Aᵀ, -Aᵀ b], [0, w²]]``) is from ``w³ M_a⁻¹ H_b`` where a is not
+    exactly rigid.
+
+    A motion rebuilt by ``from_bezier`` need only be rigid to 1e-10 at sample points (a
+    second audit certified free a pair whose exact poses overlapped by 2e-7, through this
+    transpose). With ``A Aᵀ = w² (I + E)``, ``A⁻¹ = Aᵀ (I + E)⁻¹ / w²``, so the exact
+    ``w³ M_a⁻¹`` is the transpose's plus ``Δ = [[w Aᵀ K, -Aᵀ K b], [0, 0]]``, ``K = (I +
+    E)⁻¹ - I``, ``|K|_2 <= κ / (1 - κ)`` for κ a bound of ``|E|_F`` over the segment
+    (:func:`rigidity_defect`). Each entry of ``Δ H_b``'s A block is at most ``|w_a| |A_a|_F
+    |K| |A_b|_F``, of its b column ``|w_a| |A_a|_F |K| |b_b| + |A_a|_F |K| |b_a| |w_b|``
+    (the largest coefficients bound the values: convex combinations); a pointwise bound
+    covers the node margins as a coefficient error does (the hull argument holds at
+    each t). Motions built from a preimage are rigid exactly (their error is rounding,
+    which `ctrl_error` covers): zero for them."""
+    if a.preimage_pieces is not None:
+        return np.zeros(3)
+    kap = float(rigidity_defect(ca).max())
+    if not kap < 0.5:
+        raise MotionError(
+            f"Expected `a` to be rigid (A A^T = w^2 I), got a defect of up to {kap:.3g} over"
+            " its segments: its inverse is not a rotation's."
+        )
+    k = kap / (1.0 - kap) * (1.0 + gamma(8))
+    fro = lambda c: float(np.sqrt((c[..., :3, :3] ** 2).sum(axis=(-2, -1))).max())  # noqa: E731
+    col = lambda c: float(np.linalg.norm(c[..., :3, 3], axis=-1).max())  # noqa: E731
+    wgt = lambda c: float(np.abs(c[..., 3, 3]).max())  # noqa: E731
+    aa, ba, wa = fro(ca), col(ca), wgt(ca)
+    ab, bb, wb = fro(cb), col(cb), wgt(cb)
+    return np.array([wa * aa * k * ab, wa * aa * k * bb + aa * k * ba * wb, 0.0]) * (1 + gamma(8))
+
+
+def rigidity_defect(ctrl: np.ndarray) -> np.ndarray:
+    """(S,) bounds on the largest ``|A Aᵀ / w² - I|_F`` on each segment of control
+    matrices (S, n+1, 4, 4): 0 to rounding for a rigid motion.
+
+    ``P = A Aᵀ - w² I`` is a polynomial matrix of degree 2n whose Bernstein coefficients
+    (Bernstein products, :func:`bezier_product_weights`) bound its entries; their rounding
+    is within ``γ_(2n+16)`` of ``max |A_i|_F² + √3 max w_i²`` (the product weights of one
+    coefficient sum to 1). ``w²`` is bounded below by :func:`_weight_floor`. Each segment
+    is first scaled by a power of two (exactly: the same motion), so that the squares
+    neither over- nor underflow."""
+    c = np.asarray(ctrl, dtype=float)
+    _, e = np.frexp(np.abs(c).max(axis=(1, 2, 3)))
+    c = np.ldexp(c, -e[:, None, None, None])
+    n = c.shape[1] - 1
+    k = bezier_product_weights(n, n)
+    a, w = c[:, :, :3, :3], c[:, :, 3, 3]
+    p = a[:, :, None] @ np.swapaxes(a[:, None], -1, -2)  # (S, P, Q, 3, 3): A_p A_q^T
+    p = p - (w[:, :, None] * w[:, None, :])[..., None, None] * np.eye(3)
+    pk = np.tensordot(p, k, ([1, 2], [0, 1]))  # (S, 3, 3, 2n+1)
+    bound = np.sqrt((np.abs(pk).max(axis=-1) ** 2).sum(axis=(-2, -1)))
+    size = (a**2).sum(axis=(-2, -1)).max(axis=1) + np.sqrt(3.0) * (w**2).max(axis=1)
+    bound = (bound + gamma(2 * n + 16) * size) * (1 + gamma(8))
+    floor = _weight_floor(w)
+    with np.errstate(divide="ignore"):
+        return np.where(floor > 0, bound / np.where(floor > 0, floor, 1.0) ** 2, np.inf)
+
+
+def _weight_floor(w: np.ndarray, depth: int = 10) -> np.ndarray:
+    """(S,) lower bounds of ``|w(t)|`` on each segment of Bézier weights (S, n+1): the
+    smallest coefficient where all share a sign, else the least over de Casteljau halves
+    (to `depth`) less their rounding (each level moves a coefficient by at most
+    ``γ_2 max |w|``); 0 where that fails."""
+    out = np.zeros(w.shape[0])
+    for s in range(w.shape[0]):
+        pieces = [np.abs(w[s]) if (w[s] < 0).all() else w[s]]
+        slack = 0.0
+        best = np.inf
+        for _ in range(depth + 1):
+            rest = []
+            for c in pieces:
+                lo = c.min() - slack
+                if lo > 0:
+                    best = min(best, lo)
+                elif (c < 0).all() and -c.max() - slack > 0:
+                    best = min(best, -c.max() - slack)
+                else:
+                    rest.extend(de_casteljau_split(c, 0.5))
+            if not rest:
+                break
+            pieces = rest
+            slack += gamma(2 * w.shape[1]) * float(np.abs(w[s]).max())
+        else:
+            best = 0.0
+        out[s] = 0.0 if rest else best
+    return out
 
 
 def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMotion:

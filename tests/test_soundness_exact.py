@@ -34,6 +34,7 @@ import pytest
 
 import harness
 from motions import RationalMotion, interpolate
+from motions.demo import demo_keyframes
 from motions.errors import DegenerateMotionError
 
 from .exact import (
@@ -609,3 +610,55 @@ def test_a_round_part_of_a_nearly_rigid_motion_is_its_ellipsoid(shape):
         cert = harness.certify(m, body, [obstacle], bound=bound, tolerance=1e-9)
         assert cert.verdict != "free", (bound, cert)
     assert harness.clearance(m, body, [obstacle], tolerance=1e-9).lower <= -float(depth)
+
+
+def _static(a: np.ndarray) -> RationalMotion:
+    """At rest on [0, 1] with the A block `a` (weight 1, origin 0): through from_bezier's
+    checks where they accept it, else built directly (any affine motion)."""
+    c = np.zeros((1, 2, 4, 4))
+    c[0, :, :3, :3] = a
+    c[0, :, 3, 3] = 1.0
+    try:
+        return RationalMotion.from_bezier([0.0, 1.0], c)
+    except ValueError:
+        return RationalMotion(np.array([0.0, 1.0]), ctrl=c)
+
+
+def test_a_pair_whose_first_motion_is_nearly_rigid_is_not_certified_free():
+    # a second audit: certify_pair inverts motion a by its transpose, exact only for a
+    # rigid a; from_bezier accepts a stretch of 4e-11, and b reaching 2e-7 into a's sphere
+    # (1e4 from a's origin) was certified free by hull, aabb and lipschitz
+    d, c = 4e-11, 1e4
+    ma, mb = _static(np.diag([1 + d, 1, 1])), _static(np.eye(3))
+    body_a = harness.Sphere(1.0, center=(c, 0, 0))
+    x = c + 1 + 0.5 + 0.5 * d * (c + 1)
+    body_b = harness.Sphere(0.5, center=(x, 0, 0))
+    # exactly: b's point (x - 1/2, 0, 0) is within a's posed sphere (A = diag(1 + d, 1, 1))
+    inside = (Fraction(x) - Fraction(1, 2)) / Fraction(ma.ctrl[0, 0, 0, 0]) - Fraction(c)
+    assert abs(inside) < 1
+    for bound in ("hull", "aabb", "lipschitz"):
+        cert = harness.certify_pair(ma, body_a, mb, body_b, bound=bound, tolerance=1e-8)
+        assert cert.verdict != "free", (bound, cert)
+    # the relative motion of two rigid ones gains no margin from this
+    from motions.relative import rigidity_defect
+
+    m = interpolate(*demo_keyframes())
+    assert rigidity_defect(m.bezier_form()[1]).max() < 1e-12
+    # and the bound holds: 2d + d^2 exactly at every t for this stretch
+    assert rigidity_defect(ma.ctrl)[0] >= 2 * d + d * d
+
+
+def test_the_ground_truth_of_a_nearly_rigid_motion_is_not_a_false_free():
+    # a second audit: MuJoCo poses the body by the rotation of quat_from_matrix, not by
+    # the motion's affine map; for a motion stretched by 1e-9 (built directly: from_bezier
+    # refuses it; between its check points it had let 4.9e-10 through), the truth was
+    # 'free' with a proven clearance of 4.5e-7 where the affine pose met the obstacle
+    d, c = 1e-9, 1e4
+    m = _static(np.diag([1 + d, 1, 1]))
+    body = harness.Sphere(1.0, center=(c, 0, 0))
+    x = (c + 1) * (1 + d / 2) + 0.5
+    obstacle = harness.Sphere(0.5, center=(x, 0, 0))
+    posed = Fraction(m.ctrl[0, 0, 0, 0]) * (Fraction(c) + 1)  # a's point (c + 1, 0, 0)
+    assert abs(posed - Fraction(x)) < Fraction(1, 2)  # exactly inside the obstacle
+    gt = harness.ground_truth(m, body, [obstacle], resolution=1e-7)
+    assert gt.verdict != "free", gt
