@@ -450,6 +450,31 @@ def test_slope_interval_from_the_residuals():
         slope_intervals(sc.assign(delta=[0.0, 1.0, 2.0]))
 
 
+def test_slope_interval_takes_any_real_level():
+    from harness.report import slope_intervals
+
+    # a bad-input fuzz found np.float32(0.9) refused as "not in (0, 1)", and True taken
+    x = np.array([-1.0, 0.0, 1.0])
+    sc = pd.DataFrame(
+        {"method": "m", "delta": np.exp(x), "cost": np.exp(-0.5 * x + [0.01, -0.02, 0.01])}
+    )
+    np.testing.assert_allclose(
+        slope_intervals(sc, level=np.float32(0.9))["m"],
+        slope_intervals(sc, level=0.9)["m"],
+        rtol=1e-6,
+    )
+    wide, narrow = slope_intervals(sc, level=0.99)["m"], slope_intervals(sc, level=0.5)["m"]
+    assert wide[0] < narrow[0] < -0.5 < narrow[1] < wide[1]
+    for bad, error in (
+        ("0.9", TypeError),
+        (None, TypeError),
+        (True, TypeError),
+        (np.nan, ValueError),
+    ):
+        with pytest.raises(error, match="`level`"):
+            slope_intervals(sc, level=bad)
+
+
 def test_tables_per_scene_and_tolerance_with_csv_and_latex(written):
     _, run, _ = written
     tabs = run / "tables"

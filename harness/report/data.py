@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..timing import spread
+from ..timing import as_level, spread
 from .document import span
 
 __all__ = [
@@ -416,11 +416,11 @@ def slope_intervals(sc: pd.DataFrame, level: float = 0.95) -> dict[str, tuple[fl
 
     Raises:
         ValueError: `level` not in (0, 1), a column missing, a resolution δ not positive.
+        TypeError: `level` not a number.
     """
     from scipy import stats
 
-    if not isinstance(level, float | int) or not 0 < level < 1:
-        raise ValueError(f"Expected `level` in (0, 1) (0.95 for 95 %), got {level!r}.")
+    level = as_level(level)  # (numpy's float32 too; not a bool, a string or NaN)
     fits = _loglog_fits(sc)
     out = {}
     for method in sc["method"].drop_duplicates().sort_values():
