@@ -1050,7 +1050,8 @@ def _repair_rows(tol: float, clearance: float) -> list[dict]:
                     "max_deviation": [0.1, 0.3][i] if done else np.nan,
                     "iterations": 1 + i if done else np.nan,
                     "cpu_seconds": 0.1 if done else 0.001, "seconds": 0.2 if done else 0.002,
-                    "samples": 64, "truth_resolution": 2e-3,
+                    "samples": 64, "truth_resolution": 2e-3, "keyframes": "repair-0",
+                    "certified_clearance": 0.002 if done and method == "certified" else np.nan,
                 }
             )  # fmt: skip
     return rows
@@ -1779,3 +1780,36 @@ def test_latex_keeps_a_number_with_its_unit_and_says_continued():
     long = latex_table(_layouts()["long"], "long")
     head = long.split("\\endfirsthead")[1].split("\\endhead")[0]
     assert "\\multicolumn{2}{l}{\\emph{(continued)}} \\\\" in head
+
+
+@pytest.mark.parametrize(
+    "column", ["scene", "bound", "keyframes", "klass", "wall_rounds", "memory_method"]
+)
+def test_a_table_without_a_column_the_report_reads_is_one_line_exit_2(tmp_path, capsys, column):
+    # a bad-input fuzz: `rsmbench report` of a results.parquet without `scene` or `bound`
+    # printed pandas' KeyError traceback (exit 1)
+    from harness.cli import main
+
+    run = tmp_path / "run"
+    run.mkdir()
+    pd.DataFrame(synthetic_rows()).drop(columns=[column]).to_parquet(run / "results.parquet")
+    (run / "meta.json").write_text(json.dumps(META))
+    with pytest.raises(ReportError, match=f"results.parquet: .*'{column}'.* missing"):
+        write_report(run)
+    capsys.readouterr()
+    assert main(["report", str(run)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(run / "results.parquet") in err[0] and column in err[0], err
+    assert not (run / "report.md").exists() and not (run / "tables").exists()
+
+
+def test_a_table_without_the_jumps_gets_its_continuity_table_not_a_keyerror(tmp_path):
+    # the continuity table leaves out a jump column a table lacks; its figure read them all
+    run = tmp_path / "run"
+    run.mkdir()
+    df = pd.DataFrame(synthetic_rows()).drop(columns=["jump_acceleration"])
+    df.to_parquet(run / "results.parquet")
+    (run / "meta.json").write_text(json.dumps(META))
+    md = write_report(run).read_text()
+    assert "Continuity measured at the knots" in md
+    assert "max jump of angular acceleration" in md and "max jump of acceleration" not in md
