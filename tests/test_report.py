@@ -1813,3 +1813,32 @@ def test_a_table_without_the_jumps_gets_its_continuity_table_not_a_keyerror(tmp_
     md = write_report(run).read_text()
     assert "Continuity measured at the knots" in md
     assert "max jump of angular acceleration" in md and "max jump of acceleration" not in md
+
+
+def test_report_functions_name_an_argument_of_the_wrong_type():
+    # a bad-input fuzz: AttributeError ('list' object has no attribute 'columns') and
+    # "string indices must be integers" from inside the functions
+    from harness.report import format_headline, latex_table
+
+    df = pd.DataFrame({"a": [1.0]})
+    for call, name in (
+        (lambda: latex_table([[1]], "c"), "`df`"),
+        (lambda: latex_table(df, None), "`caption`"),
+        (lambda: latex_table(df, 3), "`caption`"),
+        (lambda: headline("x"), "`df`"),
+        (lambda: headline(df.to_dict(), {}), "`df`"),
+        (lambda: headline(pd.DataFrame(synthetic_rows()), "meta"), "`meta`"),
+        (lambda: format_headline("x"), "`rows`"),
+        (lambda: format_headline(None), "`rows`"),
+        (lambda: format_headline([{"figure": "f"}]), r"`rows\[0\]`"),
+        (lambda: format_headline(["x"]), r"`rows\[0\]`"),
+    ):
+        with pytest.raises(TypeError, match=name):
+            call()
+    # and the right types still work
+    rows = headline(pd.DataFrame(synthetic_rows()), META)
+    lines = format_headline(rows)
+    assert len(lines) == len(rows) > 0 and all(
+        r["figure"] in x for r, x in zip(rows, lines, strict=True)
+    )
+    assert "\\caption{c}" in latex_table(df, "c")
