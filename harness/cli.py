@@ -580,7 +580,13 @@ def _corpus(args) -> int:
         if not math.isfinite(args.size) or not 0 < args.size <= MAX_SIZE:
             raise UsageError(f"Expected `--size` in (0, {MAX_SIZE:g}], got {args.size}.")
         _check_seed(args.seed)
-        fams = args.families.split(",") if args.families else None
+        if args.families is not None and not args.families.strip():
+            # (an empty selection exported every family, silently)
+            raise UsageError(
+                f"Expected `--families` to name at least one family (comma-separated; leave"
+                f" the option out for all), got {args.families!r}."
+            )
+        fams = args.families.split(",") if args.families is not None else None
         from harness.corpus import FAMILIES
 
         if fams and any(f not in FAMILIES for f in fams):

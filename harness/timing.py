@@ -19,6 +19,7 @@ import functools
 import gc
 import json
 import math
+import numbers
 import os
 import platform
 import time
@@ -30,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from motions._checks import short
+from motions._checks import as_array, short
 
 __all__ = [
     "BOOTSTRAP_RESAMPLES",
@@ -39,6 +40,7 @@ __all__ = [
     "CaseMemory",
     "Rounds",
     "Spread",
+    "as_level",
     "bootstrap_interval",
     "first_call",
     "interleave",
@@ -101,12 +103,37 @@ class Spread:
 
 
 def _as_sample(x: Any, name: str) -> np.ndarray:
-    a = np.asarray(x, dtype=float).ravel()
+    # real numbers only: numpy would read "2" as 2.0, True as 1.0 and drop an imaginary part
+    a = as_array(x, name).ravel()
     if a.size == 0:
         raise ValueError(f"Expected `{name}` to hold at least one measurement, got none.")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"Expected `{name}` to be finite, got {a.tolist()}.")
     return a
+
+
+def as_level(level: Any, name: str = "level") -> float:
+    """A confidence level: a real number strictly between 0 and 1 (numpy's too; not a bool,
+    a string, NaN, nor a percentage such as 95)."""
+    if isinstance(level, bool | np.bool_) or not isinstance(level, numbers.Real):
+        raise TypeError(f"Expected `{name}` in (0, 1) (0.95 for 95 %), got {short(level)}.")
+    v = float(level)
+    if not 0.0 < v < 1.0:  # (NaN too)
+        raise ValueError(f"Expected `{name}` in (0, 1) (0.95 for 95 %), got {short(level)}.")
+    return v
+
+
+def _check_bootstrap(resamples: Any, rng: Any) -> tuple[int, np.random.Generator]:
+    if isinstance(resamples, bool) or not isinstance(resamples, int | np.integer):
+        raise TypeError(f"Expected `resamples` to be an integer >= 1, got {short(resamples)}.")
+    if resamples < 1:
+        raise ValueError(f"Expected `resamples` to be an integer >= 1, got {int(resamples)}.")
+    if rng is None:
+        return int(resamples), np.random.default_rng(0)
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(
+            "Expected `rng` to be a numpy random Generator (np.random.default_rng(seed)) or"
+            f" None, got {type(rng).__name__} {short(rng)}."
+        )
+    return int(resamples), rng
 
 
 def bootstrap_interval(
@@ -119,10 +146,11 @@ def bootstrap_interval(
 ) -> tuple[float, float]:
     """Percentile bootstrap interval of ``stat`` (vectorised over the last axis) of x."""
     a = _as_sample(x, "x")
+    level = as_level(level)
+    resamples, rng = _check_bootstrap(resamples, rng)
     if a.size == 1:
         v = float(stat(a[None, :])[0])
         return v, v
-    rng = np.random.default_rng(0) if rng is None else rng
     boot = stat(a[rng.integers(0, a.size, size=(resamples, a.size))])
     lo, hi = np.quantile(boot, [(1 - level) / 2, (1 + level) / 2])
     return float(lo), float(hi)
@@ -136,13 +164,23 @@ def median_interval(
     with the largest j whose coverage ``1 - 2 P(Binomial(n, 1/2) < j)`` is at least
     `level`; with too few rounds for `level` (fewer than 6 for 95 %), the whole range and
     its own, lower coverage ``1 - 2^(1-n)``. (A percentile bootstrap of the median gives
-    the same range for 5 rounds and called it 95 %.) One round: (x, x, 0)."""
+    the same range for 5 rounds and called it 95 %.) One round: (x, x, 0).
+
+    Raises:
+        TypeError: `x` not real numbers (text, booleans, complex numbers), `level` not a
+            number.
+        ValueError: `x` empty or not finite, `level` not in (0, 1).
+    """
+    from scipy import stats
+
     a = np.sort(_as_sample(x, "x"))
+    level = as_level(level)
     n = a.size
     if n == 1:
         return float(a[0]), float(a[0]), 0.0
-    # P(Binomial(n, 1/2) < j) for j = 1 .. n // 2, from the binomial coefficients
-    below = np.cumsum([math.comb(n, i) for i in range(n // 2)]) / 2.0**n
+    # P(Binomial(n, 1/2) < j) for j = 1 .. n // 2 (scipy's regularised incomplete beta:
+    # the sum of binomial coefficients over 2^n overflowed a float from 1,024 rounds on)
+    below = stats.binom.cdf(np.arange(n // 2), n, 0.5)
     cover = 1.0 - 2.0 * below
     ok = np.flatnonzero(cover >= level)
     j = int(ok[-1]) + 1 if len(ok) else 1
@@ -175,18 +213,28 @@ def ratio_interval(
             different numbers of rounds).
 
     Returns:
-        (ratio, lo, hi); ``hi`` (and ``lo``) is inf when resampled base cases cost 0. A
-        base of 0 gives ``(inf, nan, nan)`` (``(1, nan, nan)`` if new is 0 too).
+        (ratio, lo, hi); ``hi`` (and ``lo``) is inf when resampled base cases cost 0.
+
+    Raises:
+        ValueError: the base's medians sum to 0 (a time of 0 is no measurement: the ratio
+            would be inf or 0/0; compare such figures by their medians instead), `level`
+            not in (0, 1), `resamples` < 1, cases missing or not finite.
+        TypeError: rounds that are not real numbers, `level` not a number, `rng` not a
+            numpy Generator.
     """
     b = _cases(base, "base")
     n = _cases(new, "new")
     if len(b) != len(n):
         raise ValueError(f"Expected as many cases in `new` as in `base` ({len(b)}), got {len(n)}.")
-    rng = np.random.default_rng(0) if rng is None else rng
+    level = as_level(level)
+    resamples, rng = _check_bootstrap(resamples, rng)
     point_b = sum(float(np.median(c)) for c in b)
     point_n = sum(float(np.median(c)) for c in n)
-    if point_b <= 0:
-        return math.inf if point_n > 0 else 1.0, math.nan, math.nan
+    if not point_b > 0:
+        raise ValueError(
+            "Expected `base` to have a positive sum of its cases' median times (a ratio"
+            f" needs a time to divide by), got {point_b:g} (`new`: {point_n:g})."
+        )
     ratio = point_n / point_b
     # Per-case bootstrap distributions of the median, then cases resampled jointly.
     med_b = np.stack([_boot_medians(c, resamples, rng) for c in b])  # (C, B)
@@ -211,7 +259,15 @@ def ratio_interval(
 def _cases(x: Any, name: str) -> list[np.ndarray]:
     if isinstance(x, np.ndarray) and x.ndim == 1:
         return [_as_sample(x, name)]
-    items = list(x)
+    try:
+        if isinstance(x, str | bytes | dict):
+            raise TypeError
+        items = list(x)
+    except TypeError:
+        raise TypeError(
+            f"Expected `{name}` to be a sample of rounds or one sample per case, got"
+            f" {type(x).__name__} {short(x)}."
+        ) from None
     if not items:
         raise ValueError(f"Expected `{name}` to hold at least one case, got none.")
     if all(np.ndim(v) == 0 for v in items):

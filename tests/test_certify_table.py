@@ -76,9 +76,19 @@ def test_the_tables_accessors_and_refusals(scene):  # noqa: F811
     assert {f"unresolved_{k}" for k in UNRESOLVED} <= set(df.columns)
     assert [c.verdict for c in table] == list(table.verdict)
     assert _same(table[-1], table[2])
-    for bad in (3, -4, 1.0, True):
+    for bad in (3, -4, np.int64(3)):
         with pytest.raises(IndexError, match=r"index in \[-3, 3\)"):
             table[bad]
+    # a wrong type of index is a TypeError naming it (a bad-input fuzz: IndexError)
+    for bad in (1.0, True, np.bool_(False), "0", None, [0], np.array([0, 1])):
+        with pytest.raises(TypeError, match=r"index of a CertificateTable.*integer or a slice"):
+            table[bad]
+    # a slice gives the list of its certificates, as a list's slice would
+    for sl in (slice(None), slice(1, None), slice(None, None, -2), slice(5, 9)):
+        got, want = table[sl], list(table)[sl]
+        assert isinstance(got, list) and len(got) == len(want)
+        assert all(_same(a, b) for a, b in zip(got, want, strict=True))
+    assert _same(table[np.int64(-1)], table[2])
     empty = certify_table([], Sphere(0.1), [])
     assert len(empty) == 0 and empty.unresolved.shape == (0, 3)
     with pytest.raises(QueryError, match="certify_table answers the engine's bounds"):

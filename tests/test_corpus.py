@@ -453,3 +453,93 @@ def test_truth_times_lie_in_the_motions_domain(corpus):
         a, b = c.motion.domain
         for x in (c.truth.toi, c.truth.toi_lo, c.truth.toi_hi):
             assert x == math.inf or a <= x <= b, (c.id, x, a, b)
+
+
+# ----------------------------------------------------------------------------- truths
+@pytest.fixture(scope="module")
+def small_export(tmp_path_factory):
+    """One exported collision case with a contact window, one free case, and the
+    domain of the collision case's motion."""
+    folder = tmp_path_factory.mktemp("truths")
+    cases = generate(0, 0.2, ["thin-wall"])
+    col = next(c for c in cases if c.truth.verdict == "collision" and c.truth.window > 0)
+    free = next(c for c in cases if c.truth.verdict == "free")
+    export([col, free], folder)
+    doc = json.loads((folder / "corpus.json").read_text())
+    return doc, col.motion.domain
+
+
+def _contradictions(domain, truth):
+    """(case index, edit of its truth or case, the field a reader must name): each edit a
+    truth that docs/corpus_format.md rules out."""
+    a, b = domain
+    toi = truth["toi"]
+    assert a < toi < b and truth["toi_lo"] == toi == truth["toi_hi"]  # (an exact contact)
+    later, earlier = toi + (b - toi) / 2, a + (toi - a) / 2
+    return [
+        (0, {"toi": b + 1.0, "toi_hi": b + 1.0}, "truth.toi"),  # after the domain
+        (0, {"toi_lo": a - 1.0}, "truth.toi_lo"),  # before it
+        (0, {"toi_lo": later}, "truth.toi_lo"),  # toi_lo later than toi and toi_hi
+        (0, {"toi_hi": earlier, "toi_lo": earlier / 2 + a / 2}, "truth.toi_hi"),  # toi > toi_hi
+        (0, {"toi": None}, "truth.toi"),  # a collision without its time
+        (0, {"distance": 5.0}, "truth.distance"),  # a collision with a clearance
+        (0, {"window": -1.0}, "truth.window"),
+        (0, {"window": (b - toi) + 1.0}, "truth.window"),  # past the end of the domain
+        (1, {"toi": toi, "toi_lo": toi, "toi_hi": toi}, "truth.toi"),  # a free truth's time
+        (1, {"window": 0.01}, "truth.window"),
+        (1, {"distance": -0.5}, "truth.distance"),  # a free truth inside
+        (0, {"verdict": "free"}, "truth.distance"),  # (the tester's: a "free" collision)
+        (0, {"class": "free"}, ".class"),  # a collision case classed free
+    ]
+
+
+def test_a_truth_that_contradicts_itself_is_refused(tmp_path, capsys, small_export):
+    # a bad-input fuzz: `rsmbench corpus check` accepted each of these and exited 0
+    from harness.cli import main
+
+    doc, domain = small_export
+    assert load(_write(tmp_path, doc))  # (the exported cases themselves are valid)
+    for i, edit, field in _contradictions(domain, doc["cases"][0]["truth"]):
+        broken = json.loads(json.dumps(doc))
+        case = broken["cases"][i]
+        if "class" in edit:
+            case.update(edit)
+        else:
+            case["truth"].update(edit)
+        where = f"cases[{i}] ({case['id']})"
+        path = _write(tmp_path, broken)
+        with pytest.raises(CorpusFormatError) as e:
+            load(path)
+        assert str(e.value).startswith(where) and field in str(e.value), (edit, str(e.value))
+        assert main(["corpus", "check", path]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and where in err[0] and field in err[0], (edit, err)
+
+
+def test_every_shipped_corpus_truth_is_consistent(tmp_path, capsys, corpus):
+    # the checks above refuse none of the cases the built-in suites run or export
+    from harness.cli import main
+
+    export(corpus, tmp_path / "all")
+    assert main(["corpus", "check", str(tmp_path / "all")]) == 0
+    assert f"{len(corpus)} cases" in capsys.readouterr().out
+    assert main(["corpus", "export", str(tmp_path / "e"), "--seed", "7"]) == 0
+    assert main(["corpus", "check", str(tmp_path / "e")]) == 0
+
+
+def test_an_empty_family_selection_is_refused(tmp_path, capsys):
+    # a bad-input fuzz: `--families ""` exported every family, and generate(families=[])
+    # no case at all, silently; a string was read letter by letter
+    from harness.cli import main
+
+    for value in ("", " "):
+        assert main(["corpus", "export", str(tmp_path / "e"), "--families", value]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "`--families`" in err[0], err
+    assert not (tmp_path / "e").exists()
+    with pytest.raises(ValueError, match="`families`"):
+        generate(0, 0.1, [])
+    with pytest.raises(TypeError, match="`families`"):
+        generate(0, 0.1, "thin-wall")
+    with pytest.raises(ValueError, match=r"`families`.*twice"):
+        generate(0, 0.1, ["spin", "spin"])

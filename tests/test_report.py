@@ -450,6 +450,31 @@ def test_slope_interval_from_the_residuals():
         slope_intervals(sc.assign(delta=[0.0, 1.0, 2.0]))
 
 
+def test_slope_interval_takes_any_real_level():
+    from harness.report import slope_intervals
+
+    # a bad-input fuzz found np.float32(0.9) refused as "not in (0, 1)", and True taken
+    x = np.array([-1.0, 0.0, 1.0])
+    sc = pd.DataFrame(
+        {"method": "m", "delta": np.exp(x), "cost": np.exp(-0.5 * x + [0.01, -0.02, 0.01])}
+    )
+    np.testing.assert_allclose(
+        slope_intervals(sc, level=np.float32(0.9))["m"],
+        slope_intervals(sc, level=0.9)["m"],
+        rtol=1e-6,
+    )
+    wide, narrow = slope_intervals(sc, level=0.99)["m"], slope_intervals(sc, level=0.5)["m"]
+    assert wide[0] < narrow[0] < -0.5 < narrow[1] < wide[1]
+    for bad, error in (
+        ("0.9", TypeError),
+        (None, TypeError),
+        (True, TypeError),
+        (np.nan, ValueError),
+    ):
+        with pytest.raises(error, match="`level`"):
+            slope_intervals(sc, level=bad)
+
+
 def test_tables_per_scene_and_tolerance_with_csv_and_latex(written):
     _, run, _ = written
     tabs = run / "tables"
@@ -1025,7 +1050,8 @@ def _repair_rows(tol: float, clearance: float) -> list[dict]:
                     "max_deviation": [0.1, 0.3][i] if done else np.nan,
                     "iterations": 1 + i if done else np.nan,
                     "cpu_seconds": 0.1 if done else 0.001, "seconds": 0.2 if done else 0.002,
-                    "samples": 64, "truth_resolution": 2e-3,
+                    "samples": 64, "truth_resolution": 2e-3, "keyframes": "repair-0",
+                    "certified_clearance": 0.002 if done and method == "certified" else np.nan,
                 }
             )  # fmt: skip
     return rows
@@ -1754,3 +1780,65 @@ def test_latex_keeps_a_number_with_its_unit_and_says_continued():
     long = latex_table(_layouts()["long"], "long")
     head = long.split("\\endfirsthead")[1].split("\\endhead")[0]
     assert "\\multicolumn{2}{l}{\\emph{(continued)}} \\\\" in head
+
+
+@pytest.mark.parametrize(
+    "column", ["scene", "bound", "keyframes", "klass", "wall_rounds", "memory_method"]
+)
+def test_a_table_without_a_column_the_report_reads_is_one_line_exit_2(tmp_path, capsys, column):
+    # a bad-input fuzz: `rsmbench report` of a results.parquet without `scene` or `bound`
+    # printed pandas' KeyError traceback (exit 1)
+    from harness.cli import main
+
+    run = tmp_path / "run"
+    run.mkdir()
+    pd.DataFrame(synthetic_rows()).drop(columns=[column]).to_parquet(run / "results.parquet")
+    (run / "meta.json").write_text(json.dumps(META))
+    with pytest.raises(ReportError, match=f"results.parquet: .*'{column}'.* missing"):
+        write_report(run)
+    capsys.readouterr()
+    assert main(["report", str(run)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(run / "results.parquet") in err[0] and column in err[0], err
+    assert not (run / "report.md").exists() and not (run / "tables").exists()
+
+
+def test_a_table_without_the_jumps_gets_its_continuity_table_not_a_keyerror(tmp_path):
+    # the continuity table leaves out a jump column a table lacks; its figure read them all
+    run = tmp_path / "run"
+    run.mkdir()
+    df = pd.DataFrame(synthetic_rows()).drop(columns=["jump_acceleration"])
+    df.to_parquet(run / "results.parquet")
+    (run / "meta.json").write_text(json.dumps(META))
+    md = write_report(run).read_text()
+    assert "Continuity measured at the knots" in md
+    assert "max jump of angular acceleration" in md and "max jump of acceleration" not in md
+
+
+def test_report_functions_name_an_argument_of_the_wrong_type():
+    # a bad-input fuzz: AttributeError ('list' object has no attribute 'columns') and
+    # "string indices must be integers" from inside the functions
+    from harness.report import format_headline, latex_table
+
+    df = pd.DataFrame({"a": [1.0]})
+    for call, name in (
+        (lambda: latex_table([[1]], "c"), "`df`"),
+        (lambda: latex_table(df, None), "`caption`"),
+        (lambda: latex_table(df, 3), "`caption`"),
+        (lambda: headline("x"), "`df`"),
+        (lambda: headline(df.to_dict(), {}), "`df`"),
+        (lambda: headline(pd.DataFrame(synthetic_rows()), "meta"), "`meta`"),
+        (lambda: format_headline("x"), "`rows`"),
+        (lambda: format_headline(None), "`rows`"),
+        (lambda: format_headline([{"figure": "f"}]), r"`rows\[0\]`"),
+        (lambda: format_headline(["x"]), r"`rows\[0\]`"),
+    ):
+        with pytest.raises(TypeError, match=name):
+            call()
+    # and the right types still work
+    rows = headline(pd.DataFrame(synthetic_rows()), META)
+    lines = format_headline(rows)
+    assert len(lines) == len(rows) > 0 and all(
+        r["figure"] in x for r, x in zip(rows, lines, strict=True)
+    )
+    assert "\\caption{c}" in latex_table(df, "c")

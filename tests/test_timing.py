@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import shutil
 import sys
 import time
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -238,3 +240,103 @@ def test_median_interval_covers_the_median_as_often_as_it_says(n):
     # and the spread of a sample carries it
     s = timing.spread(draws[0])
     assert (s.lo, s.hi, s.level) == got[0]
+
+
+def _exact_coverage(n: int, j: int) -> Fraction:
+    """Coverage of the order statistics x_(j) <= x_(n+1-j) as an interval of the median,
+    in exact integers: 1 - 2 P(Binomial(n, 1/2) < j)."""
+    return 1 - 2 * Fraction(sum(math.comb(n, i) for i in range(j)), 2**n)
+
+
+@pytest.mark.parametrize("n", [6, 64, 65, 66, 100, 1024, 1025, 5000])
+def test_median_interval_has_the_exact_coverage(n):
+    # a bad-input fuzz found 2.0**n overflowing a float from 1,024 rounds on; and the sum
+    # of binomial coefficients wrapped around numpy's int64 at 65 and 66 rounds (the two
+    # middle rounds, "coverage" 1.196): the interval must be the widest-j order statistics
+    # whose exact coverage is still >= the level
+    rng = np.random.default_rng(n)
+    x = rng.permutation(n).astype(float)  # (x_(k) = k - 1: the interval's values say j)
+    for level in (0.95, 0.99, 0.5):
+        lo, hi, cover = timing.median_interval(x, level=level)
+        j = int(lo) + 1
+        assert hi == n - j  # symmetric order statistics
+        exact = _exact_coverage(n, j)
+        if _exact_coverage(n, 1) < level:  # too few rounds for the level: their range
+            assert j == 1
+        else:
+            assert exact >= level  # covers as often as asked ...
+            assert j == n // 2 or _exact_coverage(n, j + 1) < level  # ... narrowest such
+        assert cover == pytest.approx(float(exact), rel=1e-12)
+    s = timing.spread(x)
+    assert s.n == n and s.lo <= s.median <= s.hi and s.level >= 0.95
+    # numpy's scalars are levels too
+    assert timing.median_interval(x, level=np.float32(0.9)) == timing.median_interval(x, 0.9)
+
+
+def test_median_interval_of_1024_rounds_covers_as_often_as_it_says():
+    # by simulation too: 2,000 draws of 1,024 rounds of a skewed population
+    rng = np.random.default_rng(1024)
+    draws = rng.exponential(size=(2000, 1024))
+    got = [timing.median_interval(d) for d in draws]
+    level = got[0][2]
+    assert level >= 0.95
+    covered = np.mean([lo <= np.log(2.0) <= hi for lo, hi, _ in got])
+    assert covered >= level - 0.025, (covered, level)
+
+
+@pytest.mark.parametrize(
+    ("level", "error"),
+    [
+        ("0.95", TypeError),
+        (None, TypeError),
+        (True, TypeError),
+        (np.bool_(True), TypeError),
+        ([0.95], TypeError),
+        (float("nan"), ValueError),
+        (95, ValueError),
+        (0, ValueError),
+        (1.0, ValueError),
+        (-0.5, ValueError),
+    ],
+)
+def test_a_bad_level_is_named(level, error):
+    with pytest.raises(error, match="`level`"):
+        timing.median_interval([1.0, 2.0, 3.0, 4.0, 5.0, 6.0], level=level)
+    with pytest.raises(error, match="`level`"):
+        timing.ratio_interval([1.0, 2.0, 3.0], [1.0, 2.0, 3.0], level=level)
+    with pytest.raises(error, match="`level`"):
+        timing.bootstrap_interval([1.0, 2.0, 3.0], level=level)
+
+
+@pytest.mark.parametrize("x", ["abc", ["1", "2"], [1 + 1j, 2], [True, False], [1.0, True], None])
+def test_rounds_that_are_not_real_numbers_are_named(x):
+    # numpy read "1" as 1.0 and True as 1.0 (a median of booleans), and complex rounds
+    # raised from inside numpy
+    with pytest.raises(TypeError, match="`x`"):
+        timing.median_interval(x)
+    with pytest.raises(TypeError, match="`x`"):
+        timing.spread(x)
+    with pytest.raises(TypeError, match="`base`"):
+        timing.ratio_interval(x, [1.0, 2.0])
+
+
+def test_ratio_interval_bad_arguments_are_named():
+    ok = [1.0, 2.0, 3.0]
+    # a base of 0 s returned (inf, nan, nan): a ratio to no time is refused
+    with pytest.raises(ValueError, match=r"`base`.*positive"):
+        timing.ratio_interval([0.0, 0.0, 0.0], ok)
+    with pytest.raises(ValueError, match=r"`base`.*positive"):
+        timing.ratio_interval([[0.0, 0.0], [0.0]], [[1.0, 2.0], [3.0]])
+    with pytest.raises(ValueError, match="`resamples`"):
+        timing.ratio_interval(ok, ok, resamples=0)
+    with pytest.raises(TypeError, match="`resamples`"):
+        timing.ratio_interval(ok, ok, resamples=2.5)
+    with pytest.raises(TypeError, match="`rng`"):
+        timing.ratio_interval(ok, ok, rng=5)
+    with pytest.raises(TypeError, match="`rng`"):
+        timing.bootstrap_interval(ok, rng=5)
+    with pytest.raises(TypeError, match="`new`"):
+        timing.ratio_interval(ok, 5)
+    # cases with different numbers of rounds stay valid, and the interval holds the ratio
+    r, lo, hi = timing.ratio_interval([[1.0, 2.0], [3.0]], [[2.0, 4.0], [6.0, 6.0, 6.0]])
+    assert r == pytest.approx(2.0) and np.isfinite([lo, hi]).all() and lo <= r <= hi

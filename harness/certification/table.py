@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from motions import Motion
+from motions._checks import short
 from motions.pieces import UNIT_ROUNDOFF
 
 from .api import (
@@ -52,7 +53,8 @@ class CertificateTable:
 
     ``obstacle`` is -1 where a certificate's is None; ``unresolved`` is (n, 3), the counts
     of :data:`UNRESOLVED` (a certificate's dict holds the nonzero ones). ``table[i]``
-    gives certificate i, ``table.to_pandas()`` a DataFrame (``unresolved_*`` columns).
+    gives certificate i (``table[a:b]`` a list of them), ``table.to_pandas()`` a DataFrame
+    (``unresolved_*`` columns).
     """
 
     verdict: np.ndarray
@@ -84,10 +86,20 @@ class CertificateTable:
     def __len__(self) -> int:
         return len(self.verdict)
 
-    def __getitem__(self, i: int) -> Certificate:
+    def __getitem__(self, i: int | slice) -> Certificate | list[Certificate]:
+        """Certificate `i` (an integer, negative from the end); for a slice, the list of
+        its certificates (as ``list(table)[i]``)."""
         n = len(self)
-        if isinstance(i, bool) or not isinstance(i, int | np.integer) or not -n <= i < n:
-            raise IndexError(f"Expected an index in [{-n}, {n}), got {i!r}.")
+        if isinstance(i, slice):
+            return [self[j] for j in range(n)[i]]
+        if isinstance(i, bool | np.bool_) or not isinstance(i, int | np.integer):
+            # (a float, a string or True was an IndexError "expected an index in ...")
+            raise TypeError(
+                f"Expected the index of a CertificateTable to be an integer or a slice, got"
+                f" {type(i).__name__} {short(i)}."
+            )
+        if not -n <= i < n:
+            raise IndexError(f"Expected an index in [{-n}, {n}), got {int(i)}.")
         return Certificate(
             verdict=str(self.verdict[i]),
             reason=str(self.reason[i]),

@@ -48,7 +48,10 @@ is real): a row that is a false free (truth collision, verdict free) in NEW but 
 BASE; rows that are false collisions in NEW but not in BASE, more of them than
 ``fp_threshold``; a higher unknown rate
 of a (study, scheme, bound) group (beyond ``unknown_threshold``); a larger |TOI error|
-of a row; a lower measured continuity class of a scheme.
+of a row; a lower measured continuity class of a scheme. A run whose ``verdict`` holds a
+word no study writes (one outside free, collision, unknown, n/a, sampled-free), or a NEW
+run without an accuracy column BASE has (``verdict``, ``truth``, ``toi_error``, ...), is an
+input that cannot be judged: exit 2.
 """
 
 from __future__ import annotations

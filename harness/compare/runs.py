@@ -41,6 +41,18 @@ a scaling row by ``method``; a corpus row by ``keyframes`` (the corpus case id, 
 row by ``case`` (the index of its colliding case) and ``method`` (its ``case_id`` names one
 clearance and tolerance, and holds every colliding case)."""
 
+_GATED = (
+    "verdict", "truth", "toi_error", "continuity_order", "single_agrees_with_batch",
+    "still_collides", "below_clearance", "status",
+)  # fmt: skip
+"""Columns the accuracy gate reads from the new run where the base has them: a new run
+without one cannot show what the base's rows were judged by (a `verdict` left out was a
+pandas KeyError; a `truth` or `still_collides` left out would have hidden a false free)."""
+VERDICTS = ("free", "collision", "unknown", "n/a", "sampled-free")
+"""The verdicts a run writes: a certificate's (free, collision, unknown), "n/a" where a
+method does not apply, and a repair study's "sampled-free" (what a sampling repair
+claims); a row without a verdict (a startup or timing row) holds none."""
+
 
 def _load_run(p: Path) -> tuple[pd.DataFrame, dict]:
     table = p / "results.parquet"
@@ -69,6 +81,16 @@ def _load_run(p: Path) -> tuple[pd.DataFrame, dict]:
             f"{table}: not an rsmbench results table: column(s) {missing} missing"
             f" (has {sorted(map(str, df.columns))[:12]})."
         )
+    if "verdict" in df:
+        v = df["verdict"]
+        odd = v.notna() & ~v.map(lambda x: isinstance(x, str) and x in VERDICTS).astype(bool)
+        if odd.any():  # (all "maybe": 0 false frees and 0 regressions, before)
+            seen = sorted({repr(x) for x in v[odd]})
+            more = f" and {len(seen) - 6} more" if len(seen) > 6 else ""
+            raise CompareError(
+                f"{table}: expected `verdict` to be one of {list(VERDICTS)} (or none), got"
+                f" {', '.join(seen[:6])}{more} in {int(odd.sum())} row(s)."
+            )
     df = df.reset_index(drop=True)
     for k in _ROW_KEY:
         if k not in df:
@@ -156,6 +178,12 @@ def _compare_runs(
     for p, df in ((b, base), (n, new)):  # as for benchmark files: nothing compared, no pass
         if not len(df):
             raise CompareError(f"{p / 'results.parquet'} has no rows: nothing to compare.")
+    lack = [c for c in _GATED if c in base and c not in new]
+    if lack:  # (checked with the columns every table needs: one place, before any gate)
+        raise CompareError(
+            f"{n / 'results.parquet'}: column(s) {lack} missing, which the base"
+            f" ({b / 'results.parquet'}) has: the accuracy gate cannot judge the new run."
+        )
     problems = [
         f"{k}: base {mb.get(k)!r} vs new {mn.get(k)!r}"
         for k in ("suite", "suite_hash", "seed")

@@ -41,7 +41,7 @@ def generate(seed: int = 0, size: float = 1.0, families: list[str] | None = None
         seed: seeds one generator per (family, class) stream, so that adding a family
             leaves the others unchanged.
         size: multiplies the configurations per class (1.0 gives about 600 cases).
-        families: a subset of :data:`FAMILIES` (default all).
+        families: a non-empty subset of :data:`FAMILIES`, each once (None: all).
 
     Returns:
         Cases in a deterministic order with unique ids.
@@ -49,10 +49,22 @@ def generate(seed: int = 0, size: float = 1.0, families: list[str] | None = None
     scale = as_float(size, "size")
     if not np.isfinite(scale) or not 0 < scale <= MAX_SIZE:
         raise ValueError(f"Expected `size` in (0, {MAX_SIZE:g}], got {short(size)}.")
+    if isinstance(families, str | bytes):  # (a name was read letter by letter)
+        raise TypeError(
+            f"Expected `families` to be a list of family names or None (all), got the string"
+            f" {families!r}; write [{families!r}]."
+        )
     names = list(FAMILIES) if families is None else list(families)
-    bad = [f for f in names if f not in FAMILIES]
+    if not names:  # (an empty selection generated no case, silently)
+        raise ValueError(
+            f"Expected `families` to name at least one family (None for all), got {families!r}."
+        )
+    bad = [f for f in names if not isinstance(f, str) or f not in FAMILIES]
     if bad:
         raise ValueError(f"Unknown corpus family {bad}; expected some of {list(FAMILIES)}.")
+    twice = sorted({f for f in names if names.count(f) > 1})
+    if twice:  # (each case twice, with the same ids)
+        raise ValueError(f"Expected each family once in `families`, got {twice} twice.")
     out: list[Case] = []
     for fi, name in enumerate(names):
         make, classes, per_class = FAMILIES[name]

@@ -41,13 +41,24 @@ from motions import RationalMotion
 from ..errors import HarnessError
 from ..shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
 from ..timing import rsmbench_version
-from .cases import CLASSES, KEYFRAME_SCHEMES, RATIONAL_SCHEMES, SCHEMES, TRUTH_METHODS, Case, Truth
+from .cases import (
+    CLASSES,
+    KEYFRAME_SCHEMES,
+    RATIONAL_SCHEMES,
+    SCHEMES,
+    TOLERANCE,
+    TRUTH_METHODS,
+    Case,
+    Truth,
+    classify,
+)
 
 __all__ = [
     "FORMAT",
     "SCHEMA_PATH",
     "VERSION",
     "CorpusFormatError",
+    "check_truth",
     "export",
     "load",
     "rsmbench_version",
@@ -143,8 +154,6 @@ def export(cases: list[Case], folder: str | os.PathLike, generator: dict | None 
     Returns:
         The path of ``corpus.json``.
     """
-    from .cases import TOLERANCE
-
     if generator is not None and not isinstance(generator, dict):
         raise TypeError(
             f"Expected `generator` to be a dict (seed, size, ...) or None, got "
@@ -309,6 +318,78 @@ def _truth(d: Any, where: str) -> Truth:
     )
 
 
+def check_truth(
+    t: Truth, domain: tuple[float, float], klass: str, tolerance: float, where: str
+) -> None:
+    """Refuse a truth that contradicts itself, its motion's domain or its case's class
+    (docs/corpus_format.md "Truth"): a 'collision' has distance <= 0 and its contact
+    times, ``toi_lo <= toi <= toi_hi`` in the domain (to :data:`motions.DOMAIN_SLACK` of
+    its length, as the motion is evaluated) and a window >= 0 or null that ends in the
+    domain; a 'free' truth has distance > 0 and no contact time nor window; the class is
+    :func:`~harness.corpus.cases.classify` of the distance.
+
+    Raises:
+        CorpusFormatError: naming the case (`where`, e.g. ``cases[3] (spin-001-slerp)``)
+            and the field.
+    """
+    from motions.motion import DOMAIN_SLACK
+
+    a, b = domain
+    slack = DOMAIN_SLACK * (b - a)
+    times = {"toi_lo": t.toi_lo, "toi": t.toi, "toi_hi": t.toi_hi}
+    if t.verdict == "free":
+        if not t.distance > 0:
+            raise CorpusFormatError(
+                f"{where}.truth.distance: a 'free' truth has a clearance > 0, got {t.distance!r}."
+            )
+        for key, v in times.items():
+            if v != math.inf:
+                raise CorpusFormatError(
+                    f"{where}.truth.{key}: a 'free' truth has no contact time (null), got {v!r}."
+                )
+        if not math.isnan(t.window):
+            raise CorpusFormatError(
+                f"{where}.truth.window: a 'free' truth has no contact window (null), got {t.window!r}."
+            )
+    else:
+        if not t.distance <= 0:
+            raise CorpusFormatError(
+                f"{where}.truth.distance: a 'collision' truth has a distance <= 0 (touching or"
+                f" overlapping), got {t.distance!r}."
+            )
+        for key, v in times.items():
+            if v == math.inf:
+                raise CorpusFormatError(
+                    f"{where}.truth.{key}: a 'collision' truth has a contact time, got null."
+                )
+            if not a - slack <= v <= b + slack:
+                raise CorpusFormatError(
+                    f"{where}.truth.{key}: expected a time in the motion's domain [{a!r}, {b!r}],"
+                    f" got {v!r}."
+                )
+        if t.toi_lo > t.toi or t.toi_lo > t.toi_hi:
+            raise CorpusFormatError(
+                f"{where}.truth.toi_lo: expected toi_lo <= toi <= toi_hi (a lower bound of the first"
+                f" contact), got toi_lo {t.toi_lo!r}, toi {t.toi!r}, toi_hi {t.toi_hi!r}."
+            )
+        if t.toi > t.toi_hi:
+            raise CorpusFormatError(
+                f"{where}.truth.toi_hi: expected toi <= toi_hi (a time in contact, at or after the"
+                f" first), got toi {t.toi!r}, toi_hi {t.toi_hi!r}."
+            )
+        if not math.isnan(t.window) and not 0 <= t.window <= b - t.toi + slack:
+            raise CorpusFormatError(
+                f"{where}.truth.window: expected a length in [0, {b - t.toi!r}] (from toi to at most"
+                f" the end of the domain) or null, got {t.window!r}."
+            )
+    want = classify(t.distance, tolerance)
+    if klass != want:
+        raise CorpusFormatError(
+            f"{where}.class: expected {want!r} for a truth distance of"
+            f" {t.distance!r} (tolerance {tolerance!r}), got {klass!r}."
+        )
+
+
 def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
     """Read a corpus file (or a folder holding ``corpus.json``).
 
@@ -346,6 +427,7 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
         )
     if "tolerance" in doc and not _finite(doc, "tolerance", str(p)) > 0:
         raise CorpusFormatError(f"{p}.tolerance: expected a length > 0, got {doc['tolerance']!r}.")
+    tolerance = float(doc.get("tolerance", TOLERANCE))
     raw = _get(doc, "cases", str(p), list)
     cases = []
     seen = set()
@@ -377,6 +459,8 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
             shape_from_dict(o, f"{where}.obstacles[{j}]")
             for j, o in enumerate(_get(d, "obstacles", where, list))
         )
+        truth = _truth(_get(d, "truth", where, dict), f"{where}.truth")
+        check_truth(truth, motion.domain, klass, tolerance, where)
         cases.append(
             Case(
                 id=cid,
@@ -386,7 +470,7 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
                 motion=motion,
                 body=shape_from_dict(_get(d, "body", where, dict), f"{where}.body"),
                 obstacles=obstacles,
-                truth=_truth(_get(d, "truth", where, dict), f"{where}.truth"),
+                truth=truth,
                 tags=tuple(_get(d, "tags", where, list)),
                 keyframes=kf,
             )

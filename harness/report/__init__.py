@@ -35,7 +35,7 @@ from ..errors import HarnessError
 from ..run.journal import OutputLock, atomic_json
 from .avoid import repair_section
 from .corpus import corpus_section
-from .data import pooled_studies, scaling_slopes, slope_intervals
+from .data import missing_columns, pooled_studies, scaling_slopes, slope_intervals
 from .document import Document, latex_table, pyplot
 from .headline import format_headline, headline, headline_lines, headline_numbers
 from .motion_sections import continuity_section, physics_section
@@ -91,6 +91,11 @@ def _read_run(run: Path) -> tuple[pd.DataFrame, dict]:
         ) from None
     if "study" not in df:
         raise ReportError(f"{table}: not an rsmbench results table (no `study` column).")
+    lack, why = missing_columns(df)
+    if lack:  # (pandas' KeyError from deep inside a section, with a traceback, before)
+        raise ReportError(
+            f"{table}: not a whole rsmbench results table: column(s) {lack} missing ({why})."
+        )
     meta: dict = {}
     if (run / "meta.json").exists():
         try:

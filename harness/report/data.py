@@ -10,19 +10,22 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..timing import spread
+from ..timing import as_level, spread
 from .document import span
 
 __all__ = [
+    "COLUMNS_TOGETHER",
     "DECIDED",
     "EXTERNAL_PREFIX",
     "RAN",
     "RATE_COLUMNS",
+    "STUDY_COLUMNS",
     "ci_name",
     "column",
     "flag",
     "implementation_of",
     "method_labels",
+    "missing_columns",
     "numeric",
     "rate_numbers",
     "rates",
@@ -38,6 +41,57 @@ __all__ = [
     "workload_costs",
     "workload_unknowns",
 ]
+
+
+STUDY_COLUMNS: dict[str, tuple[str, ...]] = {
+    "certify": ("scene", "keyframes", "scheme", "tolerance", "reason"),
+    "simulate": ("scene", "keyframes", "scheme"),
+    "workload": ("bound",),
+    "scaling": ("method", "delta", "cost"),
+    "corpus": (
+        "scene", "keyframes", "bound", "klass", "truth", "verdict", "reason", "seconds",
+        "contact_window",
+    ),
+    "repair": (
+        "keyframes", "case", "method", "tolerance", "clearance", "repairable", "status",
+        "iterations", "seconds", "cpu_seconds", "max_deviation", "certified_clearance",
+    ),
+}  # fmt: skip
+"""The columns the report reads from every row of a study kind (``study``: those of
+every row), with no fallback for a table without them: a run of that study writes them
+all. Other columns are optional (older runs lack some; the report says what it cannot
+show). Found by writing the report of a run of every study with each column dropped."""
+
+COLUMNS_TOGETHER: tuple[tuple[str, ...], ...] = (
+    ("case_memory_mb", "peak_memory_mb", "memory_method"),
+    ("continuity", "invariance_world", "invariance_body"),
+    ("cpu_rounds", "wall_rounds"),
+)
+"""Optional columns that the report reads together: a table with one of a group (a run
+writes them together) must have the others."""
+
+
+def missing_columns(df: pd.DataFrame) -> tuple[list[str], str]:
+    """The columns a results table lacks that the report reads, and why it reads them
+    (:data:`STUDY_COLUMNS` of the study kinds its rows hold, :data:`COLUMNS_TOGETHER`);
+    ``([], "")`` for a table the report can read. ``study`` is the caller's to check."""
+    have = set(map(str, df.columns))
+    lack: dict[str, None] = {}
+    studies, groups = [], []
+    for study in sorted(set(map(str, df["study"].dropna()))):
+        miss = [c for c in STUDY_COLUMNS.get(study, ()) if c not in have]
+        if miss:
+            studies.append(study)
+            lack.update(dict.fromkeys(miss))
+    for group in COLUMNS_TOGETHER:
+        miss = [c for c in group if c not in have]
+        if miss and len(miss) < len(group):
+            groups.append(", ".join(c for c in group if c in have))
+            lack.update(dict.fromkeys(miss))
+    why = ([f"its {', '.join(studies)} rows read them"] if studies else []) + [
+        f"a run writes them with {g}" for g in groups
+    ]
+    return sorted(lack), "; ".join(why)
 
 
 DECIDED = ("free", "collision")
@@ -416,11 +470,11 @@ def slope_intervals(sc: pd.DataFrame, level: float = 0.95) -> dict[str, tuple[fl
 
     Raises:
         ValueError: `level` not in (0, 1), a column missing, a resolution δ not positive.
+        TypeError: `level` not a number.
     """
     from scipy import stats
 
-    if not isinstance(level, float | int) or not 0 < level < 1:
-        raise ValueError(f"Expected `level` in (0, 1) (0.95 for 95 %), got {level!r}.")
+    level = as_level(level)  # (numpy's float32 too; not a bool, a string or NaN)
     fits = _loglog_fits(sc)
     out = {}
     for method in sc["method"].drop_duplicates().sort_values():

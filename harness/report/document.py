@@ -250,7 +250,15 @@ def latex_table(df: pd.DataFrame, caption: str) -> str:
       of the sizes that fits.
 
     Scaling alone had set the headline's table, one of whose columns runs to 250
-    characters, in 1.3 pt type, and tables of many numeric columns in 3-5 pt."""
+    characters, in 1.3 pt type, and tables of many numeric columns in 3-5 pt.
+
+    Raises:
+        TypeError: `df` not a DataFrame, `caption` not a string.
+    """
+    if not isinstance(df, pd.DataFrame):
+        raise TypeError(f"Expected `df` to be a pandas DataFrame, got {type(df).__name__}.")
+    if not isinstance(caption, str):
+        raise TypeError(f"Expected `caption` to be a string, got {type(caption).__name__}.")
     numeric = [pd.api.types.is_numeric_dtype(df[c]) for c in df.columns]
     head = [str(c) for c in df.columns]
     body = [[cell(v) for v in row] for row in df.itertuples(index=False)]

@@ -87,7 +87,19 @@ WORKLOAD_COUNTS = (
 
 
 def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineLine]:
-    """:func:`headline`'s figures with their numbers."""
+    """:func:`headline`'s figures with their numbers.
+
+    Raises:
+        TypeError: `df` not a DataFrame (a run's results table), `meta` not a dict or None.
+    """
+    if not isinstance(df, pd.DataFrame):
+        raise TypeError(
+            f"Expected `df` to be a pandas DataFrame (a run's results), got {type(df).__name__}."
+        )
+    if meta is not None and not isinstance(meta, dict):
+        raise TypeError(
+            f"Expected `meta` to be a dict (a run's meta.json) or None, got {type(meta).__name__}."
+        )
     meta = meta or {}
     out: list[HeadlineLine] = []
     cert = first_repeat(study_rows(df, "certify"))
@@ -402,5 +414,19 @@ def _disagreeing(row: pd.Series) -> str:
 
 
 def format_headline(rows: list[dict[str, str]]) -> list[str]:
-    """Printable lines of :func:`headline`."""
+    """Printable lines of :func:`headline`.
+
+    Raises:
+        TypeError: `rows` not a list of :func:`headline`'s rows (dicts with ``figure``,
+            ``value``, ``spread`` and ``basis``).
+    """
+    keys = ("figure", "value", "spread", "basis")
+    if not isinstance(rows, list | tuple):
+        raise TypeError(
+            f"Expected `rows` to be a list of headline rows (dicts), got {type(rows).__name__}."
+        )
+    for i, r in enumerate(rows):
+        if not isinstance(r, dict) or any(k not in r for k in keys):
+            got = sorted(map(str, r)) if isinstance(r, dict) else type(r).__name__
+            raise TypeError(f"Expected `rows[{i}]` to be a dict with keys {list(keys)}, got {got}.")
     return [f"{r['figure']}: {r['value']} ({r['spread']}; {r['basis']})" for r in rows]

@@ -84,6 +84,8 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
         "continuity",
         data=t.rename(columns=CONTINUITY_COLUMNS),
     )
+    if any(jump(q) not in src.columns for q in ("acceleration", "angular_acceleration")):
+        return  # (the table says what there is; the figure needs both)
     unit_t = "s" if len(scene_kf) else "t"
     lin = gj[jump("acceleration")].max()
     ang = gj[jump("angular_acceleration")].max()
