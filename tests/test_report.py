@@ -569,6 +569,18 @@ def _three_sampled_unknowns() -> list[dict]:
     return rows
 
 
+def test_headline_leaves_out_a_ratio_to_a_hull_time_of_zero():
+    # a review: ratio_interval now refuses a base of 0 s (it returned inf and NaN), and
+    # the headline's cost ratios called it with the hull's rounds unguarded
+    rows = synthetic_rows()
+    for r in rows:
+        if r.get("study") == "workload" and r.get("bound") == "hull" and "cpu_rounds" in r:
+            r.update(_timing(np.zeros(5)))
+    text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
+    assert not any(f.startswith("cost of sampled / cost of hull") for f in text)
+    assert any(f.startswith("hull cost per pair") for f in text)
+
+
 def test_headline_cost_ratio_says_how_often_a_method_left_pairs_unknown():
     # a cost ratio headlined alone hid that aabb answered unknown on 593 of 1,000 pairs
     rows = _three_sampled_unknowns()

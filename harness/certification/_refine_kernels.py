@@ -50,10 +50,10 @@ from ._geometry import (
     Shape,
     _affine_support,
     _boxes_apart,
-    _posed_radii,
     _gjk,
     _local_h,
     _placed_support,
+    _posed_radii,
     _probed_hi,
 )
 from .device import kernel_module_options

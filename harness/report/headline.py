@@ -370,6 +370,8 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
         for _, o in g.iterrows():
             if o["method"] == "hull":
                 continue
+            if not np.median(np.asarray(h["_cpu"], dtype=float)) > 0:
+                continue  # (a hull time of 0 is no measurement: no ratio to it)
             ratio, lo, hi = ratio_interval(h["_cpu"], o["_cpu"])
             ext = " (external)" if str(o["implementation"]).startswith(EXTERNAL_PREFIX) else ""
             unknown = ""
