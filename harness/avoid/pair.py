@@ -97,8 +97,13 @@ def certify_pair(
 def pair_distances(
     motion_a: Motion, body_a: Shape, motion_b: Motion, body_b: Shape, times: Any
 ) -> np.ndarray:
-    """(T,) exact signed distances between the two bodies at `times`, each posed by its
-    own motion (``mj_geomDistance``; an independent check of :func:`certify_pair`)."""
+    """(T,) signed distances between the two bodies at `times`, each posed by its own
+    motion (``mj_geomDistance``; an independent check of :func:`certify_pair`), to
+    MuJoCo's accuracy. MuJoCo poses a body by a rotation (the unit quaternion of
+    ``quat_from_matrix``), so a motion that is rigid only to a tolerance (``from_bezier``
+    accepts 1e-10) is checked at its nearest rotation, not at its affine pose: a body
+    reaching 1e4 from its origin can then read 2e-7 clear where it overlaps (a second
+    audit); :func:`harness.ground_truth` widens its brackets by that gap, this does not."""
     t = np.atleast_1d(np.asarray(times, dtype=float))
     dm = DistanceModel([as_shape(body_a, "body_a"), as_shape(body_b, "body_b")])
     ra, pa = motion_a.pose(t)
