@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from motions._checks import as_array, short
+from motions._checks import as_array, as_rng, short
 
 __all__ = [
     "BOOTSTRAP_RESAMPLES",
@@ -126,14 +126,8 @@ def _check_bootstrap(resamples: Any, rng: Any) -> tuple[int, np.random.Generator
         raise TypeError(f"Expected `resamples` to be an integer >= 1, got {short(resamples)}.")
     if resamples < 1:
         raise ValueError(f"Expected `resamples` to be an integer >= 1, got {int(resamples)}.")
-    if rng is None:
-        return int(resamples), np.random.default_rng(0)
-    if not isinstance(rng, np.random.Generator):
-        raise TypeError(
-            "Expected `rng` to be a numpy random Generator (np.random.default_rng(seed)) or"
-            f" None, got {type(rng).__name__} {short(rng)}."
-        )
-    return int(resamples), rng
+    # (a Generator, an integer seed as numpy takes it, or None for seed 0: as motions.smoothness)
+    return int(resamples), as_rng(rng, "rng", 0)
 
 
 def bootstrap_interval(

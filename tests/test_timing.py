@@ -332,9 +332,13 @@ def test_ratio_interval_bad_arguments_are_named():
     with pytest.raises(TypeError, match="`resamples`"):
         timing.ratio_interval(ok, ok, resamples=2.5)
     with pytest.raises(TypeError, match="`rng`"):
-        timing.ratio_interval(ok, ok, rng=5)
+        timing.ratio_interval(ok, ok, rng="5")
     with pytest.raises(TypeError, match="`rng`"):
-        timing.bootstrap_interval(ok, rng=5)
+        timing.bootstrap_interval(ok, rng=1.5)
+    # an integer seed is numpy's convention (and motions.smoothness's): its Generator's
+    assert timing.bootstrap_interval(ok, rng=5) == timing.bootstrap_interval(
+        ok, rng=np.random.default_rng(5)
+    )
     with pytest.raises(TypeError, match="`new`"):
         timing.ratio_interval(ok, 5)
     # cases with different numbers of rounds stay valid, and the interval holds the ratio
