@@ -136,7 +136,7 @@ def bootstrap_interval(
     stat: Callable[[np.ndarray], np.ndarray] = lambda s: np.median(s, axis=-1),
     level: float = CONFIDENCE,
     resamples: int = BOOTSTRAP_RESAMPLES,
-    rng: np.random.Generator | None = None,
+    rng: np.random.Generator | int | None = None,
 ) -> tuple[float, float]:
     """Percentile bootstrap interval of ``stat`` (vectorised over the last axis) of x."""
     a = _as_sample(x, "x")
@@ -195,7 +195,7 @@ def ratio_interval(
     *,
     level: float = CONFIDENCE,
     resamples: int = BOOTSTRAP_RESAMPLES,
-    rng: np.random.Generator | None = None,
+    rng: np.random.Generator | int | None = None,
 ) -> tuple[float, float, float]:
     """Ratio ``sum of medians(new) / sum of medians(base)`` over matched cases, with a
     two-level bootstrap interval (cases resampled together, then each case's rounds
@@ -214,7 +214,7 @@ def ratio_interval(
             would be inf or 0/0; compare such figures by their medians instead), `level`
             not in (0, 1), `resamples` < 1, cases missing or not finite.
         TypeError: rounds that are not real numbers, `level` not a number, `rng` not a
-            numpy Generator.
+            numpy Generator nor an integer seed.
     """
     b = _cases(base, "base")
     n = _cases(new, "new")
