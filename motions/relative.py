@@ -171,11 +171,13 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     )  # fmt: skip
     g = gamma(m + 8)
     diff = hi * (1.0 + 2.0 * g) - lo * (1.0 - 2.0 * g)
-    err = block_magnitude(diff) + _inverse_defect(a, ca, cb)
+    err = block_magnitude(diff) + _inverse_defect(a, b, ca, cb)
     return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt, ctrl_error=err)
 
 
-def _inverse_defect(a: RationalMotion, ca: np.ndarray, cb: np.ndarray) -> np.ndarray:
+def _inverse_defect(
+    a: RationalMotion, b: RationalMotion, ca: np.ndarray, cb: np.ndarray
+) -> np.ndarray:
     """(3,) bounds on the entries of the A block, the b column and the weight of
     ``Δ(t) H_b(t)``: how far the relative motion through ``inverse_control`` (a's inverse
     by its transpose, ``[[w Aᵀ, -Aᵀ b], [0, w²]]``) is from ``w³ M_a⁻¹ H_b`` where a is not
@@ -194,7 +196,8 @@ def _inverse_defect(a: RationalMotion, ca: np.ndarray, cb: np.ndarray) -> np.nda
     which `ctrl_error` covers): zero for them."""
     if a.preimage_pieces is not None:
         return np.zeros(3)
-    kap = float(rigidity_defect(ca).max())
+    ea, eb = a.ctrl_error, b.ctrl_error
+    kap = float(rigidity_defect(ca, ea).max())
     if not kap < 0.5:
         raise MotionError(
             f"Expected `a` to be rigid (A A^T = w^2 I), got a defect of up to {kap:.3g} over"
@@ -204,24 +207,49 @@ def _inverse_defect(a: RationalMotion, ca: np.ndarray, cb: np.ndarray) -> np.nda
     fro = lambda c: float(np.sqrt((c[..., :3, :3] ** 2).sum(axis=(-2, -1))).max())  # noqa: E731
     col = lambda c: float(np.linalg.norm(c[..., :3, 3], axis=-1).max())  # noqa: E731
     wgt = lambda c: float(np.abs(c[..., 3, 3]).max())  # noqa: E731
-    aa, ba, wa = fro(ca), col(ca), wgt(ca)
-    ab, bb, wb = fro(cb), col(cb), wgt(cb)
+    # the exact matrices' sizes: the stored ones' plus their errors (a review: κ and these
+    # were of the stored matrices only, and a motion a whose ctrl_error allows 1e-8 was
+    # certified free 1e-5 deep)
+    aa, ba, wa = (
+        fro(ca) + 3 * ea[:, 0].max(),
+        col(ca) + SQRT3 * ea[:, 1].max(),
+        wgt(ca) + ea[:, 2].max(),
+    )
+    ab, bb, wb = (
+        fro(cb) + 3 * eb[:, 0].max(),
+        col(cb) + SQRT3 * eb[:, 1].max(),
+        wgt(cb) + eb[:, 2].max(),
+    )
     return np.array([wa * aa * k * ab, wa * aa * k * bb + aa * k * ba * wb, 0.0]) * (1 + gamma(8))
 
 
-def rigidity_defect(ctrl: np.ndarray) -> np.ndarray:
+SQRT3 = float(np.sqrt(3.0)) * (1 + 2**-52)
+
+
+def rigidity_defect(ctrl: np.ndarray, error: np.ndarray | None = None) -> np.ndarray:
     """(S,) bounds on the largest ``|A Aᵀ / w² - I|_F`` on each segment of control
-    matrices (S, n+1, 4, 4): 0 to rounding for a rigid motion.
+    matrices (S, n+1, 4, 4): 0 to rounding for a rigid motion; with `error` (S, 3) (a
+    motion's ``ctrl_error``), for every motion whose control matrices are within it.
 
     ``P = A Aᵀ - w² I`` is a polynomial matrix of degree 2n whose Bernstein coefficients
     (Bernstein products, :func:`bezier_product_weights`) bound its entries; their rounding
     is within ``γ_(2n+16)`` of ``max |A_i|_F² + √3 max w_i²`` (the product weights of one
     coefficient sum to 1). ``w²`` is bounded below by :func:`_weight_floor`. Each segment
     is first scaled by a power of two (exactly: the same motion), so that the squares
-    neither over- nor underflow."""
+    neither over- nor underflow.
+
+    Within `error` = (e0, e1, e2) (A's entries, b's, w's) the exact ``A* = A + ΔA``,
+    ``|ΔA|_F <= 3 e0``, and ``w* = w + Δw``, ``|Δw| <= e2``, at every t (convex
+    combinations), so ``A* A*ᵀ - w*² I`` is within ``6 e0 max |A|_F + 9 e0² + √3 (2 max |w|
+    e2 + e2²)`` of P, and ``w*² >= (floor - e2)²``."""
     c = np.asarray(ctrl, dtype=float)
     _, e = np.frexp(np.abs(c).max(axis=(1, 2, 3)))
     c = np.ldexp(c, -e[:, None, None, None])
+    err = (
+        np.zeros((c.shape[0], 3))
+        if error is None
+        else np.ldexp(np.asarray(error, float), -e[:, None])
+    )
     n = c.shape[1] - 1
     k = bezier_product_weights(n, n)
     a, w = c[:, :, :3, :3], c[:, :, 3, 3]
@@ -230,8 +258,13 @@ def rigidity_defect(ctrl: np.ndarray) -> np.ndarray:
     pk = np.tensordot(p, k, ([1, 2], [0, 1]))  # (S, 3, 3, 2n+1)
     bound = np.sqrt((np.abs(pk).max(axis=-1) ** 2).sum(axis=(-2, -1)))
     size = (a**2).sum(axis=(-2, -1)).max(axis=1) + np.sqrt(3.0) * (w**2).max(axis=1)
-    bound = (bound + gamma(2 * n + 16) * size) * (1 + gamma(8))
-    floor = _weight_floor(w)
+    bound = bound + gamma(2 * n + 16) * size
+    e0, e2 = err[:, 0], err[:, 2]
+    afro = np.sqrt((a**2).sum(axis=(-2, -1))).max(axis=1)
+    wmax = np.abs(w).max(axis=1)
+    bound = bound + 6 * e0 * afro + 9 * e0**2 + SQRT3 * (2 * wmax * e2 + e2**2)
+    bound = bound * (1 + gamma(16))
+    floor = _weight_floor(w) - e2
     with np.errstate(divide="ignore"):
         return np.where(floor > 0, bound / np.where(floor > 0, floor, 1.0) ** 2, np.inf)
 

@@ -662,3 +662,35 @@ def test_the_ground_truth_of_a_nearly_rigid_motion_is_not_a_false_free():
     assert abs(posed - Fraction(x)) < Fraction(1, 2)  # exactly inside the obstacle
     gt = harness.ground_truth(m, body, [obstacle], resolution=1e-7)
     assert gt.verdict != "free", gt
+
+
+def test_a_pair_whose_first_motion_carries_an_error_bound_is_not_certified_free():
+    # a review of the fix above: the defect bound was of a's stored matrices only, and a
+    # motion a at rest at a half turn R whose ctrl_error allows its entries 1e-8 off
+    # (the exact motion here: R + 1e-8 everywhere) was certified free 5e-5 deep, b's
+    # sphere 1e4 from b's origin
+    u = np.ones(3) / np.sqrt(3)
+    ax = (u + [1.0, 0, 0]) / np.linalg.norm(u + [1.0, 0, 0])
+    rot = 2 * np.outer(ax, ax) - np.eye(3)
+    e0, y = 1e-8, np.array([1e4, 0, 0])
+    c = np.zeros((1, 2, 4, 4))
+    c[0, :, :3, :3] = rot
+    c[0, :, 3, 3] = 1.0
+    ma = RationalMotion.from_bezier([0.0, 1.0], c, ctrl_error=np.array([[e0, 0, 0]]))
+    mb = _static(np.eye(3))
+    exact = [[Fraction(rot[i, j]) + Fraction(e0) for j in range(3)] for i in range(3)]
+    ex = np.array([[float(v) for v in row] for row in exact])
+    centre = np.linalg.solve(ex, y)  # b's sphere centre in a's frame, to double rounding
+    off = centre - rot.T @ y
+    n = off / np.linalg.norm(off)
+    ca = rot.T @ y + n * (1 + 0.5 + 2.5e-4)  # |off| = 3e-4: 5e-5 deep
+    # exactly (Fractions): |A*^-1 y - ca| < 1 + 0.5, the spheres overlap
+    p = [Fraction(v) for v in centre]  # (A* p = y holds to double rounding; the margin is 1e-4)
+    resid = max(abs(sum(exact[i][k] * p[k] for k in range(3)) - Fraction(y[i])) for i in range(3))
+    assert resid < Fraction(1, 10**6)
+    gap = float(sum((p[i] - Fraction(ca[i])) ** 2 for i in range(3))) ** 0.5 - 1.5
+    assert gap < -4e-5
+    body_a, body_b = harness.Sphere(1.0, center=tuple(ca)), harness.Sphere(0.5, center=tuple(y))
+    for bound in ("hull", "aabb", "lipschitz"):
+        cert = harness.certify_pair(ma, body_a, mb, body_b, bound=bound, tolerance=1e-7)
+        assert cert.verdict != "free", (bound, cert)
