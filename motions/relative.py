@@ -25,10 +25,13 @@ import numpy as np
 from .bernstein import bezier_product_weights, de_casteljau_split, elevate
 from .errors import MotionError
 from .motion import DOMAIN_SLACK
-from .pieces import UNIT_ROUNDOFF, block_magnitude, gamma
+from .pieces import UNIT_ROUNDOFF, BezierPieces, block_magnitude, gamma, square_lower
 from .rational import RationalMotion, control_matrices
 
 __all__ = ["inverse_control", "relative_motion", "restrict_control", "rigidity_defect"]
+
+SQRT3 = float(np.sqrt(3.0)) * (1 + 2**-52)
+"""√3 rounded up."""
 
 
 def inverse_control(ctrl: np.ndarray) -> np.ndarray:
@@ -197,7 +200,10 @@ def _inverse_defect(
     if a.preimage_pieces is not None:
         return np.zeros(3)
     ea, eb = a.ctrl_error, b.ctrl_error
-    kap = float(rigidity_defect(ca, ea).max())
+    # over a's pieces of provably positive weight (the shared splitter: a segment whose
+    # weights dip is split, which also keeps each piece's bound local)
+    pa = BezierPieces.from_motion(a).positive()
+    kap = float(rigidity_defect(pa.ctrl, pa.error).max())
     if not kap < 0.5:
         raise MotionError(
             f"Expected `a` to be rigid (A A^T = w^2 I), got a defect of up to {kap:.3g} over"
@@ -223,9 +229,6 @@ def _inverse_defect(
     return np.array([wa * aa * k * ab, wa * aa * k * bb + aa * k * ba * wb, 0.0]) * (1 + gamma(8))
 
 
-SQRT3 = float(np.sqrt(3.0)) * (1 + 2**-52)
-
-
 def rigidity_defect(ctrl: np.ndarray, error: np.ndarray | None = None) -> np.ndarray:
     """(S,) bounds on the largest ``|A Aᵀ / w² - I|_F`` on each segment of control
     matrices (S, n+1, 4, 4): 0 to rounding for a rigid motion; with `error` (S, 3) (a
@@ -234,14 +237,15 @@ def rigidity_defect(ctrl: np.ndarray, error: np.ndarray | None = None) -> np.nda
     ``P = A Aᵀ - w² I`` is a polynomial matrix of degree 2n whose Bernstein coefficients
     (Bernstein products, :func:`bezier_product_weights`) bound its entries; their rounding
     is within ``γ_(2n+16)`` of ``max |A_i|_F² + √3 max w_i²`` (the product weights of one
-    coefficient sum to 1). ``w²`` is bounded below by :func:`_weight_floor`. Each segment
-    is first scaled by a power of two (exactly: the same motion), so that the squares
-    neither over- nor underflow.
+    coefficient sum to 1). ``w*²`` is bounded below by :func:`~motions.pieces.square_lower`
+    (inf where it proves no positive bound: split such segments first, as
+    ``BezierPieces.positive`` does). Each segment is first scaled by a power of two
+    (exactly: the same motion), so that the squares neither over- nor underflow.
 
     Within `error` = (e0, e1, e2) (A's entries, b's, w's) the exact ``A* = A + ΔA``,
     ``|ΔA|_F <= 3 e0``, and ``w* = w + Δw``, ``|Δw| <= e2``, at every t (convex
     combinations), so ``A* A*ᵀ - w*² I`` is within ``6 e0 max |A|_F + 9 e0² + √3 (2 max |w|
-    e2 + e2²)`` of P, and ``w*² >= (floor - e2)²``."""
+    e2 + e2²)`` of P."""
     c = np.asarray(ctrl, dtype=float)
     _, e = np.frexp(np.abs(c).max(axis=(1, 2, 3)))
     c = np.ldexp(c, -e[:, None, None, None])
@@ -264,39 +268,8 @@ def rigidity_defect(ctrl: np.ndarray, error: np.ndarray | None = None) -> np.nda
     wmax = np.abs(w).max(axis=1)
     bound = bound + 6 * e0 * afro + 9 * e0**2 + SQRT3 * (2 * wmax * e2 + e2**2)
     bound = bound * (1 + gamma(16))
-    floor = _weight_floor(w) - e2
-    with np.errstate(divide="ignore"):
-        return np.where(floor > 0, bound / np.where(floor > 0, floor, 1.0) ** 2, np.inf)
-
-
-def _weight_floor(w: np.ndarray, depth: int = 10) -> np.ndarray:
-    """(S,) lower bounds of ``|w(t)|`` on each segment of Bézier weights (S, n+1): the
-    smallest coefficient where all share a sign, else the least over de Casteljau halves
-    (to `depth`) less their rounding (each level moves a coefficient by at most
-    ``γ_2 max |w|``); 0 where that fails."""
-    out = np.zeros(w.shape[0])
-    for s in range(w.shape[0]):
-        pieces = [np.abs(w[s]) if (w[s] < 0).all() else w[s]]
-        slack = 0.0
-        best = np.inf
-        for _ in range(depth + 1):
-            rest = []
-            for c in pieces:
-                lo = c.min() - slack
-                if lo > 0:
-                    best = min(best, lo)
-                elif (c < 0).all() and -c.max() - slack > 0:
-                    best = min(best, -c.max() - slack)
-                else:
-                    rest.extend(de_casteljau_split(c, 0.5))
-            if not rest:
-                break
-            pieces = rest
-            slack += gamma(2 * w.shape[1]) * float(np.abs(w[s]).max())
-        else:
-            best = 0.0
-        out[s] = 0.0 if rest else best
-    return out
+    w2 = square_lower(w, e2)
+    return np.where(w2 > 0, bound / np.where(w2 > 0, w2, 1.0) * (1 + gamma(2)), np.inf)
 
 
 def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMotion:
