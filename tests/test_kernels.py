@@ -702,3 +702,28 @@ def test_warp_start_up_passes_on_its_other_stderr_lines():
     assert proc.returncode == 1
     assert proc.stderr.startswith("first other line\nsecond other line\nTraceback")
     assert "RuntimeError: init failed" in proc.stderr and "CUDA driver" not in proc.stderr
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
+def test_bound_test_by_signs_decides_as_the_depth_gjk(device, body, pieces):
+    # the refinement's bound test decides a tetrahedron of supports by the signs of its
+    # face planes (no depth, no square root): it must clear exactly the rows that the GJK
+    # with the depth clears, near contact too (rows moved along their separating
+    # direction to gaps from -1e-2 to 1e-1, and to within rounding of 0)
+    ctrl, _ = pieces
+    for obstacle in OBSTACLES:
+        _c, gap, d = probes.hull_gap_rows(ctrl, body, obstacle, depth=True, device=device)
+        rows = []
+        for target in (-1e-2, -1e-6, -1e-12, 0.0, 1e-12, 1e-9, 1e-6, 1e-3, 1e-1):
+            moved = ctrl.copy()
+            moved[..., :3, 3] += moved[..., 3:4, 3] * ((gap - target)[:, None] * d)[:, None]
+            rows.append(moved)
+        rows = np.concatenate(rows)
+        clear0, _g0, _ = probes.hull_gap_rows(rows, body, obstacle, depth=True, device=device)
+        clear2, gap2, d2 = probes.hull_gap_rows(rows, body, obstacle, device=device)
+        assert 0 < clear2.sum() < len(rows)
+        np.testing.assert_array_equal(clear2, clear0)
+        apart = gap2 > -1e300  # (an overlap returns no gap)
+        oracle = probes.hull_gap_numpy(rows[apart], body, obstacle, d2[apart])
+        np.testing.assert_allclose(gap2[apart], oracle, atol=1e-9)

@@ -387,6 +387,47 @@ def _closest_tetra(
     return bv, bn, q0, q1, q2, depth
 
 
+@wp.func
+def _sign_candidate(
+    p0: wp.vec3d,
+    p1: wp.vec3d,
+    p2: wp.vec3d,
+    opp: wp.vec3d,
+    best: wp.float64,
+    bv: wp.vec3d,
+    bn: wp.int32,
+    q0: wp.vec3d,
+    q1: wp.vec3d,
+    q2: wp.vec3d,
+) -> tuple[wp.float64, wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d]:
+    """_face_candidate without the depth: the origin counts as beyond the face unless the
+    rounded signs put it on opp's side."""
+    n = wp.cross(p1 - p0, p2 - p0)
+    if wp.dot(opp - p0, n) * wp.dot(p0, n) >= F0:
+        v, k, x, y, z = _closest_triangle(p0, p1, p2)
+        if wp.dot(v, v) < best:
+            return wp.dot(v, v), v, k, x, y, z
+    return best, bv, bn, q0, q1, q2
+
+
+@wp.func
+def _closest_tetra_sign(
+    a: wp.vec3d, b: wp.vec3d, c: wp.vec3d, d: wp.vec3d
+) -> tuple[wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d]:
+    """_closest_tetra without the depth (a bound test only asks whether it clears)."""
+    best = HUGE
+    bv = wp.vec3d(F0, F0, F0)
+    bn = wp.int32(4)
+    q0 = a
+    q1 = b
+    q2 = c
+    best, bv, bn, q0, q1, q2 = _sign_candidate(a, b, c, d, best, bv, bn, q0, q1, q2)
+    best, bv, bn, q0, q1, q2 = _sign_candidate(a, c, d, b, best, bv, bn, q0, q1, q2)
+    best, bv, bn, q0, q1, q2 = _sign_candidate(a, d, b, c, best, bv, bn, q0, q1, q2)
+    best, bv, bn, q0, q1, q2 = _sign_candidate(b, d, c, a, best, bv, bn, q0, q1, q2)
+    return bv, bn, q0, q1, q2
+
+
 # --------------------------------------------------------------------------- GJK
 @wp.func
 def _support_diff(
@@ -406,14 +447,14 @@ def _support_diff(
 ) -> wp.vec3d:
     """Support of the Minkowski difference A - B in direction d.
 
-    A: mode 0 the hull of the affine images pre[lane, i0:i1] of the body part; mode 1 the
-    box [lo, hi]. B: the obstacle. `core` drops the radii of spheres and capsules.
+    A: mode 0 (or 2) the hull of the affine images pre[lane, i0:i1] of the body part;
+    mode 1 the box [lo, hi]. B: the obstacle. `core` drops the radii of spheres and capsules.
     """
     sa = wp.vec3d(F0, F0, F0)
-    if mode == 0:
-        sa, _h = _affine_support(pre_m, pre_c, lane, i0, i1, part, verts, d, core)
-    else:
+    if mode == 1:
         sa = _box_support(lo, hi, d)
+    else:
+        sa, _h = _affine_support(pre_m, pre_c, lane, i0, i1, part, verts, d, core)
     return sa - _placed_support(obst, verts, -d, core)
 
 
@@ -438,7 +479,13 @@ def _gjk(
     s0_known: wp.int32,
     s0_given: wp.vec3d,
 ) -> tuple[wp.float64, wp.float64, wp.vec3d, wp.int32, wp.float64, wp.int32]:
-    """GJK distance between A and B (see `_support_diff`).
+    """GJK distance between A and B (see `_support_diff`). Mode 2 is mode 0 without the
+    penetration depth (returned as 0): a bound test asks only whether the shapes
+    separate, so a tetrahedron of supports decides by the signs of its face planes (no
+    square root). Its overlap flag (and the 0 then returned for |v|) means only "not
+    clear": the rounded signs may place the origin inside a tetrahedron it is just
+    outside of. A bound test stays sound either way, for the gap is a support function's
+    whatever the simplex.
 
     Returns (upper bound |v| of the distance, best separation gap found, its unit
     direction pointing from A to B, overlap flag, penetration lower bound when overlapping,
@@ -492,6 +539,11 @@ def _gjk(
             v, ns, s0, s1 = _closest_segment(w, s0)
         elif ns == 2:
             v, ns, s0, s1, s2 = _closest_triangle(w, s0, s1)
+        elif mode == 2:
+            v, ns, s0, s1, s2 = _closest_tetra_sign(w, s0, s1, s2)
+            if ns == 4:
+                overlap = 1
+                break
         else:
             v, ns, s0, s1, s2, depth = _closest_tetra(w, s0, s1, s2)
             if ns == 4:

@@ -56,7 +56,7 @@ def _hull_gap_rows(
     obst_idx: wp.array(dtype=wp.int32),
     shapes: wp.array(dtype=Shape),
     verts: wp.array(dtype=wp.vec3d),
-    use_aabb: wp.int32,
+    mode: wp.int32,
     max_iter: wp.int32,
     # Scratch
     pre_m: wp.array2d(dtype=wp.mat33d),
@@ -68,7 +68,8 @@ def _hull_gap_rows(
 ):
     """The refinement's clearance test of one node (its hull, or its box, against the
     obstacle by GJK, with the node's margin), row by row (ctrl's rows are replaced by
-    their images)."""
+    their images); `mode` is `_gjk`'s: 2 the refinement's hull test, 1 its box test, 0
+    the hull with the penetration depth."""
     tid = wp.tid()
     part = shapes[part_idx[tid]]
     obst = shapes[obst_idx[tid]]
@@ -77,7 +78,7 @@ def _hull_gap_rows(
     p = _prepare(ctrl, tid, 0, 0, k, part, verts, e, pre_m, pre_c, 0, 1)
     margin = p.margin + GAMMA_C * (p.scale + obst.rho)
     _u, gap, d, ov, _dp, _c = _gjk(
-        use_aabb, pre_m, pre_c, tid, 0, k, part, obst, verts, p.lo, p.hi, 0, z, max_iter,
+        mode, pre_m, pre_c, tid, 0, k, part, obst, verts, p.lo, p.hi, 0, z, max_iter,
         HUGE, F0, 0, z,
     )  # fmt: skip
     gap_out[tid] = gap

@@ -610,7 +610,7 @@ def _refine(
                                     s0 = sa - sb
                                 if clear == 0:
                                     _u, gap, dirn, ov, _dp, calls = _gjk(
-                                        0, pre_m, pre_c, lane, 0, k, part, obst, verts,
+                                        2, pre_m, pre_c, lane, 0, k, part, obst, verts,
                                         prep.lo, prep.hi, 0, warm, max_iter,
                                         wp.float64(2.0) * margin, margin, known, s0,
                                     )  # fmt: skip

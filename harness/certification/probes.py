@@ -136,9 +136,17 @@ def prepare_numpy(ctrl: np.ndarray, err: np.ndarray, part: Shape) -> dict:
 
 
 def hull_gap_rows(
-    ctrl: np.ndarray, body: Shape, obstacle: Shape, *, aabb: bool = False, device: str = "cpu"
+    ctrl: np.ndarray,
+    body: Shape,
+    obstacle: Shape,
+    *,
+    aabb: bool = False,
+    depth: bool = False,
+    device: str = "cpu",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The node clearance test row by row: (clear (R,) bool, gap (R,), direction (R, 3))."""
+    """The node clearance test row by row: (clear (R,) bool, gap (R,), direction (R, 3)).
+    `depth`: the hull's GJK with the penetration depth (as the pose tests run it) instead
+    of the bound test's signs (see ``_geometry._gjk``'s mode 2)."""
     from ._probe_kernels import _hull_gap_rows
 
     wp, WpShape = _ws(device)
@@ -157,7 +165,7 @@ def hull_gap_rows(
             wp.full(r, 1, dtype=wp.int32, device=device),
             wp.array(table.records, dtype=WpShape, device=device),
             wp.array(table.verts, dtype=wp.vec3d, device=device),
-            int(aabb),
+            1 if aabb else (0 if depth else 2),
             64,
             wp.zeros((r, k + 1), dtype=wp.mat33d, device=device),
             wp.zeros((r, k + 1), dtype=wp.vec3d, device=device),

@@ -89,7 +89,7 @@ def _k_gjk(
         a = wp.float64(r % 100) * wp.float64(0.001)
         d0 = wp.vec3d(wp.cos(a), wp.sin(a), wp.float64(0.0))
         _u, gap, _d, _o, _p, c = _gjk(
-            0, pre_m, pre_c, 0, 0, k, part, obst, verts, z, z, 0, d0, 32,
+            2, pre_m, pre_c, 0, 0, k, part, obst, verts, z, z, 0, d0, 32,
             wp.float64(1e300), wp.float64(0.0), 0, z,
         )  # fmt: skip
         acc += gap
