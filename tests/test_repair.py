@@ -657,3 +657,132 @@ def test_least_distance_on_a_working_set_is_the_whole_programmes():
         assert least_distance(bad_g, bad_h) is None
         norms = np.linalg.norm(bad_g, axis=1)
         assert _ldp(bad_g / norms[:, None], bad_h / norms) is None
+
+
+# --- motions whose weight u0 = |Q|² nearly vanishes (an audit of the repair: its
+# numerator form v + u0 Δ rounded relative to max u0 |p| and erred by that over u0(t))
+def _dip_motion(coords: float, tstar: float, dip: float, keyframes) -> motions.RationalMotion:
+    """A cubic preimage whose |Q| dips to `dip` at `tstar` (a fast half-turn there), an
+    origin spline ~`coords` from 0."""
+    from scipy.interpolate import BSpline
+
+    rng = np.random.default_rng(0)
+    knots = np.array([0, 0, 0, 0, 1, 2, 2, 2, 2.0])
+    c0 = rng.normal(size=(5, 4))
+    spl = BSpline(knots, c0, 3)
+    dq = spl(tstar, 1)
+    side = rng.normal(size=4)
+    side -= side @ dq / (dq @ dq) * dq
+    quats = c0 - spl(tstar) + dip * side / np.linalg.norm(side)
+    pts = np.array([[-1, 0, 0], [0.3, 0.05, 0], [1.7, -0.05, 0], [3, 0, 0.0]]) + coords
+    origin = (3, np.array([0, 0, 0, 0, 2, 2, 2, 2.0]), pts)
+    return motions.RationalMotion.from_preimage(
+        3, knots, quats, origin=origin, keyframe_times=np.array(keyframes)
+    )
+
+
+def _bump(m, t: float, tol: float) -> list:
+    """A small box 0.5 `tol` deep in the path of a 5 cm sphere at time t."""
+    _, pc = m.pose(t)
+    return [Box([0.03] * 3, center=pc + np.array([0, 0.08 - 0.5 * tol, 0]))]
+
+
+def _origin_jets(m, s: int, u: int) -> list[tuple]:
+    """Exact origin, first and second time derivative per coordinate of the stored
+    pieces of segment s at its end u (0 or 1): Taylor coefficients of v / u0."""
+    from fractions import Fraction
+
+    def taylor(c):  # Bernstein coefficients -> value, 1st, 2nd Taylor coefficient at u
+        n = len(c) - 1
+        a = [Fraction(0)] * (n + 1)
+        for i, ci in enumerate(c):
+            for j in range(n - i + 1):
+                a[i + j] += math.comb(n, i) * math.comb(n - i, j) * (-1) ** j * ci
+        out = []
+        for k in range(3):
+            out.append(sum(x * Fraction(u) ** i for i, x in enumerate(a)))
+            a = [x * i / (k + 1) for i, x in enumerate(a)][1:] or [Fraction(0)]
+        return out
+
+    h = Fraction(m.breaks[s + 1]) - Fraction(m.breaks[s])
+    q = [[Fraction(x) for x in col] for col in m.preimage_pieces[s].T]
+    qt = [taylor(col) for col in q]
+    d = [
+        sum(t[0] * t[0] for t in qt),
+        sum(2 * t[0] * t[1] for t in qt),
+        sum(2 * t[0] * t[2] + t[1] * t[1] for t in qt),
+    ]
+    out = []
+    for c in range(3):
+        if m.origin_pieces is not None:
+            f = taylor([Fraction(x) for x in m.origin_pieces[s][:, c]])
+        else:
+            n = taylor([Fraction(x) for x in m.numerator_pieces[s][:, c]])
+            f0 = n[0] / d[0]
+            f1 = (n[1] - f0 * d[1]) / d[0]
+            f = [f0, f1, (n[2] - f0 * d[2] - f1 * d[1]) / d[0]]
+        out.append((f[0], f[1] / h, 2 * f[2] / h**2))
+    return out
+
+
+def test_a_repair_keeps_keyframes_where_the_weight_nearly_vanishes():
+    # the audit's case: a 179-degree turn between keyframes 0.5 ms apart near 1.1e4
+    # (interpolate accepts it: min u0 / max u0 ~ 2e-7); the repaired motion's pose() was
+    # 4.2 mm off its last keyframe
+    q = np.array(
+        [
+            [1.0, 0.0, 0.0, 0.0],
+            [0.9906748105222848, 0.03737149738778158, -0.12211637122601848, -0.047480341808155885],
+            [0.0881628778855642, 0.2519516993351637, 0.8587476861596903, -0.43737862279772705],
+            [0.04748309125319453, 0.25927398710133404, 0.856542981287908, -0.44368511003192423],
+            [0.05226043716914182, 0.2428695402583418, 0.8618603804781594, -0.44213110915613524],
+        ]
+    )
+    p = 1e4 + np.array(
+        [
+            [999.4673675108065, 1000.2870166275975, 999.4212073749529],
+            [998.5904703104559, 997.9785432944459, 1001.4427064139289],
+            [997.4893590309889, 999.6619399321451, 1003.0033923309225],
+            [997.7632880968898, 999.0893305270823, 1003.1356078621047],
+            [996.6102461228505, 999.3500606537804, 1003.1385600099543],
+        ]
+    )
+    times = np.array([0.0, 0.7737316989887213, 0.7742203764962419, 1.5476397011541259, 3.0768])
+    m = motions.interpolate(q, p, times)
+    tol = 1e-4
+    obst = _bump(m, 0.5 * (times[3] + times[4]), tol)
+    r = repair(m, Sphere(0.05), obst, tolerance=tol)
+    assert r.certificate.verdict == "free" and r.certificate.certified
+    np.testing.assert_allclose(r.motion.pose(times)[1], p, rtol=0, atol=1e-9)
+    assert r.moved.keyframe_deviation <= 1e-9
+
+
+def test_a_repair_stays_c2_at_a_knot_where_the_weight_nearly_vanishes():
+    # the dip at the preimage's knot t = 1: the input's jumps there are 0 in p, p', p''
+    # (exactly); the repaired motion's p'' jumped by 1.2e-2 (its own size 1.3e-2)
+    m = _dip_motion(30.0, 1.0, 3e-6, [0.0, 2.0])
+    tol = 3e-5
+    r = repair(m, Sphere(0.05), _bump(m, 1.6, tol), tolerance=tol)
+    assert r.certificate.verdict == "free"
+    for mo in (m, r.motion):
+        s = list(mo.breaks).index(1.0)
+        left, right = _origin_jets(mo, s - 1, 1), _origin_jets(mo, s, 0)
+        for k, size in enumerate((30.0, 10.0, 10.0)):  # p, p', p''
+            jump = max(abs(a[k] - b[k]) for a, b in zip(left, right, strict=True))
+            assert jump <= 1e-10 * size, (mo is m, k, float(jump))
+
+
+def test_a_repairs_deviation_bound_holds_exactly_where_the_weight_nearly_vanishes():
+    # the dip at a keyframe (t = 0.7) 1e3 from the origin: the exact change of the
+    # stored pieces there was 4.0e-4, above the stated bound 3.1e-4
+    from .exact import ExactMotion
+
+    m = _dip_motion(1000.0, 0.7, 1e-5, [0.0, 0.7, 1.0, 2.0])
+    tol = 3e-5
+    r = repair(m, Sphere(0.05), _bump(m, 1.5, tol), tolerance=tol)
+    assert r.certificate.verdict == "free"
+    old, new = ExactMotion(m), ExactMotion(r.motion)
+    for t in [*np.linspace(0.0, 2.0, 21), 0.7 - 1e-7, 0.7 + 1e-7]:
+        a, b = old.pose(t), new.pose(t)
+        change = [float(y / b.w - x / a.w) for x, y in zip(a.v, b.v, strict=True)]
+        assert np.linalg.norm(change) <= r.moved.deviation_bound, t

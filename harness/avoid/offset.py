@@ -1,12 +1,12 @@
 """A rational motion with a C² offset added to its origin path, rotation untouched.
 
 The repair designs the translational part through the affine control structure (seed
-§6.3): with the preimage ``Q(t)`` kept and the numerator ``v`` replaced by
-``v + u0 Δ`` for a cubic B-spline ``Δ(t)`` with simple knots, every pose is translated
-by ``Δ(t)`` and nothing else changes: the rotation is the same rational function, the
-new motion is C² wherever the old one was, and a keyframe stays where it was when
-``Δ`` vanishes at its time. For an interpolated motion (``translation="cubic"``,
-degree 2d + 3) the degree does not grow.
+§6.3): with the preimage ``Q(t)`` kept and the origin spline ``p`` replaced by ``p + Δ``
+for a cubic B-spline ``Δ(t)`` with simple knots (the numerator ``v`` by ``v + u0 Δ``
+where the motion has one), every pose is translated by ``Δ(t)`` and nothing else
+changes: the rotation is the same rational function, the new motion is C² wherever the
+old one was, and a keyframe stays where it was when ``Δ`` vanishes at its time. For an
+interpolated motion (``translation="cubic"``, degree 2d + 3) the degree does not grow.
 """
 
 from __future__ import annotations
@@ -21,10 +21,12 @@ from scipy.linalg import null_space
 from motions import RationalMotion
 from motions._spline import clamped_knots
 from motions.bernstein import bezier_product, bspline_bezier_pieces, elevate
+from motions.pieces import BezierPieces, gamma
 from motions.relative import restrict_control
 
-__all__ = ["OFFSET_DEGREE", "OffsetSpline", "offset_motion"]
+__all__ = ["OFFSET_DEGREE", "OffsetSpline", "offset_motion", "offset_rounding"]
 
+SQRT3 = math.sqrt(3.0)
 OFFSET_DEGREE = 3
 """Cubic offsets with simple knots: C², like the motions they repair."""
 
@@ -105,25 +107,77 @@ def offset_motion(
         delta: (J, 3) control vectors.
 
     Returns:
-        A :class:`RationalMotion` with the same preimage and numerator ``v + u0 Δ``
-        (degree ``max(n, 2d + 3)``), on the union of the motion's breakpoints and the
-        offset's knots, with the motion's keyframe times.
+        A :class:`RationalMotion` with the same preimage, on the union of the motion's
+        breakpoints and the offset's knots, with the motion's keyframe times: the origin
+        spline ``p + Δ`` (degree ``2d + max(k, 3)``) where the motion has one (or none:
+        ``Δ``), else the numerator ``v + u0 Δ`` (degree ``max(n, 2d + 3)``).
+
+    The origin form is kept because the numerator form loses it where ``u0 = |Q|²`` is
+    small: its coefficients round relative to ``max u0 |p|``, and the origin ``v / u0``
+    then errs by that over ``u0(t)`` (an audit: an interpolated motion at 1e4 whose u0
+    dips to 2e-7 of its maximum came back with ``pose()`` 4.2 mm off a keyframe, C² lost
+    at a knot, and the change above its stated bound).
     """
     br, ctrl = motion.bezier_form()
     q = motion.preimage_pieces
     d = q.shape[1] - 1
     new_br = np.union1d(br, spline.interior())
-    u0 = bezier_product(q, q, axis=1).sum(axis=-1)  # (S, 2d+1): |Q|²
-    u0r = restrict_control(br, u0, new_br)
-    v = restrict_control(br, ctrl[:, :, :3, 3], new_br)
     dz = bspline_bezier_pieces(spline.knots, np.asarray(delta, float), OFFSET_DEGREE, new_br)
-    add = bezier_product(u0r[..., None], dz, axis=1)  # (P, 2d+4, 3)
-    deg = max(v.shape[1], add.shape[1]) - 1
-    vn = elevate(v, deg + 1 - v.shape[1], axis=1) + elevate(add, deg + 1 - add.shape[1], axis=1)
     qk, qc = _c0_bspline(br, q)
-    vk, vc = _c0_bspline(new_br, vn)
-    out = RationalMotion.from_preimage(
-        d, qk, qc, numerator=(deg, vk, vc), keyframe_times=motion.keyframe_times
-    )
+    kt = motion.keyframe_times
+    v = motion.numerator_pieces
+    if v is None:  # p + Δ: the sum of two polynomial splines
+        p = motion.origin_pieces
+        trans = dz if p is None else _sum(restrict_control(br, p, new_br), dz)
+        ok, oc = _c0_bspline(new_br, trans)
+        out = RationalMotion.from_preimage(
+            d, qk, qc, origin=(trans.shape[1] - 1, ok, oc), keyframe_times=kt
+        )
+    else:  # v + u0 Δ
+        u0 = bezier_product(q, q, axis=1).sum(axis=-1)  # (S, 2d+1): |Q|²
+        u0r = restrict_control(br, u0, new_br)
+        vr = restrict_control(br, ctrl[:, :, :3, 3], new_br)
+        trans = _sum(vr, bezier_product(u0r[..., None], dz, axis=1))  # (P, 2d+4, 3)
+        vk, vc = _c0_bspline(new_br, trans)
+        out = RationalMotion.from_preimage(
+            d, qk, qc, numerator=(trans.shape[1] - 1, vk, vc), keyframe_times=kt
+        )
     out.scheme = motion.scheme
     return out
+
+
+def _sum(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The sum of two piecewise Bézier polynomials on the same intervals, (P, ka, ...) and
+    (P, kb, ...), at the higher degree."""
+    k = max(a.shape[1], b.shape[1])
+    return elevate(a, k - a.shape[1], axis=1) + elevate(b, k - b.shape[1], axis=1)
+
+
+def offset_rounding(motion: RationalMotion, delta: np.ndarray) -> float:
+    """A bound of how far :func:`offset_motion`'s result (its stored pieces, evaluated
+    exactly) moves any pose beyond ``Δ(t)``: the round-off of its translation pieces.
+
+    Each stored coefficient is a sum of the motion's restricted translation pieces and
+    the offset's Bézier pieces. A restriction is two de Casteljau splits of n levels (3n
+    roundings of convex combinations each) at parameters within 10u of exact, which
+    moves a coefficient by at most 2n·10u·max|c| (the blossom's derivative); the offset's
+    pieces are blossoms of its control vectors (de Boor, 3·3 roundings); elevation is a
+    convex combination of at most n+1 terms; the sum rounds once. So every coefficient is
+    within ``γ_(30(n+4)) (max|c| + max|δ|)`` of exact, and so is the translation at
+    every t (non-negative Bernstein weights summing to 1), per coordinate. In numerator
+    form the origin is ``v / u0``: that bound (with ``max u0 max|δ|`` for ``u0 Δ``, and
+    the numerator's own ``ctrl_error``) over a proven lower bound of u0."""
+    dmax = float(np.abs(np.asarray(delta, float)).max(initial=0.0))
+    v = motion.numerator_pieces
+    if v is None:
+        p = motion.origin_pieces
+        pmax = 0.0 if p is None else float(np.abs(p).max())
+        n = max(0 if p is None else p.shape[1] - 1, OFFSET_DEGREE)
+        return SQRT3 * float(gamma(30 * (n + 4))) * (pmax + dmax)
+    ctrl, err = motion.ctrl, motion.ctrl_error
+    n = max(ctrl.shape[1] - 1, 2 * (motion.preimage_pieces.shape[1] - 1) + OFFSET_DEGREE)
+    floor = float(BezierPieces.from_motion(motion).positive().weight_lower().min())
+    umax = float(np.abs(ctrl[:, :, 3, 3]).max() + err[:, 2].max())
+    num = float(gamma(30 * (n + 4))) * (float(np.abs(ctrl[:, :, :3, 3]).max()) + umax * dmax)
+    num += float(err[:, 1].max())
+    return SQRT3 * num / floor if floor > 0 else math.inf

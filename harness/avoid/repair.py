@@ -57,7 +57,7 @@ from ..errors import HarnessError, NoObstaclesWarning, warn_no_obstacles
 from ..shapes import Shape, as_obstacles, as_shape
 from .cuts import MAX_KNOTS, Constraints, Search, solve
 from .distance import DistanceModel
-from .offset import OffsetSpline, offset_motion
+from .offset import OffsetSpline, offset_motion, offset_rounding
 
 __all__ = ["Moved", "Repair", "RepairError", "repair"]
 
@@ -87,8 +87,10 @@ class Moved:
             every keyframe time).
         keyframe_deviation: largest change of a keyframe origin (round-off).
         max_deviation: largest change of the origin path, ``max_t |Δ(t)|`` on a dense grid.
-        deviation_bound: ``max_j |δ_j|``, a proven bound of the change (a B-spline lies in
-            the convex hull of its control vectors).
+        deviation_bound: ``max_j |δ_j|`` (a B-spline lies in the convex hull of its
+            control vectors) plus the round-off of the new motion's translation pieces
+            (:func:`~.offset.offset_rounding`): a proven bound of the change of any pose
+            of the motion's stored pieces.
         knots: (K,) knots of the offset spline.
     """
 
@@ -307,7 +309,7 @@ def _moved(motion, new, spline, delta, anchors, dev: float = 0.0) -> Moved:
         keyframes=(),
         keyframe_deviation=kdev,
         max_deviation=dev,
-        deviation_bound=float(norms.max()) if norms.size else 0.0,
+        deviation_bound=float(norms.max()) + offset_rounding(motion, delta) if norms.size else 0.0,
         knots=spline.knots if spline is not None else np.empty(0),
     )
 
