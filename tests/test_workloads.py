@@ -47,11 +47,13 @@ def test_labels_are_proofs_or_say_measured(workload):
             assert d.min() >= w.clearance_lo[i] - DIST_EPS
             assert np.isnan(w.penetration[i])
         else:
-            # a proven penetration: finite, positive, seen at the witness pose
+            # a proven penetration: finite, positive, no deeper than MuJoCo measures at the
+            # witness pose (the truth's box pairs are proven by the harness's GJK too, whose
+            # bound of the depth is the smaller there)
             assert w.truth[i] == "collision"
             assert np.isfinite(w.penetration[i]) and w.penetration[i] > 0
             d = _distances(m, b, o, w.witness[i])
-            np.testing.assert_allclose(-d[0], w.penetration[i], rtol=1e-9, atol=DIST_EPS)
+            assert w.penetration[i] <= -d[0] + DIST_EPS
     assert np.all(np.isfinite(w.clearance))  # penetrating pairs are no longer -inf
     assert (w.truth == "collision").sum() >= 1 and (w.truth == "free").sum() >= 1
 
