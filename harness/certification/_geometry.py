@@ -350,10 +350,18 @@ def _face_candidate(
     q1: wp.vec3d,
     q2: wp.vec3d,
     depth: wp.float64,
+    signs: wp.int32,
 ) -> tuple[wp.float64, wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d, wp.float64]:
     """Keep face p0p1p2's closest feature if the origin is beyond it and it is closer;
-    track the smallest depth of the origin inside the faces."""
-    dp = _plane_depth(p0, p1, p2, opp)
+    track the smallest depth of the origin inside the faces. With `signs`, no depth: the
+    origin counts as beyond the face unless the rounded signs put it on opp's side."""
+    dp = HUGE
+    if signs == 1:
+        nrm = wp.cross(p1 - p0, p2 - p0)
+        if wp.dot(opp - p0, nrm) * wp.dot(p0, nrm) >= F0:
+            dp = -HUGE
+    else:
+        dp = _plane_depth(p0, p1, p2, opp)
     depth = wp.min(depth, dp)
     if dp < F0:
         v, n, x, y, z = _closest_triangle(p0, p1, p2)
@@ -364,11 +372,12 @@ def _face_candidate(
 
 @wp.func
 def _closest_tetra(
-    a: wp.vec3d, b: wp.vec3d, c: wp.vec3d, d: wp.vec3d
+    a: wp.vec3d, b: wp.vec3d, c: wp.vec3d, d: wp.vec3d, signs: wp.int32
 ) -> tuple[wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d, wp.float64]:
     """Closest point to the origin on tetrahedron abcd; count 4 means the origin is inside,
     at least the returned depth from every face (a lower bound of the penetration depth of
-    the two shapes whose Minkowski difference contains the tetrahedron)."""
+    the two shapes whose Minkowski difference contains the tetrahedron). With `signs`, the
+    faces decide by their rounded signs, and the depth is meaningless (see `_gjk`)."""
     best = HUGE
     bv = wp.vec3d(F0, F0, F0)
     bn = wp.int32(4)
@@ -376,56 +385,23 @@ def _closest_tetra(
     q1 = b
     q2 = c
     depth = HUGE
-    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, b, c, d, best, bv, bn, q0, q1, q2, depth)
-    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, c, d, b, best, bv, bn, q0, q1, q2, depth)
-    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, d, b, c, best, bv, bn, q0, q1, q2, depth)
-    best, bv, bn, q0, q1, q2, depth = _face_candidate(b, d, c, a, best, bv, bn, q0, q1, q2, depth)
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(
+        a, b, c, d, best, bv, bn, q0, q1, q2, depth, signs
+    )
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(
+        a, c, d, b, best, bv, bn, q0, q1, q2, depth, signs
+    )
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(
+        a, d, b, c, best, bv, bn, q0, q1, q2, depth, signs
+    )
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(
+        b, d, c, a, best, bv, bn, q0, q1, q2, depth, signs
+    )
     if bn == 4 and depth <= F0:
         # flat: no face decided; fall back to the closest face feature
         v, n, x, y, z = _closest_triangle(a, b, c)
         return v, n, x, y, z, F0
     return bv, bn, q0, q1, q2, depth
-
-
-@wp.func
-def _sign_candidate(
-    p0: wp.vec3d,
-    p1: wp.vec3d,
-    p2: wp.vec3d,
-    opp: wp.vec3d,
-    best: wp.float64,
-    bv: wp.vec3d,
-    bn: wp.int32,
-    q0: wp.vec3d,
-    q1: wp.vec3d,
-    q2: wp.vec3d,
-) -> tuple[wp.float64, wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d]:
-    """_face_candidate without the depth: the origin counts as beyond the face unless the
-    rounded signs put it on opp's side."""
-    n = wp.cross(p1 - p0, p2 - p0)
-    if wp.dot(opp - p0, n) * wp.dot(p0, n) >= F0:
-        v, k, x, y, z = _closest_triangle(p0, p1, p2)
-        if wp.dot(v, v) < best:
-            return wp.dot(v, v), v, k, x, y, z
-    return best, bv, bn, q0, q1, q2
-
-
-@wp.func
-def _closest_tetra_sign(
-    a: wp.vec3d, b: wp.vec3d, c: wp.vec3d, d: wp.vec3d
-) -> tuple[wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d]:
-    """_closest_tetra without the depth (a bound test only asks whether it clears)."""
-    best = HUGE
-    bv = wp.vec3d(F0, F0, F0)
-    bn = wp.int32(4)
-    q0 = a
-    q1 = b
-    q2 = c
-    best, bv, bn, q0, q1, q2 = _sign_candidate(a, b, c, d, best, bv, bn, q0, q1, q2)
-    best, bv, bn, q0, q1, q2 = _sign_candidate(a, c, d, b, best, bv, bn, q0, q1, q2)
-    best, bv, bn, q0, q1, q2 = _sign_candidate(a, d, b, c, best, bv, bn, q0, q1, q2)
-    best, bv, bn, q0, q1, q2 = _sign_candidate(b, d, c, a, best, bv, bn, q0, q1, q2)
-    return bv, bn, q0, q1, q2
 
 
 # --------------------------------------------------------------------------- GJK
@@ -515,6 +491,9 @@ def _gjk(
     best_dir = dir0 / wp.length(dir0)
     overlap = wp.int32(0)
     depth = F0
+    signs = wp.int32(0)
+    if mode == 2:
+        signs = 1
     for _it in range(max_iter):
         vv = wp.dot(v, v)
         if vv <= F0:
@@ -539,19 +518,16 @@ def _gjk(
             v, ns, s0, s1 = _closest_segment(w, s0)
         elif ns == 2:
             v, ns, s0, s1, s2 = _closest_triangle(w, s0, s1)
-        elif mode == 2:
-            v, ns, s0, s1, s2 = _closest_tetra_sign(w, s0, s1, s2)
-            if ns == 4:
-                overlap = 1
-                break
         else:
-            v, ns, s0, s1, s2, depth = _closest_tetra(w, s0, s1, s2)
+            v, ns, s0, s1, s2, depth = _closest_tetra(w, s0, s1, s2, signs)
             if ns == 4:
                 overlap = 1
                 break
         if wp.dot(v, v) >= vv:
             break
     if overlap == 1:
+        if signs == 1:
+            depth = F0
         return F0, -HUGE, best_dir, overlap, depth, calls
     return wp.sqrt(wp.dot(v, v)), best_gap, best_dir, overlap, F0, calls
 
@@ -604,7 +580,7 @@ def _probe_depth(
         b = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e1)
         c = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e2)
         d = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e3)
-        _v, ns, _q0, _q1, _q2, depth = _closest_tetra(a, b, c, d)
+        _v, ns, _q0, _q1, _q2, depth = _closest_tetra(a, b, c, d, 0)
         if ns == 4:
             best = wp.max(best, depth)
         sign = -F1
