@@ -188,64 +188,54 @@ def _inverse_defect(
 
     A motion rebuilt by ``from_bezier`` need only be rigid to 1e-10 at sample points (a
     second audit certified free a pair whose exact poses overlapped by 2e-7, through this
-    transpose). With ``A Aᵀ = w² (I + E)``, ``A⁻¹ = Aᵀ (I + E)⁻¹ / w²``, so the exact
+    transpose). With ``P = A Aᵀ - w² I = w² E``, ``A⁻¹ = Aᵀ (I + E)⁻¹ / w²``, so the exact
     ``w³ M_a⁻¹`` is the transpose's plus ``Δ = [[w Aᵀ K, -Aᵀ K b], [0, 0]]``, ``K = (I +
-    E)⁻¹ - I``, ``|K|_2 <= κ / (1 - κ)`` for κ a bound of ``|E|_F`` over the segment
-    (:func:`rigidity_defect`). Each entry of ``Δ H_b``'s A block is at most ``|w_a| |A_a|_F
-    |K| |A_b|_F``, of its b column ``|w_a| |A_a|_F |K| |b_b| + |A_a|_F |K| |b_a| |w_b|``
-    (the largest coefficients bound the values: convex combinations); a pointwise bound
-    covers the node margins as a coefficient error does (the hull argument holds at
+    E)⁻¹ - I``, ``|K|_2 <= |E| / (1 - |E|)``, and ``|E|_F <= κ`` (:func:`rigidity_defect`)
+    at every t. As ``|A / w|_F² = tr(I + E) <= 3 + √3 κ``, ``|w Aᵀ K|_F <= G = √(3 + √3 κ)
+    |P|_F / (1 - κ)`` and ``|Aᵀ K b| <= G |b / w|``: both grow with P's absolute size, not
+    with the weights (a bound by a's largest |w| |A| times κ, which divides by its smallest
+    w², turned a clear pair whose a turns fully within one segment, weights from 1 to 1e4,
+    into 58,139 nodes and 'unknown'). So each entry of ``Δ H_b``'s A block is at most ``G
+    |A_b|_F``, of its b column ``G (|b_b| + |p_a| |w_b|)``, with |P| bounded by its
+    Bernstein coefficients and ``|p_a| = |b_a / w_a|`` by a's control positions (positive
+    weights: convex combinations); the largest coefficients bound the values. A pointwise
+    bound covers the node margins as a coefficient error does (the hull argument holds at
     each t). Motions built from a preimage are rigid exactly (their error is rounding,
     which `ctrl_error` covers): zero for them."""
     if a.preimage_pieces is not None:
         return np.zeros(3)
-    ea, eb = a.ctrl_error, b.ctrl_error
+    eb = b.ctrl_error
     # over a's pieces of provably positive weight (the shared splitter: a segment whose
     # weights dip is split, which also keeps each piece's bound local)
     pa = BezierPieces.from_motion(a).positive()
-    kap = float(rigidity_defect(pa.ctrl, pa.error).max())
+    p_abs, w2, e = _defect_parts(pa.ctrl, pa.error)
+    kap = float(_ratio(p_abs, w2).max())
     if not kap < 0.5:
         raise MotionError(
             f"Expected `a` to be rigid (A A^T = w^2 I), got a defect of up to {kap:.3g} over"
             " its segments: its inverse is not a rotation's."
         )
-    k = kap / (1.0 - kap) * (1.0 + gamma(8))
+    pmax = float(np.ldexp(p_abs, 2 * e).max())  # (in the motion's own scale)
+    g = np.sqrt(3.0 + SQRT3 * kap) * pmax / (1.0 - kap) * (1.0 + gamma(8))
+    # a's positions: its control points' (exact: within their errors, weights above them)
+    ba = np.linalg.norm(pa.ctrl[..., :3, 3], axis=-1) + SQRT3 * pa.error[:, 1, None]
+    pos = float((ba / (pa.ctrl[..., 3, 3] - pa.error[:, 2, None])).max())
     fro = lambda c: float(np.sqrt((c[..., :3, :3] ** 2).sum(axis=(-2, -1))).max())  # noqa: E731
     col = lambda c: float(np.linalg.norm(c[..., :3, 3], axis=-1).max())  # noqa: E731
     wgt = lambda c: float(np.abs(c[..., 3, 3]).max())  # noqa: E731
-    # the exact matrices' sizes: the stored ones' plus their errors (a review: κ and these
-    # were of the stored matrices only, and a motion a whose ctrl_error allows 1e-8 was
-    # certified free 1e-5 deep)
-    aa, ba, wa = (
-        fro(ca) + 3 * ea[:, 0].max(),
-        col(ca) + SQRT3 * ea[:, 1].max(),
-        wgt(ca) + ea[:, 2].max(),
-    )
+    # b's sizes: the exact matrices' (the stored ones' plus their errors)
     ab, bb, wb = (
         fro(cb) + 3 * eb[:, 0].max(),
         col(cb) + SQRT3 * eb[:, 1].max(),
         wgt(cb) + eb[:, 2].max(),
     )
-    return np.array([wa * aa * k * ab, wa * aa * k * bb + aa * k * ba * wb, 0.0]) * (1 + gamma(8))
+    return np.array([g * ab, g * (bb + pos * wb), 0.0]) * (1 + gamma(8))
 
 
-def rigidity_defect(ctrl: np.ndarray, error: np.ndarray | None = None) -> np.ndarray:
-    """(S,) bounds on the largest ``|A Aᵀ / w² - I|_F`` on each segment of control
-    matrices (S, n+1, 4, 4): 0 to rounding for a rigid motion; with `error` (S, 3) (a
-    motion's ``ctrl_error``), for every motion whose control matrices are within it.
-
-    ``P = A Aᵀ - w² I`` is a polynomial matrix of degree 2n whose Bernstein coefficients
-    (Bernstein products, :func:`bezier_product_weights`) bound its entries; their rounding
-    is within ``γ_(2n+16)`` of ``max |A_i|_F² + √3 max w_i²`` (the product weights of one
-    coefficient sum to 1). ``w*²`` is bounded below by :func:`~motions.pieces.square_lower`
-    (inf where it proves no positive bound: split such segments first, as
-    ``BezierPieces.positive`` does). Each segment is first scaled by a power of two
-    (exactly: the same motion), so that the squares neither over- nor underflow.
-
-    Within `error` = (e0, e1, e2) (A's entries, b's, w's) the exact ``A* = A + ΔA``,
-    ``|ΔA|_F <= 3 e0``, and ``w* = w + Δw``, ``|Δw| <= e2``, at every t (convex
-    combinations), so ``A* A*ᵀ - w*² I`` is within ``6 e0 max |A|_F + 9 e0² + √3 (2 max |w|
-    e2 + e2²)`` of P."""
+def _defect_parts(ctrl: np.ndarray, error: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    """(S,) bounds of ``|A Aᵀ - w² I|_F`` over each segment and (S,) lower bounds of w²
+    (non-positive where none is proven), both of the segment scaled by ``2^-e`` (S,)
+    (the third array): see :func:`rigidity_defect`."""
     c = np.asarray(ctrl, dtype=float)
     _, e = np.frexp(np.abs(c).max(axis=(1, 2, 3)))
     c = np.ldexp(c, -e[:, None, None, None])
@@ -268,8 +258,33 @@ def rigidity_defect(ctrl: np.ndarray, error: np.ndarray | None = None) -> np.nda
     wmax = np.abs(w).max(axis=1)
     bound = bound + 6 * e0 * afro + 9 * e0**2 + SQRT3 * (2 * wmax * e2 + e2**2)
     bound = bound * (1 + gamma(16))
-    w2 = square_lower(w, e2)
-    return np.where(w2 > 0, bound / np.where(w2 > 0, w2, 1.0) * (1 + gamma(2)), np.inf)
+    return bound, square_lower(w, e2), e
+
+
+def _ratio(p_abs: np.ndarray, w2: np.ndarray) -> np.ndarray:
+    """|P| / w² rounded up (inf where no positive lower bound of w² is proven)."""
+    return np.where(w2 > 0, p_abs / np.where(w2 > 0, w2, 1.0) * (1 + gamma(2)), np.inf)
+
+
+def rigidity_defect(ctrl: np.ndarray, error: np.ndarray | None = None) -> np.ndarray:
+    """(S,) bounds on the largest ``|A Aᵀ / w² - I|_F`` on each segment of control
+    matrices (S, n+1, 4, 4): 0 to rounding for a rigid motion; with `error` (S, 3) (a
+    motion's ``ctrl_error``), for every motion whose control matrices are within it.
+
+    ``P = A Aᵀ - w² I`` is a polynomial matrix of degree 2n whose Bernstein coefficients
+    (Bernstein products, :func:`bezier_product_weights`) bound its entries; their rounding
+    is within ``γ_(2n+16)`` of ``max |A_i|_F² + √3 max w_i²`` (the product weights of one
+    coefficient sum to 1). ``w*²`` is bounded below by :func:`~motions.pieces.square_lower`
+    (inf where it proves no positive bound: split such segments first, as
+    ``BezierPieces.positive`` does). Each segment is first scaled by a power of two
+    (exactly: the same motion), so that the squares neither over- nor underflow.
+
+    Within `error` = (e0, e1, e2) (A's entries, b's, w's) the exact ``A* = A + ΔA``,
+    ``|ΔA|_F <= 3 e0``, and ``w* = w + Δw``, ``|Δw| <= e2``, at every t (convex
+    combinations), so ``A* A*ᵀ - w*² I`` is within ``6 e0 max |A|_F + 9 e0² + √3 (2 max |w|
+    e2 + e2²)`` of P."""
+    p_abs, w2, _ = _defect_parts(ctrl, error)
+    return _ratio(p_abs, w2)
 
 
 def _reduced(a: RationalMotion, b: RationalMotion, kt: np.ndarray) -> RationalMotion:

@@ -577,3 +577,23 @@ def test_a_pair_whose_weights_span_three_decades_is_certified_not_refused():
     tt = np.linspace(t[0], t[-1], 20001)
     d = np.linalg.norm(ma.pose(tt)[1] - mb.pose(tt)[1], axis=1) - 0.2  # (sphere centres)
     assert d.min() > 1.0 and c.verdict == "free" and c.certified
+
+
+@pytest.mark.parametrize("spread", [10.0, 100.0])
+def test_a_full_turn_given_as_matrices_is_certified_as_its_preimage_is(spread):
+    # a review: a's inverse defect was bounded by its largest |w| |A| times κ, which divides
+    # by its smallest w²: a box turning fully about z within one segment, weights from 1 to
+    # spread², from_bezier of its own control matrices, against a sphere 2.18 clear at any
+    # rotation (3.2 - 0.5 - |(0.5, 0.1, 0.1)|), took 58,139 nodes and said 'unknown'
+    q = np.array([[1.0, 0, 0, 0], [0, 0, 0, spread], [-1.0, 0, 0, 0]])
+    m0 = motions.RationalMotion.from_preimage(2, [0, 0, 0, 1, 1, 1.0], q)
+    a = motions.RationalMotion.from_bezier(*m0.bezier_form())
+    cb = np.zeros((1, 2, 4, 4))
+    cb[0, :] = np.eye(4)
+    cb[0, :, :3, 3] = [3.2, 0.0, 0.0]
+    b = motions.RationalMotion.from_bezier([0.0, 1.0], cb)
+    box, ball = harness.Box([0.5, 0.1, 0.1]), Sphere(0.5)
+    ref = certify_pair(m0, box, b, ball)
+    got = certify_pair(a, box, b, ball)
+    assert ref.verdict == got.verdict == "free"
+    assert got.nodes <= 2 * ref.nodes, (got.nodes, ref.nodes)
