@@ -704,26 +704,49 @@ def test_warp_start_up_passes_on_its_other_stderr_lines():
     assert "RuntimeError: init failed" in proc.stderr and "CUDA driver" not in proc.stderr
 
 
+THIN = [  # a review's case: a box 3e-7 thick against a nearly flat mesh (1 row of 2,160
+    # cleared by the depth GJK, not by a first version of the sign test)
+    (
+        Box([0.3, 0.2, 3.005e-7], rotation=[0.13, -0.61, 0.5, 0.6]),
+        ConvexMesh(
+            np.concatenate(
+                [np.random.default_rng(5).normal(size=(12, 3)) * [0.5, 0.5, 1.5e-3], [[0, 0, 0]]]
+            )
+            + [1.5, 0.5, 0.0]
+        ),
+    )
+]
+
+
 @pytest.mark.parametrize("device", DEVICES)
-@pytest.mark.parametrize("body", BODIES, ids=lambda b: b.kind)
-def test_bound_test_by_signs_decides_as_the_depth_gjk(device, body, pieces):
-    # the refinement's bound test decides a tetrahedron of supports by the signs of its
-    # face planes (no depth, no square root): it must clear exactly the rows that the GJK
-    # with the depth clears, near contact too (rows moved along their separating
-    # direction to gaps from -1e-2 to 1e-1, and to within rounding of 0)
+@pytest.mark.parametrize(
+    "body, obstacles",
+    [(b, OBSTACLES) for b in BODIES] + [(b, [o]) for b, o in THIN],
+    ids=[b.kind for b in BODIES] + ["thin"],
+)
+def test_bound_test_without_the_depth_takes_the_depth_gjks_steps(device, body, obstacles, pieces):
+    # the refinement's bound test (mode 2) decides a tetrahedron of supports by the signs
+    # of its face planes where they are sure, else by the guarded depths: the same steps
+    # as the GJK with the depth, so the same gaps, directions and verdicts, bit for bit,
+    # near contact too (rows moved along their separating direction to gaps from -1e-2 to
+    # 1e-1, and to within rounding of 0)
     ctrl, _ = pieces
-    for obstacle in OBSTACLES:
+    for obstacle in obstacles:
         _c, gap, d = probes.hull_gap_rows(ctrl, body, obstacle, depth=True, device=device)
+        ok = gap > -1e300
+        ctrl_ok, gap, d = ctrl[ok], gap[ok], d[ok]
         rows = []
-        for target in (-1e-2, -1e-6, -1e-12, 0.0, 1e-12, 1e-9, 1e-6, 1e-3, 1e-1):
-            moved = ctrl.copy()
+        for target in (-1e-2, -1e-6, -1e-12, 0.0, 1e-16, 1e-12, 1e-9, 1e-6, 1e-3, 1e-1):
+            moved = ctrl_ok.copy()
             moved[..., :3, 3] += moved[..., 3:4, 3] * ((gap - target)[:, None] * d)[:, None]
             rows.append(moved)
         rows = np.concatenate(rows)
-        clear0, _g0, _ = probes.hull_gap_rows(rows, body, obstacle, depth=True, device=device)
+        clear0, gap0, d0 = probes.hull_gap_rows(rows, body, obstacle, depth=True, device=device)
         clear2, gap2, d2 = probes.hull_gap_rows(rows, body, obstacle, device=device)
         assert 0 < clear2.sum() < len(rows)
         np.testing.assert_array_equal(clear2, clear0)
+        np.testing.assert_array_equal(gap2, gap0)
+        np.testing.assert_array_equal(d2, d0)
         apart = gap2 > -1e300  # (an overlap returns no gap)
         oracle = probes.hull_gap_numpy(rows[apart], body, obstacle, d2[apart])
         np.testing.assert_allclose(gap2[apart], oracle, atol=1e-9)

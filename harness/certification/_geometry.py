@@ -33,6 +33,7 @@ only; the bounds it returns are certified whatever the iteration count."""
 FLAT_REL = wp.constant(wp.float64(1.0e-13))
 """A tetrahedron whose volume is below this fraction of its size is treated as flat (its
 faces cannot decide inside/outside reliably); GJK then continues with its faces."""
+SURE = wp.constant(wp.float64(2.02))  # (see _face_candidate)
 GAMMA_PLANE = wp.constant(wp.float64(32.0 * 2.0**-53 / (1.0 - 32.0 * 2.0**-53)))
 """γ_32: the relative rounding allowed for a face's plane in `_plane_depth` (its
 derivation needs about γ_17)."""
@@ -350,18 +351,35 @@ def _face_candidate(
     q1: wp.vec3d,
     q2: wp.vec3d,
     depth: wp.float64,
-    signs: wp.int32,
 ) -> tuple[wp.float64, wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d, wp.float64]:
     """Keep face p0p1p2's closest feature if the origin is beyond it and it is closer;
-    track the smallest depth of the origin inside the faces. With `signs`, no depth: the
-    origin counts as beyond the face unless the rounded signs put it on opp's side."""
-    dp = HUGE
-    if signs == 1:
-        nrm = wp.cross(p1 - p0, p2 - p0)
-        if wp.dot(opp - p0, nrm) * wp.dot(p0, nrm) >= F0:
-            dp = -HUGE
+    track the smallest depth of the origin inside the faces (`_plane_depth`'s).
+
+    The signs decide first, as `_plane_depth` would, without its square roots: the origin
+    is beyond the face where ``(opp - p0).n`` and ``p0.n`` have one strict sign (then
+    its computed distance is negative, or the tetrahedron flat); it is inside where their
+    signs differ, ``(opp - p0).n`` is beyond the flatness test's bound and ``p0.n`` beyond
+    the guard's, each squared and doubled (``(x + y)² <= 2 (x² + y²)``) and 1 % over
+    (the rounding of the test's own square roots): its depth is then positive, and HUGE
+    stands for it (`_closest_tetra` computes the depths again where they are needed).
+    Otherwise `_plane_depth` decides. So the decisions are `_plane_depth`'s exactly."""
+    e1 = p1 - p0
+    e2 = p2 - p0
+    nrm = wp.cross(e1, e2)
+    sd = wp.dot(opp - p0, nrm)
+    s0 = wp.dot(p0, nrm)
+    dp = F0
+    if sd * s0 > F0:
+        dp = -HUGE
     else:
-        dp = _plane_depth(p0, p1, p2, opp)
+        r2 = wp.dot(p0, p0)
+        l2 = wp.dot(e1, e1) * wp.dot(e2, e2)
+        flat = FLAT_REL * FLAT_REL * l2 * (wp.dot(opp - p0, opp - p0) + r2)
+        guard = GAMMA_PLANE * GAMMA_PLANE * r2 * (l2 + wp.dot(nrm, nrm))
+        if sd * s0 < F0 and sd * sd > SURE * flat and s0 * s0 > SURE * guard:
+            dp = HUGE
+        else:
+            dp = _plane_depth(p0, p1, p2, opp)
     depth = wp.min(depth, dp)
     if dp < F0:
         v, n, x, y, z = _closest_triangle(p0, p1, p2)
@@ -372,12 +390,12 @@ def _face_candidate(
 
 @wp.func
 def _closest_tetra(
-    a: wp.vec3d, b: wp.vec3d, c: wp.vec3d, d: wp.vec3d, signs: wp.int32
+    a: wp.vec3d, b: wp.vec3d, c: wp.vec3d, d: wp.vec3d, want_depth: wp.int32
 ) -> tuple[wp.vec3d, wp.int32, wp.vec3d, wp.vec3d, wp.vec3d, wp.float64]:
     """Closest point to the origin on tetrahedron abcd; count 4 means the origin is inside,
     at least the returned depth from every face (a lower bound of the penetration depth of
-    the two shapes whose Minkowski difference contains the tetrahedron). With `signs`, the
-    faces decide by their rounded signs, and the depth is meaningless (see `_gjk`)."""
+    the two shapes whose Minkowski difference contains the tetrahedron; with `want_depth`
+    0, not computed: a bound test asks only whether the shapes separate)."""
     best = HUGE
     bv = wp.vec3d(F0, F0, F0)
     bn = wp.int32(4)
@@ -385,18 +403,16 @@ def _closest_tetra(
     q1 = b
     q2 = c
     depth = HUGE
-    best, bv, bn, q0, q1, q2, depth = _face_candidate(
-        a, b, c, d, best, bv, bn, q0, q1, q2, depth, signs
-    )
-    best, bv, bn, q0, q1, q2, depth = _face_candidate(
-        a, c, d, b, best, bv, bn, q0, q1, q2, depth, signs
-    )
-    best, bv, bn, q0, q1, q2, depth = _face_candidate(
-        a, d, b, c, best, bv, bn, q0, q1, q2, depth, signs
-    )
-    best, bv, bn, q0, q1, q2, depth = _face_candidate(
-        b, d, c, a, best, bv, bn, q0, q1, q2, depth, signs
-    )
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, b, c, d, best, bv, bn, q0, q1, q2, depth)
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, c, d, b, best, bv, bn, q0, q1, q2, depth)
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(a, d, b, c, best, bv, bn, q0, q1, q2, depth)
+    best, bv, bn, q0, q1, q2, depth = _face_candidate(b, d, c, a, best, bv, bn, q0, q1, q2, depth)
+    if bn == 4 and want_depth == 1:
+        # inside every face: each face's depth (the signs left out those surely positive)
+        depth = wp.min(
+            wp.min(_plane_depth(a, b, c, d), _plane_depth(a, c, d, b)),
+            wp.min(_plane_depth(a, d, b, c), _plane_depth(b, d, c, a)),
+        )
     if bn == 4 and depth <= F0:
         # flat: no face decided; fall back to the closest face feature
         v, n, x, y, z = _closest_triangle(a, b, c)
@@ -456,12 +472,8 @@ def _gjk(
     s0_given: wp.vec3d,
 ) -> tuple[wp.float64, wp.float64, wp.vec3d, wp.int32, wp.float64, wp.int32]:
     """GJK distance between A and B (see `_support_diff`). Mode 2 is mode 0 without the
-    penetration depth (returned as 0): a bound test asks only whether the shapes
-    separate, so a tetrahedron of supports decides by the signs of its face planes (no
-    square root). Its overlap flag (and the 0 then returned for |v|) means only "not
-    clear": the rounded signs may place the origin inside a tetrahedron it is just
-    outside of. A bound test stays sound either way, for the gap is a support function's
-    whatever the simplex.
+    penetration depth (returned as 0; the same steps and answers otherwise): a bound test
+    asks only whether the shapes separate.
 
     Returns (upper bound |v| of the distance, best separation gap found, its unit
     direction pointing from A to B, overlap flag, penetration lower bound when overlapping,
@@ -491,9 +503,9 @@ def _gjk(
     best_dir = dir0 / wp.length(dir0)
     overlap = wp.int32(0)
     depth = F0
-    signs = wp.int32(0)
+    want_depth = wp.int32(1)
     if mode == 2:
-        signs = 1
+        want_depth = 0
     for _it in range(max_iter):
         vv = wp.dot(v, v)
         if vv <= F0:
@@ -519,14 +531,14 @@ def _gjk(
         elif ns == 2:
             v, ns, s0, s1, s2 = _closest_triangle(w, s0, s1)
         else:
-            v, ns, s0, s1, s2, depth = _closest_tetra(w, s0, s1, s2, signs)
+            v, ns, s0, s1, s2, depth = _closest_tetra(w, s0, s1, s2, want_depth)
             if ns == 4:
                 overlap = 1
                 break
         if wp.dot(v, v) >= vv:
             break
     if overlap == 1:
-        if signs == 1:
+        if want_depth == 0:
             depth = F0
         return F0, -HUGE, best_dir, overlap, depth, calls
     return wp.sqrt(wp.dot(v, v)), best_gap, best_dir, overlap, F0, calls
@@ -580,7 +592,7 @@ def _probe_depth(
         b = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e1)
         c = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e2)
         d = _support_diff(0, pre_m, pre_c, lane, i0, i1, part, obst, verts, z, z, 1, sign * e3)
-        _v, ns, _q0, _q1, _q2, depth = _closest_tetra(a, b, c, d, 0)
+        _v, ns, _q0, _q1, _q2, depth = _closest_tetra(a, b, c, d, 1)
         if ns == 4:
             best = wp.max(best, depth)
         sign = -F1
