@@ -13,7 +13,6 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from scipy.special import comb
 
 from motions import Motion, RationalMotion, quat_from_matrix, rotation_matrix
 from motions._checks import as_count, as_float, short
@@ -148,7 +147,15 @@ class _Poses:
             np.concatenate([flat, np.abs(flat)], axis=2).transpose(0, 2, 1)
         )
         self.err = motion.ctrl_error
-        self.comb = comb(self.n, np.arange(self.n + 1), exact=False)  # (exact to n = 56)
+        # (correctly rounded: scipy's float binomials err by up to 5 ulps at n = 54 and by
+        # thousands from n = 170, past this bound's budget: a review)
+        self.comb = np.array([float(math.comb(self.n, i)) for i in range(self.n + 1)])
+        # powers that fall below the normal range lose their relative precision: each
+        # basis value is then off by at most 2^(n - 1070) absolutely (a subnormal's
+        # 2^-1074 times C(n, i) < 2^n, a few roundings over), an entry by n + 1 times that
+        # times the segment's largest coefficient: added to its error
+        big = np.abs(ctrl).max(axis=(1, 2, 3))
+        self.tiny = (self.n + 1) * math.ldexp(1.0, self.n - 1070) * big
         # per segment, n max_i |C_(i+1) - C_i| of A (Frobenius), b and w: the hodograph's
         # bound of |dA/du|, |db/du|, |dw/du| (its coefficients' convex combinations)
         d = np.abs(np.diff(ctrl, axis=1)) if self.n else np.zeros((len(ctrl), 1, 4, 4))
@@ -180,7 +187,7 @@ class _Poses:
                 out[:, idx] = np.einsum("ci,it->ct", self.both_t[s], basis[:, idx])
         m = np.ascontiguousarray(out[:16].T).reshape(-1, 4, 4)
         mabs = np.ascontiguousarray(out[16:].T).reshape(-1, 4, 4) * (1.0 + gamma(n + 2))
-        g, e = gamma(3 * n + 10), self.err[seg]
+        g, e = gamma(3 * n + 10), self.err[seg] + self.tiny[seg, None]
         w = m[:, 3, 3]
         r = m[:, :3, :3] / w[:, None, None]
         p = m[:, :3, 3] / w[:, None]

@@ -303,3 +303,67 @@ def test_a_truth_bounds_the_evaluation_of_an_ill_conditioned_pose():
             u = Fraction(g.toi_hi)
             xe = bezier_point([(Fraction(c),) for c in x], u)[0]
             assert xe - Fraction(0.1) <= face, (method, g.toi_hi, float(xe - Fraction(0.1) - face))
+
+
+def test_a_truths_pose_bound_holds_at_a_high_degree():
+    # a review: the bound's binomials came from scipy's float comb, whose error grows to
+    # thousands of ulps from degree 170; a degree-360 translation whose coefficients an LP
+    # lined up with those errors was farther from its exact pose than the bound allowed
+    from fractions import Fraction
+
+    from scipy.optimize import linprog
+    from scipy.special import comb
+    from scipy.stats import binom
+
+    from harness.truth import _Poses
+
+    n, u = 360, 0.055
+    c = comb(n, np.arange(n + 1), exact=False)
+    eps = (
+        np.array(  # (in ulps: the LP's tolerances would take 1e-13 for 0)
+            [
+                float((Fraction(float(c[i])) - math.comb(n, i)) / math.comb(n, i))
+                for i in range(n + 1)
+            ]
+        )
+        / 2.0**-53
+    )
+    b = binom.pmf(np.arange(n + 1), n, u)
+    keep = np.flatnonzero(b > 1e-12 * b.max())
+    bk, ek, m = b[keep], eps[keep] - (b * eps).sum() / b.sum(), len(keep)
+    # maximise sum_i B_i e_i x_i over x with |x| and its differences bounded (the bound
+    # grows with sum_i B_i |x_i| and with the differences, through the hodograph)
+    a_ub, b_ub = [], []
+    for i in range(m):
+        for s in (1, -1):
+            r = np.zeros(2 * m + 1)
+            r[i], r[m + i] = s, -1
+            a_ub.append(r)
+            b_ub.append(0)
+    for i in range(m - 1):
+        for s in (1, -1):
+            r = np.zeros(2 * m + 1)
+            r[i + 1], r[i], r[-1] = s, -s, -1
+            a_ub.append(r)
+            b_ub.append(0)
+    a_eq = [
+        np.concatenate([np.zeros(m), (3 * n + 10) * bk, [4 * n]]),
+        np.concatenate([bk, np.zeros(m), [0]]),
+    ]
+    res = linprog(
+        np.concatenate([-bk * ek, np.zeros(m + 1)]), A_ub=np.array(a_ub), b_ub=b_ub,
+        A_eq=np.array(a_eq), b_eq=[1.0, 0.0], bounds=[(None, None)] * m + [(0, None)] * (m + 1),
+    )  # fmt: skip
+    x = np.zeros(n + 1)
+    x[keep] = res.x[:m]
+    x[: keep[0]], x[keep[-1] + 1 :] = x[keep[0]], x[keep[-1]]
+    x /= np.abs(x).max()
+    ctrl = np.tile(np.eye(4), (1, n + 1, 1, 1))
+    ctrl[0, :, 0, 3] = x
+    poses = _Poses(motions.RationalMotion.from_bezier([0.0, 1.0], ctrl), 0.0)
+    for t in (u, 0.98 * u, 1.02 * u):
+        _r, p, off = poses(np.array([t]))
+        ft = Fraction(t)
+        w = [math.comb(n, i) * ft**i * (1 - ft) ** (n - i) for i in range(n + 1)]
+        exact = sum(wi * Fraction(xi) for wi, xi in zip(w, x, strict=True)) / sum(w)
+        assert abs(Fraction(float(p[0, 0])) - exact) <= Fraction(off[0]), t

@@ -89,8 +89,10 @@ class Moved:
         max_deviation: largest change of the origin path, ``max_t |Δ(t)|`` on a dense grid.
         deviation_bound: ``max_j |δ_j|`` (a B-spline lies in the convex hull of its
             control vectors) plus the round-off of the new motion's translation pieces
-            (:func:`~.offset.offset_rounding`): a proven bound of the change of any pose
-            of the motion's stored pieces.
+            (:func:`~.offset.offset_rounding`): a proven bound of the change of the
+            origin path of the motion's stored pieces. (The rotation is the same rational
+            function; its stored pieces are split at the offset's knots, which rounds
+            them: a review measured 2.6e-12 next to a weight dip of 1e-10.)
         knots: (K,) knots of the offset spline.
     """
 
