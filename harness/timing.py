@@ -422,14 +422,19 @@ def _status_kb(field: str) -> float | None:
     return None
 
 
+RESET_SLACK_KB = 64 * 1024
+"""How far above the resident set the high-water mark may read right after its reset
+(the kernel's per-thread counters lag by up to 64 pages each)."""
+
+
 class CaseMemory:
     """Peak memory of one case, not of the process so far.
 
     On Linux the kernel's resident-set high-water mark is reset before the case (writing
     5 to ``/proc/self/clear_refs``) and read after it: ``peak_mb`` is the largest resident
     set during the case and ``added_mb`` its excess over the resident set at the start.
-    Elsewhere Python's allocator is traced instead (numpy arrays included, native
-    libraries such as Warp's not): ``method`` says which.
+    Elsewhere, or where the reset did not take, Python's allocator is traced instead
+    (numpy arrays included, native libraries such as Warp's not): ``method`` says which.
     """
 
     def __init__(self) -> None:
@@ -445,6 +450,11 @@ class CaseMemory:
             start = _status_kb("VmRSS")
             if start is None:
                 raise OSError("no VmRSS")
+            # the reset must have taken: the mark at the resident set (a full test run
+            # once read a mark 320 MB above it, left from the case before)
+            mark = _status_kb("VmHWM")
+            if mark is None or mark > start + RESET_SLACK_KB:
+                raise OSError("the high-water mark was not reset")
             self._start_kb = start
         except OSError:
             self.method = "tracemalloc"

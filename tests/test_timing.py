@@ -344,3 +344,16 @@ def test_ratio_interval_bad_arguments_are_named():
     # cases with different numbers of rounds stay valid, and the interval holds the ratio
     r, lo, hi = timing.ratio_interval([[1.0, 2.0], [3.0]], [[2.0, 4.0], [6.0, 6.0, 6.0]])
     assert r == pytest.approx(2.0) and np.isfinite([lo, hi]).all() and lo <= r <= hi
+
+
+def test_case_memory_is_traced_where_the_peak_was_not_reset(monkeypatch, tmp_path):
+    # a full test run once read a high-water mark 320 MB above the resident set right
+    # after its reset (the case before's): such a case must not be measured by it
+    sizes = {"VmRSS": 1_000_000.0, "VmHWM": 1_400_000.0}
+    monkeypatch.setattr(timing, "_CLEAR_REFS", tmp_path / "clear_refs")
+    monkeypatch.setattr(timing, "_status_kb", sizes.get)
+    with timing.CaseMemory() as m:
+        b = np.ones(1_000_000)
+        del b
+    assert m.method == "tracemalloc"
+    assert 5 < m.peak_mb < 100
