@@ -174,13 +174,11 @@ def relative_motion(a: RationalMotion, b: RationalMotion) -> RationalMotion:
     )  # fmt: skip
     g = gamma(m + 8)
     diff = hi * (1.0 + 2.0 * g) - lo * (1.0 - 2.0 * g)
-    err = block_magnitude(diff) + _inverse_defect(a, b, ca, cb)
+    err = block_magnitude(diff) + _inverse_defect(a, b, cb)
     return RationalMotion.from_bezier(breaks, ctrl, keyframe_times=kt, ctrl_error=err)
 
 
-def _inverse_defect(
-    a: RationalMotion, b: RationalMotion, ca: np.ndarray, cb: np.ndarray
-) -> np.ndarray:
+def _inverse_defect(a: RationalMotion, b: RationalMotion, cb: np.ndarray) -> np.ndarray:
     """(3,) bounds on the entries of the A block, the b column and the weight of
     ``Δ(t) H_b(t)``: how far the relative motion through ``inverse_control`` (a's inverse
     by its transpose, ``[[w Aᵀ, -Aᵀ b], [0, w²]]``) is from ``w³ M_a⁻¹ H_b`` where a is not
