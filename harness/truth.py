@@ -92,17 +92,17 @@ class _Distances:
             eps = self.eps(self.scale)[None, :] + (_rigid_gap(r, q, self.body) + off)[:, None]
             lo, hi = d - eps, d + eps
             if self.cross.size:  # sound if either answer is: the wider bracket
-                lb, ub = self._gjk(r, p, self.bp, self.op)
+                lb, ub = self._gjk(r, p)
                 lo[:, self.cross] = np.minimum(lo[:, self.cross], lb - off[:, None])
                 hi[:, self.cross] = np.maximum(hi[:, self.cross], ub + off[:, None])
             return lo.min(axis=1), hi.min(axis=1), 0.0
-        lb, ub = self._gjk(r, p, self.bp, self.op)
+        lb, ub = self._gjk(r, p)
         return lb.min(axis=1) - off, ub.min(axis=1) + off, 1e-12 * self.scale
 
-    def _gjk(self, r, p, bp, op) -> tuple[np.ndarray, np.ndarray]:
-        """(lb, ub) (T, pairs) of the harness's GJK at the poses (r, p): each pose's
-        round-off margin included (ub < 0 is a proof)."""
-        t = len(r)
+    def _gjk(self, r, p) -> tuple[np.ndarray, np.ndarray]:
+        """(lb, ub) (T, pairs) of the harness's GJK at the poses (r, p), for the pairs
+        (self.bp, self.op): each pose's round-off margin included (ub < 0 is a proof)."""
+        t, bp, op = len(r), self.bp, self.op
         rows = np.repeat(np.arange(t), len(bp))
         ub, lb, _x, _ = pose_rows(
             np.ascontiguousarray(pose_matrices(r, p)[rows]), np.tile(bp, t), np.tile(op, t),
@@ -174,14 +174,13 @@ class _Poses:
         seg = np.clip(np.searchsorted(br, t, side="right") - 1, 0, len(br) - 2)
         u = np.clip((t - br[seg]) / (br[seg + 1] - br[seg]), 0.0, 1.0)
         basis = self._basis(u)  # (n+1, T)
+        out = np.empty((32, len(t)))
         if np.all(seg[1:] >= seg[:-1]):  # sorted times (a sampling's, a bracket's one)
-            out = np.empty((32, len(t)))
             cuts = np.searchsorted(seg, np.arange(len(br)))
             for s, (a, b) in enumerate(itertools.pairwise(cuts)):
                 if b > a:  # (einsum: a BLAS product's threads spin on both cores)
                     out[:, a:b] = np.einsum("ci,it->ct", self.both_t[s], basis[:, a:b])
         else:
-            out = np.empty((32, len(t)))
             for s in np.unique(seg):
                 idx = np.flatnonzero(seg == s)
                 out[:, idx] = np.einsum("ci,it->ct", self.both_t[s], basis[:, idx])

@@ -218,15 +218,10 @@ def _inverse_defect(a: RationalMotion, b: RationalMotion, cb: np.ndarray) -> np.
     # a's positions: its control points' (exact: within their errors, weights above them)
     ba = np.linalg.norm(pa.ctrl[..., :3, 3], axis=-1) + SQRT3 * pa.error[:, 1, None]
     pos = float((ba / (pa.ctrl[..., 3, 3] - pa.error[:, 2, None])).max())
-    fro = lambda c: float(np.sqrt((c[..., :3, :3] ** 2).sum(axis=(-2, -1))).max())  # noqa: E731
-    col = lambda c: float(np.linalg.norm(c[..., :3, 3], axis=-1).max())  # noqa: E731
-    wgt = lambda c: float(np.abs(c[..., 3, 3]).max())  # noqa: E731
     # b's sizes: the exact matrices' (the stored ones' plus their errors)
-    ab, bb, wb = (
-        fro(cb) + 3 * eb[:, 0].max(),
-        col(cb) + SQRT3 * eb[:, 1].max(),
-        wgt(cb) + eb[:, 2].max(),
-    )
+    ab = float(np.sqrt((cb[..., :3, :3] ** 2).sum(axis=(-2, -1))).max()) + 3 * eb[:, 0].max()
+    bb = float(np.linalg.norm(cb[..., :3, 3], axis=-1).max()) + SQRT3 * eb[:, 1].max()
+    wb = float(np.abs(cb[..., 3, 3]).max()) + eb[:, 2].max()
     return np.array([g * ab, g * (bb + pos * wb), 0.0]) * (1 + gamma(8))
 
 

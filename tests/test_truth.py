@@ -297,6 +297,15 @@ def test_a_truth_bounds_the_evaluation_of_an_ill_conditioned_pose():
     m = motions.RationalMotion.from_bezier([0.0, 1.0], ctrl)  # (exact, as given)
     face = Fraction(-0.15 - 3e-8) + Fraction(0.05)  # the wall's face near x = -0.1 - 3e-8
     wall = Box([0.05, 1.0, 1.0], center=[-0.15 - 3e-8, 0.0, 0.0])
+    # each sample's bracket holds the exact distance (the body's x-gap to the face: their
+    # y and z extents overlap), at the audit's false contact too
+    times = np.sort(np.append(np.linspace(0.0, 1.0, 41), 0.411375))
+    for method in ("mujoco", "gjk"):
+        lo, hi, eps = harness.truth.sample_distances(m, Box([0.1] * 3), [wall], times, method)
+        for t, a, b in zip(times, lo, hi, strict=True):
+            xe = bezier_point([(Fraction(c),) for c in x], Fraction(t))[0]
+            exact = xe - Fraction(0.1) - face
+            assert Fraction(a - eps) <= exact <= Fraction(b + eps), (method, t, float(exact))
     for method in ("mujoco", "gjk"):
         g = ground_truth(m, Box([0.1, 0.1, 0.1]), [wall], resolution=1e-3, method=method)
         if g.verdict == "collision":  # then its pose at toi_hi must meet the wall, exactly
