@@ -123,6 +123,75 @@ def test_single_queries_in_any_order_equal_the_batch(scene):
         assert _same(got, want), (i, options[j], got, want)
 
 
+def test_single_queries_of_growing_sizes_equal_the_batch():
+    # a single query writes its inputs into an arena laid out for the sizes seen so far,
+    # which is laid out anew when a query needs more room (more pieces, control
+    # matrices, obstacle parts, mesh vertices): queries alternating between small and
+    # large motions and obstacle lists give the batch's certificates
+    from harness import Compound, ConvexMesh
+    from harness.certification.device import buffers
+
+    rng = np.random.default_rng(8)
+    ms = [motions.interpolate(*demo_keyframes(k, seed=k)) for k in (3, 40, 5, 150, 4)]
+    ms.insert(2, motions.hermite(*demo_keyframes(30, seed=2)))
+    bodies = [Box([0.2, 0.1, 0.05], rotation=[0.9, 0.1, 0.2, 0.3]), Sphere(0.1)] * 3
+    obstacles = []
+    for i, m in enumerate(ms):
+        _, pos = m.pose(rng.uniform(*m.domain, 3))
+        lst = [Sphere(0.2, center=pos[0] + rng.normal(size=3) * 0.5)]
+        if i % 2:  # many mesh vertices and parts, then few
+            lst.append(ConvexMesh(rng.normal(size=(300, 3)) * 0.3 + pos[1]))
+            lst += [
+                Compound([Sphere(0.1, center=pos[2] + rng.normal(size=3)), Box([0.1] * 3)])
+                for _ in range(20)
+            ]
+        obstacles.append(lst)
+    for bound in ("hull", "aabb", "lipschitz"):
+        batch = certify_many(ms, bodies, obstacles, bound=bound)
+        for _ in range(2):
+            for i in rng.permutation(len(ms)):
+                got = certify(ms[i], bodies[i], obstacles[i], bound=bound)
+                assert _same(got, batch[i]), (bound, i, got, batch[i])
+    grown = buffers("cpu", "refine")._arenas
+    big = len(ms[4]._certify_packed.ctrl)  # (the largest motion's control matrices)
+    assert grown["one"].rows[-1] >= 2 * big > 8 * len(ms[0]._certify_packed.ctrl)
+    parts, verts = grown["one_shapes"].rows[2], grown["one_shapes"].rows[-1]
+    assert parts >= 2 * 42 and verts > 8, grown["one_shapes"].rows  # (42: 1 + 1 + 20 x 2)
+
+
+def test_arena_writes_each_input_where_its_array_reads():
+    from harness.certification.device import Arena, warp
+
+    wp = warp()
+    spec = (
+        ("a", np.int32, wp.int32, ()),
+        ("b", np.float64, wp.vec3d, (3,)),
+        ("c", np.float64, wp.mat44d, (4, 4)),
+    )
+    rng = np.random.default_rng(1)
+    arena = Arena("cpu", spec, (5, 7, 9))
+    for n in (1, 5, 3):
+        data = {
+            "a": rng.integers(-9, 9, n).astype(np.int32),
+            "b": rng.normal(size=(n, 3))[:, ::-1],  # (a strided view: copied contiguous)
+            "c": rng.normal(size=(2 * n - 1, 4, 4)),
+        }
+        arena.write(arena.image(data))
+        for name, x in data.items():
+            assert np.array_equal(arena.arrays[name].numpy()[: len(x)], x), name
+    with pytest.raises(ValueError, match="room"):
+        arena.image({"a": np.zeros(6, np.int32), "b": np.zeros((1, 3)), "c": np.zeros((1, 4, 4))})
+
+
+def test_a_packings_images_are_pickled_empty(scene):
+    ms, bodies, obstacles = scene
+    certify(ms[0], bodies[0], obstacles[0])
+    pack = ms[0]._certify_packed
+    assert len(pack.images) == 1
+    again = pickle.loads(pickle.dumps(ms[0]))._certify_packed
+    assert len(again.images) == 0 and np.array_equal(again.ctrl, pack.ctrl)
+
+
 COLD_THREADS = textwrap.dedent(
     """
     import threading

@@ -36,6 +36,7 @@ from .refine import (
     MOTIONS_PER_CHUNK,
     OUT_N,
     REACH_ROW,
+    Images,
     Outcome,
     Packed,
     lane_count,
@@ -243,7 +244,7 @@ def _exp_stepping_pieces(m: Motion, radius: float) -> tuple:
     # time slack: the pieces' times are the knots themselves; only u's rounding (3u of
     # the span) separates the pose evaluated from the exact one
     slack = 4.0 * UNIT_ROUNDOFF * (ep.t1 - ep.t0) * (1 + 1e-12)
-    return Packed(ctrl.reshape(-1, 4, 4), -3, rows, 0), speeds, slack
+    return Packed(ctrl.reshape(-1, 4, 4), -3, rows, 0, Images()), speeds, slack
 
 
 EXP_SCHEMES = (SlerpMotion, SlerpLinearMotion, ScLerpMotion, CumulativeBSplineMotion)
@@ -318,7 +319,7 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
             buf.out("out_n", (n, OUT_N), np.int32, wp.int32)[1],
         ]
         kernel = K._advance if kernel_name == "advance" else K._sample
-        buf.launch(kernel, args, lanes)
+        buf.launch(kernel, args, lanes, tag=n == 1)
         outs.append(Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
     return Outcome.concat(outs), time.perf_counter() - start
 

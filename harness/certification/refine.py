@@ -31,6 +31,7 @@ __all__ = [
     "MOTIONS_PER_CHUNK",
     "OUT_N",
     "REACH_ROW",
+    "Images",
     "Outcome",
     "Packed",
     "pack_pieces",
@@ -117,6 +118,14 @@ class Outcome:
     witness_part = property(lambda self: self.c[:, 9].astype(np.int64))
 
 
+class Images(dict):
+    """A packing's images in single-query arenas, by the arena's layout key: a cache,
+    pickled empty (motions travel with their packings, e.g. to Dask workers)."""
+
+    def __reduce__(self):
+        return (Images, ())
+
+
 class Packed(NamedTuple):
     """A motion's pieces packed for the kernels (cached on the motion)."""
 
@@ -131,6 +140,9 @@ class Packed(NamedTuple):
     motions' in one pass (each pass over a thousand small arrays costs ~1 ms)."""
     extra: int
     """Pieces beyond the motion's segments (the positivity splitter's)."""
+    images: Images | None = None
+    """The pieces laid out in a single query's :class:`.device.Arena`, per layout (filled
+    by the first single query; None in a packing unpickled from another version)."""
 
     @property
     def t(self) -> np.ndarray:
@@ -176,7 +188,9 @@ def _pack_motions(ms: list[RationalMotion]) -> None:
         table = pack_pieces(cat, 0).rows
         for i, pc, rows in zip(idx, group, np.split(table, ends[:-1]), strict=True):
             flat = np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4))
-            ms[i]._certify_packed = Packed(flat, pc.n_ctrl, rows, len(pc) - ms[i].segments)
+            ms[i]._certify_packed = Packed(
+                flat, pc.n_ctrl, rows, len(pc) - ms[i].segments, Images()
+            )
 
 
 def _check_scale(ms: list, cat: BezierPieces, ends: np.ndarray) -> None:
@@ -203,7 +217,7 @@ def pack_pieces(pc, extra: int, reach: np.ndarray | None = None) -> Packed:
     if reach is None:
         reach = piece_reach(pc.ctrl, pc.error)
     rows = np.concatenate([pc.t0[:, None], pc.t1[:, None], pc.error, reach], axis=1)
-    return Packed(np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)), pc.n_ctrl, rows, extra)
+    return Packed(np.ascontiguousarray(pc.ctrl.reshape(-1, 4, 4)), pc.n_ctrl, rows, extra, Images())
 
 
 _GAMMA_C = gamma(64)  # the kernels' GAMMA_C
@@ -484,7 +498,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         return arrays, kmax
     shaped = pack_shapes(bodies, obst)
     n_obst = shaped[4]
-    ctrls, ks, rows, extra = zip(*packs, strict=True)
+    ctrls, ks, rows, extra, _images = zip(*packs, strict=True)
     counts = np.fromiter(map(len, rows), dtype=np.int64, count=n)
     p_k = np.repeat(np.array(ks, dtype=np.int32), counts)
     table = np.concatenate(rows)
@@ -511,15 +525,119 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     return arrays, kmax
 
 
-def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
+def _one_spec() -> tuple:
+    """The layout of a single query's pieces in its :class:`.device.Arena` (the control
+    matrices last: they are the most rows)."""
+    global _spec
+    if _spec is None:
+        wp, reach = warp(), _kernels().Reach
+        _spec = (
+            ("p_start", np.int32, wp.int32, ()),
+            ("p_k", np.int32, wp.int32, ()),
+            ("m_pieces", np.int32, wp.vec2i, (2,)),
+            ("m_nodes0", np.int32, wp.int32, ()),
+            ("p_t", np.float64, wp.vec2d, (2,)),
+            ("p_err", np.float64, wp.vec3d, (3,)),
+            ("p_reach", record_dtype(reach), reach, ()),
+            ("ctrl", np.float64, wp.mat44d, (4, 4)),
+        )
+    return _spec
+
+
+_spec = None
+
+
+def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
     """:func:`pack_inputs` for one motion, in as few numpy calls as it takes (a single
-    query's packing cost more than its kernel)."""
-    wp = warp()
-    ctrl, k, rows, extra = pack
+    query's packing cost more than its kernel). On the CPU the pieces' inputs are one
+    copy of their image in the buffers' arena, made by the motion's first single query
+    and kept on its packing."""
+    ctrl, k, rows, extra = pack[:4]
     shaped = pack_shapes(bodies, obst)
     nodes0 = extra * max(1, int(shaped[4][0]))
     n_pieces = len(rows)
-    arrays = {
+    if not buf.cpu:
+        return _put_one(buf, pack, shaped, nodes0), abs(k)
+    arena = buf.arena(
+        "one", _one_spec(), (n_pieces, n_pieces, 1, 1, n_pieces, n_pieces, n_pieces, len(ctrl))
+    )
+    images = pack.images if pack.images is not None else {}
+    img = images.get(arena.key)
+    if img is None:
+        img = arena.image(
+            {
+                "p_start": np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32),
+                "p_k": np.full(n_pieces, k, dtype=np.int32),
+                "m_pieces": np.array([[0, n_pieces]], dtype=np.int32),
+                "m_nodes0": np.zeros(1, dtype=np.int32),
+                "p_t": rows[:, 0:2],
+                "p_err": rows[:, 2:5],
+                "p_reach": rows[:, 5:],
+                "ctrl": ctrl,
+            }
+        )
+        images.clear()  # (one layout at a time: the arena only grows)
+        images[arena.key] = img
+    arena.write(img)
+    arena.views["m_nodes0"][0] = nodes0
+    return {**arena.arrays, **_shapes_one(buf, shaped)}, abs(k)
+
+
+def _shapes_one(buf, shaped: tuple) -> dict:
+    """:func:`_put_shapes` of a single query on the CPU: one copy of the packing's image
+    in the buffers' shape arena (made once per packing: small queries' packings are
+    cached, :data:`SHAPE_CACHE`)."""
+    table, m_parts, m_obst, o_idx, _n_obst = shaped
+    o_idx = o_idx if len(o_idx) else np.zeros(1, np.int32)
+    arena = buf.arena(
+        "one_shapes", _shapes_spec(), (1, 1, len(o_idx), len(table.records), len(table.verts))
+    )
+    if buf.shapes_one is not None and buf.shapes_one[0] is shaped:
+        return buf.shapes_one[1]
+    hit = _shape_images.get(id(shaped))
+    if hit is None or hit[0] is not shaped or hit[1] != arena.key:
+        img = arena.image(
+            {
+                "m_parts": m_parts, "m_obst": m_obst, "o_idx": o_idx,
+                "shapes": table.records, "verts": table.verts,
+            }
+        )  # fmt: skip
+        if len(_shape_images) >= SHAPE_CACHE:
+            _shape_images.clear()
+        hit = _shape_images[id(shaped)] = (shaped, arena.key, img)
+    arena.write(hit[2])
+    buf.shapes_one = (shaped, arena.arrays)
+    return arena.arrays
+
+
+_shape_images: dict[int, tuple] = {}
+"""Images of recent single queries' shape packings (see :func:`_shapes_one`), holding
+the packings alive (their identities key this)."""
+
+
+def _shapes_spec() -> tuple:
+    global _sspec
+    if _sspec is None:
+        wp, shape = warp(), _kernels().Shape
+        _sspec = (
+            ("m_parts", np.int32, wp.vec2i, (2,)),
+            ("m_obst", np.int32, wp.vec2i, (2,)),
+            ("o_idx", np.int32, wp.int32, ()),
+            ("shapes", record_dtype(shape), shape, ()),
+            ("verts", np.float64, wp.vec3d, (3,)),
+        )
+    return _sspec
+
+
+_sspec = None
+
+
+def _put_one(buf, pack: Packed, shaped: tuple, nodes0: int) -> dict:
+    """A single motion's inputs written to `buf` input by input (another device)."""
+    wp = warp()
+    ctrl, k, rows = pack[:3]
+    n_pieces = len(rows)
+    return {
         "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
         "p_start": buf.put(
             "p_start", np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32), wp.int32
@@ -532,7 +650,6 @@ def _pack_one(buf, pack: tuple, bodies, obst) -> tuple[dict, int]:
         "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
         **_put_shapes(buf, shaped),
     }
-    return arrays, abs(k)
 
 
 def _put_shapes(buf, shaped: tuple) -> dict:
@@ -600,7 +717,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
         buf.out("out_n", (n, OUT_N), np.int32, wp.int32)[1],
     ]
-    buf.launch(_refine, args, lanes)
+    buf.launch(_refine, args, lanes, tag=n == 1)
     return Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n))
 
 
@@ -657,5 +774,5 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
         buf.out("out_t", (n, 3), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 4), np.int32, wp.int32)[1],
     ]
-    buf.launch(_clearance, args, lanes)
+    buf.launch(_clearance, args, lanes, tag=n == 1)
     return buf.fetch("out_t", n), buf.fetch("out_n", n)
