@@ -192,6 +192,83 @@ def test_a_packings_images_are_pickled_empty(scene):
     assert len(again.images) == 0 and np.array_equal(again.ctrl, pack.ctrl)
 
 
+@pytest.mark.parametrize("bound", ["hull", "lipschitz"])
+def test_lanes_taking_motions_as_they_come_certify_each_once(scene, bound):
+    # on the CPU two lanes claim motions from an atomic counter: a motion claimed twice
+    # or never would show as another motion's row or as the row a previous batch left
+    # in the output buffer (here: a batch of another tolerance, so every row differs)
+    ms, bodies, obstacles = scene
+    rep = 40
+    big = (ms * rep, bodies * rep, obstacles * rep)
+    certify_many(*big, bound=bound, tolerance=0.2, threads=2)  # (the stale rows)
+    alone = [certify(m, b, o, bound=bound) for m, b, o in zip(*scene, strict=True)]
+    got = certify_many(*big, bound=bound, threads=2)
+    bad = [i for i, c in enumerate(got) if not _same(c, alone[i % len(ms)])]
+    assert not bad, bad[:10]
+
+
+def test_lanes_run_once_each_and_raise_a_lanes_error():
+    # run_lanes keeps host threads for lanes 1, 2, ...: every lane runs once, on its own
+    # thread, lane 0 on the caller's; a lane's exception reaches the caller once all ran
+    import threading
+
+    from harness.certification.device import run_lanes
+
+    for n in (1, 2, 3, 2):
+        seen: list = []
+        run_lanes(n, lambda i, seen=seen: seen.append((i, threading.get_ident())))
+        assert sorted(i for i, _ in seen) == list(range(n))
+        assert dict(seen)[0] == threading.get_ident()
+        assert len({t for _, t in seen}) == n
+    done = []
+
+    def bad(i):
+        if i == 2:
+            raise ZeroDivisionError("lane 2")
+        done.append(i)
+
+    with pytest.raises(ZeroDivisionError, match="lane 2"):
+        run_lanes(3, bad)
+    assert sorted(done) == [0, 1]
+    seen = []
+    run_lanes(3, seen.append)  # (the kept threads still serve)
+    assert sorted(seen) == [0, 1, 2]
+
+
+def test_lanes_from_two_callers_and_after_a_fork():
+    # two threads launching at once (one takes the kept threads, the other starts its
+    # own) and a forked child (which has no copy of the parent's threads) run every lane
+    import multiprocessing
+    import threading
+
+    from harness.certification.device import run_lanes
+
+    out: dict = {}
+
+    def caller(k):
+        got = []
+        for _ in range(50):
+            run_lanes(2, got.append)
+        out[k] = sorted(got)
+
+    ts = [threading.Thread(target=caller, args=(k,)) for k in range(2)]
+    [t.start() for t in ts]
+    [t.join(60) for t in ts]
+    assert out == {0: [0] * 50 + [1] * 50, 1: [0] * 50 + [1] * 50}
+    run_lanes(2, lambda i: None)  # (the parent's kept threads exist before the fork)
+    ctx = multiprocessing.get_context("fork")
+    with ctx.Pool(1) as pool:
+        assert pool.apply_async(_lanes_in_child).get(timeout=60) == [0, 1]
+
+
+def _lanes_in_child() -> list[int]:
+    from harness.certification.device import run_lanes
+
+    got: list[int] = []
+    run_lanes(2, got.append)
+    return sorted(got)
+
+
 COLD_THREADS = textwrap.dedent(
     """
     import threading

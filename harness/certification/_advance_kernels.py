@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import warp as wp
 
-from ._geometry import F0, F1, HUGE, Shape, _gjk, _posed_radii, _probed_hi
+from ._geometry import F0, F1, HUGE, Shape, _claim, _gjk, _posed_radii, _probed_hi
 from ._refine_kernels import (
     GAMMA_C,
     R_BUDGET,
@@ -294,6 +294,7 @@ def _advance(
     first: wp.int32,
     stride: wp.int32,
     n_motions: wp.int32,
+    work: wp.array(dtype=wp.int32),
     # Scratch
     st_ctrl: wp.array3d(dtype=wp.mat44d),
     pre_m: wp.array2d(dtype=wp.mat33d),
@@ -311,6 +312,8 @@ def _advance(
     """
     lane = first + wp.tid()
     m = lane
+    if stride == 0:
+        m = _claim(work)
     while m < n_motions:
         nodes = wp.int32(0)
         deepest = wp.int32(0)
@@ -431,7 +434,10 @@ def _advance(
         out_n[m, 7] = 0
         out_n[m, 8] = hit
         out_n[m, 9] = wit_o
-        m += stride
+        if stride == 0:
+            m = _claim(work)
+        else:
+            m += stride
 
 
 @wp.kernel
@@ -458,6 +464,7 @@ def _sample(
     first: wp.int32,
     stride: wp.int32,
     n_motions: wp.int32,
+    work: wp.array(dtype=wp.int32),
     # Scratch
     st_ctrl: wp.array3d(dtype=wp.mat44d),
     pre_m: wp.array2d(dtype=wp.mat33d),
@@ -477,6 +484,8 @@ def _sample(
     """
     lane = first + wp.tid()
     m = lane
+    if stride == 0:
+        m = _claim(work)
     while m < n_motions:
         nodes = wp.int32(0)
         toi_lo = HUGE
@@ -613,7 +622,10 @@ def _sample(
         out_n[m, 7] = 0
         out_n[m, 8] = hit
         out_n[m, 9] = wit_o
-        m += stride
+        if stride == 0:
+            m = _claim(work)
+        else:
+            m += stride
 
 
 @wp.kernel
@@ -629,6 +641,7 @@ def _pose_rows(
     first: wp.int32,
     stride: wp.int32,
     n_rows: wp.int32,
+    work: wp.array(dtype=wp.int32),
     # Scratch
     st_ctrl: wp.array3d(dtype=wp.mat44d),
     pre_m: wp.array2d(dtype=wp.mat33d),
@@ -643,6 +656,8 @@ def _pose_rows(
     error) to obstacle part obst_idx[r], for rows first + tid, first + tid + stride, ..."""
     lane = first + wp.tid()
     r = lane
+    if stride == 0:
+        r = _claim(work)
     zero = wp.vec3d(F0, F0, F0)
     while r < n_rows:
         st_ctrl[lane, 0, 0] = poses[r]
@@ -654,4 +669,7 @@ def _pose_rows(
         lb_out[r] = lb
         x_out[r] = x
         dir_out[r] = d
-        r += stride
+        if stride == 0:
+            r = _claim(work)
+        else:
+            r += stride

@@ -39,6 +39,22 @@ GAMMA_PLANE = wp.constant(wp.float64(32.0 * 2.0**-53 / (1.0 - 32.0 * 2.0**-53)))
 derivation needs about γ_17)."""
 
 
+@wp.func_native(
+    """
+#if defined(__CUDA_ARCH__)
+return atomicAdd(work.data, 1);
+#else
+return __atomic_fetch_add(work.data, 1, __ATOMIC_RELAXED);
+#endif
+"""
+)
+def _claim(work: wp.array(dtype=wp.int32)) -> wp.int32:
+    """The next motion of a launch whose lanes take motions as they come: ``work[0]``,
+    incremented atomically (Warp's own ``atomic_add`` is not atomic between the host
+    threads of CPU lanes). The host zeroes ``work[0]`` before each launch."""
+    ...
+
+
 @wp.struct
 class Shape:
     kind: wp.int32

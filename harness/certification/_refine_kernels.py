@@ -50,6 +50,7 @@ from ._geometry import (
     Shape,
     _affine_support,
     _boxes_apart,
+    _claim,
     _gjk,
     _local_h,
     _placed_support,
@@ -405,6 +406,7 @@ def _refine(
     first: wp.int32,
     stride: wp.int32,
     n_motions: wp.int32,
+    work: wp.array(dtype=wp.int32),
     # Scratch (per lane)
     st_ctrl: wp.array3d(dtype=wp.mat44d),
     st_t: wp.array2d(dtype=wp.vec2d),
@@ -419,7 +421,8 @@ def _refine(
     out_t: wp.array2d(dtype=wp.float64),
     out_n: wp.array2d(dtype=wp.int32),
 ):
-    """Certify motions first + tid, first + tid + stride, ... (DESIGN §4 rules (a)-(d)).
+    """Certify motions first + tid, first + tid + stride, ..., or with stride 0 the
+    motions as the lanes claim them (:func:`_claim`) (DESIGN §4 rules (a)-(d)).
 
     out_t[m] = (toi_lo, toi_hi, witness time, witness distance, first unknown time);
     out_n[m] = (nodes, pose tests, deepest depth, first unknown reason, #tolerance,
@@ -434,6 +437,8 @@ def _refine(
     # only ask whether the pose intersects, is within `tol`, or has a bound that clears
     enough = wp.float64(2.0) * tol
     m = lane
+    if stride == 0:
+        m = _claim(work)
     while m < n_motions:
         nodes = m_nodes0[m]
         tests = wp.int32(0)
@@ -764,7 +769,10 @@ def _refine(
         out_n[m, 7] = supports
         out_n[m, 8] = hit
         out_n[m, 9] = wit_o
-        m += stride
+        if stride == 0:
+            m = _claim(work)
+        else:
+            m += stride
 
 
 @wp.func
@@ -804,6 +812,7 @@ def _clearance(
     first: wp.int32,
     stride: wp.int32,
     n_motions: wp.int32,
+    work: wp.array(dtype=wp.int32),
     # Scratch (per lane)
     st_ctrl: wp.array3d(dtype=wp.mat44d),
     st_t: wp.array2d(dtype=wp.vec2d),
@@ -835,6 +844,8 @@ def _clearance(
     pose_slot = st_ctrl.shape[2]
     img_slot = st_ctrl.shape[1] - 1
     m = lane
+    if stride == 0:
+        m = _claim(work)
     while m < n_motions:
         nodes = m_nodes0[m]
         tests = wp.int32(0)
@@ -1017,4 +1028,7 @@ def _clearance(
         out_n[m, 1] = tests
         out_n[m, 2] = deepest
         out_n[m, 3] = flags_m
-        m += stride
+        if stride == 0:
+            m = _claim(work)
+        else:
+            m += stride

@@ -96,6 +96,7 @@ def pose_rows(
         return z, z, z.astype(bool), np.zeros((0, 3))
     buf = buffers(device, "pose_rows")
     lanes = lane_count(threads, n, device)
+    stride, work = buf.spread(lanes)
     args = [
         buf.put("poses", np.ascontiguousarray(poses), wp.mat44d),
         buf.put("bi", np.asarray(body_idx, dtype=np.int32), wp.int32),
@@ -105,8 +106,9 @@ def pose_rows(
         buf.put("warm", np.zeros((n, 3)) if warm is None else np.asarray(warm, float), wp.vec3d),
         int(max_iter),
         0,
-        lanes,
+        stride,
         n,
+        work,
         buf.scratch("st_ctrl", (lanes, 1, 1, 4, 4), np.float64, wp.mat44d),
         buf.scratch("pre_m", (lanes, 1, 3, 3), np.float64, wp.mat33d),
         buf.scratch("pre_c", (lanes, 1, 3), np.float64, wp.vec3d),
@@ -308,10 +310,12 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
         if kernel_name == "advance":
             head.append(int(min(o["max_nodes"], 2**31 - 1)))
         head.append(int(o["max_iter"]))
+        stride, work = buf.spread(lanes)
         args = head + [
             0,
-            lanes,
+            stride,
             n,
+            work,
             buf.scratch("st_ctrl", (lanes, 1, kmax, 4, 4), np.float64, wp.mat44d),
             buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
             buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),

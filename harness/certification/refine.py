@@ -704,6 +704,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
     lanes = lane_count(threads, n, device)
     arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
+    stride, work = buf.spread(lanes)
     args = [arrays[k] for k in REFINE_INPUTS] + [
         float(tol),
         int(max_depth),
@@ -711,8 +712,9 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         int(max_iter),
         int(aabb),
         0,
-        lanes,
+        stride,
         n,
+        work,
         *_stack(buf, "refine", lanes, slots, kmax),
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
         buf.out("out_n", (n, OUT_N), np.int32, wp.int32)[1],
@@ -762,14 +764,16 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
     lanes = lane_count(threads, n, device)
     arrays, kmax = pack_inputs(buf, packs, bodies, obst)
     slots = max_depth + 2
+    stride, work = buf.spread(lanes)
     args = [arrays[k] for k in CLEARANCE_INPUTS] + [
         float(tol),
         int(max_depth),
         int(min(max_nodes, 2**31 - 1)),
         int(max_iter),
         0,
-        lanes,
+        stride,
         n,
+        work,
         *_stack(buf, "clearance", lanes, slots, kmax),
         buf.out("out_t", (n, 3), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 4), np.int32, wp.int32)[1],
