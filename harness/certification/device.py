@@ -332,6 +332,11 @@ class Buffers:
             return arr.numpy()[:n].copy()
         return host[:n].copy()
 
+    def recorded(self, kernel, lanes: int, tag: Any = None) -> list:
+        """The recorded launches (one per lane on the CPU) of `kernel` over `lanes` lanes
+        with `tag`, as :meth:`launch` last ran them (benchmarks replay them alone)."""
+        return self._launches[(kernel.key, lanes, tag)].cmds
+
     def launch(self, kernel, args: list, lanes: int, tag: Any = None) -> None:
         """Launch `kernel` over `lanes` lanes: on the CPU one host thread per lane (with
         the kernel's argument ``first`` set to the lane), elsewhere one launch of `lanes`

@@ -328,13 +328,14 @@ FLOPS_POSE_TEST = 1000  # prepare one matrix + about four single-pose GJK iterat
 def _kernel_alone(w) -> tuple[tuple[int, int, int], float]:
     """The workload's (nodes, pose tests, supports) from one refinement on one thread, and
     the median CPU time of its recorded launch alone (seconds, ROUNDS replays)."""
+    from harness.certification._refine_kernels import _refine
     from harness.certification.refine import refine_many
 
     out, _ = refine_many(
         w.motions, w.bodies, w.obstacles, aabb=False, tol=TOL, max_depth=24,
         max_nodes=200_000, max_iter=32, threads=1, device="cpu",
     )  # fmt: skip
-    cmd = list(buffers("cpu", "refine")._launches.values())[-1].cmds[0]
+    (cmd,) = buffers("cpu", "refine").recorded(_refine, 1, tag=False)
     times = []
     for _ in range(ROUNDS):
         c = time.process_time()
