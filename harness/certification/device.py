@@ -253,7 +253,7 @@ class Buffers:
     def put_concat(self, name: str, parts: list, wp_dtype):
         """Write the concatenation of `parts` (arrays with equal trailing shapes) into
         buffer `name` directly (one copy instead of two)."""
-        n = sum(len(p) for p in parts)
+        n = sum(map(len, parts))
         host, arr = self._get(name, (n,) + parts[0].shape[1:], parts[0].dtype, wp_dtype)
         np.concatenate(parts, out=host[:n])
         if not is_cpu(self.device):

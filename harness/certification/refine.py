@@ -389,16 +389,9 @@ def _pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
 def _pack_shapes_many(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     # the distinct obstacle lists (by identity), then the distinct bodies and obstacles,
     # with numpy on the shapes' identities: a batch's scenes may hold thousands of
-    # obstacles per motion (per-shape dict work cost ~1 us a shape)
-    list_ix: dict[int, int] = {}
-    uniq: list[list[Shape]] = []
-    lists = []
-    for lst in obst:
-        j = list_ix.get(id(lst))
-        if j is None:
-            j = list_ix[id(lst)] = len(uniq)
-            uniq.append(lst)
-        lists.append(j)
+    # obstacles per motion (per-shape dict work cost ~1 us a shape), and a batch of
+    # thousands of motions as many lists (a Python loop over them: ~0.4 ms a thousand)
+    uniq, lists_a, _ = _distinct(obst)
     # bodies and obstacles apart: a batch usually shares a few bodies, while its
     # obstacles are all distinct (then no reordering: one pass less over thousands);
     # together where a shape is both
@@ -423,7 +416,6 @@ def _pack_shapes_many(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     )
     ls = np.zeros(len(uniq) + 1, dtype=np.int64)
     np.cumsum(np.fromiter(map(len, uniq), dtype=np.int64, count=len(uniq)), out=ls[1:])
-    lists_a = np.asarray(lists, dtype=np.int64)
     m_obst = np.stack([part_start[ls[lists_a]], part_start[ls[lists_a + 1]]], axis=1).astype(
         np.int32
     )
@@ -433,9 +425,9 @@ def _pack_shapes_many(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     return table, m_parts, m_obst, o_idx, n_obst
 
 
-def _distinct(items: list[Shape]) -> tuple[list[Shape], np.ndarray, np.ndarray]:
-    """The distinct shapes of `items` (by identity, in order of first appearance), each
-    item's index among them, and their identities sorted."""
+def _distinct(items: list) -> tuple[list, np.ndarray, np.ndarray]:
+    """The distinct objects of `items` (shapes, or lists of them: by identity, in order of
+    first appearance), each item's index among them, and their identities sorted."""
     ids = np.fromiter(map(id, items), dtype=np.uint64, count=len(items))
     u, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
     if len(first) == len(items):
