@@ -127,7 +127,7 @@ def test_single_queries_of_growing_sizes_equal_the_batch():
     # a single query writes its inputs into an arena laid out for the sizes seen so far,
     # which is laid out anew when a query needs more room (more pieces, control
     # matrices, obstacle parts, mesh vertices): queries alternating between small and
-    # large motions and obstacle lists give the batch's certificates
+    # large motions and obstacle lists give the batch's certificates and clearances
     from harness import Compound, ConvexMesh
     from harness.certification.device import buffers
 
@@ -152,6 +152,16 @@ def test_single_queries_of_growing_sizes_equal_the_batch():
             for i in rng.permutation(len(ms)):
                 got = certify(ms[i], bodies[i], obstacles[i], bound=bound)
                 assert _same(got, batch[i]), (bound, i, got, batch[i])
+    from harness import clearance, clearance_many
+
+    batch = clearance_many(ms, bodies, obstacles)
+    for _ in range(2):
+        for i in rng.permutation(len(ms)):
+            got, want = (
+                repr({k: v for k, v in vars(c).items() if k != "seconds"})
+                for c in (clearance(ms[i], bodies[i], obstacles[i]), batch[i])
+            )
+            assert got == want, (i, got, want)
     grown = buffers("cpu", "refine")._arenas
     big = len(ms[4]._certify_packed.ctrl)  # (the largest motion's control matrices)
     assert grown["one"].rows[-1] >= 2 * big > 8 * len(ms[0]._certify_packed.ctrl)
