@@ -162,11 +162,24 @@ def test_single_queries_of_growing_sizes_equal_the_batch():
                 for c in (clearance(ms[i], bodies[i], obstacles[i]), batch[i])
             )
             assert got == want, (i, got, want)
-    grown = buffers("cpu", "refine")._arenas
+    # each size class has its own arena, so a small query's image stays small after a
+    # large one (one arena grown to the largest query made every image that large)
+    from harness.certification.refine import _shape_images
+
+    arenas = buffers("cpu", "refine")._arenas
+    rooms = sorted(room[-1] for (name, room) in arenas if name == "one")
     big = len(ms[4]._certify_packed.ctrl)  # (the largest motion's control matrices)
-    assert grown["one"].rows[-1] >= 2 * big > 8 * len(ms[0]._certify_packed.ctrl)
-    parts, verts = grown["one_shapes"].rows[2], grown["one_shapes"].rows[-1]
-    assert parts >= 2 * 42 and verts > 8, grown["one_shapes"].rows  # (42: 1 + 1 + 20 x 2)
+    assert rooms[-1] >= big and rooms[0] < big / 8, rooms
+    for m in ms:
+        pack = m._certify_packed
+        (img,) = pack.images.values()
+        assert len(img) <= 2 * (pack.ctrl.nbytes + pack.rows.nbytes) + 4096, len(img)
+    parts = sorted(room[2] for (name, room) in arenas if name == "one_shapes")
+    assert parts[-1] >= 42 and parts[0] <= 8, parts  # (42: 1 + 1 + 20 x 2)
+    for shaped, _key, img in _shape_images.values():
+        table = shaped[0]
+        data = table.records.nbytes + table.verts.nbytes + 4 * len(shaped[3])
+        assert len(img) <= 2 * data + 4096, (len(img), data)
 
 
 def test_arena_writes_each_input_where_its_array_reads():
@@ -243,6 +256,34 @@ def test_lanes_run_once_each_and_raise_a_lanes_error():
     seen = []
     run_lanes(3, seen.append)  # (the kept threads still serve)
     assert sorted(seen) == [0, 1, 2]
+
+
+def test_an_interrupt_while_lanes_run_waits_for_them():
+    # Ctrl-C while the calling thread waits for another lane: the launch on that lane
+    # cannot be stopped, so run_lanes raises only once it has run; the next call's lanes
+    # run afresh (a lane left running would write into the buffers the next call reads)
+    import os
+    import signal
+    import threading
+    import time
+
+    from harness.certification.device import run_lanes
+
+    finished = []
+
+    def slow(i):
+        if i == 1:
+            time.sleep(0.3)
+        finished.append(i)
+
+    timer = threading.Timer(0.1, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        run_lanes(2, slow)
+    assert sorted(finished) == [0, 1]
+    finished.clear()
+    run_lanes(2, slow)
+    assert sorted(finished) == [0, 1]  # (returned only once the slow lane had run)
 
 
 def test_lanes_from_two_callers_and_after_a_fork():

@@ -40,6 +40,7 @@ from .refine import (
     Outcome,
     Packed,
     lane_count,
+    launch_tag,
     pack_inputs,
     pack_pieces,
     pack_shapes,
@@ -323,7 +324,7 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
             buf.out("out_n", (n, OUT_N), np.int32, wp.int32)[1],
         ]
         kernel = K._advance if kernel_name == "advance" else K._sample
-        buf.launch(kernel, args, lanes, tag=n == 1)
+        buf.launch(kernel, args, lanes, tag=launch_tag(arrays, n))
         outs.append(Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
     return Outcome.concat(outs), time.perf_counter() - start
 

@@ -517,6 +517,13 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     return arrays, kmax
 
 
+def launch_tag(arrays: dict, n: int) -> tuple | None:
+    """The tag of a launch on `arrays` (see :meth:`.device.Buffers.launch`): a single
+    query's by the arenas its inputs lie in (one recorded launch per pair of size
+    classes), None for a batch's buffers."""
+    return (id(arrays["ctrl"]), id(arrays["shapes"])) if n == 1 else None
+
+
 def _one_spec() -> tuple:
     """The layout of a single query's pieces in its :class:`.device.Arena` (the control
     matrices last: they are the most rows)."""
@@ -568,7 +575,7 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
                 "ctrl": ctrl,
             }
         )
-        images.clear()  # (one layout at a time: the arena only grows)
+        images.clear()  # (one layout: a motion's size class is its own)
         images[arena.key] = img
     arena.write(img)
     arena.views["m_nodes0"][0] = nodes0
@@ -711,7 +718,7 @@ def _chunk(packs, bodies, obst, aabb, tol, max_depth, max_nodes, max_iter, threa
         buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
         buf.out("out_n", (n, OUT_N), np.int32, wp.int32)[1],
     ]
-    buf.launch(_refine, args, lanes, tag=n == 1)
+    buf.launch(_refine, args, lanes, tag=launch_tag(arrays, n))
     return Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n))
 
 
@@ -770,5 +777,5 @@ def clearance_chunk(packs, bodies, obst, tol, max_depth, max_nodes, max_iter, th
         buf.out("out_t", (n, 3), np.float64, wp.float64)[1],
         buf.out("out_n", (n, 4), np.int32, wp.int32)[1],
     ]
-    buf.launch(_clearance, args, lanes, tag=n == 1)
+    buf.launch(_clearance, args, lanes, tag=launch_tag(arrays, n))
     return buf.fetch("out_t", n), buf.fetch("out_n", n)
