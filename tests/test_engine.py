@@ -276,11 +276,13 @@ def test_an_interrupt_while_lanes_run_waits_for_them():
             time.sleep(0.3)
         finished.append(i)
 
+    handler = signal.getsignal(signal.SIGINT)
     timer = threading.Timer(0.1, os.kill, (os.getpid(), signal.SIGINT))
     timer.start()
     with pytest.raises(KeyboardInterrupt):
         run_lanes(2, slow)
     assert sorted(finished) == [0, 1]
+    assert signal.getsignal(signal.SIGINT) is handler  # (held back inside, then put back)
     finished.clear()
     run_lanes(2, slow)
     assert sorted(finished) == [0, 1]  # (returned only once the slow lane had run)

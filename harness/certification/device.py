@@ -9,10 +9,14 @@ on the CPU; copied to the device elsewhere). Python packs once, launches once pe
 
 from __future__ import annotations
 
+import _signal
 import os
+import signal
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from signal import SIGINT
 from typing import Any, ClassVar
 
 import numpy as np
@@ -564,60 +568,80 @@ def lane_padding(rows: tuple, np_dtype) -> int:
 def run_lanes(n_lanes: int, launch: Callable[[int], None]) -> None:
     """Run ``launch(first)`` for first in range(n_lanes), one host thread each (a Warp
     CPU launch runs on the calling thread and releases the GIL), and return once every
-    lane has run; a lane's error is raised then."""
+    lane has run; a lane's error is raised then.
+
+    A SIGINT (Ctrl-C) that arrives meanwhile takes effect once every lane has run (see
+    :func:`_sigint_held`): a launch cannot be stopped, and a lane left running would write
+    into the buffers that the next call reuses."""
     if n_lanes <= 1:
         launch(0)
         return
-    # lane 0 runs on the calling thread: its launch releases the GIL at once, so the
-    # others start without waiting for the interpreter's switch interval (two new
-    # threads and a join cost ~1.5 ms a call more on a 20 ms launch)
-    helpers = _LaneThread.take(n_lanes - 1)
-    if helpers is None:  # (another thread's launch has them)
-        ts = [threading.Thread(target=launch, args=(i,)) for i in range(1, n_lanes)]
-        for t in ts:
-            t.start()
+    with _sigint_held():
+        # lane 0 runs on the calling thread: its launch releases the GIL at once, so
+        # the others start without waiting for the interpreter's switch interval (two
+        # new threads and a join cost ~1.5 ms a call more on a 20 ms launch)
+        helpers = _LaneThread.take(n_lanes - 1)
+        if helpers is None:  # (another thread's launch has them)
+            ts = [threading.Thread(target=launch, args=(i,)) for i in range(1, n_lanes)]
+            try:
+                for t in ts:
+                    t.start()
+                launch(0)
+            finally:
+                for t in ts:
+                    if t.ident is not None:
+                        t.join()
+            return
+        started: list[_LaneThread] = []
+        errors: list[BaseException] = []
         try:
-            launch(0)
+            try:
+                for i, h in enumerate(helpers, 1):
+                    h.start(launch, i)
+                    started.append(h)
+                launch(0)
+            finally:
+                for h in started:
+                    e = h.wait()
+                    if e is not None:
+                        errors.append(e)
         finally:
-            for t in ts:
-                _uninterrupted(t.join)
-        return
-    started: list[_LaneThread] = []
-    errors: list[BaseException] = []
-    try:
-        try:
-            for i, h in enumerate(helpers, 1):
-                # (appended once started: CPython raises a KeyboardInterrupt at a
-                # function's entry or a loop's back edge, neither between the two)
-                h.start(launch, i)
-                started.append(h)
-            launch(0)
-        finally:
-            for h in started:
-                e = _uninterrupted(h.wait)
-                if e is not None:
-                    errors.append(e)
-    finally:
-        _LaneThread.give_back()
+            _LaneThread.give_back()
     if errors:
         raise errors[0]
 
 
-def _uninterrupted(wait: Callable[[], Any]) -> Any:
-    """``wait()``, waited for to the end even if a KeyboardInterrupt (or another
-    asynchronous exception) arrives meanwhile, which is raised after it: a lane's launch
-    cannot be stopped, and a lane left running would write into the buffers that the next
-    call reuses."""
-    interrupted = None
-    while True:
-        try:
-            out = wait()
-            break
-        except BaseException as e:
-            interrupted = e
-    if interrupted is not None:
-        raise interrupted
-    return out
+@contextmanager
+def _sigint_held() -> Iterator[None]:
+    """SIGINT held back inside: on the main thread (the only one Python's signal handlers
+    run on) the handler is replaced by one that notes the signal, and the handler it
+    replaced runs on the way out (KeyboardInterrupt, by default). Python raises a
+    handler's exception after any C call returns, so a KeyboardInterrupt could land
+    between releasing a lane and noting it, or inside a lock's bookkeeping (a review's
+    signal storms found both: lanes left running into the next call, a hang).
+
+    The handlers are swapped by ``_signal`` itself: ``signal.signal`` converts its result
+    in Python after the swap, where the handler it replaced can still raise, which would
+    leave the noting handler in place for good."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = _signal.getsignal(SIGINT)
+    if old is None:  # (a handler not installed from Python: it cannot be put back)
+        yield
+        return
+    caught: list = []
+    # (from here the handler raises nothing: a signal that came before is noted too)
+    _signal.signal(SIGINT, lambda signum, frame: caught.append(frame))
+    try:
+        yield
+    finally:
+        _signal.signal(SIGINT, old)
+        if caught:
+            if callable(old):
+                old(SIGINT, caught[0])
+            elif old == signal.SIG_DFL:
+                signal.raise_signal(SIGINT)
 
 
 class _LaneThread:
@@ -630,10 +654,9 @@ class _LaneThread:
     _busy: ClassVar[Any] = threading.Lock()
 
     def __init__(self):
-        # (the caller waits on an event, not a lock: waiting again after an interrupt
-        # must not need the lane to finish twice)
-        self._go, self._done = threading.Lock(), threading.Event()
+        self._go, self._done = threading.Lock(), threading.Lock()
         self._go.acquire()
+        self._done.acquire()
         self._job: Callable[[], None] | None = None
         self._error: BaseException | None = None
         threading.Thread(target=self._loop, daemon=True, name="rsmbench-lane").start()
@@ -654,21 +677,14 @@ class _LaneThread:
     def give_back(cls) -> None:
         cls._busy.release()
 
-    @classmethod
-    def forget(cls) -> None:
-        """In a forked child: the parent's threads were not copied, and its lock may have
-        been held by a launch in flight."""
-        cls._all, cls._busy = [], threading.Lock()
-
     def start(self, launch: Callable[[int], None], lane: int) -> None:
         self._error = None
-        self._done.clear()
         self._job = lambda: launch(lane)
         self._go.release()
 
     def wait(self) -> BaseException | None:
-        """The lane's error (None) once it has run (may be called again)."""
-        self._done.wait()
+        """The lane's error (None) once it has run."""
+        self._done.acquire()
         return self._error
 
     def _loop(self) -> None:
@@ -680,8 +696,16 @@ class _LaneThread:
                 self._error = e
             finally:
                 self._job = None
-                self._done.set()
+                self._done.release()
+
+
+def _forget_locks_after_fork() -> None:
+    """In a forked child: the parent's lane threads were not copied, and locks held by
+    the parent's other threads at the fork would never be released."""
+    global _lock, _record_lock
+    _lock, _record_lock = threading.Lock(), threading.Lock()
+    _LaneThread._all, _LaneThread._busy = [], threading.Lock()
 
 
 if hasattr(os, "register_at_fork"):  # (POSIX)
-    os.register_at_fork(after_in_child=_LaneThread.forget)
+    os.register_at_fork(after_in_child=_forget_locks_after_fork)
