@@ -51,7 +51,7 @@ def _child(launches: int, info_path: Path) -> None:
         w.motions, w.bodies, w.obstacles, aabb=False, tol=TOL, max_depth=24,
         max_nodes=200_000, max_iter=32, threads=1, device="cpu",
     )  # fmt: skip
-    (cmd,) = buffers("cpu", "refine").recorded(rk._refine, 1, tag=False)
+    (cmd,) = buffers("cpu", "refine").recorded(rk._refine, 1)
     module = rk._refine.module
     (exec_,) = module.execs.values()
     entry = rk._refine.get_mangled_name() + "_cpu_forward"

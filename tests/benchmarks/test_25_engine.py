@@ -335,7 +335,7 @@ def _kernel_alone(w) -> tuple[tuple[int, int, int], float]:
         w.motions, w.bodies, w.obstacles, aabb=False, tol=TOL, max_depth=24,
         max_nodes=200_000, max_iter=32, threads=1, device="cpu",
     )  # fmt: skip
-    (cmd,) = buffers("cpu", "refine").recorded(_refine, 1, tag=False)
+    (cmd,) = buffers("cpu", "refine").recorded(_refine, 1)
     times = []
     for _ in range(ROUNDS):
         c = time.process_time()
