@@ -290,12 +290,12 @@ class Buffers:
 
     def spread(self, lanes: int) -> tuple[int, Any]:
         """The kernels' arguments `stride` and `work` of a launch over `lanes` lanes. On
-        the CPU with two lanes or more the lanes take
-        motions as they come (stride 0; the counter ``work[0]`` zeroed here, just before
-        the launch): a lane that started later or ran slower takes fewer, and a batch
-        whose costly motions alternate with cheap ones no longer goes all to one lane
-        (striding by two: two threads gained 1.09x on such a batch of the workload, 1.32-1.41x
-        taking motions as they come). Elsewhere lane i takes i, i + lanes, ..."""
+        the CPU with two lanes or more the lanes take motions as they come (stride 0;
+        the counter ``work[0]`` zeroed here, just before the launch): a lane that
+        started later or ran slower takes fewer, and a batch whose costly motions
+        alternate with cheap ones no longer goes all to one lane (striding by two, two
+        threads gained 1.09x on such a batch of the workload; taking motions as they
+        come, 1.32-1.41x). Elsewhere lane i takes i, i + lanes, ..."""
         host, arr = self.out("work", (1,), np.int32, warp().int32)
         host[0] = 0
         return (0 if self.cpu and lanes > 1 else lanes), arr
