@@ -40,6 +40,15 @@ def _motions():
     return out
 
 
+@pytest.fixture(autouse=True)
+def _two_lanes_even_for_small_batches(monkeypatch):
+    # a CPU launch of a small hull batch takes one lane (refine.PAIRS_A_LANE): these
+    # tests compare one lane with two on scenes of a dozen motions, so they lift that
+    from harness.certification import refine
+
+    monkeypatch.setattr(refine, "PAIRS_A_LANE", 1)
+
+
 @pytest.fixture(scope="module")
 def scene():
     ms = _motions()
@@ -228,6 +237,24 @@ def test_lanes_taking_motions_as_they_come_certify_each_once(scene, bound):
     got = certify_many(*big, bound=bound, threads=2)
     bad = [i for i, c in enumerate(got) if not _same(c, alone[i % len(ms)])]
     assert not bad, bad[:10]
+
+
+def test_a_small_batch_takes_one_lane(scene, monkeypatch):
+    # two lanes cost more than they gain below PAIRS_A_LANE (piece, obstacle) pairs a
+    # lane: such a batch launches one lane whatever `threads` says, a larger one two
+    from harness.certification import refine
+    from harness.certification.device import buffers
+
+    monkeypatch.setattr(refine, "PAIRS_A_LANE", 128)
+    launches = buffers("cpu", "refine")._launches
+    big = [x * 8 for x in scene]
+    for k, want in ((3, 1), (12, 1), (13 * 8, 2)):
+        sub = [x[:k] for x in big]
+        pairs = refine.batch_pairs(refine.packed_all(sub[0]), sub[2])
+        launches.clear()
+        certify_many(*sub, threads=2)
+        (key,) = launches
+        assert key[1] == want == max(1, min(2, pairs // 128)), (k, pairs, key)
 
 
 def test_lanes_run_once_each_and_raise_a_lanes_error():

@@ -509,8 +509,10 @@ def certify_many(
     `obstacles` is one sequence shared by all motions, or one sequence per motion;
     `body` is one shape, or one shape per motion. `threads`: host threads of a CPU launch,
     each taking part of the batch, but no more than the CPUs the process may run on (its
-    affinity, read on the first query: ``taskset`` narrows it); the certificates do not
-    depend on it.
+    affinity, read on the first query: ``taskset`` narrows it), and for ``hull`` and
+    ``aabb`` no more than one per 128 (piece, obstacle) pairs of the batch (a second
+    thread costs ~0.1 ms to wake; a batch of 32 workload pairs gained nothing from it);
+    the certificates do not depend on it.
 
     ``bound="fcl"`` / ``"ipctk"`` run the external comparators (extra ``comparators``;
     :mod:`harness.comparators`, options in `comparator_options`). Their answers are the
