@@ -191,6 +191,41 @@ def test_single_queries_of_growing_sizes_equal_the_batch():
         assert len(img) <= 2 * data + 4096, (len(img), data)
 
 
+def test_single_queries_without_shared_memory_equal_the_batch(scene, monkeypatch):
+    # on a device whose buffers are not the host's (CUDA) a single query writes its
+    # inputs one by one instead of into an arena: that path, run here on the CPU's
+    # buffers told they are not shared, gives the batch's certificates and clearances
+    from harness import clearance, clearance_many
+    from harness.certification import refine
+    from harness.certification.device import buffers
+
+    ms, bodies, obstacles = scene
+    put_motions = [0]
+    put_each = refine._put_each
+
+    def counted(buf, spec, data):
+        put_motions[0] += "ctrl" in data
+        return put_each(buf, spec, data)
+
+    want = {b: certify_many(ms, bodies, obstacles, bound=b) for b in ("hull", "lipschitz")}
+    want_c = clearance_many(ms, bodies, obstacles)
+    for owner in ("refine", "clearance", "advance"):
+        buf = buffers("cpu", owner)
+        monkeypatch.setattr(buf, "cpu", False)
+        buf.packed = None  # (not restored: the puts below overwrite what it names)
+    monkeypatch.setattr(refine, "_put_each", counted)
+    for i in range(len(ms)):
+        for b, batch in want.items():
+            got = certify(ms[i], bodies[i], obstacles[i], bound=b)
+            assert _same(got, batch[i]), (b, i, got, batch[i])
+        got_c, want_ci = (
+            repr({k: v for k, v in vars(c).items() if k != "seconds"})
+            for c in (clearance(ms[i], bodies[i], obstacles[i]), want_c[i])
+        )
+        assert got_c == want_ci, (i, got_c, want_ci)
+    assert put_motions[0] >= 3 * len(ms)  # (the path taken: every query put its motion)
+
+
 def test_arena_writes_each_input_where_its_array_reads():
     from harness.certification.device import Arena, warp
 

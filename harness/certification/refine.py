@@ -574,27 +574,18 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
     ctrl, k, rows, extra = pack[:4]
     shaped = pack_shapes(bodies, obst)
     nodes0 = extra * max(1, int(shaped[4][0]))
-    n_pieces = len(rows)
     if not buf.cpu:
-        return _put_one(buf, pack, shaped, nodes0), abs(k)
+        data = _one_inputs(pack)
+        data["m_nodes0"] = np.array([nodes0], dtype=np.int32)
+        return {**_put_each(buf, _one_spec(), data), **_put_shapes(buf, shaped)}, abs(k)
+    n_pieces = len(rows)
     arena = buf.arena(
         "one", _one_spec(), (n_pieces, n_pieces, 1, 1, n_pieces, n_pieces, n_pieces, len(ctrl))
     )
     images = pack.images if pack.images is not None else {}
     img = images.get(arena.key)
     if img is None:
-        img = arena.image(
-            {
-                "p_start": np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32),
-                "p_k": np.full(n_pieces, k, dtype=np.int32),
-                "m_pieces": np.array([[0, n_pieces]], dtype=np.int32),
-                "m_nodes0": np.zeros(1, dtype=np.int32),
-                "p_t": rows[:, 0:2],
-                "p_err": rows[:, 2:5],
-                "p_reach": rows[:, 5:],
-                "ctrl": ctrl,
-            }
-        )
+        img = arena.image(_one_inputs(pack))
         images.clear()  # (one layout: a motion's size class is its own)
         images[arena.key] = img
     arena.write(img)
@@ -602,25 +593,46 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
     return {**arena.arrays, **_shapes_one(buf, shaped)}, abs(k)
 
 
+def _one_inputs(pack: Packed) -> dict:
+    """A single motion's inputs by :func:`_one_spec`'s names (``m_nodes0``, which depends
+    on the obstacles, zero; the reach records as their float64 rows)."""
+    ctrl, k, rows = pack[:3]
+    n_pieces = len(rows)
+    return {
+        "p_start": np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32),
+        "p_k": np.full(n_pieces, k, dtype=np.int32),
+        "m_pieces": np.array([[0, n_pieces]], dtype=np.int32),
+        "m_nodes0": np.zeros(1, dtype=np.int32),
+        "p_t": rows[:, 0:2],
+        "p_err": rows[:, 2:5],
+        "p_reach": rows[:, 5:],
+        "ctrl": ctrl,
+    }
+
+
+def _put_each(buf, spec: tuple, data: dict) -> dict:
+    """`data` (an :class:`.device.Arena` spec's inputs) written to `buf` input by input,
+    as on a device without shared memory; float64 rows for a record input are its
+    records' bytes."""
+    out = {}
+    for name, dt, wdt, _trail in spec:
+        x = data[name]
+        rows_of_records = np.dtype(dt).fields is not None and x.dtype == np.float64
+        out[name] = (buf.put_records if rows_of_records else buf.put)(name, x, wdt)
+    return out
+
+
 def _shapes_one(buf, shaped: tuple) -> dict:
     """:func:`_put_shapes` of a single query on the CPU: one copy of the packing's image
     in the buffers' shape arena (made once per packing: small queries' packings are
     cached, :data:`SHAPE_CACHE`)."""
-    table, m_parts, m_obst, o_idx, _n_obst = shaped
-    o_idx = o_idx if len(o_idx) else np.zeros(1, np.int32)
-    arena = buf.arena(
-        "one_shapes", _shapes_spec(), (1, 1, len(o_idx), len(table.records), len(table.verts))
-    )
+    data = _shape_inputs(shaped)
+    arena = buf.arena("one_shapes", _shapes_spec(), tuple(map(len, data.values())))
     if buf.shapes_one is not None and buf.shapes_one[0] is shaped:
         return buf.shapes_one[1]
     hit = _shape_images.get(id(shaped))
     if hit is None or hit[0] is not shaped or hit[1] != arena.key:
-        img = arena.image(
-            {
-                "m_parts": m_parts, "m_obst": m_obst, "o_idx": o_idx,
-                "shapes": table.records, "verts": table.verts,
-            }
-        )  # fmt: skip
+        img = arena.image(data)
         if len(_shape_images) >= SHAPE_CACHE:
             _shape_images.clear()
         hit = _shape_images[id(shaped)] = (shaped, arena.key, img)
@@ -632,6 +644,19 @@ def _shapes_one(buf, shaped: tuple) -> dict:
 _shape_images: dict[int, tuple] = {}
 """Images of recent single queries' shape packings (see :func:`_shapes_one`), holding
 the packings alive (their identities key this)."""
+
+
+def _shape_inputs(shaped: tuple) -> dict:
+    """The shape inputs of a packing from :func:`pack_shapes`, by :func:`_shapes_spec`'s
+    names and in its order (``o_idx`` one padding entry where no obstacle has a part)."""
+    table, m_parts, m_obst, o_idx, _n_obst = shaped
+    return {
+        "m_parts": m_parts,
+        "m_obst": m_obst,
+        "o_idx": o_idx if len(o_idx) else np.zeros(1, np.int32),
+        "shapes": table.records,
+        "verts": table.verts,
+    }
 
 
 def _shapes_spec() -> tuple:
@@ -651,26 +676,6 @@ def _shapes_spec() -> tuple:
 _sspec = None
 
 
-def _put_one(buf, pack: Packed, shaped: tuple, nodes0: int) -> dict:
-    """A single motion's inputs written to `buf` input by input (another device)."""
-    wp = warp()
-    ctrl, k, rows = pack[:3]
-    n_pieces = len(rows)
-    return {
-        "ctrl": buf.put("ctrl", ctrl, wp.mat44d),
-        "p_start": buf.put(
-            "p_start", np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32), wp.int32
-        ),
-        "p_k": buf.put("p_k", np.full(n_pieces, k, dtype=np.int32), wp.int32),
-        "p_t": buf.put("p_t", rows[:, 0:2], wp.vec2d),
-        "p_err": buf.put("p_err", rows[:, 2:5], wp.vec3d),
-        "p_reach": buf.put_records("p_reach", rows[:, 5:], _kernels().Reach),
-        "m_pieces": buf.put("m_pieces", np.array([[0, n_pieces]], dtype=np.int32), wp.vec2i),
-        "m_nodes0": buf.put("m_nodes0", np.array([nodes0], dtype=np.int32), wp.int32),
-        **_put_shapes(buf, shaped),
-    }
-
-
 def _put_shapes(buf, shaped: tuple) -> dict:
     """The shape inputs of a packing from :func:`pack_shapes`, written to `buf` unless they
     are the very packing written last (one body and obstacles queried with motion after
@@ -678,16 +683,8 @@ def _put_shapes(buf, shaped: tuple) -> dict:
     last = buf.shapes_put
     if last is not None and last[0] is shaped:
         return last[1]
-    wp = warp()
-    table, m_parts, m_obst, o_idx, _n_obst = shaped
     buf.shapes_put = None  # until every shape input is written
-    put = {
-        "m_parts": buf.put("m_parts", m_parts, wp.vec2i),
-        "m_obst": buf.put("m_obst", m_obst, wp.vec2i),
-        "o_idx": buf.put("o_idx", o_idx if len(o_idx) else np.zeros(1, np.int32), wp.int32),
-        "shapes": buf.put("shapes", table.records, _kernels().Shape),
-        "verts": buf.put("verts", table.verts, wp.vec3d),
-    }
+    put = _put_each(buf, _shapes_spec(), _shape_inputs(shaped))
     buf.shapes_put = (shaped, put)
     return put
 
