@@ -11,6 +11,7 @@ from __future__ import annotations
 import functools
 import inspect
 import math
+import operator
 import os
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -630,6 +631,55 @@ class Owners:
         own = self._owners[key]
         return part if own is None else int(own[part])
 
+    def many(self, rows: np.ndarray, parts: np.ndarray) -> np.ndarray:
+        """``owners(i, p)`` for each `i` of `rows` and `p` of `parts` (int arrays), -1
+        for None: without a Python call for lists of one obstacle (as the workload's)."""
+        out = np.where(parts < 0, -1, parts).astype(np.int64)
+        lens = np.fromiter(
+            map(len, map(self.lists.__getitem__, rows.tolist())), np.int64, len(rows)
+        )
+        out[(lens == 1) & (parts >= 0)] = 0
+        for j in np.flatnonzero((lens > 1) & (parts >= 0)).tolist():
+            out[j] = self(int(rows[j]), int(parts[j]))
+        return out
+
+
+def reported_times(t: np.ndarray, c: np.ndarray, rows: np.ndarray, motions, obstacles):
+    """The reported ``toi_lo`` and ``obstacle`` (-1 for None) of outcome rows `rows` (an
+    int array) of a batch (see :class:`.refine.Outcome`): the kernel's ``toi_lo`` (+inf
+    where it has none) lowered by the round-off of halved times, not below the domain's
+    start; the owner of the contact's obstacle part, else of the witness's. Vectorised:
+    for more than one motion (a single query's lists cost less than these numpy calls)."""
+    tt, cc = t[rows], c[rows]
+    lo = np.where(tt[:, 0] <= BIG, tt[:, 0], math.inf)
+    some = np.flatnonzero(np.isfinite(lo))
+    if some.size:
+        doms = map(_DOMAIN, map(motions.__getitem__, rows[some].tolist()))
+        dom = np.fromiter(chain.from_iterable(doms), float, 2 * some.size).reshape(-1, 2)
+        a, b, x = dom[:, 0], dom[:, 1], lo[some]
+        # halved pieces' times are computed by averaging: lower by their round-off
+        scale = np.maximum(np.maximum(np.abs(x), np.abs(a)), np.abs(b))
+        lo[some] = np.where(x > a, np.maximum(x - TIME_ULPS * UNIT_ROUNDOFF * scale, a), x)
+    hit = tt[:, 1] <= BIG
+    parts = np.where(hit, cc[:, 8], np.where(tt[:, 2] <= BIG, cc[:, 9], -1))
+    return lo, Owners(obstacles).many(rows, parts)
+
+
+_DOMAIN = operator.attrgetter("domain")
+
+
+def _reported_one(t: list, c: list, motion, obstacles) -> tuple[list, list]:
+    """:func:`reported_times` of a single query's rows `t`, `c` (lists), as lists."""
+    lo = t[0] if t[0] <= BIG else math.inf
+    if lo != math.inf:
+        a, b = motion.domain
+        if lo > a:
+            scale = max(abs(lo), abs(a), abs(b))
+            lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, a)
+    part = c[8] if t[1] <= BIG else c[9] if t[2] <= BIG else -1
+    ob = Owners(obstacles)(0, part)
+    return [lo], [-1 if ob is None else ob]
+
 
 def assemble(
     out, elapsed: float, bound: str, tol: float, *, certified, motions, obstacles
@@ -651,22 +701,25 @@ def assemble(
         more = [0] if any(cl[0][4:7]) else []
         special = [0] if tl[0][1] <= BIG or cl[0][3] != 0 else []
         sp_t = tl[:1] if special else []  # (indexing by a list costs ~8 µs, even empty)
-        sp_c = [[cl[0][3], cl[0][8], cl[0][9]]] if special else []
+        sp_why = [cl[0][3]] if special else []
+        lo_sp, ob_sp = _reported_one(tl[0], cl[0], motions[0], obstacles) if special else ([], [])
     else:
         nodes = c[:, 0]
         seconds = (elapsed * nodes / max(1, int(nodes.sum()))).tolist()
         rows = c[:, :3].tolist()
         more = np.flatnonzero(c[:, 4:7].any(axis=1)).tolist()
-        special = np.flatnonzero((t[:, 1] <= BIG) | (c[:, 3] != 0)).tolist()
+        at = np.flatnonzero((t[:, 1] <= BIG) | (c[:, 3] != 0))
+        special = at.tolist()
         # (their rows gathered once: indexing one row of a numpy array costs ~0.2 us)
-        sp_t = t[special].tolist()
-        sp_c = c[special][:, (3, 8, 9)].tolist()
+        sp_t = t[at].tolist()
+        sp_why = c[at, 3].tolist()
+        lo, ob = reported_times(t, c, at, motions, obstacles)
+        lo_sp, ob_sp = lo.tolist(), ob.tolist()
     if isinstance(certified, bool):
         cert = [certified] * n
     else:
         cert = [bool(x) for x in certified]
     inf, nan = math.inf, math.nan
-    owner = Owners(obstacles)
     # every certificate starts as a copy of this (fields in declaration order; a frozen
     # dataclass's __init__ costs ~2 us, copying a dict is cheaper than a dict display)
     free = {
@@ -689,22 +742,15 @@ def assemble(
         res[i].__dict__["unresolved"] = {
             k: x for k, x in zip(KERNEL_REASONS.values(), c[i, 4:7].tolist(), strict=True) if x
         }
-    for i, ti, (why, hit, near) in zip(special, sp_t, sp_c, strict=True):
+    for i, ti, why, lo, ob in zip(special, sp_t, sp_why, lo_sp, ob_sp, strict=True):
         d = res[i].__dict__
-        lo = ti[0] if ti[0] <= BIG else inf
-        if lo != inf:
-            a, b = motions[i].domain
-            if lo > a:
-                # halved pieces' times are computed by averaging: lower by their round-off
-                scale = max(abs(lo), abs(a), abs(b))
-                lo = max(lo - TIME_ULPS * UNIT_ROUNDOFF * scale, a)
         d["toi_lo"] = lo
         if ti[1] <= BIG:
             d["verdict"], d["reason"], d["toi_hi"] = "collision", "contact", ti[1]
-            d["obstacle"] = owner(i, hit)
         else:
             d["verdict"], d["reason"] = "unknown", KERNEL_REASONS[why]
             if ti[2] <= BIG:
                 d["witness_time"], d["witness_distance"] = ti[2], ti[3]
-                d["obstacle"] = owner(i, near)
+        if ob >= 0:
+            d["obstacle"] = ob
     return res

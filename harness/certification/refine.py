@@ -482,6 +482,11 @@ def _pack_shapes_one(body: Shape, obst: list[Shape]) -> tuple:
     )
 
 
+def _distinct_obstacles(obst, lens) -> int:
+    """Obstacles in the distinct lists of `obst` (by identity: a list shared is packed once)."""
+    return sum(dict(zip(map(id, obst), lens, strict=True)).values())
+
+
 def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     """The kernels' inputs on pieces, motions and shapes, written to `buf`: a dict of
     Warp arrays by kernel argument name, and K_max."""
@@ -489,8 +494,8 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     n = len(packs)
     refs = None
     lens = tuple(map(len, obst))
-    distinct = dict(zip(map(id, obst), lens, strict=True))  # an obstacle list shared is packed once
-    if n <= 8 or sum(lens) <= 4 * (n + sum(distinct.values())):
+    total = sum(lens)
+    if n <= 8 or total <= 4 * n or total <= 4 * (n + _distinct_obstacles(obst, lens)):
         # the same query again (packed pieces are cached per motion, shapes are
         # immutable): the buffers still hold its inputs. Checked by identity, in time
         # linear in what packing them costs (not for one long list shared by all).

@@ -18,18 +18,16 @@ import numpy as np
 
 from motions import Motion
 from motions._checks import short
-from motions.pieces import UNIT_ROUNDOFF
 
 from .api import (
     DEFAULT_MAX_NODES,
     ENGINE_BOUNDS,
-    TIME_ULPS,
     Certificate,
-    Owners,
     QueryError,
     check_options,
     checked_engine,
     obstacle_lists,
+    reported_times,
 )
 from .refine import BIG
 from .refine import REASONS as KERNEL_REASONS
@@ -162,21 +160,12 @@ def assemble_table(
     if not np.isin(why[special & ~hit], list(KERNEL_REASONS)).all():  # (assemble's KeyError)
         raise ValueError(f"Unknown reason code among {sorted(set(why.tolist()))}.")
     reason = np.where(hit, 1, np.where(special, _REASON_CODE[np.clip(why, 0, None)], 0))
-    # toi_lo: the kernels' (the special rows'), lowered by the round-off of halved times
-    lo = np.where(special & (t[:, 0] <= BIG), t[:, 0], math.inf)
-    rows = np.flatnonzero(np.isfinite(lo))
-    if rows.size:
-        dom = np.array([motions[i].domain for i in rows.tolist()], dtype=float)
-        a, b, x = dom[:, 0], dom[:, 1], lo[rows]
-        scale = np.maximum(np.maximum(np.abs(x), np.abs(a)), np.abs(b))
-        lo[rows] = np.where(x > a, np.maximum(x - TIME_ULPS * UNIT_ROUNDOFF * scale, a), x)
+    # toi_lo and obstacle: the special rows' (toi_lo lowered by halved times' round-off)
+    lo = np.full(n, math.inf)
     obstacle = np.full(n, -1, dtype=np.int64)
-    named = np.flatnonzero(hit | witness)
-    if named.size:
-        part = np.where(hit, c[:, 8], c[:, 9])
-        owner = Owners(obstacles)
-        named_as = (owner(i, p) for i, p in zip(named.tolist(), part[named].tolist(), strict=True))
-        obstacle[named] = [-1 if o is None else o for o in named_as]
+    at = np.flatnonzero(special)
+    if at.size:
+        lo[at], obstacle[at] = reported_times(t, c, at, motions, obstacles)
     nan = np.full(n, math.nan)
     return CertificateTable(
         verdict=_VERDICTS[code],
