@@ -191,6 +191,44 @@ def test_single_queries_of_growing_sizes_equal_the_batch():
         assert len(img) <= 2 * data + 4096, (len(img), data)
 
 
+def test_arenas_past_their_cap_are_dropped_with_their_launches(monkeypatch):
+    # a mix of size classes makes an arena each: past MAX_ARENAS of a name those are dropped, with
+    # the launches recorded on their arrays (which held them alive); queries after that
+    # still give the batch's certificates
+    from harness.certification import device
+    from harness.certification.device import buffers, warp
+
+    monkeypatch.setattr(device, "MAX_ARENAS", 3)
+    for name in ("one", "one_shapes"):  # (earlier tests' arenas, made under the real cap)
+        buffers("cpu", "refine")._forget_arenas(name)
+    rng = np.random.default_rng(4)
+    ms = [motions.interpolate(*demo_keyframes(k, seed=k)) for k in (3, 9, 20, 40, 80)]
+    bodies = [Sphere(0.1)] * len(ms)
+    obstacles = []
+    for i, m in enumerate(ms):
+        _, pos = m.pose(rng.uniform(*m.domain, 2 + 4 * i))
+        obstacles.append([Sphere(0.15, center=p + rng.normal(size=3) * 0.3) for p in pos])
+    for bound in ("hull", "aabb"):
+        batch = certify_many(ms, bodies, obstacles, bound=bound)
+        buf = buffers("cpu", "refine")
+        made = []
+        for i in list(rng.permutation(len(ms))) * 3:
+            got = certify(ms[i], bodies[i], obstacles[i], bound=bound)
+            assert _same(got, batch[i]), (bound, i, got, batch[i])
+            for name in ("one", "one_shapes"):
+                assert sum(k[0] == name for k in buf._arenas) <= 3, list(buf._arenas)
+            made += [id(a) for a in buf._arenas.values() if id(a) not in made]
+        assert len(made) > 3  # (the cap was passed)
+        held = {id(a) for arena in buf._arenas.values() for a in arena.arrays.values()}
+        held |= {id(x[1]) for x in buf._arrays.values()}
+        held |= {id(a) for xs in buf._sets.values() for a in xs}
+        for key, rec in buf._launches.items():
+            if key[2] is None:  # (a batch's: one per kernel and lane count, re-recorded)
+                continue
+            for j, a in enumerate(rec.args):
+                assert not isinstance(a, warp().array) or id(a) in held, (key, j)
+
+
 def test_single_queries_without_shared_memory_equal_the_batch(scene, monkeypatch):
     # on a device whose buffers are not the host's (CUDA) a single query writes its
     # inputs one by one instead of into an arena: that path, run here on the CPU's

@@ -195,6 +195,11 @@ def usable_cpus(device: str = "cpu") -> int:
 _usable: int | None = None
 
 
+MAX_ARENAS = 32
+"""Arenas of one name kept per :class:`Buffers` (size classes); past this many, those
+are dropped and made again as queries ask (a single query's then costs ~14 µs more)."""
+
+
 class Buffers:
     """Grow-only kernel buffers of one device: ``put`` writes an input, ``out`` gives an
     output; both return (numpy view, warp array). Arrays keep their trailing dimensions;
@@ -285,8 +290,25 @@ class Buffers:
         room = tuple(max(8, 1 << max(0, r - 1).bit_length()) for r in rows)
         cur = self._arenas.get((name, room))
         if cur is None or cur.spec != spec:
+            if cur is None and sum(k[0] == name for k in self._arenas) >= MAX_ARENAS:
+                self._forget_arenas(name)
             cur = self._arenas[(name, room)] = Arena(self.device, spec, room)
         return cur
+
+    def _forget_arenas(self, name: str) -> None:
+        """Drop the arenas `name`, with the launches recorded on their arrays (which hold
+        them alive) and the caches of packings: what a mix of many size classes holds
+        stays bounded (a review counted 29 arenas and 12.8 MB after 45 mixed queries, 22
+        and 40 MB for one owner in an adversarial mix). By name, so that a query's arenas
+        of other names, taken before, stay kept."""
+        gone = [k for k in self._arenas if k[0] == name]
+        held = {id(a) for k in gone for a in self._arenas[k].arrays.values()}
+        self._launches = {
+            k: r for k, r in self._launches.items() if not any(id(a) in held for a in r.args)
+        }
+        for k in gone:
+            del self._arenas[k]
+        self.packed = self.shapes_one = None
 
     def spread(self, lanes: int) -> tuple[int, Any]:
         """The kernels' arguments `stride` and `work` of a launch over `lanes` lanes. On
