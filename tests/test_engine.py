@@ -828,6 +828,14 @@ def test_device_and_limit_errors():
     # a single query given per-motion lists: told to give one flat list
     with pytest.raises(QueryError, match=r"got 2 lists; for one motion, give its obstacles"):
         certify(m, box, [[box], [box]])
+    # a list of lists with another entry: that entry is named (not the list before it)
+    for bad, named in ((None, "None"), (box, "Box"), ("x", "'x'")):
+        with pytest.raises(
+            TypeError, match=rf"`obstacles\[0\]` is a list, `obstacles\[1\]` is {named}"
+        ):
+            certify_many([m, m], box, [[box], bad])
+    with pytest.raises(TypeError, match="`motions` to be a sequence of motions, got str 'ab'"):
+        certify_many("ab", box, [box])
     want = certify(m, box, [box])
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("RSMBENCH_DEVICE", "tpu")

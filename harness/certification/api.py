@@ -197,9 +197,10 @@ def _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, dev
 
 
 def check_motions(motions: Any, bound: str) -> list[Motion]:
-    if isinstance(motions, Motion) or not isinstance(motions, Sequence):
+    if isinstance(motions, Motion | str | bytes) or not isinstance(motions, Sequence):
         raise TypeError(
-            f"Expected `motions` to be a sequence of motions, got {type(motions).__name__}."
+            f"Expected `motions` to be a sequence of motions, got {type(motions).__name__}"
+            + (f" {short(motions)}." if isinstance(motions, str | bytes) else ".")
         )
     out = list(motions)
     need = RationalMotion if bound in ("hull", "aabb") else Motion
@@ -226,10 +227,14 @@ def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
         or not isinstance(obstacles[0], list | tuple)
     ):
         return [as_obstacles(obstacles)] * n
-    # the types present, each looked at once (a batch's lists are checked in C loops);
-    # a list mixing shapes and lists is one list, whose bad entry as_obstacles names
+    # the types present, each looked at once (a batch's lists are checked in C loops)
     if not all(issubclass(k, list | tuple) for k in set(map(type, obstacles))):
-        return [as_obstacles(obstacles)] * n
+        # a list, then something else: name that (as_obstacles would name the list)
+        j, x = next((j, x) for j, x in enumerate(obstacles) if not isinstance(x, list | tuple))
+        raise TypeError(
+            "Expected `obstacles` to be one list of obstacles, or one such list per motion;"
+            f" `obstacles[0]` is a list, `obstacles[{j}]` is {short(x)}."
+        )
     if len(obstacles) != n:
         # (a trial's single query given [[wall], [post]] read "one obstacle list per
         # motion (1), got 2": say how to give one motion several obstacles)
