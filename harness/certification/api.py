@@ -228,7 +228,8 @@ def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
     ):
         return [as_obstacles(obstacles)] * n
     # the types present, each looked at once (a batch's lists are checked in C loops)
-    if not all(issubclass(k, list | tuple) for k in set(map(type, obstacles))):
+    kinds = set(map(type, obstacles))
+    if not all(issubclass(k, list | tuple) for k in kinds):
         # a list, then something else: name that (as_obstacles would name the list)
         j, x = next((j, x) for j, x in enumerate(obstacles) if not isinstance(x, list | tuple))
         raise TypeError(
@@ -250,7 +251,11 @@ def obstacle_lists(obstacles: Any, n: int) -> list[list[Shape]]:
     if all(issubclass(k, Shape) for k in set(map(type, chain.from_iterable(obstacles)))):
         # the lists as given (the kernels' inputs are packed from them before the query
         # returns)
-        return [o if type(o) is list else list(o) for o in obstacles]
+        return (
+            list(obstacles)
+            if kinds == {list}
+            else [o if type(o) is list else list(o) for o in obstacles]
+        )
     return [as_obstacles(o, f"obstacles[{i}]") for i, o in enumerate(obstacles)]
 
 
