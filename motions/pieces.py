@@ -94,11 +94,13 @@ class BezierPieces:
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_motion(cls, motion, owner: int = 0) -> BezierPieces:
-        """The Bézier segments of a :class:`~motions.RationalMotion` as a piece table."""
+        """The Bézier segments of a :class:`~motions.RationalMotion` as a piece table
+        (its control matrices the motion's own where they are read-only, as a
+        RationalMotion's are: not a copy per table, ~6 KB a workload motion)."""
         breaks, ctrl = motion.breakpoints, motion.ctrl
         s = len(breaks) - 1
         return cls(
-            np.array(ctrl),
+            ctrl if not ctrl.flags.writeable else np.array(ctrl),
             breaks[:-1].copy(),
             breaks[1:].copy(),
             np.full(s, owner, dtype=np.int64),

@@ -116,8 +116,17 @@ def bezier_minimum(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _own(x: np.ndarray | None) -> np.ndarray | None:
-    """A float64 array of the motion's own (see motions._checks.as_array), or None."""
-    return None if x is None else np.array(x, dtype=float)
+    """A read-only float64 array of the motion's own (see motions._checks.as_array), or
+    None: a motion is immutable (what is computed from it is cached on it)."""
+    if x is None:
+        return None
+    out = np.array(x, dtype=float)
+    out.setflags(write=False)
+    return out
+
+
+_OWN = ("_breaks", "_q", "_p", "_v", "_ctrl", "_piece_error")
+"""A RationalMotion's arrays kept read-only (:func:`_own`), after unpickling too."""
 
 
 class RationalMotion(Motion):
@@ -151,7 +160,7 @@ class RationalMotion(Motion):
         keyframe_times: np.ndarray | None = None,
         piece_error: np.ndarray | None = None,
     ):
-        breaks = np.array(breaks, dtype=float)  # (its own: see motions._checks.as_array)
+        breaks = _own(breaks)  # (its own: see motions._checks.as_array)
         kt = np.empty(0) if keyframe_times is None else np.asarray(keyframe_times, dtype=float)
         super().__init__((breaks[0], breaks[-1]), kt)
         self._breaks = breaks
@@ -381,6 +390,14 @@ class RationalMotion(Motion):
             e.setflags(write=False)
             motion._ctrl_error = e
         return motion
+
+    def __setstate__(self, state: dict) -> None:
+        # (an unpickled array is writable: read-only again, as :func:`_own` made it)
+        self.__dict__.update(state)
+        for name in _OWN:
+            x = state.get(name)
+            if isinstance(x, np.ndarray):
+                x.setflags(write=False)
 
     # ------------------------------------------------------------------ descriptors
     @property

@@ -561,3 +561,24 @@ def test_a_motion_from_control_matrices_poses_as_accurately_as_its_preimage():
         r_true, p_true = mat[:, :3], mat[:, 3]
         assert np.abs(p[k] - p_true).max() <= 16 * np.spacing(1e6), t  # 1.9e-9
         assert np.abs(rot[k] - r_true).max() <= 1e-14, t
+
+
+def test_a_motions_arrays_are_read_only_and_shared_by_its_piece_table():
+    # a motion is immutable (its positive pieces, packings and speed bounds are cached on
+    # it): its control matrices and breakpoints cannot be written, also after pickling, and
+    # its piece table reads its control matrices instead of a copy (~6 KB a motion)
+    import pickle
+
+    from motions.demo import demo_keyframes
+    from motions.pieces import BezierPieces
+
+    m = motions.interpolate(*demo_keyframes(5, seed=1))
+    given = RationalMotion.from_bezier(*m.bezier_form())
+    for x in (m, given, pickle.loads(pickle.dumps(given)), pickle.loads(pickle.dumps(m))):
+        with pytest.raises(ValueError, match="read-only"):
+            x.ctrl[0, 0, 0, 0] = 1.0
+        with pytest.raises(ValueError, match="read-only"):
+            x.breakpoints[0] = 1.0
+        table = BezierPieces.from_motion(x)
+        assert np.shares_memory(table.ctrl, x.ctrl)
+        assert np.array_equal(table.positive().ctrl, x.ctrl)
