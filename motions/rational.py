@@ -19,6 +19,7 @@ translation: seed ``m_{0,0}`` -> ``M[3, 3]``; ``m_{i,0}`` -> ``M[i-1, 3]``; ``m_
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import fields
 from functools import lru_cache
 from typing import Any
 
@@ -125,8 +126,17 @@ def _own(x: np.ndarray | None) -> np.ndarray | None:
     return out
 
 
-_OWN = ("_breaks", "_q", "_p", "_v", "_ctrl", "_piece_error")
-"""A RationalMotion's arrays kept read-only (:func:`_own`), after unpickling too."""
+def _locked(table: BezierPieces) -> BezierPieces:
+    """`table` with its arrays read-only (a motion's cached positive pieces, returned as
+    they are by :meth:`RationalMotion.positive_pieces`)."""
+    for f in fields(table):
+        getattr(table, f.name).setflags(write=False)
+    return table
+
+
+_OWN = ("_breaks", "_q", "_p", "_v", "_ctrl", "_piece_error", "_ctrl_error", "_u0c")
+"""A RationalMotion's arrays kept read-only (:func:`_own`; the cached ones as they are
+computed), after unpickling too."""
 
 
 class RationalMotion(Motion):
@@ -398,6 +408,8 @@ class RationalMotion(Motion):
             x = state.get(name)
             if isinstance(x, np.ndarray):
                 x.setflags(write=False)
+        if state.get("_positive") is not None:
+            _locked(state["_positive"])
 
     # ------------------------------------------------------------------ descriptors
     @property
@@ -515,7 +527,7 @@ class RationalMotion(Motion):
         :class:`DegenerateMotionError` where ``u0`` vanishes.
         """
         if self._positive is None:
-            self._positive = BezierPieces.from_motion(self).positive(names=["the motion"])
+            self._positive = _locked(BezierPieces.from_motion(self).positive(names=["the motion"]))
         return self._positive
 
     @property
@@ -802,7 +814,7 @@ class RationalMotion(Motion):
                 br, ctrl=ctrl[side], keyframe_times=keep, piece_error=errs[side], **kw
             )
             if cerr[side] is not None:
-                half._ctrl_error = cerr[side]
+                half._ctrl_error = _own(cerr[side])
             out.append(half)
         return out[0], out[1]
 

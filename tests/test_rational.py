@@ -573,12 +573,19 @@ def test_a_motions_arrays_are_read_only_and_shared_by_its_piece_table():
     from motions.pieces import BezierPieces
 
     m = motions.interpolate(*demo_keyframes(5, seed=1))
+    assert m.ctrl_error is not None and m.u0_pieces is not None  # (cached, then pickled)
+    assert len(m.positive_pieces()) > 0
     given = RationalMotion.from_bezier(*m.bezier_form())
-    for x in (m, given, pickle.loads(pickle.dumps(given)), pickle.loads(pickle.dumps(m))):
-        with pytest.raises(ValueError, match="read-only"):
-            x.ctrl[0, 0, 0, 0] = 1.0
-        with pytest.raises(ValueError, match="read-only"):
-            x.breakpoints[0] = 1.0
+    half = m.split(0.5 * sum(m.domain))[1]
+    copies = [pickle.loads(pickle.dumps(x)) for x in (m, given, half)]
+    for x in (m, given, half, *copies):
+        for arr in (x.ctrl, x.breakpoints):
+            with pytest.raises(ValueError, match="read-only"):
+                arr[0] = 1.0
+        for name, arr in (("ctrl_error", x.ctrl_error), ("u0_pieces", x.u0_pieces)):
+            assert arr is None or not arr.flags.writeable, name  # (None: no preimage)
+        for name in ("ctrl", "t0", "t1", "error"):  # (the cached table, returned as it is)
+            assert not getattr(x.positive_pieces(), name).flags.writeable, name
         table = BezierPieces.from_motion(x)
         assert np.shares_memory(table.ctrl, x.ctrl)
         assert np.array_equal(table.positive().ctrl, x.ctrl)
