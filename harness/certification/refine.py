@@ -482,11 +482,6 @@ def _pack_shapes_one(body: Shape, obst: list[Shape]) -> tuple:
     )
 
 
-def _distinct_obstacles(obst, lens) -> int:
-    """Obstacles in the distinct lists of `obst` (by identity: a list shared is packed once)."""
-    return sum(dict(zip(map(id, obst), lens, strict=True)).values())
-
-
 def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     """The kernels' inputs on pieces, motions and shapes, written to `buf`: a dict of
     Warp arrays by kernel argument name, and K_max."""
@@ -495,7 +490,8 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     refs = None
     lens = tuple(map(len, obst))
     total = sum(lens)
-    if n <= 8 or total <= 4 * n or total <= 4 * (n + _distinct_obstacles(obst, lens)):
+    # (a list shared by motions is packed once: its obstacles count once)
+    if n <= 8 or total <= 4 * n or total <= 4 * (n + sum(map(len, _distinct(obst)[0]))):
         # the same query again (packed pieces are cached per motion, shapes are
         # immutable): the buffers still hold its inputs. Checked by identity, in time
         # linear in what packing them costs (not for one long list shared by all).
