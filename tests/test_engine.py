@@ -356,6 +356,21 @@ def test_lanes_run_once_each_and_raise_a_lanes_error():
     seen = []
     run_lanes(3, seen.append)  # (the kept threads still serve)
     assert sorted(seen) == [0, 1, 2]
+    # while another thread's launch has the kept threads, lanes run on new threads: the
+    # same, a lane's error raised too (it was only printed by threading.excepthook)
+    from harness.certification.device import _LaneThread
+
+    assert _LaneThread._busy.acquire(blocking=False)
+    try:
+        done.clear()
+        with pytest.raises(ZeroDivisionError, match="lane 2"):
+            run_lanes(3, bad)
+        assert sorted(done) == [0, 1]
+        seen = []
+        run_lanes(3, seen.append)
+        assert sorted(seen) == [0, 1, 2]
+    finally:
+        _LaneThread._busy.release()
 
 
 def test_an_interrupt_while_lanes_run_waits_for_them():

@@ -598,13 +598,21 @@ def run_lanes(n_lanes: int, launch: Callable[[int], None]) -> None:
     if n_lanes <= 1:
         launch(0)
         return
+    errors: list[BaseException] = []
     with _sigint_held():
         # lane 0 runs on the calling thread: its launch releases the GIL at once, so
         # the others start without waiting for the interpreter's switch interval (two
         # new threads and a join cost ~1.5 ms a call more on a 20 ms launch)
         helpers = _LaneThread.take(n_lanes - 1)
         if helpers is None:  # (another thread's launch has them)
-            ts = [threading.Thread(target=launch, args=(i,)) for i in range(1, n_lanes)]
+
+            def lane(i: int) -> None:
+                try:
+                    launch(i)
+                except BaseException as e:  # (raised below, as a kept thread's is)
+                    errors.append(e)
+
+            ts = [threading.Thread(target=lane, args=(i,)) for i in range(1, n_lanes)]
             try:
                 for t in ts:
                     t.start()
@@ -613,9 +621,10 @@ def run_lanes(n_lanes: int, launch: Callable[[int], None]) -> None:
                 for t in ts:
                     if t.ident is not None:
                         t.join()
+            if errors:
+                raise errors[0]
             return
         started: list[_LaneThread] = []
-        errors: list[BaseException] = []
         try:
             try:
                 for i, h in enumerate(helpers, 1):
