@@ -18,7 +18,8 @@ from scipy.optimize import brentq
 
 import motions
 from harness import Box, Capsule, ConvexMesh, Sphere
-from motions.quaternion import rotation_matrix
+from harness.shapes import HalfSpace
+from motions.quaternion import qmul, rotation_matrix
 
 TOL = 1e-3
 
@@ -282,3 +283,80 @@ def make_cases(seed: int = 2024, per_family_class: int = 14) -> list[Case]:
             for _ in range(per_family_class):
                 out.append(f(rng, klass))
     return out
+
+
+# ----------------------------------------------------------------- planes
+# The solid side of a plane (MuJoCo's plane geom, harness.shapes.HalfSpace) in place of a
+# box face. A plane reaches everywhere along itself, so the truth of each case is that
+# of its box face, which no motion leaves sideways or passes through.
+TO_MINUS_X = np.array([np.cos(-np.pi / 4), 0.0, np.sin(-np.pi / 4), 0.0])
+"""A rotation about y that takes z (a HalfSpace's outward normal) to -x."""
+
+
+def plane_face(rng, klass, offset=0.0):
+    """:func:`face_translation` over the plane z = 0 (at `offset` in every coordinate)."""
+    case = face_translation(rng, klass, offset=offset)
+    case.family = "plane-face" if offset == 0 else "plane-far"
+    case.obstacles = [HalfSpace(np.full(3, float(offset)))]
+    return case
+
+
+def plane_tilted(rng, klass):
+    """:func:`face_translation` over the plane z = 0, the whole case turned by a random
+    rotation G (distances are the same): the plane's cube is not axis-aligned."""
+    case = face_translation(rng, klass)
+    m = case.motion
+    g = random_rotation(rng)
+    q = qmul(g, m.preimage_pieces[0, 0])
+    gm = rotation_matrix(g)
+    p0, p1 = gm @ m.origin_pieces[0, 0], gm @ m.origin_pieces[0, -1]
+    return Case(
+        "plane-tilted",
+        translation(q, p0, p1),
+        case.body,
+        [HalfSpace(np.zeros(3), g)],
+        case.clearance,
+    )
+
+
+def plane_beyond(rng, klass):
+    """A body descending onto the plane z = 0 (its lowest point from 0.3 + gap to gap)
+    while sliding from x = 1,500 to 2,500: beyond HalfSpace's own cube (half size 1,000),
+    which the engine must enlarge."""
+    body = random_body(rng)
+    q = random_rotation(rng)
+    low = body.h(-(rotation_matrix(q).T @ [0, 0, 1.0]))
+    gap = gap_sample(rng, klass)
+    y = rng.uniform(-0.2, 0.2)
+    m = translation(q, [1500.0, y, low + gap + 0.3], [2500.0, y, low + gap])
+    toi = 1.0 + gap / 0.3 if gap < 0 else np.nan  # the lowest point meets z = 0
+    return Case("plane-beyond", m, body, [HalfSpace(np.zeros(3))], gap, toi, -gap / 0.3)
+
+
+def plane_spin(rng, klass, long_way=False):
+    """:func:`spin` next to the plane x = D (its solid side x >= D)."""
+    case = spin(rng, klass, long_way)
+    face = case.obstacles[0].center[0] - 0.25
+    case.family = "plane-weights" if long_way else "plane-spin"
+    case.obstacles = [HalfSpace([face, 0.0, 0.0], TO_MINUS_X)]
+    return case
+
+
+PLANE_FAMILIES = {
+    "plane-face": plane_face,
+    "plane-far": lambda rng, k: plane_face(rng, k, offset=1e4),
+    "plane-tilted": plane_tilted,
+    "plane-beyond": plane_beyond,
+    "plane-spin": plane_spin,
+    "plane-weights": lambda rng, k: plane_spin(rng, k, long_way=True),
+}
+
+
+def make_plane_cases(seed: int = 2025, per_family_class: int = 20) -> list[Case]:
+    rng = np.random.default_rng(seed)
+    return [
+        f(rng, klass)
+        for f in PLANE_FAMILIES.values()
+        for klass in ("free", "collision", "grazing")
+        for _ in range(per_family_class)
+    ]
