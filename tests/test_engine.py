@@ -177,12 +177,13 @@ def test_single_queries_of_growing_sizes_equal_the_batch():
 
     arenas = buffers("cpu", "refine")._arenas
     rooms = sorted(room[-1] for (name, room) in arenas if name == "one")
-    big = len(ms[4]._certify_packed.ctrl)  # (the largest motion's control matrices)
+    big = len(ms[4]._certify_packed.rows)  # (the largest motion's pieces)
     assert rooms[-1] >= big and rooms[0] < big / 8, rooms
     for m in ms:
         pack = m._certify_packed
         (img,) = pack.images.values()
-        assert len(img) <= 2 * (pack.ctrl.nbytes + pack.rows.nbytes) + 4096, len(img)
+        # (its control matrices are read where they lie: not in the image)
+        assert len(img) <= 2 * pack.rows.nbytes + 4096, len(img)
     parts = sorted(room[2] for (name, room) in arenas if name == "one_shapes")
     assert parts[-1] >= 42 and parts[0] <= 8, parts  # (42: 1 + 1 + 20 x 2)
     for shaped, _key, img in _shape_images.values():
@@ -231,8 +232,10 @@ def test_arenas_past_their_cap_are_dropped_with_their_launches(monkeypatch):
 
 def test_single_queries_without_shared_memory_equal_the_batch(scene, monkeypatch):
     # on a device whose buffers are not the host's (CUDA) a single query writes its
-    # inputs one by one instead of into an arena: that path, run here on the CPU's
-    # buffers told they are not shared, gives the batch's certificates and clearances
+    # inputs one by one instead of into an arena, and a batch copies its motions'
+    # control matrices to the device (the CPU's kernels read them where they lie): those
+    # paths, run here on the CPU's buffers told they are not shared, give the CPU's
+    # certificates and clearances
     from harness import clearance, clearance_many
     from harness.certification import refine
     from harness.certification.device import buffers
@@ -242,7 +245,7 @@ def test_single_queries_without_shared_memory_equal_the_batch(scene, monkeypatch
     put_each = refine._put_each
 
     def counted(buf, spec, data):
-        put_motions[0] += "ctrl" in data
+        put_motions[0] += "m_ctrl" in data
         return put_each(buf, spec, data)
 
     want = {b: certify_many(ms, bodies, obstacles, bound=b) for b in ("hull", "lipschitz")}
@@ -262,6 +265,14 @@ def test_single_queries_without_shared_memory_equal_the_batch(scene, monkeypatch
         )
         assert got_c == want_ci, (i, got_c, want_ci)
     assert put_motions[0] >= 3 * len(ms)  # (the path taken: every query put its motion)
+    for b, batch in want.items():
+        for order in (1, -1):  # (packed anew: a batch's rows in the device's copy)
+            got = certify_many(ms[::order], bodies[::order], obstacles[::order], bound=b)
+            assert all(map(_same, got, batch[::order])), b
+    strip = [repr({k: v for k, v in vars(c).items() if k != "seconds"}) for c in want_c]
+    again = clearance_many(ms, bodies, obstacles)
+    assert [repr({k: v for k, v in vars(c).items() if k != "seconds"}) for c in again] == strip
+    assert buffers("cpu", "refine")._arrays["ctrl"][0].shape[0] >= len(ms)  # (a copy made)
 
 
 def test_arena_writes_each_input_where_its_array_reads():
@@ -289,12 +300,19 @@ def test_arena_writes_each_input_where_its_array_reads():
 
 
 def test_a_packings_images_are_pickled_empty(scene):
+    # and the address of its control matrices, which the kernels read where they lie,
+    # is this process's: a copy's is its own
     ms, bodies, obstacles = scene
-    certify(ms[0], bodies[0], obstacles[0])
+    want = certify(ms[0], bodies[0], obstacles[0])
     pack = ms[0]._certify_packed
-    assert len(pack.images) == 1
-    again = pickle.loads(pickle.dumps(ms[0]))._certify_packed
+    assert len(pack.images) == 1 and pack.images.addr == pack.ctrl.ctypes.data
+    copy = pickle.loads(pickle.dumps(ms[0]))
+    again = copy._certify_packed
     assert len(again.images) == 0 and np.array_equal(again.ctrl, pack.ctrl)
+    assert not hasattr(again.images, "addr")
+    assert _same(certify_many([copy] * 2, bodies[:1] * 2, obstacles[:1] * 2)[1], want)
+    assert again.images.addr == again.ctrl.ctypes.data != pack.images.addr
+    assert _same(certify(copy, bodies[0], obstacles[0]), want)
 
 
 @pytest.mark.parametrize("bound", ["hull", "lipschitz"])

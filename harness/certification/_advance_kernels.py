@@ -17,7 +17,17 @@ from __future__ import annotations
 
 import warp as wp
 
-from ._geometry import F0, F1, HUGE, Shape, _claim, _gjk, _posed_radii, _probed_hi
+from ._geometry import (
+    F0,
+    F1,
+    HUGE,
+    Shape,
+    _claim,
+    _gjk,
+    _posed_radii,
+    _probed_hi,
+    motion_ctrl,
+)
 from ._refine_kernels import (
     GAMMA_C,
     R_BUDGET,
@@ -273,7 +283,7 @@ def _pose_bracket(
 @wp.kernel
 def _advance(
     # In: pieces
-    ctrl: wp.array(dtype=wp.mat44d),
+    m_ctrl: wp.array(dtype=wp.uint64),
     p_start: wp.array(dtype=wp.int32),
     p_k: wp.array(dtype=wp.int32),
     p_t: wp.array(dtype=wp.vec2d),
@@ -332,6 +342,7 @@ def _advance(
         pr = m_pieces[m]
         br = m_parts[m]
         orng = m_obst[m]
+        ctrl = motion_ctrl(m_ctrl, p_start, p_k, pr, m)
         t_start = p_t[pr[0]][0]
         t_end = p_t[pr[1] - 1][1]
         for b in range(br[0], br[1]):
@@ -443,7 +454,7 @@ def _advance(
 @wp.kernel
 def _sample(
     # In: pieces
-    ctrl: wp.array(dtype=wp.mat44d),
+    m_ctrl: wp.array(dtype=wp.uint64),
     p_start: wp.array(dtype=wp.int32),
     p_k: wp.array(dtype=wp.int32),
     p_t: wp.array(dtype=wp.vec2d),
@@ -501,6 +512,7 @@ def _sample(
         pr = m_pieces[m]
         br = m_parts[m]
         orng = m_obst[m]
+        ctrl = motion_ctrl(m_ctrl, p_start, p_k, pr, m)
         t_start = p_t[pr[0]][0]
         t_end = p_t[pr[1] - 1][1]
         ns = m_samples[m]

@@ -55,6 +55,23 @@ def _claim(work: wp.array(dtype=wp.int32)) -> wp.int32:
     ...
 
 
+@wp.func
+def motion_ctrl(
+    m_ctrl: wp.array(dtype=wp.uint64),
+    p_start: wp.array(dtype=wp.int32),
+    p_k: wp.array(dtype=wp.int32),
+    pr: wp.vec2i,
+    m: wp.int32,
+) -> wp.array(dtype=wp.mat44d):
+    """The control matrices of motion m, whose pieces are ``pr[0]:pr[1]``: an array at the
+    address ``m_ctrl[m]``, through the end of its last piece (``p_start`` counts from the
+    motion's first matrix; the host keeps the memory alive while the kernel runs)."""
+    n = wp.int32(0)
+    if pr[1] > pr[0]:
+        n = p_start[pr[1] - 1] + wp.abs(p_k[pr[1] - 1])
+    return wp.array(ptr=m_ctrl[m], shape=(n,), dtype=wp.mat44d)
+
+
 @wp.struct
 class Shape:
     kind: wp.int32

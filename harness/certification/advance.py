@@ -300,7 +300,7 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
         buf = buffers(device, kernel_name)
         lanes = lane_count(threads, n, device)
         arrays, kmax = pack_inputs(buf, [x[0] for x in stepping], cb, co)
-        head = [arrays[k] for k in ("ctrl", "p_start", "p_k", "p_t", "p_err")]
+        head = [arrays[k] for k in ("m_ctrl", "p_start", "p_k", "p_t", "p_err")]
         head.append(buf.put_concat("p_speed", [x[1] for x in stepping], wp.float64))
         head.append(buf.put_concat("p_slack", [x[2] for x in stepping], wp.float64))
         head += [arrays[k] for k in ("m_pieces", "m_parts", "m_obst")]

@@ -139,18 +139,47 @@ class Outcome:
 
 
 class Images(dict):
-    """A packing's images in single-query arenas, by the arena's layout key: a cache,
-    pickled empty (motions travel with their packings, e.g. to Dask workers)."""
+    """A packing's images in single-query arenas, by the arena's layout key, and the
+    address of its control matrices (``addr``, once asked: :func:`ctrl_addresses`): caches
+    of this process, pickled empty (motions travel with their packings, e.g. to Dask
+    workers, where the addresses are others)."""
+
+    __slots__ = ("addr",)
 
     def __reduce__(self):
         return (Images, ())
+
+
+_cached_address = operator.attrgetter("images.addr")
+
+
+def ctrl_addresses(packs) -> np.ndarray:
+    """(n,) uint64: where each packing's control matrices lie in memory (the kernels read
+    them there on the CPU: :func:`._geometry.motion_ctrl`), cached on the packings
+    (``ctypes.data`` costs ~0.8 µs an array)."""
+    try:
+        return np.fromiter(map(_cached_address, packs), dtype=np.uint64, count=len(packs))
+    except AttributeError:
+        pass
+    out = np.empty(len(packs), dtype=np.uint64)
+    for i, p in enumerate(packs):
+        addr = getattr(p.images, "addr", None)
+        if addr is None:
+            if not p.ctrl.flags.c_contiguous or p.ctrl.dtype != np.float64:
+                raise AssertionError("a packing's control matrices are C-contiguous doubles")
+            addr = p.ctrl.ctypes.data
+            if p.images is not None:
+                p.images.addr = addr
+        out[i] = addr
+    return out
 
 
 class Packed(NamedTuple):
     """A motion's pieces packed for the kernels (cached on the motion)."""
 
     ctrl: np.ndarray
-    """(P K, 4, 4) the pieces' control matrices, piece after piece."""
+    """(P K, 4, 4) the pieces' control matrices, piece after piece (C-contiguous: the
+    kernels read them where they lie, :func:`ctrl_addresses`)."""
     k: int
     """Control matrices a piece (a motion's pieces share it); negative for the
     exponential-product pieces of slerp-family motions (``advance``), -k matrices each."""
@@ -515,13 +544,21 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     counts = np.fromiter(map(len, rows), dtype=np.int64, count=n)
     p_k = np.repeat(np.array(ks, dtype=np.int32), counts)
     table = np.concatenate(rows)
-    p_start = np.zeros(len(p_k), dtype=np.int32)
-    np.cumsum(np.abs(p_k[:-1]), out=p_start[1:])  # (k < 0: exponential-product pieces)
     bounds = np.zeros(n + 1, dtype=np.int32)
     np.cumsum(counts, out=bounds[1:])
+    # each piece's first control matrix counted from its motion's first (k < 0:
+    # exponential-product pieces of -k matrices)
+    p_start = (np.arange(len(p_k)) - np.repeat(bounds[:-1], counts)) * np.abs(p_k)
+    if buf.cpu:  # the kernels read each motion's matrices where they lie
+        m_ctrl = buf.put("m_ctrl", ctrl_addresses(packs), wp.uint64)
+    else:  # a device's copy of them all, each motion's rows from its first
+        at = np.zeros(n, dtype=np.uint64)
+        np.cumsum(np.fromiter(map(len, ctrls), dtype=np.uint64, count=n)[:-1], out=at[1:])
+        whole = buf.put_concat("ctrl", ctrls, wp.mat44d)
+        m_ctrl = buf.put("m_ctrl", np.uint64(whole.ptr) + np.uint64(128) * at, wp.uint64)
     arrays = {
-        "ctrl": buf.put_concat("ctrl", ctrls, wp.mat44d),
-        "p_start": buf.put("p_start", p_start, wp.int32),
+        "m_ctrl": m_ctrl,
+        "p_start": buf.put("p_start", p_start.astype(np.int32), wp.int32),
         "p_k": buf.put("p_k", p_k, wp.int32),
         "p_t": buf.put("p_t", table[:, 0:2], wp.vec2d),
         "p_err": buf.put("p_err", table[:, 2:5], wp.vec3d),
@@ -542,16 +579,17 @@ def launch_tag(arrays: dict, n: int) -> tuple | None:
     """The tag of a launch on `arrays` (see :meth:`.device.Buffers.launch`): a single
     query's by the arenas its inputs lie in (one recorded launch per pair of size
     classes), None for a batch's buffers."""
-    return (id(arrays["ctrl"]), id(arrays["shapes"])) if n == 1 else None
+    return (id(arrays["p_t"]), id(arrays["shapes"])) if n == 1 else None
 
 
 def _one_spec() -> tuple:
-    """The layout of a single query's pieces in its :class:`.device.Arena` (the control
-    matrices last: they are the most rows)."""
+    """The layout of a single query's pieces in its :class:`.device.Arena` (the largest
+    rows last; the control matrices are read where they lie: ``m_ctrl``)."""
     global _spec
     if _spec is None:
         wp, reach = warp(), _kernels().Reach
         _spec = (
+            ("m_ctrl", np.uint64, wp.uint64, ()),
             ("p_start", np.int32, wp.int32, ()),
             ("p_k", np.int32, wp.int32, ()),
             ("m_pieces", np.int32, wp.vec2i, (2,)),
@@ -559,7 +597,6 @@ def _one_spec() -> tuple:
             ("p_t", np.float64, wp.vec2d, (2,)),
             ("p_err", np.float64, wp.vec3d, (3,)),
             ("p_reach", record_dtype(reach), reach, ()),
-            ("ctrl", np.float64, wp.mat44d, (4, 4)),
         )
     return _spec
 
@@ -578,11 +615,10 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
     if not buf.cpu:
         data = _one_inputs(pack)
         data["m_nodes0"] = np.array([nodes0], dtype=np.int32)
+        data["m_ctrl"] = np.array([buf.put("ctrl", ctrl, warp().mat44d).ptr], dtype=np.uint64)
         return {**_put_each(buf, _one_spec(), data), **_put_shapes(buf, shaped)}, abs(k)
     n_pieces = len(rows)
-    arena = buf.arena(
-        "one", _one_spec(), (n_pieces, n_pieces, 1, 1, n_pieces, n_pieces, n_pieces, len(ctrl))
-    )
+    arena = buf.arena("one", _one_spec(), (1, n_pieces, n_pieces, 1, 1, *[n_pieces] * 3))
     images = pack.images if pack.images is not None else {}
     img = images.get(arena.key)
     if img is None:
@@ -597,9 +633,10 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
 def _one_inputs(pack: Packed) -> dict:
     """A single motion's inputs by :func:`_one_spec`'s names (``m_nodes0``, which depends
     on the obstacles, zero; the reach records as their float64 rows)."""
-    ctrl, k, rows = pack[:3]
+    k, rows = pack[1:3]
     n_pieces = len(rows)
     return {
+        "m_ctrl": ctrl_addresses([pack]),
         "p_start": np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32),
         "p_k": np.full(n_pieces, k, dtype=np.int32),
         "m_pieces": np.array([[0, n_pieces]], dtype=np.int32),
@@ -607,7 +644,6 @@ def _one_inputs(pack: Packed) -> dict:
         "p_t": rows[:, 0:2],
         "p_err": rows[:, 2:5],
         "p_reach": rows[:, 5:],
-        "ctrl": ctrl,
     }
 
 
@@ -691,7 +727,7 @@ def _put_shapes(buf, shaped: tuple) -> dict:
 
 
 REFINE_INPUTS = (
-    "ctrl", "p_start", "p_k", "p_t", "p_err", "p_reach", "m_pieces", "m_parts", "m_obst",
+    "m_ctrl", "p_start", "p_k", "p_t", "p_err", "p_reach", "m_pieces", "m_parts", "m_obst",
     "m_nodes0", "o_idx", "shapes", "verts",
 )  # fmt: skip
 CLEARANCE_INPUTS = tuple(k for k in REFINE_INPUTS if k != "p_reach")
