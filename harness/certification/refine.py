@@ -478,9 +478,10 @@ def _distinct(items: list) -> tuple[list, np.ndarray, np.ndarray]:
     """The distinct objects of `items` (shapes, or lists of them: by identity, in order of
     first appearance), each item's index among them, and their identities sorted."""
     ids = np.fromiter(map(id, items), dtype=np.uint64, count=len(items))
-    u, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
-    if len(first) == len(items):
+    u = np.sort(ids)
+    if not (u[1:] == u[:-1]).any():  # all distinct (the common case: a sort, no argsort)
         return items, np.arange(len(items)), u
+    u, first, inverse = np.unique(ids, return_index=True, return_inverse=True)
     order = np.argsort(first, kind="stable")
     rank = np.empty(len(order), dtype=np.int64)
     rank[order] = np.arange(len(order))

@@ -119,8 +119,9 @@ class ShapeTable:
             got = [_records(s) for s in shapes]
             blob = b"".join(map(_blob, got))
         n = len(got)
-        # a writable array over one copy of the bytes (copying a structured array is slow)
-        records = np.frombuffer(bytearray(blob), dtype=record_dtype())
+        # an array over the bytes (copying a structured array is slow), read-only: a
+        # table is not written to but where meshes are renumbered below
+        records = np.frombuffer(blob, dtype=record_dtype())
         # each pass over thousands of shapes costs ~0.1 us a shape (their records lie
         # scattered in memory): the two below only where some shape needs them
         if len(records) == n:  # every shape has a part (Compound refuses none): one each
@@ -132,6 +133,7 @@ class ShapeTable:
             np.cumsum(nparts, out=offsets[1:])
         mesh = records["kind"] == 3
         if mesh.any():
+            records = np.frombuffer(bytearray(blob), dtype=record_dtype())  # (writable)
             # mesh parts index one shared vertex array (row 0 is padding)
             nv = np.fromiter(map(len, map(_verts, got)), dtype=np.int64, count=n)
             vbase = 1 + np.concatenate([[0], np.cumsum(nv)[:-1]])
