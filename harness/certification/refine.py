@@ -165,8 +165,9 @@ def ctrl_addresses(packs) -> np.ndarray:
     for i, p in enumerate(packs):
         addr = getattr(p.images, "addr", None)
         if addr is None:
-            if not p.ctrl.flags.c_contiguous or p.ctrl.dtype != np.float64:
-                raise AssertionError("a packing's control matrices are C-contiguous doubles")
+            c = p.ctrl.flags
+            if not (c.c_contiguous and c.aligned) or p.ctrl.dtype != np.float64:
+                raise AssertionError("a packing's control matrices: aligned C-contiguous doubles")
             addr = p.ctrl.ctypes.data
             if p.images is not None:
                 p.images.addr = addr
@@ -191,7 +192,9 @@ class Packed(NamedTuple):
     """Pieces beyond the motion's segments (the positivity splitter's)."""
     images: Images | None = None
     """The pieces laid out in a single query's :class:`.device.Arena`, per layout (filled
-    by the first single query; None in a packing unpickled from another version)."""
+    by the first single query; None in a packing unpickled from another version), and
+    the address of `ctrl`: this packing's own (a packing of other matrices needs a new
+    one, or the kernels would read these)."""
 
     @property
     def t(self) -> np.ndarray:

@@ -101,7 +101,8 @@ class ShapeTable:
     """Convex parts of several shapes packed for the kernels.
 
     Attributes:
-        records: (P,) kernel records (``record_dtype()``), shapes' parts in order.
+        records: (P,) kernel records (``record_dtype()``), shapes' parts in order
+            (read-only where no mesh is renumbered: over the shapes' cached bytes).
         verts: (V, 3) mesh vertices (at least one row).
         offsets: (S + 1,) the parts of shape s are ``records[offsets[s]:offsets[s+1]]``.
     """
