@@ -315,6 +315,38 @@ def test_a_packings_images_are_pickled_empty(scene):
     assert _same(certify(copy, bodies[0], obstacles[0]), want)
 
 
+def test_motions_freed_leave_no_address_behind(scene):
+    # the kernels read each motion's control matrices at an address cached on its
+    # packing: copies certified after earlier copies were freed and their memory filled
+    # with other values (batches, single queries, a batch again: its buffers reused)
+    import gc
+
+    ms, bodies, obstacles = scene
+    want = {b: certify_many(ms, bodies, obstacles, bound=b) for b in ("hull", "lipschitz")}
+    src = _motions()  # (the scene's motions built anew, packed, then freed)
+    certify_many(src, bodies, obstacles)
+    blob = pickle.dumps(src)
+    del src
+    gc.collect()
+    junk = [np.full(m._certify_packed.ctrl.shape, np.nan) for m in ms for _ in range(4)]
+    for _ in range(3):
+        copies = pickle.loads(blob)  # (the last round's copies, packed and freed)
+        for b, batch in want.items():
+            for _again in range(2):
+                got = certify_many(copies, bodies, obstacles, bound=b)
+                assert all(map(_same, got, batch)), b
+            got = [
+                certify(m, x, o, bound=b) for m, x, o in zip(copies, bodies, obstacles, strict=True)
+            ]
+            assert all(map(_same, got, batch)), b
+        blob = pickle.dumps(copies)
+        sizes = [m._certify_packed.ctrl.shape for m in copies]
+        del copies, got
+        gc.collect()
+        # the freed memory holds other values while the next round runs
+        junk = [np.full(z, np.nan) for z in sizes for _ in range(4)]  # noqa: F841
+
+
 @pytest.mark.parametrize("bound", ["hull", "lipschitz"])
 def test_lanes_taking_motions_as_they_come_certify_each_once(scene, bound):
     # on the CPU two lanes claim motions from an atomic counter: a motion claimed twice
