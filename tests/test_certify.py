@@ -120,7 +120,6 @@ def test_planes_are_sound_and_decisive(plane_cases, bound):
     reasons = Counter(k.reason for k in certs if k.verdict == "unknown")
     assert reasons["depth"] == 0 and reasons["budget"] == 0, reasons
     assert min(decided.values()) >= 100, decided
-    assert set(Counter(c.family for c in plane_cases).values()) == {120}
 
 
 MJ_DISTANCE_SLACK = 1e-9

@@ -556,10 +556,11 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
     if buf.cpu:  # the kernels read each motion's matrices where they lie
         m_ctrl = buf.put("m_ctrl", ctrl_addresses(packs), wp.uint64)
     else:  # a device's copy of them all, each motion's rows from its first
-        at = np.zeros(n, dtype=np.uint64)
-        np.cumsum(np.fromiter(map(len, ctrls), dtype=np.uint64, count=n)[:-1], out=at[1:])
+        at = np.zeros(n, dtype=np.int64)
+        np.cumsum((counts * np.abs(ks))[:-1], out=at[1:])  # (its matrices: pieces x |k|)
         whole = buf.put_concat("ctrl", ctrls, wp.mat44d)
-        m_ctrl = buf.put("m_ctrl", np.uint64(whole.ptr) + np.uint64(128) * at, wp.uint64)
+        addr = np.uint64(whole.ptr) + np.uint64(128) * at.astype(np.uint64)
+        m_ctrl = buf.put("m_ctrl", addr, wp.uint64)
     arrays = {
         "m_ctrl": m_ctrl,
         "p_start": buf.put("p_start", p_start.astype(np.int32), wp.int32),
@@ -616,17 +617,17 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
     ctrl, k, rows, extra = pack[:4]
     shaped = pack_shapes(bodies, obst)
     nodes0 = extra * max(1, int(shaped[4][0]))
-    if not buf.cpu:
-        data = _one_inputs(pack)
+    if not buf.cpu:  # (the device's copy of the matrices)
+        addr = np.array([buf.put("ctrl", ctrl, warp().mat44d).ptr], dtype=np.uint64)
+        data = _one_inputs(pack, addr)
         data["m_nodes0"] = np.array([nodes0], dtype=np.int32)
-        data["m_ctrl"] = np.array([buf.put("ctrl", ctrl, warp().mat44d).ptr], dtype=np.uint64)
         return {**_put_each(buf, _one_spec(), data), **_put_shapes(buf, shaped)}, abs(k)
     n_pieces = len(rows)
     arena = buf.arena("one", _one_spec(), (1, n_pieces, n_pieces, 1, 1, *[n_pieces] * 3))
     images = pack.images if pack.images is not None else {}
     img = images.get(arena.key)
     if img is None:
-        img = arena.image(_one_inputs(pack))
+        img = arena.image(_one_inputs(pack, ctrl_addresses([pack])))
         images.clear()  # (one layout: a motion's size class is its own)
         images[arena.key] = img
     arena.write(img)
@@ -634,13 +635,14 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
     return {**arena.arrays, **_shapes_one(buf, shaped)}, abs(k)
 
 
-def _one_inputs(pack: Packed) -> dict:
-    """A single motion's inputs by :func:`_one_spec`'s names (``m_nodes0``, which depends
-    on the obstacles, zero; the reach records as their float64 rows)."""
+def _one_inputs(pack: Packed, addr: np.ndarray) -> dict:
+    """A single motion's inputs by :func:`_one_spec`'s names, its matrices at `addr`
+    ((1,) uint64; ``m_nodes0``, which depends on the obstacles, zero; the reach records
+    as their float64 rows)."""
     k, rows = pack[1:3]
     n_pieces = len(rows)
     return {
-        "m_ctrl": ctrl_addresses([pack]),
+        "m_ctrl": addr,
         "p_start": np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32),
         "p_k": np.full(n_pieces, k, dtype=np.int32),
         "m_pieces": np.array([[0, n_pieces]], dtype=np.int32),
