@@ -11,10 +11,35 @@ from motions.quaternion import quat_from_matrix, rotation_matrix
 from .errors import ShapeError
 from .shapes import HalfSpace, Shape, part_owners, parts
 
-__all__ = ["CCD_TOLERANCE", "MujocoDistance", "geom_xml", "mesh_xml"]
+__all__ = [
+    "CCD_TOLERANCE",
+    "MOCAP_INERTIAL",
+    "MujocoDistance",
+    "distance_model",
+    "geom_xml",
+    "mesh_xml",
+]
 
 CCD_TOLERANCE = 1e-10
 """opt.ccd_tolerance of the distance model: the ε of a MuJoCo distance (DESIGN §4)."""
+
+
+MOCAP_INERTIAL = '<inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>'
+"""The inertia of a distance model's mocap bodies, given: those models never move (only
+``mj_geomDistance`` is called), and MuJoCo's inertia from the geoms refused parts of a few
+tenths of a millimetre ("inertia must have positive eigenvalues": a compound of a box and
+a sphere of radius 1e-4, 6e-4 apart)."""
+
+
+def distance_model(xml: str) -> mujoco.MjModel:
+    """The compiled model of a distance model's XML; shapes MuJoCo refuses (e.g. a mesh
+    too small for its area check) raise :class:`ShapeError` naming MuJoCo's reason."""
+    try:
+        return mujoco.MjModel.from_xml_string(xml)
+    except ValueError as e:
+        raise ShapeError(
+            f"MuJoCo cannot represent these shapes for `mj_geomDistance`: {str(e).splitlines()[0]}"
+        ) from None
 
 
 def _f(a) -> str:
@@ -89,16 +114,10 @@ class MujocoDistance:
         xml = (
             f'<mujoco><option ccd_tolerance="{CCD_TOLERANCE!r}" ccd_iterations="1000"/>'
             f"<asset>{''.join(assets)}</asset><worldbody>"
-            f'<body name="mover" mocap="true">{"".join(bgeoms)}</body>{"".join(ogeoms)}'
-            "</worldbody></mujoco>"
+            f'<body name="mover" mocap="true">{MOCAP_INERTIAL}{"".join(bgeoms)}</body>'
+            f"{''.join(ogeoms)}</worldbody></mujoco>"
         )
-        try:
-            self.model = mujoco.MjModel.from_xml_string(xml)
-        except ValueError as e:  # e.g. a mesh too small for MuJoCo's area check
-            raise ShapeError(
-                f"MuJoCo cannot represent these shapes for `mj_geomDistance`: "
-                f"{str(e).splitlines()[0]}"
-            ) from None
+        self.model = distance_model(xml)
         self.data = mujoco.MjData(self.model)
         self.obst_owner = part_owners(obstacles)
         gid = lambda name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731

@@ -786,3 +786,43 @@ def test_a_repairs_deviation_bound_holds_exactly_where_the_weight_nearly_vanishe
         a, b = old.pose(t), new.pose(t)
         change = [float(y / b.w - x / a.w) for x, y in zip(a.v, b.v, strict=True)]
         assert np.linalg.norm(change) <= r.moved.deviation_bound, t
+
+
+@pytest.mark.parametrize("r", [1e-4, 1e-5])
+def test_a_body_of_parts_a_tenth_of_a_millimetre_is_repaired(r):
+    # MuJoCo's inertia from such parts failed to compile the distance model ("inertia
+    # must have positive eigenvalues"), a raw ValueError out of `repair`; its mocap bodies
+    # now have their inertia given (they never move)
+    from harness.mjdistance import MujocoDistance
+
+    q = np.array([[1.0, 0.0, 0.0, 0.0]] * 4)
+    m = motions.interpolate(q, np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]]) * 10 * r)
+    body = harness.Compound(
+        [Box([r, r, r], center=[0, 3 * r, 0]), Sphere(r, center=[0, -3 * r, 0])]
+    )
+    post = [Box([r, r, r], center=[15 * r, 2.5 * r, 0])]
+    assert harness.certify(m, body, post, tolerance=r / 100).verdict == "collision"
+    out = repair(m, body, post, tolerance=r / 100)
+    assert out.certificate.verdict == "free" and out.clearance.lower > 0
+    # MuJoCo's distances along the repaired motion never undercut the certified clearance
+    rot, pos = out.motion.pose(np.linspace(*out.motion.domain, 2001))
+    d = MujocoDistance(body, post).distances(rot, pos)
+    assert d.min() >= out.clearance.lower, (d.min(), out.clearance)
+
+
+def test_shapes_mujoco_cannot_compile_are_a_shape_error():
+    # a mesh below MuJoCo's surface-area check: repair and the two-body distances name
+    # it, as the ground truth does, instead of letting MuJoCo's ValueError through
+    from harness.avoid.pair import pair_distances
+
+    tiny = harness.ConvexMesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]) * 1e-9)
+    q = np.array([[1.0, 0.0, 0.0, 0.0]] * 3)
+    m = motions.interpolate(q, np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]]))
+    post = [Box([0.1, 0.1, 0.1], center=[1, 0, 0])]
+    for call in (
+        lambda: repair(m, tiny, post),
+        lambda: pair_distances(m, tiny, m, Box([0.1, 0.1, 0.1], center=[0, 1, 0]), [0.5]),
+        lambda: ground_truth(m, tiny, post),
+    ):
+        with pytest.raises(harness.ShapeError, match="MuJoCo cannot represent"):
+            call()

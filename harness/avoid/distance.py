@@ -13,7 +13,7 @@ import numpy as np
 
 from motions.quaternion import quat_from_matrix
 
-from ..mjdistance import CCD_TOLERANCE, geom_xml, mesh_xml
+from ..mjdistance import CCD_TOLERANCE, MOCAP_INERTIAL, distance_model, geom_xml, mesh_xml
 from ..shapes import Shape, part_owners, parts
 
 __all__ = ["DistanceModel"]
@@ -47,7 +47,7 @@ class DistanceModel:
 
         for i, ps in enumerate(self.moving):
             geoms = "".join(geom(p, f"m{i}_{j}") for j, p in enumerate(ps))
-            bodies.append(f'<body name="mover{i}" mocap="true">{geoms}</body>')
+            bodies.append(f'<body name="mover{i}" mocap="true">{MOCAP_INERTIAL}{geoms}</body>')
         for o in obstacles:
             for p in parts(o):
                 static.append(geom(p, f"o{len(self.obstacle_parts)}"))
@@ -58,7 +58,7 @@ class DistanceModel:
             f"<asset>{''.join(assets)}</asset><worldbody>{''.join(bodies)}{''.join(static)}"
             "</worldbody></mujoco>"
         )
-        self.model = mujoco.MjModel.from_xml_string(xml)
+        self.model = distance_model(xml)
         self.data = mujoco.MjData(self.model)
         gid = lambda name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731
         # geom ids follow body order (world geoms first): look them up by name
