@@ -318,6 +318,14 @@ class RationalMotion(Motion):
                 sample points (relative 1e-10), if ``det(A)/w^3 <= 0`` there (a mirror
                 image), or if the motion is not continuous.
             DegenerateMotionError: if a weight reaches zero inside a segment.
+
+        Rigidity is checked at the ``2n + 1`` sample points of each segment, not between
+        them: where the weight dips between two of them, ``A / w`` can depart from a
+        rotation by far more than 1e-10 (a review built a quadratic one, rigid to 1e-10 at
+        every sample point, that stretches the body 3.8 times where its weight dips to
+        1e-13). The motion is what its matrices say: :meth:`pose` returns ``A / w`` as it
+        is, and every certificate bounds the affine images ``(A x + b) / w`` of the body,
+        so its answers hold for such a motion too (``tests/test_certify.py``).
         """
         br = as_array(breaks, "breaks", ndim=1)
         if br.size < 2 or np.any(np.diff(br) <= 0):

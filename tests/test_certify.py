@@ -431,3 +431,50 @@ def test_a_plane_does_not_recompute_a_slerp_motions_reach():
     m.speed_bound = lambda *a: calls.append(a) or speed_bound(*a)
     again = certify(m, body, floor, bound="lipschitz")
     assert calls == [] and again.verdict == first.verdict == "free"
+
+
+@pytest.mark.parametrize("frac", [0.5, 0.9])
+def test_a_motion_rigid_only_at_its_sample_points_is_certified_as_given(frac):
+    # from_bezier checks A A^T = w^2 I at 2n + 1 points a segment; between them, where the
+    # weight dips, A / w can stretch the body (a review built one: 3.8 times along x at
+    # the dip). Every query bounds the affine images (A x + b) / w: a wall that only the
+    # stretched box reaches is a collision, found no later than the exact first contact.
+    from fractions import Fraction
+
+    n, eps = 2, 1e-13
+    h = 1 / (2 * n + 2)
+    us = 2.5 * h  # midway between two sample points
+    delta = 4e-11 * (h / 2) ** 2  # (A A^T = w^2 I to 1e-10 at every sample point)
+    w = [us**2 + eps, -us + us**2 + eps, (1 - us) ** 2 + eps]  # (u - us)^2 + eps
+    ctrl = np.zeros((1, 3, 4, 4))
+    for i in range(3):
+        ctrl[0, i, :3, :3] = w[i] * np.eye(3) + delta * np.diag([1.0, 0.0, 0.0])
+        ctrl[0, i, 3, 3] = w[i]
+    m = motions.RationalMotion.from_bezier([0.0, 1.0], ctrl)
+    # the box's reach along x is 0.1 A00(u) / w(u) (Bernstein quadratics, exact in
+    # rationals): a wall at frac of the way from its rest to its peak
+    a00 = [Fraction(float(x)) for x in ctrl[0, :, 0, 0]]
+    wf = [Fraction(float(x)) for x in ctrl[0, :, 3, 3]]
+
+    def quad(c, u):
+        return c[0] * (1 - u) ** 2 + 2 * c[1] * u * (1 - u) + c[2] * u**2
+
+    peak = Fraction(1, 10) * quad(a00, Fraction(us)) / quad(wf, Fraction(us))
+    assert peak > Fraction(3, 10)  # (stretched over 3x)
+    xw = Fraction(1, 10) + frac * (peak - Fraction(1, 10))
+    # first contact: 0.1 A00(u) - xw w(u) = 0, the earlier root, in Bernstein form
+    g = [Fraction(1, 10) * a - xw * b for a, b in zip(a00, wf, strict=True)]
+    qa, qb, qc = g[0] - 2 * g[1] + g[2], 2 * (g[1] - g[0]), g[0]
+    disc = float(qb * qb - 4 * qa * qc)
+    roots = sorted(
+        [(-float(qb) - disc**0.5) / (2 * float(qa)), (-float(qb) + disc**0.5) / (2 * float(qa))]
+    )
+    first = roots[0]
+    assert 0 < first < us and quad(g, Fraction(us)) > 0
+    wall = [Box([1.0, 1.0, 1.0], center=[float(xw) + 1.0, 0.0, 0.0])]
+    body = Box([0.1, 0.1, 0.1])
+    for bound in ("hull", "aabb", "lipschitz"):
+        c = certify(m, body, wall, bound=bound, tolerance=1e-4)
+        assert c.verdict != "free", (bound, c)
+        if c.verdict == "collision":
+            assert c.toi_lo <= first and c.toi_hi >= first, (bound, c.toi_lo, first)
