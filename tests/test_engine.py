@@ -1020,3 +1020,19 @@ def test_times_without_doubles_between_them_keep_toi_lo_below_the_contact(bound,
         from harness.certification.api import TIME_ULPS
 
         assert first - c.toi_lo <= 2 * tol / 1e5 + (TIME_ULPS + 2) * 2.0**-53 * first
+
+
+@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz"])
+def test_a_query_settled_without_a_node_still_reports_its_time(scene, bound):
+    # a far obstacle is settled before any node (the reach test, the broad phase): the
+    # time was shared by nodes, so a single query read seconds=0.0 (a user's trial)
+    ms, bodies, _ = scene
+    far = [Box([0.1, 0.1, 0.1], center=[1e3, 0.0, 0.0])]
+    one = certify(ms[0], bodies[0], far, bound=bound)
+    assert one.verdict == "free" and one.seconds > 0, one
+    many = certify_many(ms, bodies, far, bound=bound)
+    table = harness.certify_table(ms, bodies, far, bound=bound)
+    for got in ([c.seconds for c in many], table.seconds.tolist()):
+        assert all(s > 0 for s in got), got
+        if all(c.nodes == 0 for c in many):  # (equal shares)
+            assert max(got) == pytest.approx(min(got)), got

@@ -30,7 +30,15 @@ from motions.baselines import (
 from motions.pieces import UNIT_ROUNDOFF, speed_bounds
 
 from ..shapes import Shape
-from .api import MAX_SAMPLES, Certificate, Owners, QueryError, assemble, motion_cache
+from .api import (
+    MAX_SAMPLES,
+    Certificate,
+    Owners,
+    QueryError,
+    assemble,
+    motion_cache,
+    time_shares,
+)
 from .device import buffers, warp
 from .refine import (
     MOTIONS_PER_CHUNK,
@@ -594,14 +602,14 @@ def _sampled_certs(out: Outcome, elapsed: float, tol: float, ms, obst) -> list[C
     owner = Owners(obst)
     toi_lo, toi_hi = out.toi_lo.tolist(), out.toi_hi.tolist()
     wt, wd = out.witness_time.tolist(), out.witness_distance.tolist()
-    total = max(1, sum(nodes))
+    shares = time_shares(elapsed, nodes).tolist()
     res = []
     for i in range(n):
         all_proven = counts[i][1] == 0  # the kernel's count of unproven cells
         common = dict(
             nodes=nodes[i],
             depth=0,
-            seconds=elapsed * nodes[i] / total,
+            seconds=shares[i],
             bound="sampled",
             tolerance=tol,
             pose_tests=tests[i],
@@ -689,12 +697,13 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
     elapsed = time.perf_counter() - start
     out = []
     owner = Owners(obst)
+    shares = time_shares(elapsed, nodes).tolist()
     for i, (tc, tb, tn, dn, hit_part, near_part) in enumerate(results):
         common = dict(
             nodes=int(nodes[i]),
             pose_tests=int(nodes[i]),
             depth=0,
-            seconds=float(elapsed * nodes[i] / max(1, nodes.sum())),
+            seconds=shares[i],
             certified=False,
             bound="sampled",
             tolerance=tol,

@@ -78,7 +78,7 @@ class Certificate:
             included (Lipschitz: distance evaluations; sampling: samples).
         pose_tests: exact distance evaluations of poses.
         depth: deepest subdivision level reached.
-        seconds: wall time (for a batch: its share by nodes).
+        seconds: wall time (for a batch: its share by nodes, :func:`time_shares`).
         certified: whether `free` and `toi_lo` are proofs.
         bound: the query method.
         tolerance: the length tolerance used.
@@ -691,6 +691,16 @@ def _reported_one(t: list, c: list, motion, obstacles) -> tuple[list, list]:
     return [lo], [-1 if ob is None else ob]
 
 
+def time_shares(elapsed: float, nodes: np.ndarray) -> np.ndarray:
+    """A batch's `elapsed` seconds shared among its motions by their `nodes` (equally where
+    none has any: a batch the broad phase settles whole took its time all the same)."""
+    nodes = np.asarray(nodes, dtype=float)
+    total = nodes.sum()
+    if total <= 0:
+        return np.full(len(nodes), elapsed / max(1, len(nodes)))
+    return elapsed * nodes / total
+
+
 def assemble(
     out, elapsed: float, bound: str, tol: float, *, certified, motions, obstacles
 ) -> list[Certificate]:
@@ -705,8 +715,7 @@ def assemble(
     if n == 1:  # a single query: its two rows as lists (numpy calls on one row cost
         # more than the work: ~40 % of this function)
         tl, cl = t.tolist(), c.tolist()
-        nd = cl[0][0]
-        seconds = [elapsed * nd / max(1, nd)]  # (the same operations as below)
+        seconds = [elapsed]  # (time_shares of one motion)
         rows = [cl[0][:3]]
         more = [0] if any(cl[0][4:7]) else []
         special = [0] if tl[0][1] <= BIG or cl[0][3] != 0 else []
@@ -714,8 +723,7 @@ def assemble(
         sp_why = [cl[0][3]] if special else []
         lo_sp, ob_sp = _reported_one(tl[0], cl[0], motions[0], obstacles) if special else ([], [])
     else:
-        nodes = c[:, 0]
-        seconds = (elapsed * nodes / max(1, int(nodes.sum()))).tolist()
+        seconds = time_shares(elapsed, c[:, 0]).tolist()
         rows = c[:, :3].tolist()
         more = np.flatnonzero(c[:, 4:7].any(axis=1)).tolist()
         at = np.flatnonzero((t[:, 1] <= BIG) | (c[:, 3] != 0))

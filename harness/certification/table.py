@@ -28,6 +28,7 @@ from .api import (
     checked_engine,
     obstacle_lists,
     reported_times,
+    time_shares,
 )
 from .refine import BIG
 from .refine import REASONS as KERNEL_REASONS
@@ -175,7 +176,7 @@ def assemble_table(
         toi_hi=np.where(hit, t[:, 1], math.inf),
         nodes=nodes,
         depth=c[:, 2].astype(np.int64),
-        seconds=elapsed * nodes / max(1, int(nodes.sum())),
+        seconds=time_shares(elapsed, nodes),
         certified=np.ones(n, dtype=bool),
         bound=bound,
         tolerance=tol,
