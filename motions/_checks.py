@@ -38,14 +38,21 @@ def short(x: Any, limit: int = 6) -> str:
     try:
         a = np.asarray(x)
     except Exception:  # pragma: no cover - exotic objects
-        return repr(x)[:80]
+        return _one_line(repr(x))
     if a.dtype == object or a.ndim == 0:
-        return repr(x)[:80]
+        return _one_line(repr(x))
     flat = a.ravel()
     body = np.array2string(flat[:limit], precision=6, separator=" ")
     if flat.size > limit:
         body = body[:-1] + " ...]"
     return f"{body} (shape {a.shape})" if a.ndim > 1 else body
+
+
+def _one_line(text: str, limit: int = 80) -> str:
+    """`text` on one line (runs of whitespace as one space: an object's repr can span
+    several, a scipy Rotation's does), at most `limit` characters."""
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 class _Complex(Exception):
@@ -143,9 +150,12 @@ constant."""
 
 
 def as_rotations(x: Any, name: str = "rotations") -> np.ndarray:
-    """Unit quaternions (N, 4), scalar first, from quaternions (N, 4) or matrices (N, 3, 3)."""
+    """Unit quaternions (N, 4), scalar first, from quaternions (N, 4), matrices (N, 3, 3)
+    or a scipy ``Rotation`` holding N rotations (it knows its own quaternion order)."""
     from .quaternion import quat_from_matrix
 
+    if type(x).__module__.startswith("scipy.spatial.transform") and hasattr(x, "as_quat"):
+        x = x.as_quat(scalar_first=True)  # (a single rotation: shape (4,), refused below)
     a = as_array(x, name)
     if a.ndim == 2 and a.shape[1] == 4:
         return unit_quaternions(as_quaternions(a, name))

@@ -588,3 +588,29 @@ def test_fit_names_segments_before_counting_poses():
         motions.fit(q, p, segments=0)
     with pytest.raises(ValueError, match=r"at least 4"):
         motions.fit(q, p, segments=1)
+
+
+def test_a_scipy_rotation_stack_is_taken_as_its_own_quaternions():
+    # a user passed scipy's Rotation and read a two-line error cut off in a matrix; it
+    # knows its quaternion order, so it is taken as given (scalar first, as here)
+    from scipy.spatial.transform import Rotation
+
+    rots = Rotation.from_euler("zx", [[0, 0], [30, 10], [60, -5], [90, 20]], degrees=True)
+    p = np.array([[0.0, 0, 0], [1, 0, 0], [2, 1, 0], [3, 1, 1]])
+    got = motions.interpolate(rots, p)
+    want = motions.interpolate(rots.as_quat(scalar_first=True), p)
+    t = np.linspace(*want.domain, 9)
+    assert np.array_equal(got.pose(t)[0], want.pose(t)[0])
+    # a single rotation is one keyframe, not N: refused by its shape, on one line
+    with pytest.raises(ValueError, match=r"shape \(N, 4\).*got \(4,\)"):
+        motions.interpolate(rots[0], p)
+
+
+def test_an_error_names_an_object_on_one_line():
+    class Multi:
+        def __repr__(self):
+            return "Multi(\n  a=1,\n  b=2)"
+
+    with pytest.raises(TypeError) as e:
+        motions.interpolate(Multi(), np.zeros((3, 3)))
+    assert "\n" not in str(e.value) and "Multi( a=1, b=2)" in str(e.value), str(e.value)
