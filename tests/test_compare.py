@@ -1080,6 +1080,15 @@ def test_a_ci_trials_mistakes_are_named(tmp_path):
     other = _run(tmp_path / "seed1", _rows(rng), {**META, "seed": 1})
     with pytest.raises(CompareError, match="of different seeds: seed: base 0 vs new 1"):
         compare(base, other)
+    # another suite lacks the base's gated columns too: its suite is named, not a column
+    # (a user's trial compared a smoke run with a sweep)
+    rows = _rows(rng)
+    gated = [c for c in ("single_agrees_with_batch", "verdict") if c in rows[0]]
+    assert gated, list(rows[0])
+    lacking = [{k: v for k, v in r.items() if k != gated[0]} for r in rows]
+    sweep = _run(tmp_path / "sweep", lacking, {**META, "suite": "sweep", "suite_hash": "other"})
+    with pytest.raises(CompareError, match=r"of different suites: suite: base .* vs new 'sweep'"):
+        compare(base, sweep)
     # a 1.1x change is neither a regression nor "faster" at the default threshold
     near = _run(tmp_path / "near", _rows(np.random.default_rng(21), factor=1 / 1.1))
     assert {t.status for t in compare(base, near).timing} == {"ok"}

@@ -178,12 +178,8 @@ def _compare_runs(
     for p, df in ((b, base), (n, new)):  # as for benchmark files: nothing compared, no pass
         if not len(df):
             raise CompareError(f"{p / 'results.parquet'} has no rows: nothing to compare.")
-    lack = [c for c in _GATED if c in base and c not in new]
-    if lack:  # (checked with the columns every table needs: one place, before any gate)
-        raise CompareError(
-            f"{n / 'results.parquet'}: column(s) {lack} missing, which the base"
-            f" ({b / 'results.parquet'}) has: the accuracy gate cannot judge the new run."
-        )
+    # runs of other suites or seeds first: their columns differ too, and a missing column
+    # named a symptom where a user had compared the wrong runs
     problems = [
         f"{k}: base {mb.get(k)!r} vs new {mn.get(k)!r}"
         for k in ("suite", "suite_hash", "seed")
@@ -192,6 +188,12 @@ def _compare_runs(
     if problems:
         what = "seeds" if all(p.startswith("seed:") for p in problems) else "suites"
         raise CompareError(f"The runs are of different {what}: " + "; ".join(problems))
+    lack = [c for c in _GATED if c in base and c not in new]
+    if lack:  # (checked with the columns every table needs: one place, before any gate)
+        raise CompareError(
+            f"{n / 'results.parquet'}: column(s) {lack} missing, which the base"
+            f" ({b / 'results.parquet'}) has: the accuracy gate cannot judge the new run."
+        )
     kb, kn = set(base["_key"]), set(new["_key"])
     keys = sorted(kb & kn)
     if not keys:
