@@ -14,6 +14,7 @@ import errno
 import importlib
 import os
 import secrets
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -88,7 +89,7 @@ def render(
         ValueError / TypeError: bad arguments (checked before any drawing);
         RenderError: the PNG cannot be written, or backend="mujoco" without OpenGL.
     """
-    from .sim import _scene, body_from_model, obstacles_from_model
+    from .sim import HeldJointsWarning, _scene, body_from_model, obstacles_from_model
 
     if backend not in BACKENDS:
         raise ValueError(f"Unknown `backend` {short(backend)}; expected one of {list(BACKENDS)}.")
@@ -130,7 +131,11 @@ def render(
             )
     path = _check_out(out, f"{sc.name}_{motion.scheme}.png")
     times = np.linspace(*motion.domain, int(frames))
-    body = body_from_model(sc.model, sc.mocap_body)
+    with warnings.catch_warnings():
+        # (a drawing certifies nothing: that a certificate would hold the model's joints
+        # at their reference, as the drawing shows them, is not news here)
+        warnings.simplefilter("ignore", HeldJointsWarning)
+        body = body_from_model(sc.model, sc.mocap_body)
     obstacles = obstacles_from_model(sc.model, carried=sc.carried)
     lo, hi = frame_box(motion, body, obstacles)
     far = float(np.abs(np.r_[lo, hi]).max())

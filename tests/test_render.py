@@ -311,3 +311,15 @@ def test_a_motion_beyond_the_lengths_the_tool_takes_is_refused_before_drawing(tm
         with pytest.raises(ValueError, match=r"carries the body 1e\+300 m from the origin"):
             harness.render("slot", m, out=tmp_path / "far.png", frames=1)
     assert not list(tmp_path.iterdir())
+
+
+def test_drawing_a_model_with_joints_says_nothing_of_certificates(tmp_path, capsys):
+    # a user's trial rendered the gripper and read a HeldJointsWarning (with a line of
+    # render.py's source) about a certificate the drawing does not make
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        code = main(["render", "gripper", "--backend", "matplotlib", "--frames", "1",
+                     "--out", str(tmp_path / "g.png")])  # fmt: skip
+    assert code == 0, capsys.readouterr().err
+    assert not [w for w in seen if issubclass(w.category, HeldJointsWarning)], seen
+    assert "HeldJointsWarning" not in capsys.readouterr().err
