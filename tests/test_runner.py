@@ -326,6 +326,10 @@ def test_unwritable_output_and_foreign_folder(tiny, tmp_path):
     blocker.write_text("not a folder")
     r = rsmbench("run", str(tiny), "--out", str(blocker / "run"), "--quiet", check=False)
     assert r.returncode == 2 and "not writable" in r.stderr
+    # the folder itself a file: said so (it read as a permission: "[Errno 17] File exists")
+    r = rsmbench("run", str(tiny), "--out", str(blocker), "--quiet", check=False)
+    assert r.returncode == 2 and "is a file, not a folder" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and blocker.read_text() == "not a folder"
     out = tmp_path / "run"
     run_suite(load_suite(tiny), out, progress=False)
     other = tmp_path / "other.toml"

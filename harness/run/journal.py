@@ -449,6 +449,8 @@ def machine_meta() -> dict:
 
 
 def check_writable(folder: Path) -> None:
+    if folder.exists() and not folder.is_dir():  # (mkdir's "File exists" read as a permission)
+        raise SuiteError(f"Output folder {str(folder)!r} is a file, not a folder.")
     try:
         folder.mkdir(parents=True, exist_ok=True)
         probe = folder / ".write-probe"
