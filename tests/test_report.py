@@ -1091,6 +1091,10 @@ def test_a_repair_sweep_keeps_its_tolerances_apart_and_times_repaired_motions():
     # the sampled repair's grid as the study ran it (the text said 256 whatever it was)
     sampled = [r for r in repair if r["figure"].startswith("sampled")]
     assert sampled and all("its 64-sample grid" in r["basis"] for r in sampled)
+    # its lines carry the study's tolerance, which its search does not take: said so
+    # (a user's trial read two identical lines "tolerance 0.001 m" and "0.01 m")
+    assert all("it takes no tolerance" in r["basis"] for r in sampled)
+    assert not any("takes no tolerance" in r["basis"] for r in repair if r not in sampled)
 
 
 def test_a_run_of_repairs_alone_has_no_filmstrip_of_the_cube_scene(tmp_path, monkeypatch):

@@ -217,7 +217,12 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
             value = f"claimed free {r['claimed_all']}, still collide {r['still_collides']}"
             if float(r["clearance"]) > 0:
                 value += f", below clearance {r['below_clearance']}"
-            basis = f"of {motions}; {checked}; its free is what {grid_text(rep)} saw"
+            # (its own search takes no tolerance: the study's tolerance names the rows it
+            # stands beside, and its lines read alike across tolerances)
+            basis = (
+                f"of {motions}; {checked}; its free is what {grid_text(rep)} saw"
+                " (it takes no tolerance: the same search at each tolerance of the study)"
+            )
         if refused:
             value += f"; refused {refused}"
         spread = (
