@@ -10,6 +10,7 @@ import numbers
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 __all__ = [
     "ROTATION_TOL",
@@ -154,7 +155,7 @@ def as_rotations(x: Any, name: str = "rotations") -> np.ndarray:
     or a scipy ``Rotation`` holding N rotations (it knows its own quaternion order)."""
     from .quaternion import quat_from_matrix
 
-    if type(x).__module__.startswith("scipy.spatial.transform") and hasattr(x, "as_quat"):
+    if isinstance(x, Rotation):
         x = x.as_quat(scalar_first=True)  # (a single rotation: shape (4,), refused below)
     a = as_array(x, name)
     if a.ndim == 2 and a.shape[1] == 4:
