@@ -151,6 +151,27 @@ def _positive(x: Any, name: str, shape: tuple = ()) -> np.ndarray:
     return a
 
 
+def _repr_value(v: Any) -> str:
+    """A shape's argument as it reads in a repr: arrays as nested lists, numbers by %.6g."""
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_repr_value(x) for x in v) + "]"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return repr(v)
+
+
+def _moved(center: np.ndarray, rotation: np.ndarray) -> list[tuple[str, Any]]:
+    """`center` and `rotation` as repr arguments, each only where it is not the default."""
+    out: list[tuple[str, Any]] = []
+    if np.any(center != 0):
+        out.append(("center", center))
+    if np.any(rotation != np.eye(3)):
+        out.append(("rotation", rotation))
+    return out
+
+
 class Shape:
     """Base class: a convex set given by its support function."""
 
@@ -187,8 +208,18 @@ class Shape:
         """The shape moved by ``x -> R x + p``."""
         raise NotImplementedError
 
+    def _repr_args(self) -> list[tuple[str, Any]]:
+        """The constructor's arguments that :meth:`__repr__` shows (defaults left out)."""
+        raise NotImplementedError
 
-@dataclass(frozen=True, eq=False)
+    def __repr__(self) -> str:
+        # one line, numbers as lists (a dataclass's repr prints numpy's multi-line arrays)
+        args = ", ".join(f"{k}={_repr_value(v)}" for k, v in self._repr_args())
+        named = f" named {self.name!r}" if self.name else ""
+        return f"{type(self).__name__}({args}){named}"
+
+
+@dataclass(frozen=True, eq=False, repr=False)
 class Box(Shape):
     """Box with half extents (3,), centre (3,) and rotation in its frame: a (3, 3) matrix,
     or a quaternion (4,) in rsmbench's order, scalar first (w, x, y, z) like MuJoCo's, not
@@ -229,8 +260,11 @@ class Box(Shape):
     def transformed(self, r, p):
         return Box(self.half_extents, r @ self.center + p, r @ self.rotation)
 
+    def _repr_args(self):
+        return [("half_extents", self.half_extents), *_moved(self.center, self.rotation)]
 
-@dataclass(frozen=True, eq=False)
+
+@dataclass(frozen=True, eq=False, repr=False)
 class HalfSpace(Box):
     """The solid side of a plane (MuJoCo's plane geom, whose outward normal is its frame's
     z axis): a cube of half size `half` whose top face lies in the plane, centred on the
@@ -297,8 +331,14 @@ class HalfSpace(Box):
     def transformed(self, r, p):
         return HalfSpace(r @ self.point + p, r @ self.rotation, float(self.half_extents[0]))
 
+    def _repr_args(self):
+        out = [("point", self.point), *_moved(np.zeros(3), self.rotation)]
+        return out + (
+            [("half", float(self.half_extents[0]))] if self.half_extents[0] != 1e3 else []
+        )
 
-@dataclass(frozen=True, eq=False)
+
+@dataclass(frozen=True, eq=False, repr=False)
 class Sphere(Shape):
     """Ball of `radius` about `center`."""
 
@@ -326,8 +366,11 @@ class Sphere(Shape):
     def transformed(self, r, p):
         return Sphere(self.radius, r @ self.center + p)
 
+    def _repr_args(self):
+        return [("radius", self.radius), *_moved(self.center, np.eye(3))]
 
-@dataclass(frozen=True, eq=False)
+
+@dataclass(frozen=True, eq=False, repr=False)
 class Capsule(Shape):
     """Segment of half length `half_length` along the local z axis, swept by a ball; its
     `rotation` is a (3, 3) matrix or a quaternion (w, x, y, z), as for :class:`Box`."""
@@ -376,6 +419,10 @@ class Capsule(Shape):
     def transformed(self, r, p):
         return Capsule(self.radius, self.half_length, r @ self.center + p, r @ self.rotation)
 
+    def _repr_args(self):
+        moved = _moved(self.center, self.rotation)
+        return [("radius", self.radius), ("half_length", self.half_length), *moved]
+
 
 FLAT_RATIO = 1e-9
 """A point set whose spread across its thinnest principal direction is at most this
@@ -392,7 +439,7 @@ vertex is dropped unless it is strictly inside (the support function is never
 underestimated)."""
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class ConvexMesh(Shape):
     """Convex hull of `vertices` (V, 3), given in the shape's frame.
 
@@ -451,6 +498,13 @@ class ConvexMesh(Shape):
         # a rigid motion maps hull vertices to hull vertices: no second qhull
         return ConvexMesh._of_hull(self.vertices_ @ np.asarray(r).T + p, self.input_count)
 
+    def __repr__(self) -> str:
+        # one line whatever the vertex count: a summary, not the vertices
+        v = self.vertices_
+        box = f"{_repr_value(v.min(axis=0))} to {_repr_value(v.max(axis=0))}"
+        named = f" named {self.name!r}" if self.name else ""
+        return f"ConvexMesh(<{len(v)} hull vertices of {self.input_count} given, box {box}>){named}"
+
 
 def hull_vertices(points: np.ndarray) -> np.ndarray:
     """The distinct points (V, 3) of `points` that the convex hull needs (qhull).
@@ -489,7 +543,7 @@ def hull_vertices(points: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(v[keep])
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, repr=False)
 class Compound(Shape):
     """Union of convex shapes; its support is the max of the parts' (the hull of the union)."""
 
@@ -532,6 +586,10 @@ class Compound(Shape):
 
     def transformed(self, r, p):
         return Compound([s.transformed(r, p) for s in self.shapes])
+
+    def __repr__(self) -> str:
+        named = f" named {self.name!r}" if self.name else ""
+        return f"Compound([{', '.join(map(repr, self.shapes))}]){named}"
 
 
 def parts(shape: Shape) -> tuple[Shape, ...]:

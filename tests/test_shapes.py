@@ -9,6 +9,7 @@ import pytest
 
 import harness
 import motions
+import scenes
 from harness import Box, Capsule, Compound, ConvexMesh, ShapeError, Sphere
 from harness.shapes import MAX_LENGTH, HalfSpace
 from motions.quaternion import quat_from_matrix, rotation_matrix
@@ -338,3 +339,24 @@ def test_a_shape_built_from_its_own_rotation_is_the_same_shape():
     kept = Box([1.0, 1, 1], rotation=off).rotation
     err = lambda m: np.abs(m.T @ m - np.eye(3)).max()  # noqa: E731
     assert err(off) > 1e-10 and err(kept) < 1e-14
+
+
+def test_a_shape_reads_on_one_line_and_builds_again_from_it(rng):
+    d = rng.normal(size=(200, 3))
+    shapes = [*all_shapes(rng), HalfSpace([0.1, 0.2, 0.3], rotation=[0.9, 0.1, 0.3, 0.2])]
+    for s in shapes:
+        text = repr(s)
+        assert "\n" not in text and len(text) < 400, text
+        if isinstance(s, ConvexMesh):
+            continue
+        again = eval(text, {**vars(harness), "HalfSpace": HalfSpace})
+        assert type(again) is type(s)
+        # (numbers are shown to 6 significant digits)
+        np.testing.assert_allclose(again.h(d), s.h(d), atol=1e-5 * (1 + s.bounding_radius))
+    mesh = ConvexMesh(rng.normal(size=(3000, 3)))
+    text = repr(mesh)
+    assert "\n" not in text and len(text) < 200, text
+    assert f"<{len(mesh.vertices())} hull vertices of 3000 given" in text
+    assert repr(Box([0.1, 0.2, 0.3])) == "Box(half_extents=[0.1, 0.2, 0.3])"
+    table = harness.obstacles_from_model(scenes.load("gripper").model)[0]
+    assert repr(table).endswith(" named 'table'")
