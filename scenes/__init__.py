@@ -94,12 +94,14 @@ def mocap_id(model: mujoco.MjModel, body: str) -> int:
     """Index of `body` among the mocap bodies; InvalidMocapBody lists the valid ones."""
     bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body) if isinstance(body, str) else -1
     if bid < 0 or model.body_mocapid[bid] < 0:
-        unnamed = isinstance(body, str) and body.startswith("<unnamed body ")
-        raise InvalidMocapBody(
-            f'Mocap body {body} has no name; give it one (<body name="..." mocap="true">).'
-            if unnamed
-            else f"Body {body!r} is not a mocap body. Mocap bodies: {mocap_bodies(model)}"
-        )
+        listed = f"Mocap bodies: {mocap_bodies(model)}"
+        if isinstance(body, str) and body.startswith("<unnamed body "):
+            why = f'Mocap body {body} has no name; give it one (<body name="..." mocap="true">).'
+        elif bid >= 0:
+            why = f"Body {body!r} is not a mocap body. {listed}"
+        else:  # (a misspelt name, say)
+            why = f"The model has no body {body!r}. {listed}"
+        raise InvalidMocapBody(why)
     return int(model.body_mocapid[bid])
 
 

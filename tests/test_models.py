@@ -375,9 +375,13 @@ def test_bad_files_get_named_errors(tmp_path):
         scenes.load(two)
     assert scenes.load(two, mocap_body="b").keyframes.positions[1].tolist() == [0.0, 1.0, 0.0]
     with pytest.raises(
-        scenes.InvalidMocapBody, match=r"'c' is not a mocap body. Mocap bodies: \['a', 'b'\]"
+        scenes.InvalidMocapBody, match=r"has no body 'c'. Mocap bodies: \['a', 'b'\]"
     ):
         scenes.load(two, mocap_body="c")
+    with pytest.raises(
+        scenes.InvalidMocapBody, match=r"'world' is not a mocap body. Mocap bodies: \['a', 'b'\]"
+    ):
+        scenes.load(two, mocap_body="world")
     with pytest.raises(scenes.SceneError, match=r"Cannot compile .*free joint"):
         scenes.load(write("free.xml", FREE_CHILD))  # MuJoCo allows them on top-level bodies only
     with pytest.raises(
