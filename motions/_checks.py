@@ -152,9 +152,12 @@ constant."""
 
 def as_rotations(x: Any, name: str = "rotations") -> np.ndarray:
     """Unit quaternions (N, 4), scalar first, from quaternions (N, 4), matrices (N, 3, 3)
-    or a scipy ``Rotation`` holding N rotations (it knows its own quaternion order)."""
+    or a scipy ``Rotation`` holding N rotations (it knows its own quaternion order), or
+    a list of Rotations."""
     from .quaternion import quat_from_matrix
 
+    if isinstance(x, list | tuple) and x and all(isinstance(r, Rotation) for r in x):
+        x = Rotation.concatenate(x)  # (a list of Rotations, single or not, in order)
     if isinstance(x, Rotation):
         x = x.as_quat(scalar_first=True)  # (a single rotation: shape (4,), refused below)
     a = as_array(x, name)

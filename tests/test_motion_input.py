@@ -604,6 +604,9 @@ def test_a_scipy_rotation_stack_is_taken_as_its_own_quaternions():
     # a single rotation is one keyframe, not N: refused by its shape, on one line
     with pytest.raises(ValueError, match=r"shape \(N, 4\).*got \(4,\)"):
         motions.interpolate(rots[0], p)
+    # a list of single Rotations (a trial's keyframes, one Rotation each) is taken in order
+    listed = motions.interpolate([rots[i] for i in range(4)], p)
+    assert np.array_equal(listed.pose(t)[0], want.pose(t)[0])
 
 
 def test_an_error_names_an_object_on_one_line():
