@@ -28,7 +28,7 @@ from .errors import (
     UnsupportedGeomError,
 )
 from .render import render
-from .shapes import Box, Capsule, Compound, ConvexMesh, HalfSpace, Sphere
+from .shapes import Box, Capsule, Compound, ConvexMesh, Cylinder, HalfSpace, Sphere
 from .sim import body_from_model, obstacles_from_model, physics_smoothness, simulate
 from .truth import ground_truth
 
@@ -41,6 +41,7 @@ __all__ = [
     "Clearance",
     "Compound",
     "ConvexMesh",
+    "Cylinder",
     "DegenerateMeshError",
     "HalfSpace",
     "HarnessError",

@@ -26,7 +26,17 @@ from motions import quat_from_matrix, rotation_matrix
 from motions._checks import short
 
 from .errors import HarnessError, ShapeError, UnsupportedGeomError
-from .shapes import Box, Capsule, Compound, ConvexMesh, HalfSpace, Shape, Sphere, parts
+from .shapes import (
+    Box,
+    Capsule,
+    Compound,
+    ConvexMesh,
+    Cylinder,
+    HalfSpace,
+    Shape,
+    Sphere,
+    parts,
+)
 
 __all__ = [
     "COVER_TOLERANCE",
@@ -46,7 +56,7 @@ __all__ = [
     "unusable_obstacles",
 ]
 
-SUPPORTED_GEOMS = ("box", "sphere", "capsule", "mesh", "plane")
+SUPPORTED_GEOMS = ("box", "sphere", "capsule", "cylinder", "mesh", "plane")
 PLANE_HALF = 1e3  # a plane starts as a cube of this half size below it (see HalfSpace)
 
 COVER_TOLERANCE = 1e-9
@@ -134,6 +144,8 @@ def _geom_shape(
         return Sphere(size[0], center=pos)
     if t == mujoco.mjtGeom.mjGEOM_CAPSULE:
         return Capsule(size[0], size[1], center=pos, rotation=rot)
+    if t == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        return Cylinder(size[0], size[1], center=pos, rotation=rot)
     if t == mujoco.mjtGeom.mjGEOM_MESH:
         mid = int(model.geom_dataid[g])
         a, n = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
@@ -236,7 +248,7 @@ def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = Non
 
     Raises:
         InvalidMocapBody: `mocap_body` is not a mocap body (the message lists them).
-        UnsupportedGeomError: a geom type without a shape (cylinder, ellipsoid, ...).
+        UnsupportedGeomError: a geom type without a shape (ellipsoid, ...).
         HarnessError: no geom in the subtree (or in `groups`).
     """
     _check_model(model)
@@ -489,7 +501,7 @@ def _static_shapes(model: mujoco.MjModel, geoms: np.ndarray):
 
 def unusable_obstacles(model: mujoco.MjModel, groups: Any = None) -> dict[int, str]:
     """The static colliding geoms (:func:`obstacle_geoms`) that cannot be obstacles, each
-    with why: an unsupported type (cylinder, ellipsoid, ...; see ``SUPPORTED_GEOMS``) or
+    with why: an unsupported type (ellipsoid, ...; see ``SUPPORTED_GEOMS``) or
     invalid parameters. :func:`obstacles_from_model` raises for any of them.
 
     Returns:

@@ -58,9 +58,9 @@ def geom_xml(shape: Shape, name: str, mesh_name: str | None = None, extra: str =
         return f'<geom name="{name}" type="box" size="{_f(shape.half_extents)}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'
     if shape.kind == "sphere":
         return f'<geom name="{name}" type="sphere" size="{shape.radius!r}" pos="{_f(shape.center)}" {extra}/>'
-    if shape.kind == "capsule":
+    if shape.kind in ("capsule", "cylinder"):
         q = quat_from_matrix(shape.rotation)
-        return f'<geom name="{name}" type="capsule" size="{shape.radius!r} {shape.half_length!r}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'
+        return f'<geom name="{name}" type="{shape.kind}" size="{shape.radius!r} {shape.half_length!r}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'
     if shape.kind == "mesh":  # (its asset about this centre: :func:`mesh_xml`)
         return f'<geom name="{name}" type="mesh" mesh="{mesh_name}" pos="{_f(_mesh_centre(shape))}" {extra}/>'
     raise ValueError(f"No MuJoCo geom for shape kind {shape.kind!r}.")

@@ -33,6 +33,7 @@ __all__ = [
     "Capsule",
     "Compound",
     "ConvexMesh",
+    "Cylinder",
     "HalfSpace",
     "Shape",
     "Sphere",
@@ -42,7 +43,7 @@ __all__ = [
     "parts",
 ]
 
-KIND = {"box": 0, "sphere": 1, "capsule": 2, "mesh": 3}
+KIND = {"box": 0, "sphere": 1, "capsule": 2, "mesh": 3, "cylinder": 4}
 COVER_SLACK = 1e-9
 """Relative slack of a half-space's cover over the need it computes: the few roundings
 of that computation are ~1e-16 relative, far below it."""
@@ -424,6 +425,65 @@ class Capsule(Shape):
         return [("radius", self.radius), ("half_length", self.half_length), *moved]
 
 
+@dataclass(frozen=True, eq=False, repr=False)
+class Cylinder(Shape):
+    """Solid circular cylinder of `radius` about the local z axis, from ``-half_length``
+    to ``half_length`` along it (MuJoCo's cylinder geom: size ``radius half_length``); its
+    `rotation` is a (3, 3) matrix or a quaternion (w, x, y, z), as for :class:`Box`.
+
+    Its support function is ``h(e) = radius |(e_x, e_y)| + half_length |e_z|`` (local
+    frame): a disk's plus a segment's, which the kernels evaluate like a capsule's."""
+
+    radius: float
+    half_length: float
+    center: np.ndarray
+    rotation: np.ndarray
+    kind = "cylinder"
+
+    def __init__(
+        self, radius: Any, half_length: Any, center: Any = (0, 0, 0), rotation: Any = None
+    ):
+        object.__setattr__(self, "radius", float(_positive(radius, "radius")))
+        object.__setattr__(self, "half_length", float(_positive(half_length, "half_length")))
+        object.__setattr__(self, "center", _length(center, "center", shape=(3,)))
+        object.__setattr__(self, "rotation", _frozen(_rotation(rotation)))
+
+    @property
+    def axis(self) -> np.ndarray:
+        return self.rotation[:, 2]
+
+    def support(self, d):
+        e = np.asarray(d, dtype=float) @ self.rotation  # (local coordinates)
+        n = np.linalg.norm(e[..., :2], axis=-1, keepdims=True)
+        # a direction along the axis: any rim point of the end face (the same value)
+        rim = np.where(n > 0, e[..., :2] / np.where(n > 0, n, 1.0), [1.0, 0.0])
+        local = np.concatenate(
+            [self.radius * rim, np.where(e[..., 2:] >= 0, 1.0, -1.0) * self.half_length],
+            axis=-1,
+        )
+        return self.center + local @ self.rotation.T
+
+    @cached_property  # (a shape is immutable)
+    def bounding_radius(self) -> float:
+        return float(np.linalg.norm(self.center) + np.hypot(self.radius, self.half_length))
+
+    def sample_points(self, n: int = 64) -> np.ndarray:
+        rng = np.random.default_rng(0)
+        a = rng.uniform(0, 2 * np.pi, n)
+        z = rng.uniform(-1, 1, n) * self.half_length
+        side = np.stack([self.radius * np.cos(a), self.radius * np.sin(a), z], axis=1)
+        rim = side.copy()
+        rim[:, 2] = np.where(np.arange(n) % 2 == 0, 1.0, -1.0) * self.half_length
+        return self.center + np.concatenate([rim, side]) @ self.rotation.T
+
+    def transformed(self, r, p):
+        return Cylinder(self.radius, self.half_length, r @ self.center + p, r @ self.rotation)
+
+    def _repr_args(self):
+        moved = _moved(self.center, self.rotation)
+        return [("radius", self.radius), ("half_length", self.half_length), *moved]
+
+
 FLAT_RATIO = 1e-9
 """A point set whose spread across its thinnest principal direction is at most this
 fraction of its largest spread is flat (coplanar or collinear): MuJoCo cannot build its
@@ -607,7 +667,7 @@ def part_owners(shapes: Sequence[Shape]) -> np.ndarray:
 def as_shape(x: Any, name: str = "body") -> Shape:
     if not isinstance(x, Shape):
         raise TypeError(
-            f"Expected `{name}` to be a harness shape (Box, Sphere, Capsule, ConvexMesh, Compound), got {type(x).__name__}."
+            f"Expected `{name}` to be a harness shape (Box, Sphere, Capsule, Cylinder, ConvexMesh, Compound), got {type(x).__name__}."
         )
     if isinstance(x, HalfSpace):  # (a moving half-space meets everything somewhere)
         raise ShapeError(f"Expected `{name}` to be bounded, got a HalfSpace.")
@@ -628,42 +688,3 @@ def as_obstacles(x: Any, name: str = "obstacles") -> list[Shape]:
             f"Expected `{name}` to be a sequence of harness shapes, got {type(x).__name__}."
         )
     return [as_shape(o, f"{name}[{i}]") for i, o in enumerate(x)]
-
-
-def shape_record(shape: Shape) -> dict[str, Any]:
-    """Flat record for the kernels: kind, pos (3,), rot (3, 3), size (3,), vertices."""
-    if shape.kind == "box":
-        return {
-            "kind": 0,
-            "pos": shape.center,
-            "rot": shape.rotation,
-            "size": shape.half_extents,
-            "verts": None,
-        }
-    if shape.kind == "sphere":
-        return {
-            "kind": 1,
-            "pos": shape.center,
-            "rot": np.eye(3),
-            "size": np.array([shape.radius, 0.0, 0.0]),
-            "verts": None,
-        }
-    if shape.kind == "capsule":
-        return {
-            "kind": 2,
-            "pos": shape.center,
-            "rot": shape.rotation,
-            "size": np.array([shape.radius, shape.half_length, 0.0]),
-            "verts": None,
-        }
-    if shape.kind == "mesh":
-        return {
-            "kind": 3,
-            "pos": np.zeros(3),
-            "rot": np.eye(3),
-            "size": np.zeros(3),
-            "verts": shape.vertices_,
-        }
-    raise ShapeError(
-        f"Shape kind {shape.kind!r} has no kernel record; split compounds with parts()."
-    )

@@ -112,8 +112,10 @@ class _Distances:
 
 
 def _polytope(a: Shape, b: Shape) -> bool:
-    """Whether MuJoCo's distance of parts a and b is not closed-form (a box or a mesh)."""
-    return a.kind in ("box", "mesh") or b.kind in ("box", "mesh")
+    """Whether MuJoCo's distance of parts a and b is not closed-form (a box, a mesh or a
+    cylinder: MuJoCo's general convex collider, good to its ccd tolerance)."""
+    iterative = ("box", "mesh", "cylinder")
+    return a.kind in iterative or b.kind in iterative
 
 
 class _Poses:

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 import motions
-from harness import Box, Capsule, ConvexMesh, Sphere
+from harness import Box, Capsule, ConvexMesh, Cylinder, Sphere
 from harness.shapes import HalfSpace
 from motions.quaternion import qmul, rotation_matrix
 
@@ -86,9 +86,9 @@ def gap_sample(rng, klass: str) -> float:
 
 
 # ----------------------------------------------------------------- families
-def face_translation(rng, klass, offset=0.0, length=2.0, family="face"):
+def face_translation(rng, klass, offset=0.0, length=2.0, family="face", body=None):
     """Body sliding over a plate's top face (z = 0) at a fixed height."""
-    body = random_body(rng)
+    body = random_body(rng) if body is None else body
     q = random_rotation(rng)
     r0 = rotation_matrix(q)
     low = body.h(-(r0.T @ [0, 0, 1.0]))  # depth of the body below its origin
@@ -101,9 +101,9 @@ def face_translation(rng, klass, offset=0.0, length=2.0, family="face"):
     return Case(family, translation(q, p0, p1), body, [plate], gap)
 
 
-def thin_wall(rng, klass):
+def thin_wall(rng, klass, body=None):
     """Body translating along x toward a 4 mm wall; collisions cross it."""
-    body = random_body(rng)
+    body = random_body(rng) if body is None else body
     q = random_rotation(rng)
     r0 = rotation_matrix(q)
     front = body.h(r0.T @ [1.0, 0, 0])
@@ -357,6 +357,105 @@ def make_plane_cases(seed: int = 2025, per_family_class: int = 20) -> list[Case]
     return [
         f(rng, klass)
         for f in PLANE_FAMILIES.values()
+        for klass in ("free", "collision", "grazing")
+        for _ in range(per_family_class)
+    ]
+
+
+# ----------------------------------------------------------------- cylinders
+# MuJoCo's cylinder geoms (harness.Cylinder), as bodies and as obstacles. The truth of the
+# translations needs only the body's support function, here its closed form
+# r |d - (d.a) a| + L |d.a| (axis a), written out again rather than taken from the shape.
+def cylinder_h(cyl: Cylinder, d) -> float:
+    d = np.asarray(d, dtype=float)
+    along = float(d @ cyl.axis)
+    across = float(np.linalg.norm(d - along * cyl.axis))  # (not sqrt(|d|^2 - along^2))
+    return float(d @ cyl.center) + cyl.radius * across + cyl.half_length * abs(along)
+
+
+def random_cylinder(rng) -> Cylinder:
+    return Cylinder(
+        rng.uniform(0.03, 0.2),
+        rng.uniform(0.02, 0.3),
+        center=rng.normal(size=3) * 0.05,
+        rotation=random_rotation(rng),
+    )
+
+
+class _ClosedForm:
+    """A cylinder whose `h` is :func:`cylinder_h` (what the families ask of a body)."""
+
+    def __init__(self, cyl):
+        self.cyl = cyl
+
+    def h(self, d):
+        return cylinder_h(self.cyl, d)
+
+
+def _with_cylinder(family, name):
+    def make(rng, klass):
+        cyl = random_cylinder(rng)
+        case = family(rng, klass, body=_ClosedForm(cyl))
+        case.body, case.family = cyl, name
+        return case
+
+    return make
+
+
+def cylinder_own_axis(rng, klass):
+    """A cylinder turning about its own axis (a linear preimage: its weights dip on the
+    long way): the swept volume is the cylinder itself, beside a wall."""
+    r, half_len = rng.uniform(0.05, 0.2), rng.uniform(0.02, 0.4)
+    body = Cylinder(r, half_len)
+    phi = rng.uniform(0.5, np.pi * 1.8)
+    gap = gap_sample(rng, klass)
+    wall = Box([0.1, 1.0, 1.0], center=[r + gap + 0.1, 0, 0])
+    m = linear_turn(np.array([1.0, 0, 0, 0]), np.array([np.cos(phi / 2), 0, 0, np.sin(phi / 2)]))
+    return Case("cyl-own-axis", m, body, [wall], gap)
+
+
+def post(rng, klass):
+    """A ball translating past a cylinder post (axis z) at a height within it: the
+    distance is the 2-D distance of the ball's path from the axis, less the radii."""
+    big, rs = rng.uniform(0.05, 0.3), rng.uniform(0.02, 0.15)
+    height = rng.uniform(0.3, 1.0)
+    axis_xy = rng.normal(size=2) * 0.1
+    tilt = rng.uniform(0, 2 * np.pi)
+    u = np.array([np.cos(tilt), np.sin(tilt)])  # the path's direction
+    n = np.array([-u[1], u[0]])
+    gap = gap_sample(rng, klass)
+    miss = big + rs + gap  # the path's distance from the axis
+    z = rng.uniform(-0.5, 0.5) * height
+    p0 = np.append(axis_xy + miss * n - 1.0 * u, z)
+    p1 = np.append(axis_xy + miss * n + 1.2 * u, z)
+    q = random_rotation(rng)
+    body = Sphere(rs, center=[0.0, 0.0, 0.0])
+    obstacle = Cylinder(big, height, center=np.append(axis_xy, 0.0), rotation=[1.0, 0, 0, 0])
+    toi = np.nan
+    if gap < 0:  # the ball centre reaches distance big + rs of the axis at s = 1 - sqrt(...)
+        s = 1.0 - np.sqrt((big + rs) ** 2 - miss**2)
+        toi = s / 2.2
+    # (the ball's centre stays within half the post's half height of its middle, h >= 0.3,
+    # and goes at most 0.1 deep: the side, not a cap, is the nearest and the deepest)
+    return Case("cyl-post", translation(q, p0, p1), body, [obstacle], gap, toi)
+
+
+CYLINDER_FAMILIES = {
+    "cyl-face": _with_cylinder(face_translation, "cyl-face"),
+    "cyl-wall": _with_cylinder(thin_wall, "cyl-wall"),
+    "cyl-far": _with_cylinder(
+        lambda rng, k, body: face_translation(rng, k, offset=1e4, body=body), "cyl-far"
+    ),
+    "cyl-own-axis": cylinder_own_axis,
+    "cyl-post": post,
+}
+
+
+def make_cylinder_cases(seed: int = 2026, per_family_class: int = 20) -> list[Case]:
+    rng = np.random.default_rng(seed)
+    return [
+        f(rng, klass)
+        for f in CYLINDER_FAMILIES.values()
         for klass in ("free", "collision", "grazing")
         for _ in range(per_family_class)
     ]

@@ -528,11 +528,11 @@ def test_geom_groups_outside_mujocos_six_are_never_selected():
 def test_unsupported_geoms_on_the_mover_list_what_it_takes():
     # the list offered a plane, which the moving body refuses
     xml = """<mujoco><worldbody><body name="hand" mocap="true">
-    <geom name="can" type="cylinder" size=".1 .2"/></body></worldbody></mujoco>"""
+    <geom name="egg" type="ellipsoid" size=".1 .2 .3"/></body></worldbody></mujoco>"""
     with pytest.raises(
         harness.errors.UnsupportedGeomError,
-        match=r"'can' .*'cylinder'; supported geom types on the moving body: \['box', 'sphere',"
-        r" 'capsule', 'mesh'\]\.$",
+        match=r"'egg' .*'ellipsoid'; supported geom types on the moving body: \['box', 'sphere',"
+        r" 'capsule', 'cylinder', 'mesh'\]\.$",
     ):
         body_from_model(mujoco.MjModel.from_xml_string(xml), "hand")
 

@@ -226,8 +226,8 @@ def test_scenes_command_describes_a_file(tmp_path, capsys, monkeypatch):
 
 
 def test_scenes_command_names_static_geoms_that_cannot_be_obstacles(tmp_path, capsys):
-    # a static cylinder was counted among the obstacles without a word, while
-    # harness.obstacles_from_model raises for it
+    # a static ellipsoid was counted among the obstacles without a word, while
+    # harness.obstacles_from_model raises for it (the cylinders are obstacles now)
     xml = tmp_path / "cans.xml"
     xml.write_text(
         '<mujoco><worldbody><body name="mover" mocap="true"><geom type="box" size=".1 .1 .1"/>'
@@ -243,16 +243,15 @@ def test_scenes_command_names_static_geoms_that_cannot_be_obstacles(tmp_path, ca
         "obstacles: 3 static colliding geoms {'cylinder': 1, 'ellipsoid': 1, 'box': 1}"
     )
     assert lines[at + 1] == (
-        "  of which 2 cannot be obstacles, so harness.obstacles_from_model refuses the model: "
-        "'can' (unsupported type 'cylinder'), 'egg' (unsupported type 'ellipsoid'); "
-        "supported geom types: ['box', 'sphere', 'capsule', 'mesh', 'plane']"
+        "  of which 1 cannot be an obstacle, so harness.obstacles_from_model refuses the model: "
+        "'egg' (unsupported type 'ellipsoid'); "
+        "supported geom types: ['box', 'sphere', 'capsule', 'cylinder', 'mesh', 'plane']"
     )
     model = scenes.compile_file(xml)
     assert harness.geoms.unusable_obstacles(model) == {
-        model.geom("can").id: "unsupported type 'cylinder'",
         model.geom("egg").id: "unsupported type 'ellipsoid'",
     }
-    with pytest.raises(harness.UnsupportedGeomError, match=r"Geom 'can' .* 'cylinder'"):
+    with pytest.raises(harness.UnsupportedGeomError, match=r"Geom 'egg' .* 'ellipsoid'"):
         harness.obstacles_from_model(model)
 
 

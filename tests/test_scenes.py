@@ -172,7 +172,7 @@ def test_render_png_with_matplotlib(tmp_path):
 XML = """<mujoco><worldbody>
 <body name="mover" mocap="true"><geom type="box" size=".1 .1 .1"/></body>
 <body name="free"><freejoint/><geom type="sphere" size=".1"/></body>
-<geom name="can" type="cylinder" size=".1 .2" pos="1 0 0"/>
+<geom name="egg" type="ellipsoid" size=".1 .2 .3" pos="1 0 0"/>
 </worldbody><keyframe><key time="0" mpos="0 0 0"/><key time="1" mpos="0.5 0 0"/></keyframe></mujoco>"""
 
 

@@ -3,11 +3,12 @@ affine images, simplex reduction and GJK. ``@wp.func``s and structs only.
 
 Conventions:
 
-- Shapes are ``Shape`` records (kind 0 box, 1 sphere, 2 capsule, 3 mesh) placed by a
-  position and rotation in their owner's frame (body coordinates for body parts, world
-  coordinates for obstacles); meshes carry a vertex range into ``verts``.
+- Shapes are ``Shape`` records (kind 0 box, 1 sphere, 2 capsule, 3 mesh, 4 cylinder)
+  placed by a position and rotation in their owner's frame (body coordinates for body
+  parts, world coordinates for obstacles); meshes carry a vertex range into ``verts``.
 - A *core* is a shape without its radius (sphere: its centre, capsule: its segment); GJK on
-  cores plus radii gives exact distances for spheres and capsules.
+  cores plus radii gives exact distances for spheres and capsules. Boxes, meshes and
+  cylinders are their own cores (radius 0).
 - An affine image of a body part under a control matrix ``[[A, b], [0, 0, 0, w]]`` is kept
   as ``M = A R / w`` and ``c = (A p + b) / w`` (R, p the part's rotation and position), so
   that its support function is ``h(d) = d.c + h_local(M^T d)``: the per-row precomputation
@@ -101,6 +102,14 @@ def _local_support(
     """Support point of the shape in its own frame for direction e (any length)."""
     if sh.kind == 0:
         return wp.vec3d(_sgn(e[0]) * sh.size[0], _sgn(e[1]) * sh.size[1], _sgn(e[2]) * sh.size[2])
+    if sh.kind == 4:  # a cylinder has no core: its rim point facing e, at the end facing e
+        n = wp.sqrt(e[0] * e[0] + e[1] * e[1])
+        rx = sh.size[0]
+        ry = F0
+        if n > F0:  # (else every rim point supports: (r, 0))
+            rx = e[0] * (sh.size[0] / n)
+            ry = e[1] * (sh.size[0] / n)
+        return wp.vec3d(rx, ry, _sgn(e[2]) * sh.size[1])
     if sh.kind == 3:
         best = -HUGE
         out = verts[sh.vstart]
@@ -128,6 +137,8 @@ def _local_h(sh: Shape, verts: wp.array(dtype=wp.vec3d), e: wp.vec3d, core: wp.i
     """Support function of the shape in its own frame: max over the shape of x.e."""
     if sh.kind == 0:
         return wp.abs(e[0]) * sh.size[0] + wp.abs(e[1]) * sh.size[1] + wp.abs(e[2]) * sh.size[2]
+    if sh.kind == 4:
+        return sh.size[0] * wp.sqrt(e[0] * e[0] + e[1] * e[1]) + sh.size[1] * wp.abs(e[2])
     if sh.kind == 3:
         best = -HUGE
         k = sh.vstart

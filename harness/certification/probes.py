@@ -3,6 +3,8 @@ the certification kernels' building blocks (STYLE rule 5). Used by the tests."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from motions.bernstein import bezier_eval, de_casteljau_split
@@ -82,12 +84,13 @@ def prepare_numpy(ctrl: np.ndarray, err: np.ndarray, part: Shape) -> dict:
     a = ctrl[..., :3, :3]
     b = ctrl[..., :3, 3]
     ok = np.all(w - err[:, 2:3] > 0, axis=1)
-    rec_rot = part.rotation if part.kind in ("box", "capsule") else np.eye(3)
+    rec_rot = part.rotation if part.kind in ("box", "capsule", "cylinder") else np.eye(3)
     pos = part.center if part.kind != "mesh" else np.zeros(3)
     rloc = {
         "box": lambda: np.linalg.norm(part.half_extents),
         "sphere": lambda: part.radius,
         "capsule": lambda: part.radius + part.half_length,
+        "cylinder": lambda: math.hypot(part.radius, part.half_length) * (1 + gamma(16)),
         "mesh": lambda: part.bounding_radius,
     }[part.kind]()
     g_blk = a @ rec_rot
@@ -115,6 +118,11 @@ def prepare_numpy(ctrl: np.ndarray, err: np.ndarray, part: Shape) -> dict:
     elif part.kind == "capsule":
         ext_up = part.half_length * np.abs(rows[..., 2]) + part.radius * np.linalg.norm(
             rows, axis=-1
+        )
+        ext_dn = ext_up
+    elif part.kind == "cylinder":
+        ext_up = part.half_length * np.abs(rows[..., 2]) + part.radius * np.hypot(
+            rows[..., 0], rows[..., 1]
         )
         ext_dn = ext_up
     else:

@@ -8,6 +8,7 @@ owner's frame, padded outward by the rounding of computing it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from operator import attrgetter, itemgetter
@@ -42,6 +43,9 @@ def part_aabb(p: Shape) -> tuple[np.ndarray, np.ndarray]:
         ext = np.abs(p.rotation) @ p.half_extents
     elif p.kind == "sphere":
         ext = np.full(3, p.radius)
+    elif p.kind == "cylinder":  # along axis j: the disk's r |(R_j0, R_j1)|, the axis's
+        r = p.rotation
+        ext = p.radius * np.hypot(r[:, 0], r[:, 1]) + p.half_length * np.abs(r[:, 2])
     else:
         ext = p.half_length * np.abs(p.rotation[:, 2]) + p.radius
     return p.center - ext, p.center + ext
@@ -67,6 +71,9 @@ def _part_record(p: Shape) -> tuple[tuple, np.ndarray | None]:
     if p.kind == "capsule":
         size, rloc = (p.radius, p.half_length, 0.0), p.radius + p.half_length
         return (2, p.center, p.rotation, size, 0, 0, rho, rloc, lo, hi), None
+    if p.kind == "cylinder":  # (rloc: its rim's distance from the centre, rounded up)
+        size, rloc = (p.radius, p.half_length, 0.0), math.hypot(p.radius, p.half_length)
+        return (4, p.center, p.rotation, size, 0, 0, rho, rloc * (1 + _GAMMA16), lo, hi), None
     v = p.vertices_
     return (3, _ZERO, _EYE, _ZERO, 0, len(v), rho, p.bounding_radius, lo, hi), v
 

@@ -20,7 +20,16 @@ from motions._checks import as_float, short
 
 from ..certification.api import cover_half_spaces
 from ..errors import HarnessError
-from ..shapes import Box, Capsule, ConvexMesh, Shape, Sphere, as_obstacles, as_shape
+from ..shapes import (
+    Box,
+    Capsule,
+    ConvexMesh,
+    Cylinder,
+    Shape,
+    Sphere,
+    as_obstacles,
+    as_shape,
+)
 
 __all__ = [
     "Core",
@@ -244,12 +253,32 @@ def ball_points(radius: float, error: float) -> tuple[np.ndarray, float]:
     )
 
 
+def cylinder_points(shape: Cylinder, error: float) -> np.ndarray:
+    """Vertices of a prism circumscribed about the cylinder `shape` (its end faces'
+    regular polygons, in its owner's frame) within Hausdorff distance `error` of it: a
+    polygon of n sides about a circle of radius r reaches ``r (1 / cos(pi / n) - 1)``
+    beyond it."""
+    r = shape.radius
+    n = 8
+    while r * (1.0 / math.cos(math.pi / n) - 1.0) > error:
+        n *= 2
+        if n > 20 * 4**MAX_TESSELLATION_LEVEL:
+            raise NotRepresentable(
+                f"a cylinder of radius {r:g} needs more than {n // 2} sides for a"
+                f" tessellation error <= {error:g}"
+            )
+    a = 2.0 * math.pi * np.arange(n) / n
+    ring = (r / math.cos(math.pi / n)) * np.column_stack([np.cos(a), np.sin(a)])
+    ends = [np.column_stack([ring, np.full(n, z)]) for z in (-shape.half_length, shape.half_length)]
+    return shape.center + np.concatenate(ends) @ shape.rotation.T
+
+
 def core_of(shape: Shape, tessellation_error: float | None = None) -> Core:
     """The convex core of a single (non-compound) shape in its own frame.
 
     Spheres and capsules are a point or a segment with their radius; with
     `tessellation_error` they are instead circumscribed polytopes (radius 0) within that
-    Hausdorff distance of the shape.
+    Hausdorff distance of the shape, and so are cylinders (which have no core without).
     """
     if tessellation_error is not None and isinstance(shape, Sphere | Capsule):
         pts, _err = ball_points(shape.radius, tessellation_error)
@@ -259,6 +288,11 @@ def core_of(shape: Shape, tessellation_error: float | None = None) -> Core:
             ends = shape.center + np.outer([-1.0, 1.0], shape.half_length * shape.axis)
             cloud = np.concatenate([ends[0] + pts, ends[1] + pts])
         v, e, f, planes = _hull(cloud, f"A tessellated {shape.kind}")
+        return Core(v, e, f, planes, 0.0)
+    if tessellation_error is not None and isinstance(shape, Cylinder):
+        v, e, f, planes = _hull(
+            cylinder_points(shape, tessellation_error), "A tessellated cylinder"
+        )
         return Core(v, e, f, planes, 0.0)
     if isinstance(shape, Box):
         v = shape.center + (_BOX_SIGNS * shape.half_extents) @ shape.rotation.T
@@ -286,7 +320,7 @@ def core_of(shape: Shape, tessellation_error: float | None = None) -> Core:
 
 def part_frame(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
     """Rotation (3, 3) and centre (3,) of a part's own frame inside its owner's frame."""
-    if isinstance(shape, Box | Capsule):
+    if isinstance(shape, Box | Capsule | Cylinder):
         return shape.rotation, shape.center
     if isinstance(shape, Sphere):
         return np.eye(3), shape.center

@@ -62,7 +62,7 @@ from motions.baselines import ScLerpMotion
 from motions.quaternion import quat_from_matrix
 
 from ..certification import Certificate
-from ..shapes import Box, Capsule, ConvexMesh, Shape, Sphere, parts
+from ..shapes import Box, Capsule, ConvexMesh, Cylinder, Shape, Sphere, parts
 from ._common import (
     NotApplicable,
     NotRepresentable,
@@ -279,6 +279,8 @@ def _geometry(fcl: Any, shape: Shape) -> Any:
         return fcl.Sphere(shape.radius)
     if isinstance(shape, Capsule):
         return fcl.Capsule(shape.radius, 2.0 * shape.half_length)
+    if isinstance(shape, Cylinder):  # (FCL's cylinder: about its z axis, like MuJoCo's)
+        return fcl.Cylinder(shape.radius, 2.0 * shape.half_length)
     if isinstance(shape, ConvexMesh):
         core = core_of(shape)
         faces = np.column_stack([np.full(len(core.faces), 3), core.faces]).ravel()

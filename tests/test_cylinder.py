@@ -1,0 +1,239 @@
+"""MuJoCo's cylinder geoms (harness.Cylinder): the support function in closed form, and
+certified queries over cylinder bodies and obstacles against analytic truth, MuJoCo and
+coal (tests/cases.py, "cylinders")."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+import pytest
+
+import harness
+import motions
+import scenes
+from harness import Box, Cylinder, certify_many, clearance
+from harness.comparators._common import cylinder_points
+
+from .cases import TOL, cylinder_h, make_cylinder_cases, random_cylinder
+from .test_certify import check_decisive, check_sound
+
+
+def test_a_cylinder_support_is_its_closed_form(rng):
+    for _ in range(20):
+        cyl = random_cylinder(rng)
+        d = rng.normal(size=(300, 3))
+        d[:10] = cyl.axis * rng.normal(size=(10, 1))  # along the axis: a whole face supports
+        want = np.array([cylinder_h(cyl, x) for x in d])
+        np.testing.assert_allclose(cyl.h(d), want, rtol=0, atol=1e-14)
+        # the support points lie on the cylinder and attain h
+        local = (cyl.support(d) - cyl.center) @ cyl.rotation
+        assert np.all(np.hypot(local[:, 0], local[:, 1]) <= cyl.radius * (1 + 1e-14))
+        assert np.all(np.abs(local[:, 2]) <= cyl.half_length * (1 + 1e-14))
+        np.testing.assert_allclose(np.einsum("ij,ij->i", cyl.support(d), d), want, atol=1e-14)
+        # no sampled point beyond the support (the samples lie on the surface)
+        pts = cyl.sample_points(200)
+        assert np.all(d @ pts.T <= want[:, None] + 1e-14)
+        assert cyl.bounding_radius >= np.linalg.norm(pts, axis=1).max()
+
+
+@pytest.fixture(scope="module")
+def cases():
+    return make_cylinder_cases(seed=2026, per_family_class=20)
+
+
+def _run(cases, bound):
+    return certify_many(
+        [c.motion for c in cases],
+        [c.body for c in cases],
+        [c.obstacles for c in cases],
+        bound=bound,
+        tolerance=TOL,
+    )
+
+
+def test_the_cylinder_cases_are_balanced(cases):
+    counts = Counter(c.klass for c in cases)
+    assert len(cases) == 300 and min(counts.values()) >= 50, counts
+    assert {c.family for c in cases} == {
+        "cyl-face", "cyl-wall", "cyl-far", "cyl-own-axis", "cyl-post"
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz"])
+def test_cylinders_are_certified_soundly_and_decisively(cases, bound):
+    certs = _run(cases, bound)
+    check_sound(cases, certs, bound)
+    decided = Counter(c.klass for c, k in zip(cases, certs, strict=True) if k.verdict != "unknown")
+    if bound == "aabb":  # (a box never shrinks onto a turning body: collisions only)
+        assert decided["collision"] == sum(c.klass == "collision" for c in cases)
+        return
+    check_decisive(cases, certs, bound)
+    assert min(decided.values()) >= 40, decided
+
+
+def test_sampling_never_claims_a_collision_where_a_cylinder_is_clear(cases):
+    certs = _run(cases, "sampled")
+    assert not [
+        c
+        for c, k in zip(cases, certs, strict=True)
+        if k.verdict == "collision" and c.truth == "free"
+    ]
+
+
+def test_a_cylinders_clearance_brackets_the_truth(cases):
+    for c in cases[::4]:
+        cl = clearance(c.motion, c.body, c.obstacles, tolerance=1e-4)
+        assert cl.lower <= c.clearance + 1e-12, (c.family, cl, c.clearance)
+        if c.clearance >= 0:
+            assert cl.upper >= c.clearance - 1e-12, (c.family, cl, c.clearance)
+            assert cl.upper - cl.lower <= 1e-4 * (1 + 1e-9)
+        else:  # a proven penetration, no deeper than the truth's deepest
+            assert -c.clearance - 1e-12 <= -cl.upper or cl.upper < 0
+
+
+CYL_MODEL = """<mujoco><worldbody>
+<geom name="table" type="box" size="1 1 0.05" pos="0 0 -0.05"/>
+<geom name="post" type="cylinder" size="0.04 0.3" pos="0.5 0.1 0.3"/>
+<body name="hand" mocap="true" pos="0 0 0.5">
+  <geom name="palm" type="box" size="0.05 0.08 0.02"/>
+  <body name="finger" pos="0 0.06 -0.06" quat="0.9 0.3 0 0">
+    <geom name="pin" type="cylinder" size="0.01 0.04"/>
+  </body>
+</body></worldbody>
+<keyframe>
+  <key time="0" mpos="-0.4 0 0.5"/><key time="1" mpos="0 0.05 0.3"/>
+  <key time="2" mpos="0.5 0.1 0.2"/><key time="3" mpos="0.9 0 0.3"/>
+</keyframe></mujoco>"""
+
+
+def test_a_model_with_cylinders_is_certified_against_its_ground_truth(tmp_path):
+    path = tmp_path / "cyl.xml"
+    path.write_text(CYL_MODEL)
+    scene = scenes.load(path)
+    body = harness.body_from_model(scene.model, scene.mocap_body)
+    obstacles = harness.obstacles_from_model(scene.model)
+    assert [p.kind for p in harness.shapes.parts(body)] == ["box", "cylinder"]
+    assert [o.name for o in obstacles] == ["table", "post"] and obstacles[1].kind == "cylinder"
+    harness.geoms.check_body_covers_subtree(scene.model, scene.mocap_body, body)
+    # the keyframe path runs through the post: lifted by 0 to 0.6, clear of it from 0.5 on
+    k = scene.keyframes
+    results = []
+    for lift in np.linspace(0.0, 0.6, 7):
+        m = motions.interpolate(k.rotations, k.positions + [0, 0, lift], k.times)
+        truth = harness.ground_truth(m, body, obstacles, resolution=TOL)
+        cert = harness.certify(m, body, obstacles, tolerance=TOL)
+        results.append((truth.verdict, cert.verdict))
+        if truth.verdict == "collision":
+            assert cert.verdict != "free" and cert.toi_lo <= truth.toi_hi + 1e-12
+        if truth.verdict == "free":
+            assert cert.verdict != "collision"
+            if truth.clearance >= 10 * TOL:
+                assert cert.verdict == "free"
+    got = Counter(results)
+    assert got[("collision", "collision")] >= 2 and got[("free", "free")] >= 2, got
+
+
+def test_the_comparators_tessellate_a_cylinder_from_outside(rng):
+    for _ in range(10):
+        cyl = random_cylinder(rng)
+        err = 10 ** rng.uniform(-5, -2) * cyl.radius
+        pts = cylinder_points(cyl, err)
+        d = rng.normal(size=(500, 3))
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        h_prism = (d @ pts.T).max(axis=1)
+        h_cyl = np.array([cylinder_h(cyl, x) for x in d])
+        assert np.all(h_prism >= h_cyl - 1e-15) and np.all(h_prism <= h_cyl + err + 1e-15)
+
+
+@pytest.mark.parametrize("bound", ["fcl", "ipctk"])
+def test_the_comparators_read_a_cylinder(bound):
+    from harness import comparators
+
+    if bound not in comparators.available():
+        pytest.skip(f"{bound} is not installed (the comparators extra)")
+    many = comparators.certify_fcl_many if bound == "fcl" else comparators.certify_ipctk_many
+
+    cyl = Cylinder(0.1, 0.3, rotation=[0.7071067811865476, 0.7071067811865476, 0, 0])
+    q = [1.0, 0, 0, 0]
+    kn = [0.0, 0.0, 1.0, 1.0]
+    plate = Box([3.0, 3.0, 0.5], center=[0, 0, -0.5])
+    got = []
+    for gap in (0.02, -0.02):  # the cylinder lies on its side: its lowest point 0.1 down
+        m = motions.RationalMotion.from_preimage(
+            1, kn, [q, q], (1, kn, [[-1, 0, 0.1 + gap], [1, 0, 0.1 + gap]])
+        )
+        got.append(many([m], [cyl], [[plate]], tolerance=TOL)[0].verdict)
+    assert got == ["free", "collision"]
+
+
+def _coal_distance(coal, a, ra, pa, b):
+    """coal's signed distance of part `a` moved by (ra, pa) and obstacle part `b`."""
+
+    def geom(s):
+        if s.kind == "cylinder":
+            return coal.Cylinder(s.radius, 2 * s.half_length)
+        return coal.Box(*(2 * s.half_extents))
+
+    req = coal.DistanceRequest()
+    req.enable_signed_distance = True
+    ta = coal.Transform3s(ra @ a.rotation, ra @ a.center + pa)
+    tb = coal.Transform3s(b.rotation, b.center)
+    return coal.distance(geom(a), ta, geom(b), tb, req, coal.DistanceResult())
+
+
+def test_turning_cylinders_against_coals_distances(rng):
+    # random C2 motions (rotations too) of cylinders among boxes and cylinders, sampled
+    # densely with coal, a distance code of its own: no free verdict where a sample
+    # penetrates, no clearance above a sample, a collision's pose in contact
+    coal = pytest.importorskip("coal")
+    from motions.demo import demo_keyframes
+
+    seen = Counter()
+    for i in range(30):
+        q, p = demo_keyframes(5, seed=300 + i)
+        m = motions.interpolate(q, 0.3 * p)
+        body = random_cylinder(rng)
+        _, pos = m.pose(rng.uniform(*m.domain))
+        obst = [
+            Cylinder(0.1, 0.3, center=pos + rng.normal(size=3) * 0.2, rotation=rng.normal(size=4)),
+            Box(
+                [0.2, 0.1, 0.05], center=pos + rng.normal(size=3) * 0.3, rotation=rng.normal(size=4)
+            ),
+        ]
+        t = np.linspace(*m.domain, 1501)
+        r, x = m.pose(t)
+        d = np.array(
+            [min(_coal_distance(coal, body, r[j], x[j], o) for o in obst) for j in range(len(t))]
+        )
+        cert = harness.certify(m, body, obst, tolerance=TOL)
+        cl = clearance(m, body, obst, tolerance=1e-4)
+        seen[cert.verdict] += 1
+        assert cl.lower <= d.min() + 1e-9, (i, cl, d.min())
+        if d.min() < -1e-9:
+            assert cert.verdict == "collision", (i, cert, d.min())
+            assert cert.toi_lo <= t[np.argmax(d < -1e-9)] + 1e-12
+        if cert.verdict == "collision":
+            rh, xh = m.pose(cert.toi_hi)
+            assert min(_coal_distance(coal, body, rh, xh, o) for o in obst) <= 1e-9
+    assert seen["free"] >= 5 and seen["collision"] >= 5, seen
+
+
+def test_a_path_is_moved_off_a_cylinder_post(tmp_path):
+    # the third keyframe beside the post (4 cm off), the path between it and its
+    # neighbours 2.7 cm off: repaired to keep 3 cm, checked by the ground truth
+    path = tmp_path / "cyl.xml"
+    path.write_text(CYL_MODEL)
+    scene = scenes.load(path)
+    body = harness.body_from_model(scene.model, scene.mocap_body)
+    obstacles = harness.obstacles_from_model(scene.model)
+    k = scene.keyframes
+    p = k.positions + [0, 0, 0.2]
+    p[2] += [0, 0.16, 0]
+    m = motions.interpolate(k.rotations, p, k.times)
+    before = clearance(m, body, obstacles, tolerance=1e-4)
+    assert before.upper < 0.03
+    r = harness.repair(m, body, obstacles, clearance=0.03)
+    assert r.certificate.verdict == "free" and r.clearance.lower >= 0.03
+    truth = harness.ground_truth(r.motion, body, obstacles, resolution=1e-4)
+    assert truth.verdict == "free" and truth.clearance >= 0.03 - 2e-4
