@@ -477,3 +477,29 @@ def test_run_flags_are_true_or_false(mini, tmp_path, flag):
     with pytest.raises(TypeError, match=f"`{flag}` to be True or False, got 'no'"):
         run_suite(load_suite(mini), out, **{"progress": False, flag: "no"})
     assert not out.exists()
+
+
+def test_a_folder_holding_what_a_run_writes_but_no_run_is_refused(mini, tmp_path):
+    # a new user's report.md and figures/verdict_rates.png in a folder given as --out
+    # were overwritten without a word
+    from harness.errors import SuiteError
+
+    out = tmp_path / "mine"
+    (out / "figures").mkdir(parents=True)
+    (out / "report.md").write_text("precious")
+    (out / "figures" / "verdict_rates.png").write_text("mine")
+    (out / "notes.txt").write_text("kept")
+    with pytest.raises(SuiteError, match=r"holds report\.md, figures but no run .*empty or new"):
+        run_suite(load_suite(mini), out, progress=False)
+    r = subprocess.run(
+        cli("run", str(mini), "--out", str(out), "--quiet"), capture_output=True, text=True
+    )
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert (out / "report.md").read_text() == "precious"
+    assert sorted(p.name for p in out.iterdir()) == ["figures", "notes.txt", "report.md"]
+    # a folder with other files only is used, and they are kept
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("kept")
+    run_suite(load_suite(mini), other, progress=False, report=False)
+    assert (other / "notes.txt").read_text() == "kept" and (other / "meta.json").exists()

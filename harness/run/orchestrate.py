@@ -147,6 +147,7 @@ def run_suite(
     if scheduler is not None:
         scheduler_target(scheduler)
     check_writable(out)
+    _check_no_foreign_files(out)
     with OutputLock(out) as lock:
         ours = _unstarted_files(out)  # (under the lock: no other run writes the folder)
         try:
@@ -161,6 +162,31 @@ def run_suite(
 
             write_report(out, lock=False)
         return df
+
+
+RUN_FILES = (
+    "suite.toml", "results.parquet", "results.csv", "report.md", "report.html", "figures",
+    "tables",
+)  # fmt: skip
+"""What a run and its report write into a folder besides ``meta.json`` and the journal."""
+
+
+def _check_no_foreign_files(out: Path) -> None:
+    """Refuse a folder without a run (no ``meta.json``) that holds what a run writes: a
+    new user's ``report.md`` and ``figures/verdict_rates.png`` in a folder given as
+    ``--out`` were overwritten without a word. (A run writes its meta.json before any
+    case, so a journal with cases and no meta.json is not one of ours either.)"""
+    if (out / "meta.json").exists():
+        return
+    taken = [n for n in RUN_FILES if (out / n).exists()]
+    journal = Journal(out).path
+    if journal.exists() and journal.stat().st_size > 0:
+        taken.insert(0, journal.name)
+    if taken:
+        raise SuiteError(
+            f"Output folder {str(out)!r} holds {', '.join(taken)} but no run (no meta.json):"
+            " a run would overwrite them. Use an empty or new folder."
+        )
 
 
 def _unstarted_files(out: Path) -> list[Path]:
