@@ -1196,6 +1196,41 @@ def test_two_workload_tolerances_are_not_pooled():
         headline_numbers(lines + lines[:1])
 
 
+def test_two_studies_of_one_workload_have_their_own_costs():
+    """A CI trial's two workload studies of the same 20 pairs (other node budgets) had one
+    cost table row of "40 pairs" under the second's heading, and one headline cost: each
+    study keeps its own rows, pairs and unknowns."""
+    from harness.report.data import study_rows, workload_costs
+
+    df = pd.DataFrame(synthetic_rows())
+    wl = df[df["study"] == "workload"]
+    slow = wl.assign(study_index=4)
+    for col in ("cpu_rounds", "wall_rounds"):  # the second study twice as dear
+        slow[col] = [
+            json.dumps([2 * x for x in json.loads(v)]) if isinstance(v, str) else v
+            for v in slow[col]
+        ]
+    slow.loc[slow["mode"].eq("pair") & slow["bound"].eq("hull"), "verdict"] = "unknown"
+    both = pd.concat([df.assign(study_index=1), slow], ignore_index=True)
+    costs = workload_costs(study_rows(both, "workload"))
+    one = workload_costs(study_rows(df, "workload"))
+    assert len(costs) == 2 * len(one)
+    for study, factor in ((1, 1.0), (4, 2.0)):
+        mine = costs[costs["workload"] == f"workload-0 (study[{study}])"]
+        assert mine["pairs"].tolist() == one["pairs"].tolist()
+        np.testing.assert_allclose(mine["cpu_us_per_pair"], factor * one["cpu_us_per_pair"])
+    hull = costs[(costs["method"] == "hull") & (costs["mode"] == "batch")]
+    pairs = int(one.loc[(one["method"] == "hull") & (one["mode"] == "batch"), "pairs"].iloc[0])
+    assert [u[0] for u in hull["_unknown"]] == [0, pairs]
+    figures = [
+        r["figure"] for r in headline(both) if r["figure"].startswith("hull cost per pair, batch")
+    ]
+    assert figures == [
+        "hull cost per pair, batch (one certify_many call) (workload-0 at tolerance 1 mm (study[1]))",
+        "hull cost per pair, batch (one certify_many call) (workload-0 at tolerance 1 mm (study[4]))",
+    ]
+
+
 def test_latex_tables_are_ascii(written):
     """`corpus_fcl_hazards.tex` failed to compile ("Unicode character Δ"): every table's
     LaTeX is ASCII, its symbols as LaTeX commands."""

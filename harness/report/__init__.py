@@ -231,8 +231,9 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
             + ": their rows have the same identity (scene, keyframes, scheme, bound, tolerance,"
             " clearance, ...) and differ only in settings the tables do not group by"
             " (`max_depth`, `max_nodes`, `samples`, `truth_resolution`, `rounds`). The"
-            " certification accuracy tables label their methods with the study and each"
-            " workload study has its own section; the other tables pool them. Tell them apart"
+            " certification accuracy tables label their methods with the study, each"
+            " workload study has its own section and cost rows; the other tables pool them."
+            " Tell them apart"
             " by the `study_index` column of results.parquet, or run them as separate suites."
         )
     lines = headline_lines(df, meta)

@@ -39,6 +39,7 @@ __all__ = [
     "timing_rows",
     "us_span",
     "workload_costs",
+    "workload_label",
     "workload_unknowns",
 ]
 
@@ -300,8 +301,16 @@ def workload_groups(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     return out
 
 
+def workload_label(name: str, tol: float) -> str:
+    """'workload-0 at tolerance 1 mm', with a cost row's study last as
+    :func:`workload_groups` puts it ('workload-0 at tolerance 1 mm (study[3])')."""
+    base, sep, study = str(name).partition(" (study[")
+    return f"{base} at tolerance {tol * 1e3:g} mm" + (f" (study[{study}" if sep else "")
+
+
 def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
-    """One row per (workload, tolerance, method, mode) with per-pair cost spreads.
+    """One row per (workload, tolerance, method, mode, study) with per-pair cost spreads
+    (``workload`` names the study, "workload-0 (study[3])", where two share the rest).
 
     A workload run in several chunks has one timing row per chunk: round r of the whole
     workload is the sum of round r of every chunk (rounds are independent draws), divided
@@ -324,8 +333,13 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
     keys = ["keyframes", "tolerance", "bound", "mode"]
     if not len(t) or any(k not in t for k in keys) or "pairs" not in t:
         return pd.DataFrame(rows)
+    # each study apart: two workload studies of the same pairs (other budgets, say) were
+    # one timing of "40 pairs" where each had 20
+    by_study = "study_index" in t
     undecided = {None: workload_unknowns(wl)}
-    for (name, tol, method, mode), g in t.groupby(keys, sort=False, dropna=False):
+    for key, g in t.groupby(keys + ["study_index"] * by_study, sort=False, dropna=False):
+        name, tol, method, mode = key[:4]
+        study = key[4] if by_study else None
         cpu = [rounds_of(v) for v in g["cpu_rounds"]]
         wall = [rounds_of(v) for v in g["wall_rounds"]]
         pairs = numeric(g, "pairs")
@@ -340,10 +354,11 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
         first = int(total) if mode == "single" else None
         if first not in undecided:
             undecided[first] = workload_unknowns(wl, first)
-        u = undecided[first].get((name, tol, method))
+        u = undecided[first].get((name, tol, method, study) if by_study else (name, tol, method))
         rows.append(
             {
                 "workload": name,
+                "_study": study,
                 "tolerance": tol,
                 "method": method,
                 "mode": mode,
@@ -367,12 +382,18 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
                 "_unknown": u,
             }
         )
-    return pd.DataFrame(rows)
+    out = pd.DataFrame(rows)
+    if by_study and len(out):  # the study where two share a workload and tolerance
+        n = out.groupby(["workload", "tolerance"], sort=False, dropna=False)["_study"]
+        twice = n.transform("nunique") > 1
+        label = out["workload"] + " (study[" + out["_study"].astype("Int64").astype(str) + "])"
+        out["workload"] = out["workload"].where(~twice, label)
+    return out.drop(columns=["_study"], errors="ignore")
 
 
 def workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple]:
-    """(unknown verdicts, pairs, their reasons as text) per (workload, tolerance, method)
-    from the per-pair rows, over the first `first` pairs of each workload if given (a
+    """(unknown verdicts, pairs, their reasons as text) per (workload, tolerance, method,
+    and the study where rows carry it) from the per-pair rows, over the first `first` pairs of each workload if given (a
     trial's single-query line counted the unknowns of all 1,000 pairs beside a timing of
     the first 100)."""
     pair = wl[column(wl, "mode", "") == "pair"]
@@ -382,9 +403,10 @@ def workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple,
         if "pair" not in pair:
             return {}
         pair = pair[pd.to_numeric(pair["pair"], errors="coerce") < first]
+    keys = ["keyframes", "tolerance", "bound"] + ["study_index"] * ("study_index" in pair)
     return {
         key: (int((g["verdict"] == "unknown").sum()), len(g), unknown_reasons(g))
-        for key, g in pair.groupby(["keyframes", "tolerance", "bound"], sort=False)
+        for key, g in pair.groupby(keys, sort=False, dropna=False)
     }
 
 
