@@ -448,8 +448,9 @@ def _compare(args) -> int:
         # failed, and why
         if target is not None:
             code = 130 if isinstance(e, KeyboardInterrupt) else 2
+            why = "interrupted" if isinstance(e, KeyboardInterrupt) else str(e)  # (str: "")
             with contextlib.suppress(Exception):
-                _write_json(target, {"exit_code": code, "error": str(e), "written": written()})
+                _write_json(target, {"exit_code": code, "error": why, "written": written()})
         raise
     print(result.text())
     return result.exit_code

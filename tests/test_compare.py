@@ -1113,3 +1113,22 @@ def test_benchmark_files_of_one_cpu_model_on_other_vector_units_are_noted(tmp_pa
     assert "AMD EPYC (AVX2)" in res.lines[1]
     notes = [line for line in res.lines if line.startswith("note:")]
     assert notes == ["note: the runs differ in cpu_vector_isa: AVX-512 -> AVX2"]
+
+
+def test_an_interrupted_comparison_says_so_in_its_json(tmp_path, capsys, monkeypatch):
+    # a CI trial's Ctrl-C during a comparison left `"error": ""` in FILE
+    import harness.compare
+
+    rng = np.random.default_rng(33)
+    a = _run(tmp_path / "a", _rows(rng))
+    out = tmp_path / "gate.json"
+    out.write_text(json.dumps({"exit_code": 0}))  # an earlier, passing result
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(harness.compare, "compare", interrupted)
+    r = _cli(capsys, "compare", str(a), str(a), "--json", str(out))
+    assert r.returncode == 130 and r.stderr.strip() == "rsmbench compare: interrupted"
+    doc = json.loads(out.read_text())
+    assert doc["exit_code"] == 130 and doc["error"] == "interrupted"
