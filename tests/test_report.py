@@ -1893,3 +1893,29 @@ def test_report_functions_name_an_argument_of_the_wrong_type():
         r["figure"] in x for r, x in zip(rows, lines, strict=True)
     )
     assert "\\caption{c}" in latex_table(df, "c")
+
+
+def test_the_headline_says_n_a_one_round_and_names_the_not_applicable_table(written):
+    # a CI trial's wording: "false free 0/0" where no label was proven (labels = "none";
+    # the tables say n/a), "certified verdicts ()" where no bound gave a proof, "1 rounds",
+    # and the table of combinations that do not apply under the last scene's heading
+    df = pd.DataFrame(synthetic_rows())
+    pair = df["mode"].eq("pair")
+    assert pair.any()
+    df.loc[pair, "label"] = "none"
+    lines = [r for r in headline(df) if r["figure"].startswith("workload verdicts of")]
+    assert lines and all(
+        r["value"].startswith("false free n/a, false collision n/a") for r in lines
+    )
+    unproven = pd.DataFrame(synthetic_rows()).assign(certified=False)
+    line = next(r for r in headline(unproven) if r["figure"].startswith("certified false free"))
+    assert "certified verdicts (none: no bound gave a proof)" in line["basis"]
+    one = pd.DataFrame(synthetic_rows())
+    timed = one["cpu_rounds"].notna()
+    for col in ("cpu_rounds", "wall_rounds"):
+        one.loc[timed, col] = [json.dumps(json.loads(v)[:1]) for v in one.loc[timed, col]]
+    cost = next(r for r in headline(one) if r["figure"].startswith("hull cost per pair"))
+    assert cost["spread"].endswith(", 1 round"), cost["spread"]
+    md = written[0].read_text()
+    at = md.index("### Combinations that do not apply")
+    assert "| method | reason |" in md[at:].split("###")[1]

@@ -109,11 +109,12 @@ def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineL
         r = rates(cert[certified])
         # (the methods counted: sampled rows are certified too, on a proven fair grid)
         methods = ", ".join(sorted(set(column(cert[certified], "bound", "").astype(str))))
+        methods = f" ({methods})" if methods else " (none: no bound gave a proof)"
         out.append(
             _false_free_line(
                 "certified false free (certify study)",
                 r,
-                f"certified verdicts ({methods}) whose ground truth is a proven collision; must be 0. {r['truth not proven']} certified rows had no proven truth and are not counted",
+                f"certified verdicts{methods} whose ground truth is a proven collision; must be 0. {r['truth not proven']} certified rows had no proven truth and are not counted",
             )
         )
         samp = cert[column(cert, "bound", "").astype(str) == "sampled"]
@@ -143,7 +144,8 @@ def headline_lines(df: pd.DataFrame, meta: dict | None = None) -> list[HeadlineL
             out.append(
                 HeadlineLine(
                     figure=f"workload verdicts of {method}{which}",
-                    value=f"false free {r['false free']}/{r['of truth collision']}, false collision {r['false collision']}/{r['of truth free']}, unknown {r['unknown']}/{r['ran']}",
+                    # (n/a where no label is proven: labels = "none" read "0/0")
+                    value=f"false free {ratio_text(r['false free'], r['of truth collision'], 'n/a')}, false collision {ratio_text(r['false collision'], r['of truth free'], 'n/a')}, unknown {r['unknown']}/{r['ran']}",
                     spread="exact counts",
                     basis=f"every pair of {at}; false verdicts counted against proven labels only ({r['truth not proven']} pairs whose label is not proven not counted)",
                     numbers=rate_numbers(r, *WORKLOAD_COUNTS),
@@ -363,7 +365,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 figure=f"hull cost per pair, {what.get(mode, mode)}{which}",
                 value=f"{fmt_time(h['cpu_us_per_pair'] * 1e-6)} CPU ({fmt_time(h['wall_us_per_pair'] * 1e-6)} wall)"
                 + _disagreeing(h),
-                spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, {ci_name(h['ci_level'])} {us_span(h['cpu_us_ci_lo'], h['cpu_us_ci_hi'])}, {h['rounds']} rounds",
+                spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, {ci_name(h['ci_level'])} {us_span(h['cpu_us_ci_lo'], h['cpu_us_ci_hi'])}, {h['rounds']} round{'' if h['rounds'] == 1 else 's'}",
                 basis=work,
                 numbers={
                     **{k: float(h[k]) for k in timed},

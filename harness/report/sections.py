@@ -156,6 +156,8 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
             )
             .reset_index()
         )
+        # (a heading of its own: under the last scene's, a trial read it as that scene's)
+        doc.h("Combinations that do not apply", 3)
         doc.table(
             na,
             "Combinations that do not apply (a bound needs a rational control structure, or a proven speed bound) or whose motion could not be built, by reason, with the scenes and the number of rows; the per-scene tables above leave out a method that has no other row in that scene.",
@@ -548,7 +550,7 @@ def _cost_figure(doc: Document, costs: pd.DataFrame, plt) -> None:
         (f"{r.tolerance * 1e3:g} mm\n" if several else "")
         + f"{r.method}\n{r.mode}"
         + ("\n(external)" if str(r.implementation).startswith(EXTERNAL_PREFIX) else "")
-        + f"\nn={r.rounds} rounds\n{r.pairs} pairs"
+        + f"\nn={r.rounds} round{'' if r.rounds == 1 else 's'}\n{r.pairs} pairs"
         + (f"\n≥: {int(r.unknown)} unknown" if np.isfinite(r.unknown) and r.unknown else "")
         for r in costs.itertuples()
     ]
