@@ -506,3 +506,17 @@ def test_every_verdict_a_run_writes_is_accepted(tmp_path, capsys):
     )
     r = _quiet_cli(capsys, "compare", str(base), str(new))
     assert r.returncode == 0 and r.stderr == "", (r.stdout, r.stderr)
+
+
+def test_a_runs_file_given_for_the_run_names_its_folder(tmp_path, capsys):
+    # a CI trial gave runs/a/results.parquet (and a meta.json before it): both name the folder
+    rng = np.random.default_rng(41)
+    a = _run(tmp_path / "a", _rows(rng))
+    b = _run(tmp_path / "b", _rows(rng))
+    for name, said in (
+        ("results.parquet", "is a run's table, not a run"),
+        ("meta.json", "is a run's record, not a benchmark file"),
+    ):
+        r = _cli(capsys, "compare", str(a / name), str(b))
+        assert r.returncode == 2, r.stderr
+        assert r.stderr.strip().endswith(f"{said}: give the run's folder {a}."), r.stderr

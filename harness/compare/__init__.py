@@ -148,6 +148,9 @@ def _check_duration(value: Any) -> float:
     return x
 
 
+RUN_TABLES = ("results.parquet", "results.csv", "rows.jsonl")
+
+
 def _kind(p: Path) -> str:
     if p.is_dir():
         if not (p / "results.parquet").exists():
@@ -156,6 +159,9 @@ def _kind(p: Path) -> str:
                 " into it, or give a pytest-benchmark JSON file)."
             )
         return "run"
+    if p.is_file() and p.name in RUN_TABLES and (p.parent / "meta.json").exists():
+        # (a CI trial gave runs/a/results.parquet: the folder is what holds a run)
+        raise CompareError(f"{p} is a run's table, not a run: give the run's folder {p.parent}.")
     if p.is_file() and p.name == "meta.json" and (p.parent / "results.parquet").exists():
         # (a CI trial's `compare runs/a/meta.json runs/b` read "Cannot compare a benchmark")
         raise CompareError(
