@@ -372,15 +372,15 @@ class Sphere(Shape):
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class Capsule(Shape):
-    """Segment of half length `half_length` along the local z axis, swept by a ball; its
-    `rotation` is a (3, 3) matrix or a quaternion (w, x, y, z), as for :class:`Box`."""
+class _Axial(Shape):
+    """A shape of `radius` about its local z axis and `half_length` along it (a capsule, a
+    cylinder), placed by `center` and `rotation`: a (3, 3) matrix or a quaternion (w, x,
+    y, z), as for :class:`Box`."""
 
     radius: float
     half_length: float
     center: np.ndarray
     rotation: np.ndarray
-    kind = "capsule"
 
     def __init__(
         self, radius: Any, half_length: Any, center: Any = (0, 0, 0), rotation: Any = None
@@ -393,6 +393,22 @@ class Capsule(Shape):
     @property
     def axis(self) -> np.ndarray:
         return self.rotation[:, 2]
+
+    def transformed(self, r, p):
+        return type(self)(self.radius, self.half_length, r @ self.center + p, r @ self.rotation)
+
+    def _repr_args(self):
+        moved = _moved(self.center, self.rotation)
+        return [("radius", self.radius), ("half_length", self.half_length), *moved]
+
+
+@dataclass(frozen=True, eq=False, repr=False, init=False)
+class Capsule(_Axial):
+    """Segment of half length `half_length` along the local z axis, swept by a ball of
+    `radius`; its `rotation` is a (3, 3) matrix or a quaternion (w, x, y, z), as for
+    :class:`Box`."""
+
+    kind = "capsule"
 
     def support(self, d):
         d = np.asarray(d, dtype=float)
@@ -417,16 +433,9 @@ class Capsule(Shape):
         side = self.center + t * self.axis + self.radius * perp
         return np.concatenate([self.support(d), side])
 
-    def transformed(self, r, p):
-        return Capsule(self.radius, self.half_length, r @ self.center + p, r @ self.rotation)
 
-    def _repr_args(self):
-        moved = _moved(self.center, self.rotation)
-        return [("radius", self.radius), ("half_length", self.half_length), *moved]
-
-
-@dataclass(frozen=True, eq=False, repr=False)
-class Cylinder(Shape):
+@dataclass(frozen=True, eq=False, repr=False, init=False)
+class Cylinder(_Axial):
     """Solid circular cylinder of `radius` about the local z axis, from ``-half_length``
     to ``half_length`` along it (MuJoCo's cylinder geom: size ``radius half_length``); its
     `rotation` is a (3, 3) matrix or a quaternion (w, x, y, z), as for :class:`Box`.
@@ -434,23 +443,7 @@ class Cylinder(Shape):
     Its support function is ``h(e) = radius |(e_x, e_y)| + half_length |e_z|`` (local
     frame): a disk's plus a segment's, which the kernels evaluate like a capsule's."""
 
-    radius: float
-    half_length: float
-    center: np.ndarray
-    rotation: np.ndarray
     kind = "cylinder"
-
-    def __init__(
-        self, radius: Any, half_length: Any, center: Any = (0, 0, 0), rotation: Any = None
-    ):
-        object.__setattr__(self, "radius", float(_positive(radius, "radius")))
-        object.__setattr__(self, "half_length", float(_positive(half_length, "half_length")))
-        object.__setattr__(self, "center", _length(center, "center", shape=(3,)))
-        object.__setattr__(self, "rotation", _frozen(_rotation(rotation)))
-
-    @property
-    def axis(self) -> np.ndarray:
-        return self.rotation[:, 2]
 
     def support(self, d):
         e = np.asarray(d, dtype=float) @ self.rotation  # (local coordinates)
@@ -475,13 +468,6 @@ class Cylinder(Shape):
         rim = side.copy()
         rim[:, 2] = np.where(np.arange(n) % 2 == 0, 1.0, -1.0) * self.half_length
         return self.center + np.concatenate([rim, side]) @ self.rotation.T
-
-    def transformed(self, r, p):
-        return Cylinder(self.radius, self.half_length, r @ self.center + p, r @ self.rotation)
-
-    def _repr_args(self):
-        moved = _moved(self.center, self.rotation)
-        return [("radius", self.radius), ("half_length", self.half_length), *moved]
 
 
 FLAT_RATIO = 1e-9

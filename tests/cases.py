@@ -182,15 +182,17 @@ def spin(rng, klass, long_way=False):
     return Case(fam, linear_turn(qa, qb), body, [wall], gap)
 
 
-def capsule_own_axis(rng, klass):
-    """A capsule spinning about its own axis: the swept volume is the capsule itself."""
-    r, half_len = rng.uniform(0.05, 0.2), rng.uniform(0.1, 0.4)
-    body = Capsule(r, half_len)
-    phi = rng.uniform(0.5, np.pi * 0.95)
+def capsule_own_axis(rng, klass, kind=Capsule, shortest=0.1, turn=0.95, family="own-axis"):
+    """A capsule (or a `kind` of the same arguments) spinning about its own axis by up to
+    `turn` half turns (a linear preimage: beyond 1 its weights dip on the long way): the
+    swept volume is the body itself, beside a wall."""
+    r, half_len = rng.uniform(0.05, 0.2), rng.uniform(shortest, 0.4)
+    body = kind(r, half_len)
+    phi = rng.uniform(0.5, np.pi * turn)
     gap = gap_sample(rng, klass)
     wall = Box([0.1, 1.0, 1.0], center=[r + gap + 0.1, 0, 0])
     m = linear_turn(np.array([1.0, 0, 0, 0]), np.array([np.cos(phi / 2), 0, 0, np.sin(phi / 2)]))
-    return Case("own-axis", m, body, [wall], gap)
+    return Case(family, m, body, [wall], gap)
 
 
 def swing(rng, klass):
@@ -402,18 +404,6 @@ def _with_cylinder(family, name):
     return make
 
 
-def cylinder_own_axis(rng, klass):
-    """A cylinder turning about its own axis (a linear preimage: its weights dip on the
-    long way): the swept volume is the cylinder itself, beside a wall."""
-    r, half_len = rng.uniform(0.05, 0.2), rng.uniform(0.02, 0.4)
-    body = Cylinder(r, half_len)
-    phi = rng.uniform(0.5, np.pi * 1.8)
-    gap = gap_sample(rng, klass)
-    wall = Box([0.1, 1.0, 1.0], center=[r + gap + 0.1, 0, 0])
-    m = linear_turn(np.array([1.0, 0, 0, 0]), np.array([np.cos(phi / 2), 0, 0, np.sin(phi / 2)]))
-    return Case("cyl-own-axis", m, body, [wall], gap)
-
-
 def post(rng, klass):
     """A ball translating past a cylinder post (axis z) at a height within it: the
     distance is the 2-D distance of the ball's path from the axis, less the radii."""
@@ -446,7 +436,9 @@ CYLINDER_FAMILIES = {
     "cyl-far": _with_cylinder(
         lambda rng, k, body: face_translation(rng, k, offset=1e4, body=body), "cyl-far"
     ),
-    "cyl-own-axis": cylinder_own_axis,
+    "cyl-own-axis": lambda rng, k: capsule_own_axis(
+        rng, k, kind=Cylinder, shortest=0.02, turn=1.8, family="cyl-own-axis"
+    ),
     "cyl-post": post,
 }
 

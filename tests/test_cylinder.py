@@ -12,11 +12,11 @@ import pytest
 import harness
 import motions
 import scenes
-from harness import Box, Cylinder, certify_many, clearance
+from harness import Box, Cylinder, clearance
 from harness.comparators._common import cylinder_points
 
 from .cases import TOL, cylinder_h, make_cylinder_cases, random_cylinder
-from .test_certify import check_decisive, check_sound
+from .test_certify import check_decisive, check_sound, run
 
 
 def test_a_cylinder_support_is_its_closed_form(rng):
@@ -42,16 +42,6 @@ def cases():
     return make_cylinder_cases(seed=2026, per_family_class=20)
 
 
-def _run(cases, bound):
-    return certify_many(
-        [c.motion for c in cases],
-        [c.body for c in cases],
-        [c.obstacles for c in cases],
-        bound=bound,
-        tolerance=TOL,
-    )
-
-
 def test_the_cylinder_cases_are_balanced(cases):
     counts = Counter(c.klass for c in cases)
     assert len(cases) == 300 and min(counts.values()) >= 50, counts
@@ -62,7 +52,7 @@ def test_the_cylinder_cases_are_balanced(cases):
 
 @pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz"])
 def test_cylinders_are_certified_soundly_and_decisively(cases, bound):
-    certs = _run(cases, bound)
+    certs = run(cases, bound)
     check_sound(cases, certs, bound)
     decided = Counter(c.klass for c, k in zip(cases, certs, strict=True) if k.verdict != "unknown")
     if bound == "aabb":  # (a box never shrinks onto a turning body: collisions only)
@@ -73,7 +63,7 @@ def test_cylinders_are_certified_soundly_and_decisively(cases, bound):
 
 
 def test_sampling_never_claims_a_collision_where_a_cylinder_is_clear(cases):
-    certs = _run(cases, "sampled")
+    certs = run(cases, "sampled")
     assert not [
         c
         for c, k in zip(cases, certs, strict=True)
@@ -107,12 +97,17 @@ CYL_MODEL = """<mujoco><worldbody>
 </keyframe></mujoco>"""
 
 
-def test_a_model_with_cylinders_is_certified_against_its_ground_truth(tmp_path):
+def _cylinder_scene(tmp_path):
+    """(scene, body, obstacles) of CYL_MODEL, loaded from a file as a user's model is."""
     path = tmp_path / "cyl.xml"
     path.write_text(CYL_MODEL)
     scene = scenes.load(path)
     body = harness.body_from_model(scene.model, scene.mocap_body)
-    obstacles = harness.obstacles_from_model(scene.model)
+    return scene, body, harness.obstacles_from_model(scene.model)
+
+
+def test_a_model_with_cylinders_is_certified_against_its_ground_truth(tmp_path):
+    scene, body, obstacles = _cylinder_scene(tmp_path)
     assert [p.kind for p in harness.shapes.parts(body)] == ["box", "cylinder"]
     assert [o.name for o in obstacles] == ["table", "post"] and obstacles[1].kind == "cylinder"
     harness.geoms.check_body_covers_subtree(scene.model, scene.mocap_body, body)
@@ -222,11 +217,7 @@ def test_turning_cylinders_against_coals_distances(rng):
 def test_a_path_is_moved_off_a_cylinder_post(tmp_path):
     # the third keyframe beside the post (4 cm off), the path between it and its
     # neighbours 2.7 cm off: repaired to keep 3 cm, checked by the ground truth
-    path = tmp_path / "cyl.xml"
-    path.write_text(CYL_MODEL)
-    scene = scenes.load(path)
-    body = harness.body_from_model(scene.model, scene.mocap_body)
-    obstacles = harness.obstacles_from_model(scene.model)
+    scene, body, obstacles = _cylinder_scene(tmp_path)
     k = scene.keyframes
     p = k.positions + [0, 0, 0.2]
     p[2] += [0, 0.16, 0]
