@@ -447,7 +447,7 @@ class Cylinder(_Axial):
 
     def support(self, d):
         e = np.asarray(d, dtype=float) @ self.rotation  # (local coordinates)
-        n = np.linalg.norm(e[..., :2], axis=-1, keepdims=True)
+        n = np.hypot(e[..., :1], e[..., 1:2])  # (no underflow in the squares)
         # a direction along the axis: any rim point of the end face (the same value)
         rim = np.where(n > 0, e[..., :2] / np.where(n > 0, n, 1.0), [1.0, 0.0])
         local = np.concatenate(

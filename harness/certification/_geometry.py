@@ -103,12 +103,19 @@ def _local_support(
     if sh.kind == 0:
         return wp.vec3d(_sgn(e[0]) * sh.size[0], _sgn(e[1]) * sh.size[1], _sgn(e[2]) * sh.size[2])
     if sh.kind == 4:  # a cylinder has no core: its rim point facing e, at the end facing e
-        n = wp.sqrt(e[0] * e[0] + e[1] * e[1])
+        # (e's disk part scaled to a largest entry of 1 first: squares of entries below
+        # ~1e-154 are subnormal, and the point's direction would lose its digits; the pose
+        # tests use this point, not only its value)
+        # (names of their own: Warp gives a name one type in the whole function)
+        big = wp.max(wp.abs(e[0]), wp.abs(e[1]))
         rx = sh.size[0]
         ry = F0
-        if n > F0:  # (else every rim point supports: (r, 0))
-            rx = e[0] * (sh.size[0] / n)
-            ry = e[1] * (sh.size[0] / n)
+        if big > F0:  # (else every rim point supports: (r, 0))
+            ex = e[0] / big
+            ey = e[1] / big
+            rim = sh.size[0] / wp.sqrt(ex * ex + ey * ey)
+            rx = ex * rim
+            ry = ey * rim
         return wp.vec3d(rx, ry, _sgn(e[2]) * sh.size[1])
     if sh.kind == 3:
         best = -HUGE
