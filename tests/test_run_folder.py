@@ -15,6 +15,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from harness.errors import SuiteError
 from harness.run import (
     PLACEMENT_COLUMNS,
     TIMING_COLUMNS,
@@ -161,12 +162,17 @@ def test_damaged_journal_and_meta_are_named_errors(mini_clean, tmp_path):
     (out / "meta.json").write_text(json.dumps({**json.loads(meta), "legs": 5}))
     with pytest.raises(JournalError, match=r"key `legs`: expected a list of objects, got 5"):
         run_suite(suite, out, progress=False)
-    # records of another suite in the journal
-    (out / "meta.json").unlink()
+    # records of another suite in the journal (its meta.json says the other suite)
     other = tmp_path / "other.toml"
     other.write_text(MINI.replace("seed = 1", "seed = 2"))
+    theirs = {**json.loads(meta), "suite_hash": load_suite(other).digest, "seed": 2}
+    (out / "meta.json").write_text(json.dumps(theirs))
     with pytest.raises(JournalError, match="belongs to another suite"):
         run_suite(load_suite(other), out, progress=False)
+    # a journal without its meta.json says nothing of the code that wrote it: refused
+    (out / "meta.json").unlink()
+    with pytest.raises(SuiteError, match=r"holds rows\.jsonl, .* but no run \(no meta\.json\)"):
+        run_suite(suite, out, progress=False)
 
 
 def test_second_run_into_a_folder_is_refused(mini, tmp_path):
@@ -482,8 +488,6 @@ def test_run_flags_are_true_or_false(mini, tmp_path, flag):
 def test_a_folder_holding_what_a_run_writes_but_no_run_is_refused(mini, tmp_path):
     # a new user's report.md and figures/verdict_rates.png in a folder given as --out
     # were overwritten without a word
-    from harness.errors import SuiteError
-
     out = tmp_path / "mine"
     (out / "figures").mkdir(parents=True)
     (out / "report.md").write_text("precious")
@@ -496,7 +500,8 @@ def test_a_folder_holding_what_a_run_writes_but_no_run_is_refused(mini, tmp_path
     )
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert (out / "report.md").read_text() == "precious"
-    assert sorted(p.name for p in out.iterdir()) == ["figures", "notes.txt", "report.md"]
+    # (the lock file stays, as after any refusal under the lock)
+    assert sorted(p.name for p in out.iterdir()) == [".lock", "figures", "notes.txt", "report.md"]
     # a folder with other files only is used, and they are kept
     other = tmp_path / "other"
     other.mkdir()

@@ -147,8 +147,8 @@ def run_suite(
     if scheduler is not None:
         scheduler_target(scheduler)
     check_writable(out)
-    _check_no_foreign_files(out)
     with OutputLock(out) as lock:
+        _check_no_foreign_files(out)  # (under the lock: a run writing it is named as one)
         ours = _unstarted_files(out)  # (under the lock: no other run writes the folder)
         try:
             df = _run_locked(suite, out, seed, jobs, scheduler, progress, lock, hard_stop)
