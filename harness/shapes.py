@@ -213,11 +213,14 @@ class Shape:
         """The constructor's arguments that :meth:`__repr__` shows (defaults left out)."""
         raise NotImplementedError
 
+    def _repr_inner(self) -> str:
+        """What :meth:`__repr__` puts between the parentheses."""
+        return ", ".join(f"{k}={_repr_value(v)}" for k, v in self._repr_args())
+
     def __repr__(self) -> str:
         # one line, numbers as lists (a dataclass's repr prints numpy's multi-line arrays)
-        args = ", ".join(f"{k}={_repr_value(v)}" for k, v in self._repr_args())
         named = f" named {self.name!r}" if self.name else ""
-        return f"{type(self).__name__}({args}){named}"
+        return f"{type(self).__name__}({self._repr_inner()}){named}"
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -544,12 +547,11 @@ class ConvexMesh(Shape):
         # a rigid motion maps hull vertices to hull vertices: no second qhull
         return ConvexMesh._of_hull(self.vertices_ @ np.asarray(r).T + p, self.input_count)
 
-    def __repr__(self) -> str:
-        # one line whatever the vertex count: a summary, not the vertices
+    def _repr_inner(self) -> str:
+        # whatever the vertex count: a summary, not the vertices
         v = self.vertices_
         box = f"{_repr_value(v.min(axis=0))} to {_repr_value(v.max(axis=0))}"
-        named = f" named {self.name!r}" if self.name else ""
-        return f"ConvexMesh(<{len(v)} hull vertices of {self.input_count} given, box {box}>){named}"
+        return f"<{len(v)} hull vertices of {self.input_count} given, box {box}>"
 
 
 def hull_vertices(points: np.ndarray) -> np.ndarray:
@@ -633,9 +635,8 @@ class Compound(Shape):
     def transformed(self, r, p):
         return Compound([s.transformed(r, p) for s in self.shapes])
 
-    def __repr__(self) -> str:
-        named = f" named {self.name!r}" if self.name else ""
-        return f"Compound([{', '.join(map(repr, self.shapes))}]){named}"
+    def _repr_inner(self) -> str:
+        return f"[{', '.join(map(repr, self.shapes))}]"
 
 
 def parts(shape: Shape) -> tuple[Shape, ...]:

@@ -425,9 +425,11 @@ def post(rng, klass):
     if gap < 0:  # the ball centre reaches distance big + rs of the axis at s = 1 - sqrt(...)
         s = 1.0 - np.sqrt((big + rs) ** 2 - miss**2)
         toi = s / 2.2
-    # (the ball's centre stays within half the post's half height of its middle, h >= 0.3,
-    # and goes at most 0.1 deep: the side, not a cap, is the nearest and the deepest)
-    return Case("cyl-post", translation(q, p0, p1), body, [obstacle], gap, toi)
+    # (the ball's centre stays within half the post's half height of its middle, which is
+    # >= 0.15 + rs from the caps, and the side is at most 0.1 deep: the side decides. A gap
+    # below -(big + rs) passes the axis on the other side, |miss| from it)
+    clear = abs(miss) - big - rs
+    return Case("cyl-post", translation(q, p0, p1), body, [obstacle], clear, toi)
 
 
 CYLINDER_FAMILIES = {

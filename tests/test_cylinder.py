@@ -78,8 +78,8 @@ def test_a_cylinders_clearance_brackets_the_truth(cases):
         if c.clearance >= 0:
             assert cl.upper >= c.clearance - 1e-12, (c.family, cl, c.clearance)
             assert cl.upper - cl.lower <= 1e-4 * (1 + 1e-9)
-        else:  # a proven penetration, no deeper than the truth's deepest
-            assert -c.clearance - 1e-12 <= -cl.upper or cl.upper < 0
+        else:  # a proven penetration
+            assert cl.upper < 0, (c.family, cl, c.clearance)
 
 
 CYL_MODEL = """<mujoco><worldbody>

@@ -105,8 +105,8 @@ def _local_support(
     if sh.kind == 4:  # a cylinder has no core: its rim point facing e, at the end facing e
         # (e's disk part scaled to a largest entry of 1 first: squares of entries below
         # ~1e-154 are subnormal, and the point's direction would lose its digits; the pose
-        # tests use this point, not only its value)
-        # (names of their own: Warp gives a name one type in the whole function)
+        # tests use this point, not only its value. Names of their own: Warp gives a name
+        # one type in the whole function)
         big = wp.max(wp.abs(e[0]), wp.abs(e[1]))
         rx = sh.size[0]
         ry = F0

@@ -2,11 +2,12 @@
 
 Every convex part is a triangulated convex polytope: boxes and convex meshes exactly,
 spheres and capsules as circumscribed icosphere hulls and cylinders as circumscribed
-prisms within ``tessellation_error`` (default: `tolerance`) of the true shape. A "free" answer is therefore about a superset
-of the body (sound); a "collision" may be a pass within ``tessellation_error``. Passing
-the radii as ipctk's ``min_distance`` instead would be exact, but ipctk 1.6.1's
-nonlinear CCD compares its linearisation error with the raw distance rather than with the
-distance minus ``min_distance``; the linear query then starts inside the separation and
+prisms within ``tessellation_error`` (default: `tolerance`) of the true shape. A "free"
+answer is therefore about a superset of the body (sound); a "collision" may be a pass
+within ``tessellation_error``. Passing the radii as ipctk's ``min_distance`` instead
+would be exact, but ipctk 1.6.1's nonlinear CCD compares its linearisation error with the
+raw distance rather than with the distance minus ``min_distance``; the linear query then
+starts inside the separation and
 Tight Inclusion (``no_zero_toi``) ran for more than 300 s on one sphere–box pair.
 
 For each (body part, obstacle part) the primitive pairs are point–triangle (body vertices
