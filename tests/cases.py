@@ -425,9 +425,9 @@ def post(rng, klass):
     if gap < 0:  # the ball centre reaches distance big + rs of the axis at s = 1 - sqrt(...)
         s = 1.0 - np.sqrt((big + rs) ** 2 - miss**2)
         toi = s / 2.2
-    # (the ball's centre stays within half the post's half height of its middle, which is
-    # >= 0.15 + rs from the caps, and the side is at most 0.1 deep: the side decides. A gap
-    # below -(big + rs) passes the axis on the other side, |miss| from it)
+    # (the ball's centre stays >= 0.15 from either cap, |z| <= h / 2 with h >= 0.3, and
+    # goes at most 0.1 into the side: the side decides, apart or inside. A gap below
+    # -(big + rs) passes the axis on its other side, |miss| from it)
     clear = abs(miss) - big - rs
     return Case("cyl-post", translation(q, p0, p1), body, [obstacle], clear, toi)
 
