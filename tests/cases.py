@@ -354,14 +354,19 @@ PLANE_FAMILIES = {
 }
 
 
-def make_plane_cases(seed: int = 2025, per_family_class: int = 20) -> list[Case]:
+def _cases_of(families: dict, seed: int, per_family_class: int) -> list[Case]:
+    """`per_family_class` cases of each family and class, from one seeded generator."""
     rng = np.random.default_rng(seed)
     return [
         f(rng, klass)
-        for f in PLANE_FAMILIES.values()
+        for f in families.values()
         for klass in ("free", "collision", "grazing")
         for _ in range(per_family_class)
     ]
+
+
+def make_plane_cases(seed: int = 2025, per_family_class: int = 20) -> list[Case]:
+    return _cases_of(PLANE_FAMILIES, seed, per_family_class)
 
 
 # ----------------------------------------------------------------- cylinders
@@ -446,10 +451,4 @@ CYLINDER_FAMILIES = {
 
 
 def make_cylinder_cases(seed: int = 2026, per_family_class: int = 20) -> list[Case]:
-    rng = np.random.default_rng(seed)
-    return [
-        f(rng, klass)
-        for f in CYLINDER_FAMILIES.values()
-        for klass in ("free", "collision", "grazing")
-        for _ in range(per_family_class)
-    ]
+    return _cases_of(CYLINDER_FAMILIES, seed, per_family_class)
