@@ -1132,3 +1132,46 @@ def test_an_interrupted_comparison_says_so_in_its_json(tmp_path, capsys, monkeyp
     assert r.returncode == 130 and r.stderr.strip() == "rsmbench compare: interrupted"
     doc = json.loads(out.read_text())
     assert doc["exit_code"] == 130 and doc["error"] == "interrupted"
+
+
+def test_two_studies_of_one_kind_are_gated_apart(tmp_path, capsys):
+    # a CI trial: two workload studies of the same pairs were one group, so that a
+    # slowdown (or new unknowns) of one was diluted by the other
+    rng = np.random.default_rng(51)
+
+    def both(slow: float, unknown: bool) -> list[dict]:
+        out = []
+        for study, factor in ((0, 1.0), (1, slow)):
+            for r in _rows(rng, factor=factor, rounds=7):
+                r["case_id"] = f"s{study}-{r['case_id']}"
+                r["study_index"] = study
+                if unknown and study == 1 and r["bound"] == "hull":
+                    r["verdict"] = "unknown"
+                out.append(r)
+        return out
+
+    a = _run(tmp_path / "a", both(1.0, False))
+    b = _run(tmp_path / "b", both(3.0, True))
+    out = tmp_path / "gate.json"
+    r = _cli(capsys, "compare", str(a), str(b), "--json", str(out), "--min-time", "0")
+    assert r.returncode == 1
+    doc = json.loads(out.read_text())
+    status = {t["group"]: t["status"] for t in doc["timing"]}
+    for bound in ("hull", "lipschitz", "sampled"):
+        assert status[f"certify/rational/{bound} (study[0])"] == "ok"
+        assert status[f"certify/rational/{bound} (study[1])"] == "regression"
+    rates = doc["accuracy"]["unknown_rate"]
+    assert rates["certify/rational/hull (study[1])"] == [0.0, 1.0]
+    assert rates["certify/rational/hull (study[0])"] == [0.0, 0.0]
+    assert any(
+        "unknown rate of certify/rational/hull (study[1])" in m["message"]
+        for m in doc["regressions"]
+    )
+    # one study of a kind: the groups keep their plain names
+    one = [r for r in both(1.0, False) if r["study_index"] == 0]
+    c, d = _run(tmp_path / "c", one), _run(tmp_path / "d", one)
+    r = _cli(capsys, "compare", str(c), str(d), "--json", str(out), "--min-time", "0")
+    assert r.returncode == 0
+    assert {t["group"] for t in json.loads(out.read_text())["timing"]} == {
+        "certify/rational/hull", "certify/rational/lipschitz", "certify/rational/sampled"
+    }  # fmt: skip

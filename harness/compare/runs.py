@@ -213,7 +213,7 @@ def _compare_runs(
     if len(lost):
         out.regressions.append(
             f"missing: {len(lost)} row(s) of the base are not in the new run"
-            f" ({_count_groups([_group_name(r) for _, r in lost.iterrows()])})"
+            f" ({_count_groups([_group_name(r, _several(base)) for _, r in lost.iterrows()])})"
         )
     col = f"{timer}_rounds"
     if col in bi and col in ni:
@@ -257,14 +257,37 @@ def _count_groups(names: list[str], limit: int = 6) -> str:
     return text + (f", and {len(order) - limit} more group(s)" if len(order) > limit else "")
 
 
-def _group_name(row: pd.Series) -> str:
+def _several(df: pd.DataFrame) -> frozenset:
+    """The study kinds with rows of more than one [[study]] entry: their groups name the
+    entry ("workload/rational/hull/batch (study[3])"). A CI trial's two workload studies of
+    the same pairs were one group, so that a slowdown of one was diluted by the other."""
+    if "study_index" not in df or "study" not in df:
+        return frozenset()
+    n = df.groupby("study")["study_index"].nunique()
+    return frozenset(n[n > 1].index)
+
+
+def _unknown_groups(df: pd.DataFrame, several: frozenset) -> pd.Series:
+    """Per row, 'study/scheme/bound', the entry named as by :func:`_group_name`."""
+    label = df["study"].astype(str) + "/" + df["scheme"].astype(str) + "/" + df["bound"].astype(str)
+    if several:
+        idx = df["study_index"].astype("Int64").astype(str)
+        label = label.where(~df["study"].isin(several), label + " (study[" + idx + "])")
+    # (a row missing one of them is in no group, as groupby on the columns left it)
+    return label.where(df[["study", "scheme", "bound"]].notna().all(axis=1))
+
+
+def _group_name(row: pd.Series, several: frozenset = frozenset()) -> str:
     keys = _GROUP + (("method",) if row.get("study") == "repair" else ())
     # (a repair study's two methods, certified and sampled, are timed apart: pooled, a
     # slowdown of one was hidden by the other)
     parts = [
         str(row.get(k)) for k in keys if k in row and str(row.get(k)) not in ("", "None", "nan")
     ]
-    return "/".join(parts)
+    name = "/".join(parts)
+    if row.get("study") in several and pd.notna(row.get("study_index")):
+        name += f" (study[{int(row['study_index'])}])"
+    return name
 
 
 def _run_timing(
@@ -279,10 +302,11 @@ def _run_timing(
     rb, rn = _rounds(bi, timer, tables[0]), _rounds(ni, timer, tables[1])
     groups: dict[str, tuple[list, list]] = {}
     lost: list[str] = []
+    several = _several(bi)
     for j in range(len(bi)):
         if rb[j] is None:
             continue
-        name = _group_name(bi.iloc[j])
+        name = _group_name(bi.iloc[j], several)
         if rn[j] is None:  # timed in the base, not in the new run: it stopped running
             lost.append(name)
             continue
@@ -419,17 +443,18 @@ def _run_accuracy(
     if "verdict" in bi:
         ran_b = bi["verdict"].isin(["free", "collision", "unknown"])
         ran_n = ni["verdict"].isin(["free", "collision", "unknown"])
-        gb = bi[ran_b].assign(_u=bi["verdict"] == "unknown").groupby(["study", "scheme", "bound"])
-        gn = ni[ran_n].assign(_u=ni["verdict"] == "unknown").groupby(["study", "scheme", "bound"])
+        several = _several(bi)
+        gb = bi[ran_b].assign(_u=bi["verdict"] == "unknown").groupby(_unknown_groups(bi, several))
+        gn = ni[ran_n].assign(_u=ni["verdict"] == "unknown").groupby(_unknown_groups(ni, several))
         ub, un = gb["_u"].mean(), gn["_u"].mean()
         cb, cn = gb["_u"].sum(), gn["_u"].sum()
         out.accuracy["unknown_rate"] = {
-            "/".join(map(str, g)): [float(ub[g]), float(un[g])] for g in ub.index if g in un.index
+            g: [float(ub[g]), float(un[g])] for g in ub.index if g in un.index
         }
         for g in ub.index:
             if g in un.index and un[g] - ub[g] > unknown_threshold + 1e-12:
                 out.regressions.append(
-                    f"accuracy: unknown rate of {'/'.join(map(str, g))} rose from {ub[g]:.3g}"
+                    f"accuracy: unknown rate of {g} rose from {ub[g]:.3g}"
                     f" ({int(cb[g])} rows) to {un[g]:.3g} ({int(cn[g])} rows)"
                 )
     if "still_collides" in bi or "still_collides" in ni:
@@ -477,7 +502,7 @@ def _single_accuracy(out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame) -> Non
             continue
         was = f" (the base: {int(before)})" if np.isfinite(before) else ""
         out.regressions.append(
-            f"accuracy: single certify calls of {_group_name(ni.loc[key])} gave another verdict than"
+            f"accuracy: single certify calls of {_group_name(ni.loc[key], _several(bi))} gave another verdict than"
             f" the batch on {int(n - a)} of {int(n)} pairs{was}"
         )
 
