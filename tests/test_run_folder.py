@@ -493,7 +493,7 @@ def test_a_folder_holding_what_a_run_writes_but_no_run_is_refused(mini, tmp_path
     (out / "report.md").write_text("precious")
     (out / "figures" / "verdict_rates.png").write_text("mine")
     (out / "notes.txt").write_text("kept")
-    with pytest.raises(SuiteError, match=r"holds report\.md, figures but no run .*empty or new"):
+    with pytest.raises(SuiteError, match=r"holds report\.md, figures/ but no run .*empty or new"):
         run_suite(load_suite(mini), out, progress=False)
     r = subprocess.run(
         cli("run", str(mini), "--out", str(out), "--quiet"), capture_output=True, text=True
@@ -508,3 +508,23 @@ def test_a_folder_holding_what_a_run_writes_but_no_run_is_refused(mini, tmp_path
     (other / "notes.txt").write_text("kept")
     run_suite(load_suite(mini), other, progress=False, report=False)
     assert (other / "notes.txt").read_text() == "kept" and (other / "meta.json").exists()
+    # the suite's own file in the folder is no one else's (a review: `run suite.toml
+    # --out .`); another suite's text is
+    own = tmp_path / "own"
+    own.mkdir()
+    (own / "suite.toml").write_text(MINI)
+    run_suite(load_suite(own / "suite.toml"), own, progress=False, report=False)
+    assert (own / "suite.toml").read_text() == MINI and (own / "meta.json").exists()
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "suite.toml").write_text(MINI.replace("seed = 1", "seed = 2"))
+    with pytest.raises(SuiteError, match=r"holds suite\.toml \(of another suite\)"):
+        run_suite(load_suite(mini), theirs, progress=False)
+    # `report --out` into a folder with a report.md of the user's own: refused too
+    from harness.report import ReportError, write_report
+
+    with pytest.raises(ReportError, match=r"holds report\.md that no rsmbench report wrote"):
+        write_report(other, out=out)
+    assert (out / "report.md").read_text() == "precious"
+    write_report(other, out=tmp_path / "fresh")  # (and again: its own report is replaced)
+    write_report(other, out=tmp_path / "fresh")

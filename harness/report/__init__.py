@@ -139,6 +139,14 @@ def write_report(
             f"{str(dest)!r} holds another run's results; write the report into the run's own"
             " folder or an empty one."
         )
+    if dest.resolve() != run.resolve() and not (dest / MANIFEST).exists():
+        # (a review: `report RUN --out DIR` replaced a user's own DIR/report.md)
+        mine = [n for n in ("report.md", "report.html") if (dest / n).exists()]
+        if mine:
+            raise ReportError(
+                f"{str(dest)!r} holds {' and '.join(mine)} that no rsmbench report wrote there;"
+                " write the report into the run's own folder or an empty one."
+            )
     try:
         dest.mkdir(parents=True, exist_ok=True)
         if not lock:

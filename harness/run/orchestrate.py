@@ -148,7 +148,7 @@ def run_suite(
         scheduler_target(scheduler)
     check_writable(out)
     with OutputLock(out) as lock:
-        _check_no_foreign_files(out)  # (under the lock: a run writing it is named as one)
+        _check_no_foreign_files(out, suite.source)  # (under the lock: a run writing it is named)
         ours = _unstarted_files(out)  # (under the lock: no other run writes the folder)
         try:
             df = _run_locked(suite, out, seed, jobs, scheduler, progress, lock, hard_stop)
@@ -164,28 +164,35 @@ def run_suite(
         return df
 
 
-RUN_FILES = (
-    "suite.toml", "results.parquet", "results.csv", "report.md", "report.html", "figures",
-    "tables",
-)  # fmt: skip
-"""What a run and its report write into a folder besides ``meta.json`` and the journal."""
+def _check_no_foreign_files(out: Path, source: str) -> None:
+    """Refuse a folder without a run (no ``meta.json``) that holds what a run and its report
+    would replace: a new user's ``report.md`` and ``figures/verdict_rates.png`` in a folder
+    given as ``--out`` were overwritten without a word. Results and a journal with cases
+    (a run writes its meta.json before any case: not one of ours either); a ``suite.toml``
+    of other text than the suite's (its own is written again as it is: a review's ``run
+    suite.toml --out .``); a report, figures or tables that no rsmbench report wrote (no
+    manifest of one)."""
+    from ..report import MANIFEST
 
-
-def _check_no_foreign_files(out: Path) -> None:
-    """Refuse a folder without a run (no ``meta.json``) that holds what a run writes: a
-    new user's ``report.md`` and ``figures/verdict_rates.png`` in a folder given as
-    ``--out`` were overwritten without a word. (A run writes its meta.json before any
-    case, so a journal with cases and no meta.json is not one of ours either.)"""
     if (out / "meta.json").exists():
         return
-    taken = [n for n in RUN_FILES if (out / n).exists()]
+    taken = [n for n in ("results.parquet", "results.csv") if (out / n).exists()]
     journal = Journal(out).path
     if journal.exists() and journal.stat().st_size > 0:
         taken.insert(0, journal.name)
+    suite_file = out / "suite.toml"
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        if suite_file.exists() and suite_file.read_text() != source:
+            taken.append("suite.toml (of another suite)")
+    if not (out / MANIFEST).exists():
+        taken += [n for n in ("report.md", "report.html") if (out / n).exists()]
+        taken += [
+            f"{d}/" for d in ("figures", "tables") if any(p.is_file() for p in (out / d).glob("*"))
+        ]
     if taken:
         raise SuiteError(
             f"Output folder {str(out)!r} holds {', '.join(taken)} but no run (no meta.json):"
-            " a run would overwrite them. Use an empty or new folder."
+            " the run and its report would replace them. Use an empty or new folder."
         )
 
 
