@@ -600,7 +600,15 @@ def _on_processes(
                 if not stop.requested:
                     submit()
     except BaseException:
+        # a stop now (a second Ctrl-C, SIGTERM) or a failure: the cases in progress are not
+        # waited for. shutdown(wait=False) leaves the workers running them, and the
+        # interpreter's exit waited 12-15 s for them (a review, --jobs 2): they are ended
+        # (they keep SIGTERM's default; the pool forgets them in shutdown)
+        workers = list((getattr(pool, "_processes", None) or {}).values())
         pool.shutdown(wait=False, cancel_futures=True)
+        for w in workers:
+            with contextlib.suppress(Exception):
+                w.terminate()
         raise
     pool.shutdown(wait=True)
 
