@@ -519,4 +519,4 @@ def test_a_runs_file_given_for_the_run_names_its_folder(tmp_path, capsys):
     ):
         r = _cli(capsys, "compare", str(a / name), str(b))
         assert r.returncode == 2, r.stderr
-        assert r.stderr.strip().endswith(f"{said}: give the run's folder {a}."), r.stderr
+        assert r.stderr.strip().endswith(f"{said}: give the run's folder {str(a)!r}."), r.stderr

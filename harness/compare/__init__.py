@@ -161,11 +161,13 @@ def _kind(p: Path) -> str:
         return "run"
     if p.is_file() and p.name in RUN_TABLES and (p.parent / "meta.json").exists():
         # (a CI trial gave runs/a/results.parquet: the folder is what holds a run)
-        raise CompareError(f"{p} is a run's table, not a run: give the run's folder {p.parent}.")
+        raise CompareError(
+            f"{p} is a run's table, not a run: give the run's folder {str(p.parent)!r}."
+        )
     if p.is_file() and p.name == "meta.json" and (p.parent / "results.parquet").exists():
         # (a CI trial's `compare runs/a/meta.json runs/b` read "Cannot compare a benchmark")
         raise CompareError(
-            f"{p} is a run's record, not a benchmark file: give the run's folder {p.parent}."
+            f"{p} is a run's record, not a benchmark file: give the run's folder {str(p.parent)!r}."
         )
     if p.is_file() and p.suffix == ".json":
         return "benchmark"

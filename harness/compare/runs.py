@@ -194,6 +194,10 @@ def _compare_runs(
             f"{n / 'results.parquet'}: column(s) {lack} missing, which the base"
             f" ({b / 'results.parquet'}) has: the accuracy gate cannot judge the new run."
         )
+    # the kinds whose groups name their [[study]] entry: read from every row of the base,
+    # so that the names do not depend on which rows matched, and only where both runs
+    # carry the entries (a run of older code has none: its groups keep their names)
+    several = _several(base) if "study_index" in new else frozenset()
     kb, kn = set(base["_key"]), set(new["_key"])
     keys = sorted(kb & kn)
     if not keys:
@@ -213,7 +217,7 @@ def _compare_runs(
     if len(lost):
         out.regressions.append(
             f"missing: {len(lost)} row(s) of the base are not in the new run"
-            f" ({_count_groups([_group_name(r, _several(base)) for _, r in lost.iterrows()])})"
+            f" ({_count_groups([_group_name(r, several) for _, r in lost.iterrows()])})"
         )
     col = f"{timer}_rounds"
     if col in bi and col in ni:
@@ -223,8 +227,9 @@ def _compare_runs(
             # runs never time every round alike)
             out.lines.append(copy_note("run"))
             out.identical_timings = True
-    _run_timing(out, bi, ni, thr, timer, (b / "results.parquet", n / "results.parquet"), floor)
-    _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold)
+    tables = (b / "results.parquet", n / "results.parquet")
+    _run_timing(out, bi, ni, thr, timer, tables, floor, several)
+    _run_accuracy(out, bi, ni, fp_threshold, unknown_threshold, several)
     return out
 
 
@@ -298,11 +303,11 @@ def _run_timing(
     timer: str,
     tables: tuple[Path, Path],
     floor: float = MIN_TIMING_SECONDS,
+    several: frozenset = frozenset(),
 ) -> None:
     rb, rn = _rounds(bi, timer, tables[0]), _rounds(ni, timer, tables[1])
     groups: dict[str, tuple[list, list]] = {}
     lost: list[str] = []
-    several = _several(bi)
     for j in range(len(bi)):
         if rb[j] is None:
             continue
@@ -399,7 +404,12 @@ def _unrepeatable(df: pd.DataFrame) -> pd.Series:
 
 
 def _run_accuracy(
-    out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame, fp_threshold: int, unknown_threshold: float
+    out: Comparison,
+    bi: pd.DataFrame,
+    ni: pd.DataFrame,
+    fp_threshold: int,
+    unknown_threshold: float,
+    several: frozenset = frozenset(),
 ) -> None:
     skip = _unrepeatable(bi) | _unrepeatable(ni)
     if skip.any():
@@ -443,7 +453,6 @@ def _run_accuracy(
     if "verdict" in bi:
         ran_b = bi["verdict"].isin(["free", "collision", "unknown"])
         ran_n = ni["verdict"].isin(["free", "collision", "unknown"])
-        several = _several(bi)
         gb = bi[ran_b].assign(_u=bi["verdict"] == "unknown").groupby(_unknown_groups(bi, several))
         gn = ni[ran_n].assign(_u=ni["verdict"] == "unknown").groupby(_unknown_groups(ni, several))
         ub, un = gb["_u"].mean(), gn["_u"].mean()
@@ -468,7 +477,7 @@ def _run_accuracy(
                 f"accuracy: larger |TOI error| in {_where(ni.loc[key])}: {eb[key]:.3g} -> {en[key]:.3g}"
             )
     if "single_agrees_with_batch" in ni:
-        _single_accuracy(out, bi, ni)
+        _single_accuracy(out, bi, ni, several)
     if "continuity_order" in bi:
         cb = pd.to_numeric(bi["continuity_order"], errors="coerce").groupby(bi["scheme"]).min()
         cn = pd.to_numeric(ni["continuity_order"], errors="coerce").groupby(ni["scheme"]).min()
@@ -480,7 +489,9 @@ def _run_accuracy(
                     )
 
 
-def _single_accuracy(out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame) -> None:
+def _single_accuracy(
+    out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame, several: frozenset = frozenset()
+) -> None:
     """The workload's single `certify` calls answer as its batch did, pair by pair (a
     certificate never depends on its batch): more pairs where they did not than in the
     base fail the gate. A CI trial made single calls answer `free` on 27 of 80 pairs;
@@ -502,7 +513,7 @@ def _single_accuracy(out: Comparison, bi: pd.DataFrame, ni: pd.DataFrame) -> Non
             continue
         was = f" (the base: {int(before)})" if np.isfinite(before) else ""
         out.regressions.append(
-            f"accuracy: single certify calls of {_group_name(ni.loc[key], _several(bi))} gave another verdict than"
+            f"accuracy: single certify calls of {_group_name(ni.loc[key], several)} gave another verdict than"
             f" the batch on {int(n - a)} of {int(n)} pairs{was}"
         )
 
