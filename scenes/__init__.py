@@ -18,6 +18,8 @@ from typing import Any, NamedTuple
 import mujoco
 import numpy as np
 
+from motions._checks import short
+
 from .errors import InvalidMocapBody, SceneError
 from .procedural import BUILDERS
 
@@ -99,8 +101,10 @@ def mocap_id(model: mujoco.MjModel, body: str) -> int:
             why = f'Mocap body {body} has no name; give it one (<body name="..." mocap="true">).'
         elif bid >= 0:
             why = f"Body {body!r} is not a mocap body. {listed}"
-        else:  # (a misspelt name, say)
+        elif isinstance(body, str):  # (a misspelt name, say)
             why = f"The model has no body {body!r}. {listed}"
+        else:
+            why = f"Expected a mocap body's name (a string), got {short(body)}. {listed}"
         raise InvalidMocapBody(why)
     return int(model.body_mocapid[bid])
 

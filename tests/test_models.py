@@ -382,6 +382,10 @@ def test_bad_files_get_named_errors(tmp_path):
         scenes.InvalidMocapBody, match=r"'world' is not a mocap body. Mocap bodies: \['a', 'b'\]"
     ):
         scenes.load(two, mocap_body="world")
+    with pytest.raises(
+        scenes.InvalidMocapBody, match=r"Expected a mocap body's name \(a string\), got 1"
+    ):
+        scenes.mocap_id(scenes.load(two, mocap_body="a").model, 1)
     with pytest.raises(scenes.SceneError, match=r"Cannot compile .*free joint"):
         scenes.load(write("free.xml", FREE_CHILD))  # MuJoCo allows them on top-level bodies only
     with pytest.raises(
