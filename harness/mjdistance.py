@@ -31,9 +31,16 @@ tenths of a millimetre ("inertia must have positive eigenvalues": a compound of 
 a sphere of radius 1e-4, 6e-4 apart)."""
 
 
-def distance_model(xml: str) -> mujoco.MjModel:
-    """The compiled model of a distance model's XML; shapes MuJoCo refuses (e.g. a mesh
-    too small for its area check) raise :class:`ShapeError` naming MuJoCo's reason."""
+def distance_model(assets: list[str], movers: list[tuple[str, str]], static: str) -> mujoco.MjModel:
+    """The compiled distance model of mesh `assets`, mocap bodies `movers` ((name, their
+    geoms' XML), each with :data:`MOCAP_INERTIAL`) and the `static` geoms' XML, at
+    :data:`CCD_TOLERANCE`; shapes MuJoCo refuses (e.g. a mesh too small for its area
+    check) raise :class:`ShapeError` naming MuJoCo's reason."""
+    bodies = "".join(f'<body name="{n}" mocap="true">{MOCAP_INERTIAL}{g}</body>' for n, g in movers)
+    xml = (
+        f'<mujoco><option ccd_tolerance="{CCD_TOLERANCE!r}" ccd_iterations="1000"/>'
+        f"<asset>{''.join(assets)}</asset><worldbody>{bodies}{static}</worldbody></mujoco>"
+    )
     try:
         return mujoco.MjModel.from_xml_string(xml)
     except ValueError as e:
@@ -111,13 +118,7 @@ class MujocoDistance:
                 ogeoms.append(geom_xml(p, f"o{k}", mesh, 'contype="0" conaffinity="0"'))
                 self.obst_parts.append(p)
                 k += 1
-        xml = (
-            f'<mujoco><option ccd_tolerance="{CCD_TOLERANCE!r}" ccd_iterations="1000"/>'
-            f"<asset>{''.join(assets)}</asset><worldbody>"
-            f'<body name="mover" mocap="true">{MOCAP_INERTIAL}{"".join(bgeoms)}</body>'
-            f"{''.join(ogeoms)}</worldbody></mujoco>"
-        )
-        self.model = distance_model(xml)
+        self.model = distance_model(assets, [("mover", "".join(bgeoms))], "".join(ogeoms))
         self.data = mujoco.MjData(self.model)
         self.obst_owner = part_owners(obstacles)
         gid = lambda name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731

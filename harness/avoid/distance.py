@@ -13,7 +13,7 @@ import numpy as np
 
 from motions.quaternion import quat_from_matrix
 
-from ..mjdistance import CCD_TOLERANCE, MOCAP_INERTIAL, distance_model, geom_xml, mesh_xml
+from ..mjdistance import distance_model, geom_xml, mesh_xml
 from ..shapes import Shape, part_owners, parts
 
 __all__ = ["DistanceModel"]
@@ -31,7 +31,7 @@ class DistanceModel:
     """
 
     def __init__(self, moving: list[Shape], obstacles: list[Shape] = ()):
-        assets, bodies, static = [], [], []
+        assets, movers, static = [], [], []
         self.moving = [list(parts(s)) for s in moving]
         self.obstacle_parts: list[Shape] = []
         k = 0
@@ -47,18 +47,13 @@ class DistanceModel:
 
         for i, ps in enumerate(self.moving):
             geoms = "".join(geom(p, f"m{i}_{j}") for j, p in enumerate(ps))
-            bodies.append(f'<body name="mover{i}" mocap="true">{MOCAP_INERTIAL}{geoms}</body>')
+            movers.append((f"mover{i}", geoms))
         for o in obstacles:
             for p in parts(o):
                 static.append(geom(p, f"o{len(self.obstacle_parts)}"))
                 self.obstacle_parts.append(p)
         self.obstacle_owner = part_owners(obstacles)
-        xml = (
-            f'<mujoco><option ccd_tolerance="{CCD_TOLERANCE!r}" ccd_iterations="1000"/>'
-            f"<asset>{''.join(assets)}</asset><worldbody>{''.join(bodies)}{''.join(static)}"
-            "</worldbody></mujoco>"
-        )
-        self.model = distance_model(xml)
+        self.model = distance_model(assets, movers, "".join(static))
         self.data = mujoco.MjData(self.model)
         gid = lambda name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, name)  # noqa: E731
         # geom ids follow body order (world geoms first): look them up by name

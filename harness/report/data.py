@@ -39,7 +39,6 @@ __all__ = [
     "timing_rows",
     "us_span",
     "workload_costs",
-    "workload_label",
     "workload_unknowns",
 ]
 
@@ -301,16 +300,11 @@ def workload_groups(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     return out
 
 
-def workload_label(name: str, tol: float) -> str:
-    """'workload-0 at tolerance 1 mm', with a cost row's study last as
-    :func:`workload_groups` puts it ('workload-0 at tolerance 1 mm (study[3])')."""
-    base, sep, study = str(name).partition(" (study[")
-    return f"{base} at tolerance {tol * 1e3:g} mm" + (f" (study[{study}" if sep else "")
-
-
 def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
     """One row per (workload, tolerance, method, mode, study) with per-pair cost spreads
-    (``workload`` names the study, "workload-0 (study[3])", where two share the rest).
+    (``workload`` names the study, "workload-0 (study[3])", where two share the rest;
+    ``_label`` reads as :func:`workload_groups`' labels, "workload-0 at tolerance 1 mm
+    (study[3])").
 
     A workload run in several chunks has one timing row per chunk: round r of the whole
     workload is the sum of round r of every chunk (rounds are independent draws), divided
@@ -383,12 +377,17 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
             }
         )
     out = pd.DataFrame(rows)
-    if by_study and len(out):  # the study where two share a workload and tolerance
+    if not len(out):
+        return out
+    mm = out["tolerance"].map(lambda tol: f" at tolerance {tol * 1e3:g} mm")
+    out["_label"] = out["workload"].astype(str) + mm
+    if by_study:  # the study where two share a workload and tolerance
         n = out.groupby(["workload", "tolerance"], sort=False, dropna=False)["_study"]
         twice = n.transform("nunique") > 1
-        label = out["workload"] + " (study[" + out["_study"].astype("Int64").astype(str) + "])"
-        out["workload"] = out["workload"].where(~twice, label)
-    return out.drop(columns=["_study"], errors="ignore")
+        which = " (study[" + out["_study"].astype("Int64").astype(str) + "])"
+        out["_label"] = out["_label"].where(~twice, out["_label"] + which)
+        out["workload"] = out["workload"].where(~twice, out["workload"] + which)
+    return out.drop(columns=["_study"])
 
 
 def workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple]:

@@ -27,7 +27,6 @@ from .data import (
     us_span,
     workload_costs,
     workload_groups,
-    workload_label,
 )
 from .document import fmt_time, span
 
@@ -357,7 +356,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
         work = f"{name}: {int(h['pairs'])} pairs, tolerance {tol * 1e3:g} mm; {machine}"
         # (several workloads or tolerances: each figure names its own, as the verdict
         # lines do, so that no two lines, nor two rows of headline.csv, read alike)
-        which = f" ({workload_label(name, tol)})" if several else ""
+        which = f" ({h['_label']})" if several else ""
         timed = ("cpu_us_per_pair", "wall_us_per_pair", "cpu_us_q1", "cpu_us_q3",
                  "cpu_us_ci_lo", "cpu_us_ci_hi", "ci_level")  # fmt: skip
         out.append(

@@ -400,7 +400,7 @@ def workload_section(doc: Document, df: pd.DataFrame, plt) -> None:
         _workload_pairs(doc, g, plt, f" ({label})" if several else "")
     costs = workload_costs(wl)
     if len(costs):
-        data = costs.drop(columns=["_cpu", "_unknown"]).rename(
+        data = costs.drop(columns=["_cpu", "_unknown", "_label"]).rename(
             columns={"tolerance": "tolerance_mm"}
         )
         data["tolerance_mm"] = data["tolerance_mm"] * 1e3
