@@ -205,8 +205,18 @@ class Shape:
         """(V, 3) points on the shape's boundary (vertices first for polytopes)."""
         raise NotImplementedError
 
-    def transformed(self, r: np.ndarray, p: np.ndarray) -> Shape:
-        """The shape moved by ``x -> R x + p``."""
+    def transformed(self, r: Any, p: Any) -> Shape:
+        """The shape moved by ``x -> R x + p``: `r` a rotation (a 3x3 matrix or a
+        quaternion, scalar first), `p` a translation (3,).
+
+        Raises:
+            ShapeError: `r` not a rotation, or `p` not 3 finite lengths (a mesh's vertices
+                would otherwise take a NaN or an overflow unchecked).
+        """
+        return self._transformed(_rotation(r, "r"), _length(p, "p", shape=(3,)))
+
+    def _transformed(self, r: np.ndarray, p: np.ndarray) -> Shape:
+        """:meth:`transformed` with `r` and `p` checked."""
         raise NotImplementedError
 
     def _repr_args(self) -> list[tuple[str, Any]]:
@@ -261,7 +271,7 @@ class Box(Shape):
             [self.vertices(), self.center + (pts * self.half_extents) @ self.rotation.T]
         )
 
-    def transformed(self, r, p):
+    def _transformed(self, r, p):
         return Box(self.half_extents, r @ self.center + p, r @ self.rotation)
 
     def _repr_args(self):
@@ -332,7 +342,7 @@ class HalfSpace(Box):
             kept[half] = hit
         return hit
 
-    def transformed(self, r, p):
+    def _transformed(self, r, p):
         return HalfSpace(r @ self.point + p, r @ self.rotation, float(self.half_extents[0]))
 
     def _repr_args(self):
@@ -367,7 +377,7 @@ class Sphere(Shape):
         d = np.random.default_rng(0).normal(size=(n, 3))
         return self.support(d)
 
-    def transformed(self, r, p):
+    def _transformed(self, r, p):
         return Sphere(self.radius, r @ self.center + p)
 
     def _repr_args(self):
@@ -397,7 +407,7 @@ class _Axial(Shape):
     def axis(self) -> np.ndarray:
         return self.rotation[:, 2]
 
-    def transformed(self, r, p):
+    def _transformed(self, r, p):
         return type(self)(self.radius, self.half_length, r @ self.center + p, r @ self.rotation)
 
     def _repr_args(self):
@@ -522,9 +532,10 @@ class ConvexMesh(Shape):
 
     @classmethod
     def _of_hull(cls, vertices: np.ndarray, input_count: int) -> ConvexMesh:
-        """A mesh from points that are already its hull vertices (a rigid image of one)."""
+        """A mesh from points that are already its hull vertices (a rigid image of one),
+        checked by :func:`_length` (so read-only and its own)."""
         mesh = object.__new__(cls)
-        object.__setattr__(mesh, "vertices_", np.ascontiguousarray(vertices, dtype=float))
+        object.__setattr__(mesh, "vertices_", vertices)
         object.__setattr__(mesh, "input_count", input_count)
         return mesh
 
@@ -543,9 +554,10 @@ class ConvexMesh(Shape):
     def sample_points(self, n: int = 64) -> np.ndarray:
         return self.vertices_
 
-    def transformed(self, r, p):
+    def _transformed(self, r, p):
         # a rigid motion maps hull vertices to hull vertices: no second qhull
-        return ConvexMesh._of_hull(self.vertices_ @ np.asarray(r).T + p, self.input_count)
+        moved = _length(self.vertices_ @ r.T + p, "vertices")  # (p near the largest length)
+        return ConvexMesh._of_hull(moved, self.input_count)
 
     def _repr_inner(self) -> str:
         # whatever the vertex count: a summary, not the vertices
@@ -632,8 +644,8 @@ class Compound(Shape):
     def sample_points(self, n: int = 64) -> np.ndarray:
         return np.concatenate([s.sample_points(n) for s in self.shapes])
 
-    def transformed(self, r, p):
-        return Compound([s.transformed(r, p) for s in self.shapes])
+    def _transformed(self, r, p):
+        return Compound([s._transformed(r, p) for s in self.shapes])
 
     def _repr_inner(self) -> str:
         return f"[{', '.join(map(repr, self.shapes))}]"

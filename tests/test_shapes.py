@@ -10,7 +10,7 @@ import pytest
 import harness
 import motions
 import scenes
-from harness import Box, Capsule, Compound, ConvexMesh, ShapeError, Sphere
+from harness import Box, Capsule, Compound, ConvexMesh, Cylinder, ShapeError, Sphere
 from harness.shapes import MAX_LENGTH, HalfSpace
 from motions.quaternion import quat_from_matrix, rotation_matrix
 
@@ -177,6 +177,52 @@ def test_transformed_mesh_keeps_its_hull_vertices(rng):
     moved = mesh.transformed(r, np.array([1.0, 2.0, 3.0]))
     np.testing.assert_allclose(moved.vertices_, mesh.vertices_ @ r.T + [1.0, 2.0, 3.0], atol=TOL)
     assert moved.input_count == mesh.input_count == 60
+
+
+def _one_of_each(rng):
+    mesh = ConvexMesh(rng.normal(size=(20, 3)))
+    return [
+        Box([1.0, 2, 3]),
+        Sphere(0.5, [1.0, 0, 0]),
+        Capsule(0.2, 0.5),
+        Cylinder(0.2, 0.5),
+        HalfSpace([0.0, 0, 1]),
+        mesh,
+        Compound([mesh, Sphere(1.0)]),
+    ]
+
+
+@pytest.mark.parametrize(
+    ("r", "p", "match"),
+    [
+        (np.eye(3), [np.nan, 0, 0], r"`p` to be finite"),
+        (np.eye(3), [0.0, np.inf, 0], r"`p` to be finite"),
+        (np.eye(3), [1e300, 0, 0], r"`p` to hold lengths of magnitude at most"),
+        (np.eye(3), [1.0, 2], r"`p` to have shape \(3\)"),
+        (2 * np.eye(3), [0.0, 0, 0], r"`r` to be a rotation matrix"),
+        (np.diag([1.0, 1, -1]), [0.0, 0, 0], r"`r` to be a rotation matrix"),
+        ([0.0, 0, 0, 0], [0.0, 0, 0], r"`r` to be a non-zero quaternion"),
+    ],
+)
+def test_transformed_names_a_bad_motion(rng, r, p, match):
+    # (a mesh's vertices took a NaN translation unchecked, and printed it)
+    for shape in _one_of_each(rng):
+        with pytest.raises(ShapeError, match=match):
+            shape.transformed(r, p)
+
+
+def test_transformed_moves_every_kind_rigidly(rng):
+    rot = Box([1.0, 1, 1], rotation=[0.3, -0.5, 0.2, 0.7]).rotation
+    p = np.array([0.5, -1.0, 2.0])
+    d = rng.normal(size=(50, 3))
+    for shape in _one_of_each(rng):
+        # as a quaternion too; the support of the moved shape is the moved support
+        for r in (rot, [0.3, -0.5, 0.2, 0.7]):
+            moved = shape.transformed(r, p)
+            want = shape.support(d @ rot) @ rot.T + p
+            np.testing.assert_allclose(moved.h(d), np.einsum("ij,ij->i", want, d), atol=1e-9)
+    mesh = _one_of_each(rng)[5].transformed(rot, p)
+    assert not mesh.vertices_.flags.writeable  # (immutable, as a mesh built directly)
 
 
 @pytest.mark.parametrize(
