@@ -28,7 +28,7 @@ from .errors import (
     UnsupportedGeomError,
 )
 from .render import render
-from .shapes import Box, Capsule, Compound, ConvexMesh, Cylinder, HalfSpace, Sphere
+from .shapes import Box, Capsule, Compound, ConvexMesh, Cylinder, Ellipsoid, HalfSpace, Sphere
 from .sim import body_from_model, obstacles_from_model, physics_smoothness, simulate
 from .truth import ground_truth
 
@@ -43,6 +43,7 @@ __all__ = [
     "ConvexMesh",
     "Cylinder",
     "DegenerateMeshError",
+    "Ellipsoid",
     "HalfSpace",
     "HarnessError",
     "InvalidMocapBody",

@@ -32,6 +32,7 @@ from .shapes import (
     Compound,
     ConvexMesh,
     Cylinder,
+    Ellipsoid,
     HalfSpace,
     Shape,
     Sphere,
@@ -56,7 +57,7 @@ __all__ = [
     "unusable_obstacles",
 ]
 
-SUPPORTED_GEOMS = ("box", "sphere", "capsule", "cylinder", "mesh", "plane")
+SUPPORTED_GEOMS = ("box", "sphere", "capsule", "cylinder", "ellipsoid", "mesh", "plane")
 PLANE_HALF = 1e3  # a plane starts as a cube of this half size below it (see HalfSpace)
 
 COVER_TOLERANCE = 1e-9
@@ -146,6 +147,8 @@ def _geom_shape(
         return Capsule(size[0], size[1], center=pos, rotation=rot)
     if t == mujoco.mjtGeom.mjGEOM_CYLINDER:
         return Cylinder(size[0], size[1], center=pos, rotation=rot)
+    if t == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        return Ellipsoid(size, center=pos, rotation=rot)
     if t == mujoco.mjtGeom.mjGEOM_MESH:
         mid = int(model.geom_dataid[g])
         a, n = int(model.mesh_vertadr[mid]), int(model.mesh_vertnum[mid])
@@ -248,7 +251,7 @@ def body_from_model(model: mujoco.MjModel, mocap_body: str, *, groups: Any = Non
 
     Raises:
         InvalidMocapBody: `mocap_body` is not a mocap body (the message lists them).
-        UnsupportedGeomError: a geom type without a shape (ellipsoid, ...).
+        UnsupportedGeomError: a geom type without a shape (hfield, sdf).
         HarnessError: no geom in the subtree (or in `groups`).
     """
     _check_model(model)
@@ -501,7 +504,7 @@ def _static_shapes(model: mujoco.MjModel, geoms: np.ndarray):
 
 def unusable_obstacles(model: mujoco.MjModel, groups: Any = None) -> dict[int, str]:
     """The static colliding geoms (:func:`obstacle_geoms`) that cannot be obstacles, each
-    with why: an unsupported type (ellipsoid, ...; see ``SUPPORTED_GEOMS``) or
+    with why: an unsupported type (hfield, sdf; see ``SUPPORTED_GEOMS``) or
     invalid parameters. :func:`obstacles_from_model` raises for any of them.
 
     Returns:

@@ -65,6 +65,9 @@ def geom_xml(shape: Shape, name: str, mesh_name: str | None = None, extra: str =
         return f'<geom name="{name}" type="box" size="{_f(shape.half_extents)}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'
     if shape.kind == "sphere":
         return f'<geom name="{name}" type="sphere" size="{shape.radius!r}" pos="{_f(shape.center)}" {extra}/>'
+    if shape.kind == "ellipsoid":
+        q = quat_from_matrix(shape.rotation)
+        return f'<geom name="{name}" type="ellipsoid" size="{_f(shape.radii)}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'
     if shape.kind in ("capsule", "cylinder"):
         q = quat_from_matrix(shape.rotation)
         return f'<geom name="{name}" type="{shape.kind}" size="{shape.radius!r} {shape.half_length!r}" pos="{_f(shape.center)}" quat="{_f(q)}" {extra}/>'

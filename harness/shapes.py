@@ -34,6 +34,7 @@ __all__ = [
     "Compound",
     "ConvexMesh",
     "Cylinder",
+    "Ellipsoid",
     "HalfSpace",
     "Shape",
     "Sphere",
@@ -43,7 +44,7 @@ __all__ = [
     "parts",
 ]
 
-KIND = {"box": 0, "sphere": 1, "capsule": 2, "mesh": 3, "cylinder": 4}
+KIND = {"box": 0, "sphere": 1, "capsule": 2, "mesh": 3, "cylinder": 4, "ellipsoid": 5}
 COVER_SLACK = 1e-9
 """Relative slack of a half-space's cover over the need it computes: the few roundings
 of that computation are ~1e-16 relative, far below it."""
@@ -481,6 +482,51 @@ class Cylinder(_Axial):
         rim = side.copy()
         rim[:, 2] = np.where(np.arange(n) % 2 == 0, 1.0, -1.0) * self.half_length
         return self.center + np.concatenate([rim, side]) @ self.rotation.T
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class Ellipsoid(Shape):
+    """Solid ellipsoid of semi-axes `radii` (3,) along its local x, y and z axes, about
+    `center` (MuJoCo's ellipsoid geom: size ``a b c``); its `rotation` is a (3, 3) matrix
+    or a quaternion (w, x, y, z), as for :class:`Box`.
+
+    Its support function is ``h(e) = |D e|`` (local frame, ``D = diag(radii)``), attained
+    at ``D (D e) / |D e|``: an affine image of the unit ball's."""
+
+    radii: np.ndarray
+    center: np.ndarray
+    rotation: np.ndarray
+    kind = "ellipsoid"
+
+    def __init__(self, radii: Any, center: Any = (0, 0, 0), rotation: Any = None):
+        object.__setattr__(self, "radii", _positive(radii, "radii", (3,)))
+        object.__setattr__(self, "center", _length(center, "center", shape=(3,)))
+        object.__setattr__(self, "rotation", _frozen(_rotation(rotation)))
+
+    def support(self, d):
+        e = np.asarray(d, dtype=float) @ self.rotation  # (local coordinates)
+        # scaled to a largest entry of 1 first: no square underflows or overflows
+        big = np.abs(e).max(axis=-1, keepdims=True)
+        de = self.radii * (e / np.where(big > 0, big, 1.0))
+        n = np.linalg.norm(de, axis=-1, keepdims=True)  # (>= the least radius where big > 0)
+        # (a zero direction: any boundary point, of the same value 0)
+        local = np.where(big > 0, self.radii * (de / np.where(n > 0, n, 1.0)), [1.0, 0, 0])
+        local[..., 0] = np.where(big[..., 0] > 0, local[..., 0], self.radii[0])
+        return self.center + local @ self.rotation.T
+
+    @cached_property  # (a shape is immutable)
+    def bounding_radius(self) -> float:
+        return float(np.linalg.norm(self.center) + self.radii.max())
+
+    def sample_points(self, n: int = 64) -> np.ndarray:
+        d = np.random.default_rng(0).normal(size=(2 * n, 3))
+        return self.support(d)
+
+    def _transformed(self, r, p):
+        return Ellipsoid(self.radii, r @ self.center + p, r @ self.rotation)
+
+    def _repr_args(self):
+        return [("radii", self.radii), *_moved(self.center, self.rotation)]
 
 
 FLAT_RATIO = 1e-9

@@ -112,9 +112,10 @@ class _Distances:
 
 
 def _polytope(a: Shape, b: Shape) -> bool:
-    """Whether MuJoCo's distance of parts a and b is not closed-form (a box, a mesh or a
-    cylinder: MuJoCo's general convex collider, good to its ccd tolerance)."""
-    iterative = ("box", "mesh", "cylinder")
+    """Whether MuJoCo's distance of parts a and b is not closed-form (a box, a mesh, a
+    cylinder or an ellipsoid: MuJoCo's general convex collider, good to its ccd
+    tolerance)."""
+    iterative = ("box", "mesh", "cylinder", "ellipsoid")
     return a.kind in iterative or b.kind in iterative
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 import motions
-from harness import Box, Capsule, ConvexMesh, Cylinder, Sphere
+from harness import Box, Capsule, ConvexMesh, Cylinder, Ellipsoid, Sphere
 from harness.shapes import HalfSpace
 from motions.quaternion import qmul, rotation_matrix
 
@@ -452,3 +452,109 @@ CYLINDER_FAMILIES = {
 
 def make_cylinder_cases(seed: int = 2026, per_family_class: int = 20) -> list[Case]:
     return _cases_of(CYLINDER_FAMILIES, seed, per_family_class)
+
+
+# ----------------------------------------------------------------- ellipsoids
+# MuJoCo's ellipsoid geoms (harness.Ellipsoid), as bodies and as obstacles. Their support
+# function sqrt(d^T R D^2 R^T d) + d.c, written out again rather than taken from the shape.
+def _ellipsoid_form(ell: Ellipsoid) -> np.ndarray:
+    """The quadratic form R D^2 R^T of the ellipsoid's support function."""
+    return ell.rotation @ np.diag(ell.radii**2) @ ell.rotation.T
+
+
+def ellipsoid_h(ell: Ellipsoid, d) -> float:
+    d = np.asarray(d, dtype=float)
+    return float(d @ ell.center) + float(np.sqrt(d @ _ellipsoid_form(ell) @ d))
+
+
+def random_ellipsoid(rng, center=True) -> Ellipsoid:
+    radii = rng.uniform(0.02, 0.3, 3)
+    if rng.random() < 0.2:  # a flat one
+        radii[rng.integers(3)] = 0.002
+    c = rng.normal(size=3) * 0.05 if center else np.zeros(3)
+    return Ellipsoid(radii, center=c, rotation=random_rotation(rng))
+
+
+class _EllipsoidForm:
+    """An ellipsoid whose `h` is :func:`ellipsoid_h` (what the families ask of a body)."""
+
+    def __init__(self, ell):
+        self.ell = ell
+
+    def h(self, d):
+        return ellipsoid_h(self.ell, d)
+
+
+def _with_ellipsoid(family, name):
+    def make(rng, klass):
+        ell = random_ellipsoid(rng)
+        case = family(rng, klass, body=_EllipsoidForm(ell))
+        case.body, case.family = ell, name
+        return case
+
+    return make
+
+
+def _spheroid(r, half):
+    """An ellipsoid about its own z axis (spinning about it sweeps itself)."""
+    return Ellipsoid([r, r, half])
+
+
+def ellipsoid_spin(rng, klass, long_way=False):
+    """An ellipsoid about the body origin spinning about z (a linear preimage: the long
+    way its weights dip), next to the wall x = D. Its reach along x at angle θ is
+    sqrt(v^T S v), v = (cos θ, -sin θ), S the form's xy block: sqrt(α + B cos 2θ + C sin 2θ),
+    whose largest value over [0, φ] is at an end or where 2θ = atan2(C, B) (mod 2π)."""
+    ell = random_ellipsoid(rng, center=False)
+    s = _ellipsoid_form(ell)
+    alpha, b, c = (s[0, 0] + s[1, 1]) / 2, (s[0, 0] - s[1, 1]) / 2, -s[0, 1]
+    phi = (
+        rng.uniform(np.radians(200), np.radians(340)) if long_way else rng.uniform(0.2, np.pi * 0.9)
+    )
+    base = np.arctan2(c, b) / 2
+    th = [0.0, phi, *(base + k * np.pi for k in range(-2, 4) if 0 < base + k * np.pi < phi)]
+    reach = max(np.sqrt(alpha + b * np.cos(2 * t) + c * np.sin(2 * t)) for t in th)
+    gap = gap_sample(rng, klass)
+    wall = Box([0.25, 2.0, 2.0], center=[reach + gap + 0.25, 0, 0])
+    qb = np.array([np.cos(phi / 2), 0, 0, np.sin(phi / 2)])
+    m = linear_turn(np.array([1.0, 0, 0, 0]), qb)
+    return Case("ell-weights" if long_way else "ell-spin", m, ell, [wall], gap)
+
+
+def ellipsoid_pass(rng, klass):
+    """A ball translating past an ellipsoid obstacle, tangent to the sphere of radius
+    rs + gap about the obstacle's support point s in a direction n (outward normal n):
+    every point x of the path has n.(x - s) = rs + gap, and the obstacle lies in
+    n.(x - s) <= 0, so the centre's least distance to it is rs + gap, at the tangent point;
+    the ball's clearance is gap (rs + gap > 0)."""
+    ell = random_ellipsoid(rng)
+    n = rng.normal(size=3)
+    n /= np.linalg.norm(n)
+    s_local = _ellipsoid_form(ell) @ n / np.sqrt(n @ _ellipsoid_form(ell) @ n)
+    s = ell.center + s_local
+    u = np.cross(n, rng.normal(size=3))
+    u /= np.linalg.norm(u)
+    gap = gap_sample(rng, klass)
+    rs = rng.uniform(0.05, 0.2) + 0.1
+    mid = s + (rs + gap) * n
+    m = translation(random_rotation(rng), mid - 0.8 * u, mid + 1.1 * u)
+    return Case("ell-pass", m, Sphere(rs), [ell], gap)
+
+
+ELLIPSOID_FAMILIES = {
+    "ell-face": _with_ellipsoid(face_translation, "ell-face"),
+    "ell-wall": _with_ellipsoid(thin_wall, "ell-wall"),
+    "ell-far": _with_ellipsoid(
+        lambda rng, k, body: face_translation(rng, k, offset=1e4, body=body), "ell-far"
+    ),
+    "ell-own-axis": lambda rng, k: capsule_own_axis(
+        rng, k, kind=_spheroid, shortest=0.02, turn=1.8, family="ell-own-axis"
+    ),
+    "ell-spin": ellipsoid_spin,
+    "ell-weights": lambda rng, k: ellipsoid_spin(rng, k, long_way=True),
+    "ell-pass": ellipsoid_pass,
+}
+
+
+def make_ellipsoid_cases(seed: int = 2027, per_family_class: int = 15) -> list[Case]:
+    return _cases_of(ELLIPSOID_FAMILIES, seed, per_family_class)

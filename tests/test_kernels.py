@@ -13,7 +13,17 @@ import numpy as np
 import pytest
 
 import motions
-from harness import Box, Capsule, ConvexMesh, Cylinder, Sphere, certify, clearance, swept_aabbs
+from harness import (
+    Box,
+    Capsule,
+    ConvexMesh,
+    Cylinder,
+    Ellipsoid,
+    Sphere,
+    certify,
+    clearance,
+    swept_aabbs,
+)
 from harness.certification import probes
 from harness.certification.advance import pose_matrices, pose_rows
 from harness.certification.tables import ShapeTable
@@ -81,6 +91,7 @@ BODIES = [
     Capsule(0.1, 0.3, center=[0.0, 0.1, 0.0], rotation=[0.7, 0.7, 0.1, 0.0]),
     ConvexMesh(np.random.default_rng(3).normal(size=(30, 3)) * [0.3, 0.2, 0.1]),
     Cylinder(0.1, 0.25, center=[0.05, 0.0, -0.05], rotation=[0.8, 0.1, 0.5, 0.3]),
+    Ellipsoid([0.25, 0.1, 0.05], center=[0.0, -0.05, 0.05], rotation=[0.6, -0.2, 0.7, 0.3]),
 ]
 OBSTACLES = [
     Box([0.5, 0.4, 0.3], center=[1.0, 2.0, 0.5], rotation=[0.8, 0.2, 0.1, 0.5]),
@@ -88,6 +99,7 @@ OBSTACLES = [
     Capsule(0.2, 0.6, center=[-1.0, 1.0, 0.0], rotation=[0.6, 0.0, 0.8, 0.0]),
     ConvexMesh(np.random.default_rng(4).normal(size=(25, 3)) * 0.5 + [1.5, 0.5, -0.5]),
     Cylinder(0.3, 0.5, center=[0.5, -1.0, 0.5], rotation=[0.5, 0.5, -0.5, 0.5]),
+    Ellipsoid([0.2, 0.5, 0.3], center=[-0.5, -1.0, -0.5], rotation=[0.3, 0.8, 0.1, -0.5]),
 ]
 
 
@@ -454,6 +466,8 @@ SYMMETRIC = [
     (Box([0.1, 0.1, 0.1]), Sphere(0.25), -0.35),
     (Capsule(0.05, 0.3), Box([0.2, 0.2, 0.2]), -0.25),
     (Cylinder(0.1, 0.2), Box([0.2, 0.2, 0.3]), -0.3),
+    # (along x: 0.1 + 0.2; any unit n: 0.2 (|n_x| + |n_y| + |n_z|) >= 0.2 of the box, >= 0.1)
+    (Ellipsoid([0.1, 0.15, 0.2]), Box([0.2, 0.2, 0.3]), -0.3),
     (
         ConvexMesh(
             [[s0, s1, s2] for s0 in (-0.1, 0.1) for s1 in (-0.1, 0.1) for s2 in (-0.1, 0.1)]

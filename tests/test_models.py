@@ -531,12 +531,13 @@ def test_geom_groups_outside_mujocos_six_are_never_selected():
 
 def test_unsupported_geoms_on_the_mover_list_what_it_takes():
     # the list offered a plane, which the moving body refuses
-    xml = """<mujoco><worldbody><body name="hand" mocap="true">
-    <geom name="egg" type="ellipsoid" size=".1 .2 .3"/></body></worldbody></mujoco>"""
+    xml = """<mujoco><asset><hfield name="bumps" nrow="3" ncol="3" size="1 1 0.1 0.05"/></asset>
+    <worldbody><body name="hand" mocap="true">
+    <geom name="egg" type="hfield" hfield="bumps"/></body></worldbody></mujoco>"""
     with pytest.raises(
         harness.errors.UnsupportedGeomError,
-        match=r"'egg' .*'ellipsoid'; supported geom types on the moving body: \['box', 'sphere',"
-        r" 'capsule', 'cylinder', 'mesh'\]\.$",
+        match=r"'egg' .*'hfield'; supported geom types on the moving body: \['box', 'sphere',"
+        r" 'capsule', 'cylinder', 'ellipsoid', 'mesh'\]\.$",
     ):
         body_from_model(mujoco.MjModel.from_xml_string(xml), "hand")
 

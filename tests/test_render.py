@@ -227,31 +227,32 @@ def test_scenes_command_describes_a_file(tmp_path, capsys, monkeypatch):
 
 def test_scenes_command_names_static_geoms_that_cannot_be_obstacles(tmp_path, capsys):
     # a static ellipsoid was counted among the obstacles without a word, while
-    # harness.obstacles_from_model raises for it (the cylinders are obstacles now)
+    # harness.obstacles_from_model raised for it (cylinders and ellipsoids are obstacles
+    # now; a height field is not)
     xml = tmp_path / "cans.xml"
     xml.write_text(
-        '<mujoco><worldbody><body name="mover" mocap="true"><geom type="box" size=".1 .1 .1"/>'
+        '<mujoco><asset><hfield name="bumps" nrow="3" ncol="3" size="1 1 0.1 0.05"/></asset>'
+        '<worldbody><body name="mover" mocap="true"><geom type="box" size=".1 .1 .1"/>'
         '</body><geom name="can" type="cylinder" size=".1 .2" pos="1 0 0"/>'
-        '<geom name="egg" type="ellipsoid" size=".1 .2 .3" pos="2 0 0"/>'
+        '<geom name="ground" type="hfield" hfield="bumps" pos="2 0 0"/>'
         '<geom name="wall" type="box" size=".1 .2 .3" pos="-2 0 0"/>'
         '<geom name="ghost" type="cylinder" size=".1 .2" contype="0" conaffinity="0"/>'
         "</worldbody></mujoco>"
     )
     assert main(["scenes", str(xml)]) == 0
     lines = capsys.readouterr().out.splitlines()
-    at = lines.index(
-        "obstacles: 3 static colliding geoms {'cylinder': 1, 'ellipsoid': 1, 'box': 1}"
-    )
+    at = lines.index("obstacles: 3 static colliding geoms {'cylinder': 1, 'hfield': 1, 'box': 1}")
     assert lines[at + 1] == (
         "  of which 1 cannot be an obstacle, so harness.obstacles_from_model refuses the model: "
-        "'egg' (unsupported type 'ellipsoid'); "
-        "supported geom types: ['box', 'sphere', 'capsule', 'cylinder', 'mesh', 'plane']"
+        "'ground' (unsupported type 'hfield'); "
+        "supported geom types: ['box', 'sphere', 'capsule', 'cylinder', 'ellipsoid', 'mesh',"
+        " 'plane']"
     )
     model = scenes.compile_file(xml)
     assert harness.geoms.unusable_obstacles(model) == {
-        model.geom("egg").id: "unsupported type 'ellipsoid'",
+        model.geom("ground").id: "unsupported type 'hfield'",
     }
-    with pytest.raises(harness.UnsupportedGeomError, match=r"Geom 'egg' .* 'ellipsoid'"):
+    with pytest.raises(harness.UnsupportedGeomError, match=r"Geom 'ground' .* 'hfield'"):
         harness.obstacles_from_model(model)
 
 

@@ -169,10 +169,11 @@ def test_render_png_with_matplotlib(tmp_path):
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
 
 
-XML = """<mujoco><worldbody>
+XML = """<mujoco><asset><hfield name="bumps" nrow="3" ncol="3" size="1 1 0.1 0.05"/></asset>
+<worldbody>
 <body name="mover" mocap="true"><geom type="box" size=".1 .1 .1"/></body>
 <body name="free"><freejoint/><geom type="sphere" size=".1"/></body>
-<geom name="egg" type="ellipsoid" size=".1 .2 .3" pos="1 0 0"/>
+<geom name="egg" type="hfield" hfield="bumps" pos="1 0 0"/>
 </worldbody><keyframe><key time="0" mpos="0 0 0"/><key time="1" mpos="0.5 0 0"/></keyframe></mujoco>"""
 
 

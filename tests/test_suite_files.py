@@ -257,9 +257,11 @@ def test_an_edited_mesh_of_a_scene_file_is_another_suite(tmp_path):
     assert load_suite(f).digest != before
 
 
-ELLIPSOID_POST = """<mujoco><worldbody>
+HFIELD_POST = """<mujoco>
+  <asset><hfield name="bumps" nrow="3" ncol="3" size="0.02 0.02 0.15 0.01"/></asset>
+  <worldbody>
   <geom name="table" type="box" size="0.6 0.6 0.02" pos="0.3 0 -0.02"/>
-  <geom name="post" type="ellipsoid" size="0.02 0.02 0.15" pos="0.3 0 0.15"/>
+  <geom name="post" type="hfield" hfield="bumps" pos="0.3 0 0.15"/>
   <body name="gripper" mocap="true" pos="0 0 0.15"><geom name="palm" type="box" size="0.04 0.06 0.01"/></body>
 </worldbody><keyframe>
   <key time="0" mpos="0 0 0.15" mquat="1 0 0 0"/><key time="1" mpos="0.2 0 0.17" mquat="1 0 0 0"/>
@@ -269,21 +271,21 @@ ELLIPSOID_POST = """<mujoco><worldbody>
 
 @pytest.mark.parametrize("kind", ["certify", "simulate", "repair"])
 def test_a_scene_geom_the_queries_cannot_use_is_refused_when_the_suite_loads(tmp_path, kind):
-    """A new user's trial: a cylinder post (an ellipsoid now that cylinders are supported)
+    """A new user's trial: a cylinder post (a height field now that cylinders and
+    ellipsoids are supported)
     was found after the run's first cases (exit 2, the file not named), and the folder it
     left refused the run of the fixed file."""
     from harness.cli import main
 
-    (tmp_path / "cyl.xml").write_text(ELLIPSOID_POST)
+    (tmp_path / "cyl.xml").write_text(HFIELD_POST)
     f = tmp_path / "s.toml"
     f.write_text(f'[[study]]\nkind = "{kind}"\nscenes = ["cyl.xml"]\n')
-    with pytest.raises(
-        SuiteError, match=r"study\[0\]\.scenes`: .*cyl.xml: Geom 'post' .*'ellipsoid'"
-    ):
+    with pytest.raises(SuiteError, match=r"study\[0\]\.scenes`: .*cyl.xml: Geom 'post' .*'hfield'"):
         load_suite(f)
     out = tmp_path / "out"
     assert main(["run", str(f), "--out", str(out), "--quiet"]) == 2
     assert not out.exists()
     # the fixed file's suite loads (its run may use the same folder: nothing is there)
-    (tmp_path / "cyl.xml").write_text(ELLIPSOID_POST.replace('type="ellipsoid"', 'type="box"'))
+    box = HFIELD_POST.replace('type="hfield" hfield="bumps"', 'type="box" size="0.02 0.02 0.15"')
+    (tmp_path / "cyl.xml").write_text(box)
     assert load_suite(f).studies[0]["scenes"] == [str((tmp_path / "cyl.xml").resolve())]

@@ -3,12 +3,13 @@ affine images, simplex reduction and GJK. ``@wp.func``s and structs only.
 
 Conventions:
 
-- Shapes are ``Shape`` records (kind 0 box, 1 sphere, 2 capsule, 3 mesh, 4 cylinder)
-  placed by a position and rotation in their owner's frame (body coordinates for body
-  parts, world coordinates for obstacles); meshes carry a vertex range into ``verts``.
+- Shapes are ``Shape`` records (kind 0 box, 1 sphere, 2 capsule, 3 mesh, 4 cylinder, 5
+  ellipsoid) placed by a position and rotation in their owner's frame (body coordinates
+  for body parts, world coordinates for obstacles); meshes carry a vertex range into
+  ``verts``.
 - A *core* is a shape without its radius (sphere: its centre, capsule: its segment); GJK on
-  cores plus radii gives exact distances for spheres and capsules. Boxes, meshes and
-  cylinders are their own cores (radius 0).
+  cores plus radii gives exact distances for spheres and capsules. Boxes, meshes,
+  cylinders and ellipsoids are their own cores (radius 0).
 - An affine image of a body part under a control matrix ``[[A, b], [0, 0, 0, w]]`` is kept
   as ``M = A R / w`` and ``c = (A p + b) / w`` (R, p the part's rotation and position), so
   that its support function is ``h(d) = d.c + h_local(M^T d)``: the per-row precomputation
@@ -117,6 +118,17 @@ def _local_support(
             rx = ex * rim
             ry = ey * rim
         return wp.vec3d(rx, ry, _sgn(e[2]) * sh.size[1])
+    if sh.kind == 5:  # an ellipsoid has no core: D (D e) / |D e|, D = diag(size)
+        # (e scaled to a largest entry of 1 first, as the cylinder's disk part: no square
+        # underflows, and |D e| is at least the least semi-axis)
+        top = wp.max(wp.max(wp.abs(e[0]), wp.abs(e[1])), wp.abs(e[2]))
+        if top > F0:
+            qx = sh.size[0] * (e[0] / top)
+            qy = sh.size[1] * (e[1] / top)
+            qz = sh.size[2] * (e[2] / top)
+            qn = wp.sqrt(qx * qx + qy * qy + qz * qz)
+            return wp.vec3d(sh.size[0] * (qx / qn), sh.size[1] * (qy / qn), sh.size[2] * (qz / qn))
+        return wp.vec3d(sh.size[0], F0, F0)  # (a zero direction: any boundary point)
     if sh.kind == 3:
         best = -HUGE
         out = verts[sh.vstart]
@@ -146,6 +158,11 @@ def _local_h(sh: Shape, verts: wp.array(dtype=wp.vec3d), e: wp.vec3d, core: wp.i
         return wp.abs(e[0]) * sh.size[0] + wp.abs(e[1]) * sh.size[1] + wp.abs(e[2]) * sh.size[2]
     if sh.kind == 4:
         return sh.size[0] * wp.sqrt(e[0] * e[0] + e[1] * e[1]) + sh.size[1] * wp.abs(e[2])
+    if sh.kind == 5:  # |D e| (e at least a margin long, as the cylinder's disk part's)
+        hx = sh.size[0] * e[0]
+        hy = sh.size[1] * e[1]
+        hz = sh.size[2] * e[2]
+        return wp.sqrt(hx * hx + hy * hy + hz * hz)
     if sh.kind == 3:
         best = -HUGE
         k = sh.vstart

@@ -84,13 +84,15 @@ def prepare_numpy(ctrl: np.ndarray, err: np.ndarray, part: Shape) -> dict:
     a = ctrl[..., :3, :3]
     b = ctrl[..., :3, 3]
     ok = np.all(w - err[:, 2:3] > 0, axis=1)
-    rec_rot = part.rotation if part.kind in ("box", "capsule", "cylinder") else np.eye(3)
+    turned = ("box", "capsule", "cylinder", "ellipsoid")
+    rec_rot = part.rotation if part.kind in turned else np.eye(3)
     pos = part.center if part.kind != "mesh" else np.zeros(3)
     rloc = {
         "box": lambda: np.linalg.norm(part.half_extents),
         "sphere": lambda: part.radius,
         "capsule": lambda: part.radius + part.half_length,
         "cylinder": lambda: math.hypot(part.radius, part.half_length) * (1 + gamma(16)),
+        "ellipsoid": lambda: part.radii.max(),
         "mesh": lambda: part.bounding_radius,
     }[part.kind]()
     g_blk = a @ rec_rot
@@ -124,6 +126,9 @@ def prepare_numpy(ctrl: np.ndarray, err: np.ndarray, part: Shape) -> dict:
         ext_up = part.half_length * np.abs(rows[..., 2]) + part.radius * np.hypot(
             rows[..., 0], rows[..., 1]
         )
+        ext_dn = ext_up
+    elif part.kind == "ellipsoid":
+        ext_up = np.linalg.norm(rows * part.radii, axis=-1)
         ext_dn = ext_up
     else:
         v = part.vertices_

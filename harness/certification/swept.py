@@ -26,7 +26,8 @@ def control_aabbs(table: BezierPieces, body: Shape) -> tuple[np.ndarray, np.ndar
     Closed forms per control matrix ``[[A, b], [0, 0, 0, w]]`` and part (centre c,
     rotation R): centre ``(A c + b)/w``; half-extent ``|A R| h / w`` (box),
     ``r |row_j(A)| / w`` (sphere), ``(L |(A R e_z)_j| + r |row_j(A)|) / w`` (capsule),
-    ``(L |(A R e_z)_j| + r |((A R e_x)_j, (A R e_y)_j)|) / w`` (cylinder);
+    ``(L |(A R e_z)_j| + r |((A R e_x)_j, (A R e_y)_j)|) / w`` (cylinder),
+    ``|D (row j of A R)| / w`` (ellipsoid, D the semi-axes);
     meshes enumerate their vertices. The margin follows the kernels' derivation (see
     :mod:`._refine_kernels`, which applies it to the part's images ``A R``, ``A c + b``),
     here on the control matrices themselves and the part about the body origin:
@@ -66,6 +67,8 @@ def control_aabbs(table: BezierPieces, body: Shape) -> tuple[np.ndarray, np.ndar
                 ext = p.half_length * np.abs(ar[..., 2]) + p.radius * np.hypot(
                     ar[..., 0], ar[..., 1]
                 )
+            elif p.kind == "ellipsoid":
+                ext = np.linalg.norm((a @ p.rotation) * p.radii, axis=-1)
             else:
                 ext = p.half_length * np.abs(a @ p.rotation[:, 2]) + p.radius * rows
             plo, phi = (cen - ext).min(axis=1), (cen + ext).max(axis=1)

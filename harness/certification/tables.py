@@ -46,6 +46,8 @@ def part_aabb(p: Shape) -> tuple[np.ndarray, np.ndarray]:
     elif p.kind == "cylinder":  # along axis j: the disk's r |(R_j0, R_j1)|, the axis's
         r = p.rotation
         ext = p.radius * np.hypot(r[:, 0], r[:, 1]) + p.half_length * np.abs(r[:, 2])
+    elif p.kind == "ellipsoid":  # along axis j: |D (row j of R)|, the support at e_j
+        ext = np.linalg.norm(p.rotation * p.radii, axis=1)
     else:
         ext = p.half_length * np.abs(p.rotation[:, 2]) + p.radius
     return p.center - ext, p.center + ext
@@ -74,6 +76,9 @@ def _part_record(p: Shape) -> tuple[tuple, np.ndarray | None]:
     if p.kind == "cylinder":  # (rloc: its rim's distance from the centre, rounded up)
         size, rloc = (p.radius, p.half_length, 0.0), math.hypot(p.radius, p.half_length)
         return (4, p.center, p.rotation, size, 0, 0, rho, rloc * (1 + _GAMMA16), lo, hi), None
+    if p.kind == "ellipsoid":  # (rloc: its largest semi-axis, exact)
+        rloc = float(p.radii.max())
+        return (5, p.center, p.rotation, p.radii, 0, 0, rho, rloc, lo, hi), None
     v = p.vertices_
     return (3, _ZERO, _EYE, _ZERO, 0, len(v), rho, p.bounding_radius, lo, hi), v
 

@@ -25,6 +25,7 @@ from ..shapes import (
     Capsule,
     ConvexMesh,
     Cylinder,
+    Ellipsoid,
     Shape,
     Sphere,
     as_obstacles,
@@ -278,7 +279,8 @@ def core_of(shape: Shape, tessellation_error: float | None = None) -> Core:
 
     Spheres and capsules are a point or a segment with their radius; with
     `tessellation_error` they are instead circumscribed polytopes (radius 0) within that
-    Hausdorff distance of the shape, and so are cylinders (which have no core without).
+    Hausdorff distance of the shape, and so are cylinders and ellipsoids (which have no
+    core without).
     """
     if tessellation_error is not None and isinstance(shape, Sphere | Capsule):
         pts, _err = ball_points(shape.radius, tessellation_error)
@@ -293,6 +295,14 @@ def core_of(shape: Shape, tessellation_error: float | None = None) -> Core:
         v, e, f, planes = _hull(
             cylinder_points(shape, tessellation_error), "A tessellated cylinder"
         )
+        return Core(v, e, f, planes, 0.0)
+    if tessellation_error is not None and isinstance(shape, Ellipsoid):
+        # the ball's circumscribed polytope stretched by the semi-axes (an affine image:
+        # it holds the ellipsoid, within the largest semi-axis times the ball's error)
+        big = float(shape.radii.max())
+        pts, _err = ball_points(big, tessellation_error)
+        cloud = shape.center + (pts * (shape.radii / big)) @ shape.rotation.T
+        v, e, f, planes = _hull(cloud, "A tessellated ellipsoid")
         return Core(v, e, f, planes, 0.0)
     if isinstance(shape, Box):
         v = shape.center + (_BOX_SIGNS * shape.half_extents) @ shape.rotation.T
@@ -320,7 +330,7 @@ def core_of(shape: Shape, tessellation_error: float | None = None) -> Core:
 
 def part_frame(shape: Shape) -> tuple[np.ndarray, np.ndarray]:
     """Rotation (3, 3) and centre (3,) of a part's own frame inside its owner's frame."""
-    if isinstance(shape, Box | Capsule | Cylinder):
+    if isinstance(shape, Box | Capsule | Cylinder | Ellipsoid):
         return shape.rotation, shape.center
     if isinstance(shape, Sphere):
         return np.eye(3), shape.center

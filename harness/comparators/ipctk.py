@@ -1,8 +1,8 @@
 """ipctk's nonlinear CCD on the body's and the obstacles' primitives (DESIGN §6).
 
 Every convex part is a triangulated convex polytope: boxes and convex meshes exactly,
-spheres and capsules as circumscribed icosphere hulls and cylinders as circumscribed
-prisms within ``tessellation_error`` (default: `tolerance`) of the true shape. A "free"
+spheres and capsules as circumscribed icosphere hulls, ellipsoids as those stretched by
+their semi-axes and cylinders as circumscribed prisms within ``tessellation_error`` (default: `tolerance`) of the true shape. A "free"
 answer is therefore about a superset of the body (sound); a "collision" may be a pass
 within ``tessellation_error``. Passing the radii as ipctk's ``min_distance`` instead
 would be exact, but ipctk 1.6.1's nonlinear CCD compares its linearisation error with the
@@ -342,7 +342,7 @@ def certify_ipctk_many(
             (a line-search step, not a contact).
         broad_pieces: time pieces of the broad phase.
         max_evaluations: pose evaluations per motion before answering "unknown" ("budget").
-        tessellation_error: Hausdorff error of the sphere, capsule and cylinder tessellations
+        tessellation_error: Hausdorff error of the round parts' tessellations
             (default `tolerance`); a ball that needs more than 1280 triangles is ``n/a``.
 
     Returns:

@@ -104,7 +104,7 @@ def shape_to_dict(s: Shape) -> dict:
         return {"kind": "compound", "parts": [shape_to_dict(p) for p in s.shapes]}
     if isinstance(s, Shape):
         raise TypeError(
-            f"A {type(s).__name__} has no corpus record; the format's shapes are box, sphere,"
+            f"{type(s).__name__} shapes have no corpus record; the format's are box, sphere,"
             " capsule, mesh and compound."
         )
     raise TypeError(f"Expected a harness shape, got {type(s).__name__}.")
