@@ -77,6 +77,27 @@ def test_ratio_interval_separates_a_slowdown_from_noise():
         timing.ratio_interval(base, same[:2])
 
 
+@pytest.mark.parametrize(("n", "claimed"), [(3, 0.5), (5, 0.875)])
+def test_a_ratio_from_few_rounds_covers_what_it_claims(n, claimed):
+    # rounds of two skewed populations with known medians (lognormal: exp(mu)); the
+    # interval of the ratio of medians must hold the true ratio at least as often as it
+    # says (a bootstrap of 3 rounds gave the extreme ratios and called them 95 %)
+    rng = np.random.default_rng(n)
+    trials, hits = 4000, 0
+    for _ in range(trials):
+        base = rng.lognormal(np.log(2.0), 0.3, size=n)
+        new = rng.lognormal(np.log(3.0), 0.5, size=n)
+        lo, hi, cover = timing.ratio_of_medians_interval(base, new)
+        assert cover == pytest.approx(claimed)
+        assert lo == pytest.approx(new.min() / base.max())
+        assert hi == pytest.approx(new.max() / base.min())
+        hits += lo <= 1.5 <= hi
+    assert hits / trials >= claimed
+    # rounds enough for 95 % on both sides: the bootstrap's interval stands
+    assert timing.ratio_of_medians_interval(np.ones(6), np.ones(7)) is None
+    assert timing.ratio_of_medians_interval(np.ones(6), np.ones(5)) is not None
+
+
 def test_bad_arguments_are_named():
     with pytest.raises(ValueError, match="`rounds`"):
         timing.repeat(lambda: None, rounds=0)

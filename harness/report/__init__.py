@@ -11,7 +11,8 @@ Reading the numbers:
   unknown is marked: its cost is a lower bound;
 - "cost of X / cost of hull" is the ratio of the median CPU cost per pair of X to that
   of the hull, on the same pairs and tolerance, with a bootstrap 95 % interval from the
-  rounds of both;
+  rounds of both (with fewer than 6 rounds on a side, the interval from the two medians'
+  intervals, of the lower coverage it names);
 - accuracy rates have their denominators: a false free (verdict free, truth collision)
   is counted out of the rows whose proven truth is collision; rows whose truth is not
   proven (`unproven`, `unknown`) or whose workload label was only measured never count
