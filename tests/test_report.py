@@ -1099,6 +1099,14 @@ def test_a_repair_sweep_keeps_its_tolerances_apart_and_times_repaired_motions():
     # (a user's trial read two identical lines "tolerance 0.001 m" and "0.01 m")
     assert all("it takes no tolerance" in r["basis"] for r in sampled)
     assert not any("takes no tolerance" in r["basis"] for r in repair if r not in sampled)
+    # the clearance figure pools the tolerances: the sampled repair's results (the same
+    # at each tolerance) once per case and clearance (a trial's legend counted them twice)
+    from harness.report.avoid import sampled_once
+
+    once = sampled_once(df[df["status"] == "repaired"])
+    per_tol = df[(df["status"] == "repaired") & (df["method"] == "sampled")]
+    assert len(once) == len(per_tol) // 2 > 0
+    assert set(once["case"]) == set(per_tol["case"])
 
 
 def test_a_run_of_repairs_alone_has_no_filmstrip_of_the_cube_scene(tmp_path, monkeypatch):
