@@ -2,7 +2,8 @@
 
 Every convex part is a triangulated convex polytope: boxes and convex meshes exactly,
 spheres and capsules as circumscribed icosphere hulls, ellipsoids as those stretched by
-their semi-axes and cylinders as circumscribed prisms within ``tessellation_error`` (default: `tolerance`) of the true shape. A "free"
+their semi-axes and cylinders as circumscribed prisms within ``tessellation_error``
+(default: `tolerance`) of the true shape. A "free"
 answer is therefore about a superset of the body (sound); a "collision" may be a pass
 within ``tessellation_error``. Passing the radii as ipctk's ``min_distance`` instead
 would be exact, but ipctk 1.6.1's nonlinear CCD compares its linearisation error with the

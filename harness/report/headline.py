@@ -392,7 +392,8 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 "cost_ratio": float(ratio),
                 "cost_ratio_ci95_lo": float(lo),
                 "cost_ratio_ci95_hi": float(hi),
-                "cost_ratio_ci_level": float(level),  # (below 0.95: the keys' interval)
+                # (the coverage of the cost_ratio_ci95 interval: below 0.95 from few rounds)
+                "cost_ratio_ci_level": float(level),
                 "cpu_us_per_pair": float(o["cpu_us_per_pair"]),
                 "hull_cpu_us_per_pair": float(h["cpu_us_per_pair"]),
             }
