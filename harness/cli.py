@@ -317,6 +317,21 @@ def _report(args) -> int:
     return 0
 
 
+def _across(args) -> int:
+    from harness.report.across import across
+
+    out = Path(args.csv) if args.csv else None
+    if out is not None and out.exists():  # (checked before the runs are read)
+        raise UsageError(f"--csv {str(out)!r} exists: give a new file (nothing is replaced).")
+    got = across(args.runs)
+    if out is not None:
+        tmp = out.with_name(f".{out.name}.tmp")
+        got.table.to_csv(tmp, index=False)
+        tmp.replace(out)  # (whole or not at all)
+    print(got.markdown(), end="")
+    return 0
+
+
 def _program() -> list[str]:
     """How the user started rsmbench, for a command to copy: `rsmbench` when that name
     finds this program, else the path they typed (`.venv/bin/rsmbench`: a researcher's
@@ -778,6 +793,15 @@ def parser() -> argparse.ArgumentParser:
     )
     rp.add_argument("run_dir")
     rp.add_argument("--out", default=None, help="write the report here (default: RUN_DIR)")
+    ac = sub.add_parser(
+        "across",
+        help="the headline numbers of several runs of one suite and code side by side, with"
+        " their median and range across the runs (the drift between runs)",
+    )
+    ac.add_argument("runs", nargs="+", metavar="RUN", help="run folders (at least two)")
+    ac.add_argument(
+        "--csv", default=None, metavar="FILE", help="also write the table to FILE (a new file)"
+    )
     c = sub.add_parser(
         "compare",
         help="compare two runs (or pytest-benchmark JSON files); exit 1 on a significant"
@@ -886,6 +910,7 @@ def main(argv: list[str] | None = None) -> int:
     handlers = {
         "run": _run,
         "report": _report,
+        "across": _across,
         "compare": _compare,
         "corpus": _corpus,
         "scenes": _scenes,
