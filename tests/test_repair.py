@@ -651,10 +651,18 @@ def test_least_distance_on_a_working_set_is_the_whole_programmes():
         assert whole is not None and x is not None
         assert np.all(g @ x >= h - 1e-9 * (1 + np.abs(h)))
         np.testing.assert_allclose(x, whole, rtol=1e-9, atol=1e-9 * np.linalg.norm(whole))
+        # a working set started from hints (a previous programme's binding cuts, or any
+        # indices at all, out of range and zero rows among them) ends at the same point
+        binding = np.argsort(g @ x - h)[:n]
+        zero = np.vstack([g, np.zeros((1, n))]), np.append(h, -1.0)
+        for hint in (binding, rng.integers(0, m, 50), np.array([-3, m, m + 7, 0])):
+            y = least_distance(*zero, hint)
+            np.testing.assert_allclose(y, whole, rtol=1e-9, atol=1e-9 * np.linalg.norm(whole))
         # two cuts that push one combination of variables apart: infeasible, both ways
         bad_g = np.vstack([g, g[:1], -g[:1]])
         bad_h = np.concatenate([h, [h[0] + 1.0, -h[0] + 1.0]])
         assert least_distance(bad_g, bad_h) is None
+        assert least_distance(bad_g, bad_h, binding) is None
         norms = np.linalg.norm(bad_g, axis=1)
         assert _ldp(bad_g / norms[:, None], bad_h / norms) is None
 

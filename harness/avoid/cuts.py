@@ -42,7 +42,9 @@ the poses found so far, and the certifier, not this search, decides the repair."
 
 
 # ----------------------------------------------------------------------------- the programme
-def least_distance(g: np.ndarray, h: np.ndarray) -> np.ndarray | None:
+def least_distance(
+    g: np.ndarray, h: np.ndarray, hint: np.ndarray | None = None
+) -> np.ndarray | None:
     """``argmin |x|`` subject to ``g x >= h`` (Lawson & Hanson's LDP through NNLS).
 
     A programme of many more cuts than variables is solved on a working set (constraint
@@ -52,10 +54,15 @@ def least_distance(g: np.ndarray, h: np.ndarray) -> np.ndarray | None:
     norm point is unique), and fewer cuts that are infeasible prove it infeasible. A
     repair's programmes of ~15,000 cuts x 573 variables spent most of a 45-s search in
     NNLS, whose cost grows with the cuts; on a banded programme of that size this is
-    3.2x cheaper, the solution the same to 1e-12.
+    3.2x cheaper, the solution the same to 1e-12. A search solves programme after
+    programme, each the last's cuts and more: started from the cuts that bound the last
+    solution (`hint`) too, a hunt's slowest repair (9 rounds, programmes of 12,000 cuts x
+    384 variables, working sets doubling to 25,000 cuts) took 50 s instead of 173 s.
 
     Args:
         g: (M, N) constraint rows; h: (M,) right-hand sides.
+        hint: indices of cuts likely to bind (a previous programme's, whose cuts these
+            extend): the working set starts with them too.
 
     Returns:
         (N,) the solution, or None when the constraints are infeasible.
@@ -72,6 +79,10 @@ def least_distance(g: np.ndarray, h: np.ndarray) -> np.ndarray | None:
     if len(h) <= 2 * start:
         return _ldp(g, h)
     work = np.argsort(-h, kind="stable")[:start]
+    if hint is not None and len(hint):  # (the hint's rows among those kept)
+        hint = np.asarray(hint, dtype=np.int64)
+        hint = hint[(hint >= 0) & (hint < len(keep))]
+        work = np.union1d(work, (np.cumsum(keep) - 1)[hint[keep[hint]]])
     while True:
         x = _ldp(g[work], h[work])
         if x is None:
@@ -115,6 +126,9 @@ class Constraints:
     rhs: list = field(default_factory=list)
     owner: list = field(default_factory=list)
     pair: list = field(default_factory=list)
+    binding: np.ndarray | None = None
+    """The cuts that bound the last offset solved for (the smallest slacks, as many as it
+    had variables): where :func:`solve` starts its next working set."""
 
     def add(self, t, n, rhs, owner, pair) -> None:
         self.t.extend(t)
@@ -124,7 +138,8 @@ class Constraints:
         self.pair.extend(pair)
 
     def copy(self) -> Constraints:
-        return Constraints(*(list(x) for x in (self.t, self.n, self.rhs, self.owner, self.pair)))
+        lists = (list(x) for x in (self.t, self.n, self.rhs, self.owner, self.pair))
+        return Constraints(*lists, binding=self.binding)
 
     def arrays(self):
         return np.array(self.t), np.array(self.n).reshape(-1, 3), np.array(self.rhs)
@@ -190,8 +205,12 @@ def solve(spline: OffsetSpline, cons: Constraints) -> np.ndarray | None:
         return None
     bz = spline.basis(t) @ z  # (M, r)
     g = (bz[:, :, None] * n[:, None, :]).reshape(len(t), -1)  # rows act on y (r, 3)
-    y = least_distance(g, rhs)
-    return None if y is None else z @ y.reshape(z.shape[1], 3)
+    y = least_distance(g, rhs, cons.binding)
+    if y is None:
+        return None
+    # (the next programme holds these cuts and more: its working set starts with these)
+    cons.binding = np.argsort(g @ y - rhs, kind="stable")[: g.shape[1]]
+    return z @ y.reshape(z.shape[1], 3)
 
 
 # ----------------------------------------------------------------------------- close poses
