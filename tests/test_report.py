@@ -1103,10 +1103,16 @@ def test_a_repair_sweep_keeps_its_tolerances_apart_and_times_repaired_motions():
     # at each tolerance) once per case and clearance (a trial's legend counted them twice)
     from harness.report.avoid import sampled_once
 
-    once = sampled_once(df[df["status"] == "repaired"])
-    per_tol = df[(df["status"] == "repaired") & (df["method"] == "sampled")]
+    # as a run writes them: each tolerance its own [[study]] (study_index), one scene
+    run = df.assign(study_index=np.repeat([0, 1], len(df) // 2), scene="seeded")
+    once = sampled_once(run[run["status"] == "repaired"])
+    per_tol = run[(run["status"] == "repaired") & (run["method"] == "sampled")]
     assert len(once) == len(per_tol) // 2 > 0
     assert set(once["case"]) == set(per_tol["case"])
+    # results that differ are two results, whatever their identity
+    other = run.copy()
+    other.loc[(other["study_index"] == 1) & (other["case"] == 0), "max_deviation"] = 0.2
+    assert len(sampled_once(other[other["status"] == "repaired"])) == len(once) + 1
 
 
 def test_a_run_of_repairs_alone_has_no_filmstrip_of_the_cube_scene(tmp_path, monkeypatch):

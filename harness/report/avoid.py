@@ -12,12 +12,22 @@ import pandas as pd
 __all__ = ["repair_section"]
 
 
+SAMPLED_IDENTITY = (
+    "scene", "keyframes", "seed", "on_keyframe", "samples", "case", "clearance",
+    "status", "truth_clearance", "max_deviation", "still_collides",
+)  # fmt: skip
+"""What makes a sampled repair's result one result: its case (the scene, or the seeded
+cases' seed and settings, and the case's index), its grid and clearance, and the outcome
+itself (so that cases told apart by a setting no column holds are never merged)."""
+
+
 def sampled_once(rep: pd.DataFrame) -> pd.DataFrame:
-    """The sampled repair's rows of `rep`, one per case and clearance: it takes no
-    tolerance, so its result is the same at each tolerance of a study (a trial's sweep
-    over two tolerances drew "n=24; 26 still collide" from 40 motions)."""
+    """The sampled repair's rows of `rep`, each result once: it takes no tolerance, so a
+    sweep of tolerances (a [[study]] each) repeats its results (a trial's sweep over two
+    tolerances drew "n=24; 26 still collide" from 40 motions). Rows without a ``case``
+    (no identity to tell) are all kept."""
     sampled = rep[rep["method"] == "sampled"]
-    once = [k for k in ("study_index", "scene", "case", "clearance") if k in sampled]
+    once = [k for k in SAMPLED_IDENTITY if k in sampled]
     return sampled.drop_duplicates(subset=once) if "case" in once else sampled
 
 
