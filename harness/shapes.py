@@ -573,7 +573,9 @@ class ConvexMesh(Shape):
                 f"Expected `vertices` to span at least {MIN_LENGTH:g} (smaller sizes underflow"
                 f" when squared), got an extent of {extent:g}."
             )
-        object.__setattr__(self, "vertices_", hull_vertices(v))
+        # (read-only: the kernels' records of a shape are cached at its first query, and a
+        # vertex changed after it went unseen: a mesh moved 0.15 m into a plate stayed free)
+        object.__setattr__(self, "vertices_", _frozen(hull_vertices(v)))
         object.__setattr__(self, "input_count", int(v.shape[0]))
 
     @classmethod
@@ -712,7 +714,7 @@ def part_owners(shapes: Sequence[Shape]) -> np.ndarray:
 def as_shape(x: Any, name: str = "body") -> Shape:
     if not isinstance(x, Shape):
         raise TypeError(
-            f"Expected `{name}` to be a harness shape (Box, Sphere, Capsule, Cylinder, ConvexMesh, Compound), got {type(x).__name__}."
+            f"Expected `{name}` to be a harness shape (Box, Sphere, Capsule, Cylinder, Ellipsoid, ConvexMesh, Compound), got {type(x).__name__}."
         )
     if isinstance(x, HalfSpace):  # (a moving half-space meets everything somewhere)
         raise ShapeError(f"Expected `{name}` to be bounded, got a HalfSpace.")
