@@ -550,11 +550,11 @@ def test_headline_has_units_spread_basis_and_ratios_from_rounds():
     assert "Test CPU" in hull["basis"]
     ratio = text["cost of sampled / cost of hull, batch"]
     want = np.median(SAMPLED_ROUNDS) / np.median(HULL_ROUNDS)
-    assert ratio["value"] == f"{want:.3g}× (hull cheaper)"
+    assert ratio["value"] == f"{want:.3g}× (hull cheaper by a ≥87.5% interval)"
     # 5 rounds a side: each median's interval is its range (93.75 %), the ratio's from
     # them, of coverage >= 0.9375 + 0.9375 - 1 (a bootstrap called the extremes 95 %)
     lo, hi = min(SAMPLED_ROUNDS) / max(HULL_ROUNDS), max(SAMPLED_ROUNDS) / min(HULL_ROUNDS)
-    assert ratio["spread"].startswith(f"≥87.5% CI (from the rounds' ranges) {lo:.3g}–{hi:.3g}×")
+    assert ratio["spread"].startswith(f"≥87.5% CI (from the medians' intervals) {lo:.3g}–{hi:.3g}×")
     assert "same pairs" in ratio["basis"] and "95% CI" not in ratio["spread"]
     # single queries are compared with single queries (both 3x their batch rounds here)
     single = text["cost of sampled / cost of hull, single"]
@@ -790,11 +790,16 @@ def test_hull_cheaper_only_when_the_interval_lies_above_1():
     # the hull's own rounds in another order, 1 % dearer: ratio above 1, interval across 1
     rows = _with_workload_rounds(synthetic_rows(), "sampled", 1.01 * HULL_ROUNDS[::-1])
     text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
-    assert text["cost of sampled / cost of hull, batch"]["value"] == "1.01× (no clear difference)"
+    assert text["cost of sampled / cost of hull, batch"]["value"] == (
+        "1.01× (no clear difference by a ≥87.5% interval)"  # (5 rounds a side)
+    )
     # every round of sampled cheaper than every round of the hull: the hull is dearer
     rows = _with_workload_rounds(synthetic_rows(), "sampled", 0.5 * HULL_ROUNDS)
     text = {r["figure"]: r for r in headline(pd.DataFrame(rows), META)}
-    assert text["cost of sampled / cost of hull, batch"]["value"] == "0.5× (hull dearer)"
+    assert (
+        text["cost of sampled / cost of hull, batch"]["value"]
+        == "0.5× (hull dearer by a ≥87.5% interval)"
+    )
 
 
 def test_single_queries_are_labelled_one_certify_call_per_pair():
@@ -1937,3 +1942,16 @@ def test_the_headline_says_n_a_one_round_and_names_the_not_applicable_table(writ
     md = written[0].read_text()
     at = md.index("### Combinations that do not apply")
     assert "| method | reason |" in md[at:].split("###")[1]
+
+
+def test_a_ratio_verdict_names_its_coverage_and_needs_three_rounds_a_side():
+    # a review: rounds of 1 or 2 a side (coverage >= 0) read "hull cheaper"
+    from harness.report.data import cheaper_text, coverage_text
+    from harness.timing import ratio_of_medians_interval
+
+    assert cheaper_text(1.2, 1.5) == "hull cheaper"
+    assert cheaper_text(0.5, 0.9, 0.875) == "hull dearer by a ≥87.5% interval"
+    assert cheaper_text(0.9, 1.2, 0.5) == "no clear difference by a ≥50% interval"
+    lo, hi, level = ratio_of_medians_interval([1.0, 1.1], [1.3, 1.4])
+    assert lo > 1 and cheaper_text(lo, hi, level) == "too few rounds to tell"
+    assert coverage_text(0.6875) == "≥68.7%" and coverage_text(0.5) == "≥50%"

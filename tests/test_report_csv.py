@@ -341,7 +341,7 @@ def test_repair_and_headline_numbers(report):
     assert (hull["rounds"], hull["pairs"]) == (len(HULL_ROUNDS), PAIRS)
     ratio = head.loc["cost of sampled / cost of hull, batch"]
     _close(ratio["cost_ratio"], np.median(SAMPLED_ROUNDS) / np.median(HULL_ROUNDS))
-    assert ratio["cost_ratio_ci95_lo"] <= ratio["cost_ratio"] <= ratio["cost_ratio_ci95_hi"]
+    assert ratio["cost_ratio_ci_lo"] <= ratio["cost_ratio"] <= ratio["cost_ratio_ci_hi"]
     cor = rows[(rows["study"] == "corpus") & (rows["bound"] == "sampled")]
     app = cor[cor["verdict"] != "n/a"]
     line = head.loc["corpus verdicts of sampled"]

@@ -116,14 +116,24 @@ def implementation_label(impl: str, mode: str) -> str:
     return impl
 
 
-def cheaper_text(lo: float, hi: float) -> str:
-    """What a 95 % interval of cost(X) / cost(hull) says: the hull is cheaper only when the
-    whole interval lies above 1, dearer when it lies below 1."""
+def cheaper_text(lo: float, hi: float, level: float = 0.95) -> str:
+    """What an interval of cost(X) / cost(hull) of coverage `level` says: the hull is
+    cheaper only when the whole interval lies above 1, dearer when it lies below 1; below
+    95 % the verdict names its coverage, and below 50 % there is none (a review: 2 rounds
+    a side, coverage 0, read "hull cheaper")."""
+    if level < 0.5:
+        return "too few rounds to tell"
+    by = "" if level >= 0.95 else f" by a {coverage_text(level)} interval"
     if lo > 1:
-        return "hull cheaper"
+        return "hull cheaper" + by
     if hi < 1:
-        return "hull dearer"
-    return "no clear difference"
+        return "hull dearer" + by
+    return "no clear difference" + by
+
+
+def coverage_text(level: float) -> str:
+    """'≥87.5%': a coverage, rounded down (0.6875 read '≥68.8%' rounded to 3 digits)."""
+    return f"≥{math.floor(level * 1000 + 1e-9) / 10:g}%"
 
 
 def study_rows(df: pd.DataFrame, name: str) -> pd.DataFrame:

@@ -18,6 +18,7 @@ from .data import (
     cheaper_text,
     ci_name,
     column,
+    coverage_text,
     first_repeat,
     flag,
     rate_numbers,
@@ -384,16 +385,15 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
             few = ratio_of_medians_interval(h["_cpu"], o["_cpu"])
             if few is not None:  # (too few rounds for a 95 % interval of a median)
                 lo, hi, level = few
-                interval = f"≥{100 * level:.3g}% CI (from the rounds' ranges)"
+                interval = f"{coverage_text(level)} CI (from the medians' intervals)"
             ext = " (external)" if str(o["implementation"]).startswith(EXTERNAL_PREFIX) else ""
             unknown = ""
             numbers = {
                 "tolerance_mm": float(tol) * 1e3,
                 "cost_ratio": float(ratio),
-                "cost_ratio_ci95_lo": float(lo),
-                "cost_ratio_ci95_hi": float(hi),
-                # (the coverage of the cost_ratio_ci95 interval: below 0.95 from few rounds)
-                "cost_ratio_ci_level": float(level),
+                "cost_ratio_ci_lo": float(lo),
+                "cost_ratio_ci_hi": float(hi),
+                "cost_ratio_ci_level": float(level),  # (below 0.95 from few rounds)
                 "cpu_us_per_pair": float(o["cpu_us_per_pair"]),
                 "hull_cpu_us_per_pair": float(h["cpu_us_per_pair"]),
             }
@@ -410,7 +410,7 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
             out.append(
                 HeadlineLine(
                     figure=f"cost of {o['method']}{ext} / cost of hull, {mode}{which}",
-                    value=f"{ratio:.3g}× ({cheaper_text(lo, hi)}{unknown})",
+                    value=f"{ratio:.3g}× ({cheaper_text(lo, hi, level)}{unknown})",
                     spread=f"{interval} {lo:.3g}–{hi:.3g}×; {o['method']} {fmt_time(o['cpu_us_per_pair'] * 1e-6)} CPU per pair ({o['implementation']})",
                     basis=f"median CPU time per pair of {o['method']} / that of the hull, same pairs and tolerance; 'hull cheaper' only when the interval lies above 1. {work}",
                     numbers=numbers,
