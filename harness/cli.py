@@ -320,6 +320,8 @@ def _report(args) -> int:
 def _across(args) -> int:
     from harness.report.across import across
 
+    if args.csv == "":
+        raise UsageError("--csv needs a file name (got an empty one).")
     out = Path(args.csv) if args.csv else None
     if out is not None and out.exists():  # (checked before the runs are read)
         raise UsageError(f"--csv {str(out)!r} exists: give a new file (nothing is replaced).")

@@ -65,6 +65,40 @@ def test_runs_of_another_suite_or_code_or_the_same_run_twice_are_refused(tmp_pat
         across([a, newer])
     with pytest.raises(ReportError, match=r"has no results\.parquet"):
         across([a, tmp_path])
+    bare = _run(tmp_path / "bare")
+    (bare / "meta.json").unlink()
+    with pytest.raises(ReportError, match=r"has no meta\.json"):
+        across([a, bare])
+    # a copy of a run (its start time and all) would look like a second run that agrees
+    one, copy = (_run(tmp_path / n, started="2026-12-05T20:16:49+00:00") for n in ("one", "copy"))
+    with pytest.raises(ReportError, match="started at the same time"):
+        across([one, copy])
+
+
+def test_a_run_folder_named_as_a_statistic_keeps_its_column(tmp_path):
+    # a review: a folder named `median` had its column replaced by the median
+    (tmp_path / "x").mkdir()
+    a, b = _run(tmp_path / "x" / "median", 1.0), _run(tmp_path / "x" / "runs", 1.5)
+    t = across([a, b]).table
+    cols = [str(a), str(b)]  # (their paths: the names would take the table's own columns)
+    assert list(t.columns[2:4]) == cols
+    row = t[(t["figure"] == HULL_BATCH) & (t["quantity"] == "cpu_us_per_pair")].iloc[0]
+    base = np.median(HULL_ROUNDS) / PAIRS * 1e6
+    np.testing.assert_allclose(row[cols].astype(float), [base, 1.5 * base])
+    assert row["runs"] == 2 and row["median"] == pytest.approx(1.25 * base)
+
+
+def test_relative_run_folders_named_as_statistics_are_prefixed(tmp_path, monkeypatch):
+    (tmp_path / "x").mkdir()
+    _run(tmp_path / "x" / "median", 1.0), _run(tmp_path / "x" / "max", 2.0)
+    monkeypatch.chdir(tmp_path / "x")
+    t = across(["median", "max"]).table
+    assert list(t.columns) == [
+        "figure", "quantity", "run median", "run max", "runs", "median", "min", "max",
+        "max_over_min",
+    ]  # fmt: skip
+    row = t[(t["figure"] == HULL_BATCH) & (t["quantity"] == "cpu_us_per_pair")].iloc[0]
+    assert row["max_over_min"] == pytest.approx(2.0)
 
 
 def test_the_command_prints_the_table_and_writes_a_new_csv(tmp_path, capsys):
@@ -85,3 +119,5 @@ def test_the_command_prints_the_table_and_writes_a_new_csv(tmp_path, capsys):
     assert len(err) == 1 and "exists" in err[0] and out.read_bytes() == before
     assert main(["across", str(a)]) == 2
     assert "at least two" in capsys.readouterr().err
+    assert main(["across", str(a), str(b), "--csv", ""]) == 2
+    assert "--csv needs a file name" in capsys.readouterr().err

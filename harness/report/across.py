@@ -23,6 +23,9 @@ from .headline import headline_lines, headline_numbers
 
 __all__ = ["Across", "across"]
 
+RESERVED = frozenset({"figure", "quantity", "runs", "median", "min", "max", "max_over_min"})
+"""The table's own columns: no run's column may take one of these names."""
+
 
 @dataclass
 class Across:
@@ -58,8 +61,9 @@ def across(runs: Sequence[str | Path]) -> Across:
     """The headline numbers of `runs` (run folders of one suite and code) side by side.
 
     Raises:
-        ReportError: fewer than two runs, a folder given twice, a folder that is no run,
-            or runs of different suites or code.
+        ReportError: fewer than two runs, a folder given twice or a copy of one (the same
+            start time), a folder that is no run or has no ``meta.json``, or runs of
+            different suites or code.
     """
     from . import ReportError, _read_run  # (the package imports this module lazily)
 
@@ -76,6 +80,20 @@ def across(runs: Sequence[str | Path]) -> Across:
             )
         seen[real] = p
     read = [(p, *_read_run(p)) for p in paths]
+    for p, _, m in read:
+        if not m:  # (_read_run takes a run without one; here its suite and code matter)
+            raise ReportError(
+                f"{str(p)!r} has no meta.json: its suite and code are unknown, so it cannot"
+                " be set beside other runs."
+            )
+    started: dict = {}
+    for p, _, m in read:
+        if m.get("started") is not None and m["started"] in started:
+            raise ReportError(
+                f"{str(p)!r} and {str(started[m['started']])!r} started at the same time"
+                f" ({m['started']}): copies of one run, which would look like two that agree."
+            )
+        started[m.get("started")] = p
     for key, what in (("suite", "suites"), ("suite_hash", "suites"), ("code_digest", "code")):
         values = {m.get(key) for _, _, m in read}
         if len(values) > 1:
@@ -83,8 +101,11 @@ def across(runs: Sequence[str | Path]) -> Across:
             hint = " (`rsmbench compare` compares two runs of different code)" * (what == "code")
             raise ReportError(f"The runs are of different {what} ({key}): {each}{hint}.")
     names = [p.name or str(p) for p in paths]
-    if len(set(names)) < len(names):  # (folders of one name in different places)
+    if len(set(names)) < len(names) or RESERVED & set(names):
+        # (folders of one name in different places, or named as a statistic: a folder
+        # `median` replaced the median column, silently)
         names = [str(p) for p in paths]
+    names = [f"run {n}" if n in RESERVED else n for n in names]
     per_run = []
     for name, (_, df, meta) in zip(names, read, strict=True):
         nums = headline_numbers(headline_lines(df, meta))
