@@ -211,8 +211,10 @@ class Shape:
         quaternion, scalar first), `p` a translation (3,).
 
         Raises:
-            ShapeError: `r` not a rotation, or `p` not 3 finite lengths (a mesh's vertices
-                would otherwise take a NaN or an overflow unchecked).
+            ShapeError: `r` not a rotation, `p` not 3 finite lengths (a mesh's vertices
+                would otherwise take a NaN or an overflow unchecked), or the moved shape's
+                coordinates beyond :data:`MAX_LENGTH` (named as the shape's own: its
+                `center` or `vertices`).
         """
         return self._transformed(_rotation(r, "r"), _length(p, "p", shape=(3,)))
 
