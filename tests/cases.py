@@ -390,23 +390,30 @@ def random_cylinder(rng) -> Cylinder:
 
 
 class _ClosedForm:
-    """A cylinder whose `h` is :func:`cylinder_h` (what the families ask of a body)."""
+    """A shape whose `h` is a closed form written apart from it (what the families ask of
+    a body): ``h(shape, d)``."""
 
-    def __init__(self, cyl):
-        self.cyl = cyl
+    def __init__(self, shape, h):
+        self.shape, self._h = shape, h
 
     def h(self, d):
-        return cylinder_h(self.cyl, d)
+        return self._h(self.shape, d)
 
 
-def _with_cylinder(family, name):
+def _with_shape(random_shape, h, family, name):
+    """`family`'s cases with a body `random_shape(rng)`, their truth from closed form `h`."""
+
     def make(rng, klass):
-        cyl = random_cylinder(rng)
-        case = family(rng, klass, body=_ClosedForm(cyl))
-        case.body, case.family = cyl, name
+        shape = random_shape(rng)
+        case = family(rng, klass, body=_ClosedForm(shape, h))
+        case.body, case.family = shape, name
         return case
 
     return make
+
+
+def _with_cylinder(family, name):
+    return _with_shape(random_cylinder, cylinder_h, family, name)
 
 
 def post(rng, klass):
@@ -475,24 +482,8 @@ def random_ellipsoid(rng, center=True) -> Ellipsoid:
     return Ellipsoid(radii, center=c, rotation=random_rotation(rng))
 
 
-class _EllipsoidForm:
-    """An ellipsoid whose `h` is :func:`ellipsoid_h` (what the families ask of a body)."""
-
-    def __init__(self, ell):
-        self.ell = ell
-
-    def h(self, d):
-        return ellipsoid_h(self.ell, d)
-
-
 def _with_ellipsoid(family, name):
-    def make(rng, klass):
-        ell = random_ellipsoid(rng)
-        case = family(rng, klass, body=_EllipsoidForm(ell))
-        case.body, case.family = ell, name
-        return case
-
-    return make
+    return _with_shape(random_ellipsoid, ellipsoid_h, family, name)
 
 
 def _spheroid(r, half):

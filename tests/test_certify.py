@@ -77,6 +77,69 @@ def check_decisive(cases, certs, bound):
             assert k.verdict == "collision", (bound, c.family, c.body.kind, c.clearance, k)
 
 
+def check_shape_cases(cases, bound: str) -> None:
+    """A shape family's analytic cases (cylinders, ellipsoids): sound for `bound`;
+    decisive for hull and lipschitz (at least 40 of each class decided); aabb, whose boxes
+    never shrink onto a turning body, decides every collision; sampled, which proves
+    nothing free, never claims a collision where the truth is free."""
+    certs = run(cases, bound)
+    if bound == "sampled":
+        wrong = [c for c, k in zip(cases, certs, strict=True) if k.verdict == "collision"]
+        assert not [c for c in wrong if c.truth == "free"]
+        return
+    check_sound(cases, certs, bound)
+    decided = Counter(c.klass for c, k in zip(cases, certs, strict=True) if k.verdict != "unknown")
+    if bound == "aabb":
+        assert decided["collision"] == sum(c.klass == "collision" for c in cases)
+        return
+    check_decisive(cases, certs, bound)
+    assert min(decided.values()) >= 40, decided
+
+
+def check_clearance_brackets(cases, tolerance: float = 1e-4) -> None:
+    """clearance's bracket holds each case's true clearance, as narrow as `tolerance`
+    where it is free; a penetration is proven (upper < 0)."""
+    for c in cases:
+        cl = harness.clearance(c.motion, c.body, c.obstacles, tolerance=tolerance)
+        assert cl.lower <= c.clearance + 1e-12, (c.family, cl, c.clearance)
+        if c.clearance >= 0:
+            assert cl.upper >= c.clearance - 1e-12, (c.family, cl, c.clearance)
+            assert cl.upper - cl.lower <= tolerance * (1 + 1e-9)
+        else:
+            assert cl.upper < 0, (c.family, cl, c.clearance)
+
+
+def check_model_keyframes(path, kinds: list[str], obstacles_named: list[tuple]) -> None:
+    """A MuJoCo model file whose keyframe path, lifted by 0 to 0.6, runs through an
+    obstacle and then clears it: its body's parts are `kinds`, its obstacles
+    `obstacles_named` ((name, kind) each), and certify agrees with the ground truth (no free where the truth
+    collides, toi_lo not after its contact; decided where the truth is 10 tolerances
+    clear), with at least two collisions and two frees among the lifts."""
+    import scenes
+
+    scene = scenes.load(path)
+    body = harness.body_from_model(scene.model, scene.mocap_body)
+    obstacles = harness.obstacles_from_model(scene.model)
+    assert [p.kind for p in harness.shapes.parts(body)] == kinds
+    assert [(o.name, o.kind) for o in obstacles] == obstacles_named
+    harness.geoms.check_body_covers_subtree(scene.model, scene.mocap_body, body)
+    k = scene.keyframes
+    results = []
+    for lift in np.linspace(0.0, 0.6, 7):
+        m = motions.interpolate(k.rotations, k.positions + [0, 0, lift], k.times)
+        truth = ground_truth(m, body, obstacles, resolution=TOL)
+        cert = certify(m, body, obstacles, tolerance=TOL)
+        results.append((truth.verdict, cert.verdict))
+        if truth.verdict == "collision":
+            assert cert.verdict != "free" and cert.toi_lo <= truth.toi_hi + 1e-12
+        if truth.verdict == "free":
+            assert cert.verdict != "collision"
+            if truth.clearance >= 10 * TOL:
+                assert cert.verdict == "free"
+    got = Counter(results)
+    assert got[("collision", "collision")] >= 2 and got[("free", "free")] >= 2, got
+
+
 def test_case_set_is_large_and_balanced(cases):
     assert len(cases) >= 1000
     counts = Counter(c.klass for c in cases)

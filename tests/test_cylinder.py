@@ -16,7 +16,8 @@ from harness import Box, Cylinder, clearance
 from harness.comparators._common import cylinder_points
 
 from .cases import TOL, cylinder_h, make_cylinder_cases, random_cylinder
-from .test_certify import check_decisive, check_sound, run
+from .helpers import check_turning_against_coal
+from .test_certify import check_clearance_brackets, check_model_keyframes, check_shape_cases
 
 
 def test_a_cylinder_support_is_its_closed_form(rng):
@@ -50,36 +51,13 @@ def test_the_cylinder_cases_are_balanced(cases):
     }  # fmt: skip
 
 
-@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz"])
+@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz", "sampled"])
 def test_cylinders_are_certified_soundly_and_decisively(cases, bound):
-    certs = run(cases, bound)
-    check_sound(cases, certs, bound)
-    decided = Counter(c.klass for c, k in zip(cases, certs, strict=True) if k.verdict != "unknown")
-    if bound == "aabb":  # (a box never shrinks onto a turning body: collisions only)
-        assert decided["collision"] == sum(c.klass == "collision" for c in cases)
-        return
-    check_decisive(cases, certs, bound)
-    assert min(decided.values()) >= 40, decided
-
-
-def test_sampling_never_claims_a_collision_where_a_cylinder_is_clear(cases):
-    certs = run(cases, "sampled")
-    assert not [
-        c
-        for c, k in zip(cases, certs, strict=True)
-        if k.verdict == "collision" and c.truth == "free"
-    ]
+    check_shape_cases(cases, bound)
 
 
 def test_a_cylinders_clearance_brackets_the_truth(cases):
-    for c in cases[::4]:
-        cl = clearance(c.motion, c.body, c.obstacles, tolerance=1e-4)
-        assert cl.lower <= c.clearance + 1e-12, (c.family, cl, c.clearance)
-        if c.clearance >= 0:
-            assert cl.upper >= c.clearance - 1e-12, (c.family, cl, c.clearance)
-            assert cl.upper - cl.lower <= 1e-4 * (1 + 1e-9)
-        else:  # a proven penetration
-            assert cl.upper < 0, (c.family, cl, c.clearance)
+    check_clearance_brackets(cases[::4])
 
 
 CYL_MODEL = """<mujoco><worldbody>
@@ -107,26 +85,11 @@ def _cylinder_scene(tmp_path):
 
 
 def test_a_model_with_cylinders_is_certified_against_its_ground_truth(tmp_path):
-    scene, body, obstacles = _cylinder_scene(tmp_path)
-    assert [p.kind for p in harness.shapes.parts(body)] == ["box", "cylinder"]
-    assert [o.name for o in obstacles] == ["table", "post"] and obstacles[1].kind == "cylinder"
-    harness.geoms.check_body_covers_subtree(scene.model, scene.mocap_body, body)
+    (tmp_path / "cyl.xml").write_text(CYL_MODEL)
     # the keyframe path runs through the post: lifted by 0 to 0.6, clear of it from 0.5 on
-    k = scene.keyframes
-    results = []
-    for lift in np.linspace(0.0, 0.6, 7):
-        m = motions.interpolate(k.rotations, k.positions + [0, 0, lift], k.times)
-        truth = harness.ground_truth(m, body, obstacles, resolution=TOL)
-        cert = harness.certify(m, body, obstacles, tolerance=TOL)
-        results.append((truth.verdict, cert.verdict))
-        if truth.verdict == "collision":
-            assert cert.verdict != "free" and cert.toi_lo <= truth.toi_hi + 1e-12
-        if truth.verdict == "free":
-            assert cert.verdict != "collision"
-            if truth.clearance >= 10 * TOL:
-                assert cert.verdict == "free"
-    got = Counter(results)
-    assert got[("collision", "collision")] >= 2 and got[("free", "free")] >= 2, got
+    check_model_keyframes(
+        tmp_path / "cyl.xml", ["box", "cylinder"], [("table", "box"), ("post", "cylinder")]
+    )
 
 
 def test_the_comparators_tessellate_a_cylinder_from_outside(rng):
@@ -162,56 +125,19 @@ def test_the_comparators_read_a_cylinder(bound):
     assert got == ["free", "collision"]
 
 
-def _coal_distance(coal, a, ra, pa, b):
-    """coal's signed distance of part `a` moved by (ra, pa) and obstacle part `b`."""
-
-    def geom(s):
-        if s.kind == "cylinder":
-            return coal.Cylinder(s.radius, 2 * s.half_length)
-        return coal.Box(*(2 * s.half_extents))
-
-    req = coal.DistanceRequest()
-    req.enable_signed_distance = True
-    ta = coal.Transform3s(ra @ a.rotation, ra @ a.center + pa)
-    tb = coal.Transform3s(b.rotation, b.center)
-    return coal.distance(geom(a), ta, geom(b), tb, req, coal.DistanceResult())
-
-
 def test_turning_cylinders_against_coals_distances(rng):
-    # random C2 motions (rotations too) of cylinders among boxes and cylinders, sampled
-    # densely with coal, a distance code of its own: no free verdict where a sample
-    # penetrates, no clearance above a sample, a collision's pose in contact
+    # random C2 motions (rotations too) of cylinders among boxes and cylinders
     coal = pytest.importorskip("coal")
-    from motions.demo import demo_keyframes
 
-    seen = Counter()
-    for i in range(30):
-        q, p = demo_keyframes(5, seed=300 + i)
-        m = motions.interpolate(q, 0.3 * p)
-        body = random_cylinder(rng)
-        _, pos = m.pose(rng.uniform(*m.domain))
-        obst = [
+    def obstacles(rng, pos):
+        return [
             Cylinder(0.1, 0.3, center=pos + rng.normal(size=3) * 0.2, rotation=rng.normal(size=4)),
             Box(
                 [0.2, 0.1, 0.05], center=pos + rng.normal(size=3) * 0.3, rotation=rng.normal(size=4)
             ),
         ]
-        t = np.linspace(*m.domain, 1501)
-        r, x = m.pose(t)
-        d = np.array(
-            [min(_coal_distance(coal, body, r[j], x[j], o) for o in obst) for j in range(len(t))]
-        )
-        cert = harness.certify(m, body, obst, tolerance=TOL)
-        cl = clearance(m, body, obst, tolerance=1e-4)
-        seen[cert.verdict] += 1
-        assert cl.lower <= d.min() + 1e-9, (i, cl, d.min())
-        if d.min() < -1e-9:
-            assert cert.verdict == "collision", (i, cert, d.min())
-            assert cert.toi_lo <= t[np.argmax(d < -1e-9)] + 1e-12
-        if cert.verdict == "collision":
-            rh, xh = m.pose(cert.toi_hi)
-            assert min(_coal_distance(coal, body, rh, xh, o) for o in obst) <= 1e-9
-    assert seen["free"] >= 5 and seen["collision"] >= 5, seen
+
+    check_turning_against_coal(coal, rng, random_cylinder, obstacles, seed0=300)
 
 
 def test_a_path_is_moved_off_a_cylinder_post(tmp_path):

@@ -11,12 +11,12 @@ import pytest
 
 import harness
 import motions
-import scenes
 from harness import Box, Ellipsoid, clearance
 from harness.comparators._common import core_of
 
 from .cases import TOL, ellipsoid_h, make_ellipsoid_cases, random_ellipsoid
-from .test_certify import check_decisive, check_sound, run
+from .helpers import check_turning_against_coal
+from .test_certify import check_clearance_brackets, check_model_keyframes, check_shape_cases
 
 
 def test_an_ellipsoid_support_is_its_closed_form(rng):
@@ -68,36 +68,13 @@ def test_the_ellipsoid_cases_are_balanced(cases):
     }  # fmt: skip
 
 
-@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz"])
+@pytest.mark.parametrize("bound", ["hull", "aabb", "lipschitz", "sampled"])
 def test_ellipsoids_are_certified_soundly_and_decisively(cases, bound):
-    certs = run(cases, bound)
-    check_sound(cases, certs, bound)
-    decided = Counter(c.klass for c, k in zip(cases, certs, strict=True) if k.verdict != "unknown")
-    if bound == "aabb":  # (a box never shrinks onto a turning body: collisions only)
-        assert decided["collision"] == sum(c.klass == "collision" for c in cases)
-        return
-    check_decisive(cases, certs, bound)
-    assert min(decided.values()) >= 40, decided
-
-
-def test_sampling_never_claims_a_collision_where_an_ellipsoid_is_clear(cases):
-    certs = run(cases, "sampled")
-    assert not [
-        c
-        for c, k in zip(cases, certs, strict=True)
-        if k.verdict == "collision" and c.truth == "free"
-    ]
+    check_shape_cases(cases, bound)
 
 
 def test_an_ellipsoids_clearance_brackets_the_truth(cases):
-    for c in cases[::4]:
-        cl = clearance(c.motion, c.body, c.obstacles, tolerance=1e-4)
-        assert cl.lower <= c.clearance + 1e-12, (c.family, cl, c.clearance)
-        if c.clearance >= 0:
-            assert cl.upper >= c.clearance - 1e-12, (c.family, cl, c.clearance)
-            assert cl.upper - cl.lower <= 1e-4 * (1 + 1e-9)
-        else:  # a proven penetration
-            assert cl.upper < 0, (c.family, cl, c.clearance)
+    check_clearance_brackets(cases[::4])
 
 
 ELL_MODEL = """<mujoco><worldbody>
@@ -116,30 +93,11 @@ ELL_MODEL = """<mujoco><worldbody>
 
 
 def test_a_model_with_ellipsoids_is_certified_against_its_ground_truth(tmp_path):
-    path = tmp_path / "ell.xml"
-    path.write_text(ELL_MODEL)
-    scene = scenes.load(path)
-    body = harness.body_from_model(scene.model, scene.mocap_body)
-    obstacles = harness.obstacles_from_model(scene.model)
-    assert [p.kind for p in harness.shapes.parts(body)] == ["box", "ellipsoid"]
-    assert [o.name for o in obstacles] == ["table", "egg"] and obstacles[1].kind == "ellipsoid"
-    harness.geoms.check_body_covers_subtree(scene.model, scene.mocap_body, body)
+    (tmp_path / "ell.xml").write_text(ELL_MODEL)
     # the keyframe path runs through the egg: lifted by 0 to 0.6, clear of it from ~0.5 on
-    k = scene.keyframes
-    results = []
-    for lift in np.linspace(0.0, 0.6, 7):
-        m = motions.interpolate(k.rotations, k.positions + [0, 0, lift], k.times)
-        truth = harness.ground_truth(m, body, obstacles, resolution=TOL)
-        cert = harness.certify(m, body, obstacles, tolerance=TOL)
-        results.append((truth.verdict, cert.verdict))
-        if truth.verdict == "collision":
-            assert cert.verdict != "free" and cert.toi_lo <= truth.toi_hi + 1e-12
-        if truth.verdict == "free":
-            assert cert.verdict != "collision"
-            if truth.clearance >= 10 * TOL:
-                assert cert.verdict == "free"
-    got = Counter(results)
-    assert got[("collision", "collision")] >= 2 and got[("free", "free")] >= 2, got
+    check_model_keyframes(
+        tmp_path / "ell.xml", ["box", "ellipsoid"], [("table", "box"), ("egg", "ellipsoid")]
+    )
 
 
 def test_the_comparators_tessellate_an_ellipsoid_from_outside(rng):
@@ -190,35 +148,12 @@ def test_fcl_refuses_an_ellipsoid():
     assert "no collision function for ellipsoids" in got[0].reason
 
 
-def _coal_distance(coal, a, ra, pa, b):
-    """coal's signed distance of part `a` moved by (ra, pa) and obstacle part `b`."""
-
-    def geom(s):
-        if s.kind == "ellipsoid":
-            return coal.Ellipsoid(*s.radii)
-        return coal.Box(*(2 * s.half_extents))
-
-    req = coal.DistanceRequest()
-    req.enable_signed_distance = True
-    ta = coal.Transform3s(ra @ a.rotation, ra @ a.center + pa)
-    tb = coal.Transform3s(b.rotation, b.center)
-    return coal.distance(geom(a), ta, geom(b), tb, req, coal.DistanceResult())
-
-
 def test_turning_ellipsoids_against_coals_distances(rng):
-    # random C2 motions (rotations too) of ellipsoids among boxes and ellipsoids, sampled
-    # densely with coal, a distance code of its own: no free verdict where a sample
-    # penetrates, no clearance above a sample, a collision's pose in contact
+    # random C2 motions (rotations too) of ellipsoids among boxes and ellipsoids
     coal = pytest.importorskip("coal")
-    from motions.demo import demo_keyframes
 
-    seen = Counter()
-    for i in range(30):
-        q, p = demo_keyframes(5, seed=400 + i)
-        m = motions.interpolate(q, 0.3 * p)
-        body = random_ellipsoid(rng)
-        _, pos = m.pose(rng.uniform(*m.domain))
-        obst = [
+    def obstacles(rng, pos):
+        return [
             Ellipsoid(
                 [0.1, 0.2, 0.05], center=pos + rng.normal(size=3) * 0.2, rotation=rng.normal(size=4)
             ),
@@ -226,22 +161,8 @@ def test_turning_ellipsoids_against_coals_distances(rng):
                 [0.2, 0.1, 0.05], center=pos + rng.normal(size=3) * 0.3, rotation=rng.normal(size=4)
             ),
         ]
-        t = np.linspace(*m.domain, 1501)
-        r, x = m.pose(t)
-        d = np.array(
-            [min(_coal_distance(coal, body, r[j], x[j], o) for o in obst) for j in range(len(t))]
-        )
-        cert = harness.certify(m, body, obst, tolerance=TOL)
-        cl = clearance(m, body, obst, tolerance=1e-4)
-        seen[cert.verdict] += 1
-        assert cl.lower <= d.min() + 1e-9, (i, cl, d.min())
-        if d.min() < -1e-9:
-            assert cert.verdict == "collision", (i, cert, d.min())
-            assert cert.toi_lo <= t[np.argmax(d < -1e-9)] + 1e-12
-        if cert.verdict == "collision":
-            rh, xh = m.pose(cert.toi_hi)
-            assert min(_coal_distance(coal, body, rh, xh, o) for o in obst) <= 1e-9
-    assert seen["free"] >= 5 and seen["collision"] >= 5, seen
+
+    check_turning_against_coal(coal, rng, random_ellipsoid, obstacles, seed0=400)
 
 
 def test_a_path_is_moved_off_an_ellipsoid():
