@@ -328,8 +328,11 @@ def _across(args) -> int:
     got = across(args.runs)
     if out is not None:
         tmp = out.with_name(f".{out.name}.tmp")
-        got.table.to_csv(tmp, index=False)
-        tmp.replace(out)  # (whole or not at all)
+        try:
+            got.table.to_csv(tmp, index=False)
+            tmp.replace(out)  # (whole or not at all)
+        finally:
+            tmp.unlink(missing_ok=True)
     print(got.markdown(), end="")
     return 0
 

@@ -507,13 +507,12 @@ class Ellipsoid(Shape):
 
     def support(self, d):
         e = np.asarray(d, dtype=float) @ self.rotation  # (local coordinates)
-        # scaled to a largest entry of 1 first: no square underflows or overflows
+        # scaled to a largest entry of 1 first: no square underflows or overflows; a zero
+        # direction as e_x (any boundary point has its value, 0)
         big = np.abs(e).max(axis=-1, keepdims=True)
-        de = self.radii * (e / np.where(big > 0, big, 1.0))
-        n = np.linalg.norm(de, axis=-1, keepdims=True)  # (>= the least radius where big > 0)
-        # (a zero direction: any boundary point, of the same value 0)
-        local = np.where(big > 0, self.radii * (de / np.where(n > 0, n, 1.0)), [1.0, 0, 0])
-        local[..., 0] = np.where(big[..., 0] > 0, local[..., 0], self.radii[0])
+        unit = np.where(big > 0, e / np.where(big > 0, big, 1.0), [1.0, 0.0, 0.0])
+        de = self.radii * unit
+        local = self.radii * (de / np.linalg.norm(de, axis=-1, keepdims=True))
         return self.center + local @ self.rotation.T
 
     @cached_property  # (a shape is immutable)

@@ -253,10 +253,10 @@ def ratio_interval(
 
 def ratio_of_medians_interval(
     base: Sequence[float], new: Sequence[float], level: float = CONFIDENCE
-) -> tuple[float, float, float] | None:
+) -> tuple[float, float, float, float] | None:
     """For one figure on each side with too few rounds on a side for
-    :func:`median_interval` to reach `level` (fewer than 6 for 95 %): ``(lo, hi,
-    coverage)``, the ratio's interval from the medians' own, ``lo_new / hi_base`` to
+    :func:`median_interval` to reach `level` (fewer than 6 for 95 %): ``(ratio, lo, hi,
+    coverage)``, the ratio of the medians and its interval from the medians' own, ``lo_new / hi_base`` to
     ``hi_new / lo_base``, whose coverage is at least ``cov_base + cov_new - 1`` (both
     medians inside their intervals at once; no independence assumed), 0 at least. None
     when both sides have rounds enough: :func:`ratio_interval`'s bootstrap at `level`
@@ -267,7 +267,8 @@ def ratio_of_medians_interval(
     if min(cb, cn) >= level:
         return None
     # (hb >= the base's median, which the caller has checked is positive)
-    return ln / hb, (hn / lb if lb > 0 else math.inf), max(0.0, cb + cn - 1.0)
+    ratio = float(np.median(new)) / float(np.median(base))
+    return ratio, ln / hb, (hn / lb if lb > 0 else math.inf), max(0.0, cb + cn - 1.0)
 
 
 def _cases(x: Any, name: str) -> list[np.ndarray]:

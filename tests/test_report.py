@@ -1952,6 +1952,6 @@ def test_a_ratio_verdict_names_its_coverage_and_needs_three_rounds_a_side():
     assert cheaper_text(1.2, 1.5) == "hull cheaper"
     assert cheaper_text(0.5, 0.9, 0.875) == "hull dearer by a ≥87.5% interval"
     assert cheaper_text(0.9, 1.2, 0.5) == "no clear difference by a ≥50% interval"
-    lo, hi, level = ratio_of_medians_interval([1.0, 1.1], [1.3, 1.4])
+    _, lo, hi, level = ratio_of_medians_interval([1.0, 1.1], [1.3, 1.4])
     assert lo > 1 and cheaper_text(lo, hi, level) == "too few rounds to tell"
     assert coverage_text(0.6875) == "≥68.7%" and coverage_text(0.5) == "≥50%"

@@ -87,8 +87,9 @@ def test_a_ratio_from_few_rounds_covers_what_it_claims(n, claimed):
     for _ in range(trials):
         base = rng.lognormal(np.log(2.0), 0.3, size=n)
         new = rng.lognormal(np.log(3.0), 0.5, size=n)
-        lo, hi, cover = timing.ratio_of_medians_interval(base, new)
+        ratio, lo, hi, cover = timing.ratio_of_medians_interval(base, new)
         assert cover == pytest.approx(claimed)
+        assert ratio == pytest.approx(np.median(new) / np.median(base))
         assert lo == pytest.approx(new.min() / base.max())
         assert hi == pytest.approx(new.max() / base.min())
         hits += lo <= 1.5 <= hi

@@ -402,9 +402,9 @@ def workload_costs(wl: pd.DataFrame) -> pd.DataFrame:
 
 def workload_unknowns(wl: pd.DataFrame, first: int | None = None) -> dict[tuple, tuple]:
     """(unknown verdicts, pairs, their reasons as text) per (workload, tolerance, method,
-    and the study where rows carry it) from the per-pair rows, over the first `first` pairs of each workload if given (a
-    trial's single-query line counted the unknowns of all 1,000 pairs beside a timing of
-    the first 100)."""
+    and the study where rows carry it) from the per-pair rows, over the first `first`
+    pairs of each workload if given (a trial's single-query line counted the unknowns of
+    all 1,000 pairs beside a timing of the first 100)."""
     pair = wl[column(wl, "mode", "") == "pair"]
     if not len(pair) or any(k not in pair for k in ("keyframes", "tolerance", "bound", "verdict")):
         return {}

@@ -380,11 +380,12 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
                 continue
             if not np.median(np.asarray(h["_cpu"], dtype=float)) > 0:
                 continue  # (a hull time of 0 is no measurement: no ratio to it)
-            ratio, lo, hi = ratio_interval(h["_cpu"], o["_cpu"])
-            interval, level = "95% CI", CONFIDENCE
             few = ratio_of_medians_interval(h["_cpu"], o["_cpu"])
-            if few is not None:  # (too few rounds for a 95 % interval of a median)
-                lo, hi, level = few
+            if few is None:
+                ratio, lo, hi = ratio_interval(h["_cpu"], o["_cpu"])
+                interval, level = "95% CI", CONFIDENCE
+            else:  # (too few rounds for a 95 % interval of a median: no bootstrap)
+                ratio, lo, hi, level = few
                 interval = f"{coverage_text(level)} CI (from the medians' intervals)"
             ext = " (external)" if str(o["implementation"]).startswith(EXTERNAL_PREFIX) else ""
             unknown = ""
