@@ -14,7 +14,7 @@ import numpy as np
 import motions
 from motions.quaternion import quat_from_matrix, rotation_matrix
 
-from ..shapes import Box, Capsule, ConvexMesh, Shape, Sphere
+from ..shapes import Box, Capsule, ConvexMesh, Cylinder, Shape, Sphere
 from .cases import (
     TOLERANCE,
     Case,
@@ -26,7 +26,12 @@ from .cases import (
     rotation_motions,
     translation_motions,
 )
-from .truth import rotation_truth, sinusoid_terms, translation_truth
+from .truth import (
+    cylinder_translation_truth,
+    rotation_truth,
+    sinusoid_terms,
+    translation_truth,
+)
 
 __all__ = ["FAMILIES"]
 
@@ -149,6 +154,16 @@ def _axis_body(rng, kind: str, thin: tuple, lateral: tuple, r0: np.ndarray, perm
     if kind == "sphere":
         rad = rng.uniform(*thin)
         return Sphere(rad, center=c_body), r0 @ c_body, np.zeros(3), rad
+    if kind == "cylinder":  # (along any axis: its flat end or its rim meets the face)
+        rad, half = rng.uniform(*thin), rng.uniform(*thin)
+        axis_local = int(rng.integers(0, 3))
+        world_axis = perm @ np.eye(3)[axis_local]
+        rot = _frame(world_axis)[:, [1, 2, 0]]  # third column (cylinder z) = world_axis
+        body = Cylinder(rad, half, center=c_body, rotation=r0.T @ rot)
+        # (its reach along local axis j is h_j + rad: half on its axis, rad across)
+        h = np.zeros(3)
+        h[axis_local] = half - rad
+        return body, r0 @ c_body, h, rad
     rad = rng.uniform(*thin)
     half = rng.uniform(*lateral)
     axis_local = int(rng.integers(1, 3))  # capsule along local y or z: thin along travel
@@ -167,16 +182,23 @@ def perm_half(perm: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 
 def _translation_config(
-    rng, family: str, index: int, klass: str, geometry: str, offset: float = 0.0
+    rng,
+    family: str,
+    index: int,
+    klass: str,
+    geometry: str,
+    offset: float = 0.0,
+    kinds: tuple = ("box", "sphere", "capsule"),
 ) -> list[Case]:
     """Translation families in a local frame (travel along x), then turned by a random
-    axis-aligned rotation and shifted by `offset` (far-from-origin cases)."""
+    axis-aligned rotation and shifted by `offset` (far-from-origin cases); the body of one
+    of `kinds`."""
     perm = _signed_permutation(rng)
     r0 = _random_rotation(rng)
     q0 = quat_from_matrix(r0)
-    kind = str(rng.choice(["box", "sphere", "capsule"]))
+    kind = str(rng.choice(list(kinds)))
     target = _target(rng, klass)
-    tags = ["translation", geometry]
+    tags = ["translation", geometry] + (["cylinder"] if kind == "cylinder" else [])
     if geometry == "thin-wall":
         body, cw, h, rad = _axis_body(rng, kind, (2.5e-4, 1e-2), (2e-3, 5e-2), r0, perm)
         w = _loguniform(rng, 1e-4, 4e-3)
@@ -242,8 +264,15 @@ def _translation_config(
     p0 = perm @ a + shift - cw
     p1 = perm @ b + shift - cw
     obstacle = Box(np.abs(perm) @ obs_e, center=perm @ obs_c + shift)
-    e_sum = np.abs(perm) @ (obs_e + h)
-    tt = translation_truth(p0 + cw, p1 + cw, obstacle.center, e_sum, rad)
+    if kind == "cylinder":
+        axis = int(np.argmax(np.abs(r0 @ body.rotation[:, 2])))  # its world axis
+        half = body.half_length
+        tt = cylinder_translation_truth(
+            p0 + cw, p1 + cw, obstacle.center, obstacle.half_extents, axis, half, rad
+        )
+    else:
+        e_sum = np.abs(perm) @ (obs_e + h)
+        tt = translation_truth(p0 + cw, p1 + cw, obstacle.center, e_sum, rad)
     speed = float(np.linalg.norm(p1 - p0))
     duration = speed * rng.uniform(0.5, 2.0)
     reals = translation_motions(q0, p0, p1, duration, rng)
@@ -255,6 +284,11 @@ def _translation_config(
             "analytic: straight translation against an axis-aligned box; exact minimum of the"
             " convex signed distance to the Minkowski box (candidate points), contact window"
             " by bisection on its monotone branches"
+            if kind != "cylinder"
+            else "analytic: straight translation of an axis-aligned cylinder against an"
+            " axis-aligned box; the convex signed distance to their Minkowski sum (an"
+            " interval times a rectangle grown by a disc, exact), its minimum by ternary"
+            " search and the contact window by bisection on its monotone branches"
         )
         if tt.distance > 0:
             return Truth(
@@ -519,6 +553,13 @@ def _far_translation(rng, family, index, klass):
     )
 
 
+def _cylinder_translation(rng, family, index, klass):
+    """A cylinder (MuJoCo's cylinder geom: robot links and fingers) moving past a box, its
+    flat end or its rim leading, in one of the translation geometries."""
+    geometry = str(rng.choice(["thin-wall", "short-window", "last-instant"]))
+    return _translation_config(rng, family, index, klass, geometry, kinds=("cylinder",))
+
+
 def _far_rotation(rng, family, index, klass):
     return _rotation_config(
         rng, family, index, klass, swing=False, offset=_loguniform(rng, 1e3, 1e5)
@@ -537,4 +578,5 @@ FAMILIES = {
     "far-translation": (_far_translation, ("free", "collision", "grazing"), 3),
     "far-rotation": (_far_rotation, ("free", "collision", "grazing"), 2),
     "darboux": (_darboux_config, ("free", "collision", "grazing"), 5),
+    "cylinder": (_cylinder_translation, ("free", "collision", "grazing"), 4),
 }  # fmt: skip

@@ -14,7 +14,10 @@ Layout (``FORMAT`` "rsmbench-corpus", ``VERSION`` 1; the schema is
   (N, 3), "times": (N,)}`` (the inputs of :func:`motions.build`);
 - shapes: ``{"kind": "box", "half_extents", "center", "rotation" (3x3)}``,
   ``{"kind": "sphere", "radius", "center"}``, ``{"kind": "capsule", "radius",
-  "half_length", "center", "rotation"}`` (axis = local z), ``{"kind": "mesh",
+  "half_length", "center", "rotation"}`` (axis = local z), ``{"kind": "cylinder",
+  "radius", "half_length", "center", "rotation"}`` (axis = local z), ``{"kind":
+  "ellipsoid", "radii", "center", "rotation"}``, ``{"kind": "plane", "point",
+  "rotation"}`` (the solid side below the plane, normal = local z), ``{"kind": "mesh",
   "vertices"}``, ``{"kind": "compound", "parts"}``;
 - ``truth``: ``verdict``, ``distance`` (signed minimum distance over the motion),
   ``toi``, ``toi_lo``, ``toi_hi`` (null = +inf: no contact), ``window`` (null = unknown),
@@ -39,7 +42,17 @@ import motions
 from motions import RationalMotion
 
 from ..errors import HarnessError
-from ..shapes import Box, Capsule, Compound, ConvexMesh, Shape, Sphere
+from ..shapes import (
+    Box,
+    Capsule,
+    Compound,
+    ConvexMesh,
+    Cylinder,
+    Ellipsoid,
+    HalfSpace,
+    Shape,
+    Sphere,
+)
 from ..timing import rsmbench_version
 from .cases import (
     CLASSES,
@@ -56,6 +69,7 @@ from .cases import (
 __all__ = [
     "FORMAT",
     "SCHEMA_PATH",
+    "SHAPE_KINDS",
     "VERSION",
     "CorpusFormatError",
     "check_truth",
@@ -80,7 +94,14 @@ def _num(x: float) -> float | None:
     return None if not math.isfinite(x) else x
 
 
+SHAPE_KINDS = ("box", "sphere", "capsule", "cylinder", "ellipsoid", "plane", "mesh", "compound")
+"""The shape records of the format (docs/corpus_format.md "Shapes")."""
+
+
 def shape_to_dict(s: Shape) -> dict:
+    if isinstance(s, HalfSpace):  # (before Box: the half-space, not the cube that holds
+        # the part of it a query can reach, which the engine enlarges as a motion needs)
+        return {"kind": "plane", "point": s.point.tolist(), "rotation": s.rotation.tolist()}
     if isinstance(s, Box):
         return {
             "kind": "box",
@@ -98,14 +119,29 @@ def shape_to_dict(s: Shape) -> dict:
             "center": s.center.tolist(),
             "rotation": s.rotation.tolist(),
         }
+    if isinstance(s, Cylinder):
+        return {
+            "kind": "cylinder",
+            "radius": s.radius,
+            "half_length": s.half_length,
+            "center": s.center.tolist(),
+            "rotation": s.rotation.tolist(),
+        }
+    if isinstance(s, Ellipsoid):
+        return {
+            "kind": "ellipsoid",
+            "radii": s.radii.tolist(),
+            "center": s.center.tolist(),
+            "rotation": s.rotation.tolist(),
+        }
     if isinstance(s, ConvexMesh):
         return {"kind": "mesh", "vertices": s.vertices_.tolist()}
     if isinstance(s, Compound):
         return {"kind": "compound", "parts": [shape_to_dict(p) for p in s.shapes]}
     if isinstance(s, Shape):
         raise TypeError(
-            f"{type(s).__name__} shapes have no corpus record; the format's are box, sphere,"
-            " capsule, mesh and compound."
+            f"{type(s).__name__} shapes have no corpus record; the format's are"
+            f" {', '.join(SHAPE_KINDS)}."
         )
     raise TypeError(f"Expected a harness shape, got {type(s).__name__}.")
 
@@ -237,13 +273,21 @@ def shape_from_dict(d: Any, where: str) -> Shape:
             )
         if kind == "sphere":
             return Sphere(_finite(d, "radius", where), _array(d, "center", where, (3,)))
-        if kind == "capsule":
-            return Capsule(
+        if kind in ("capsule", "cylinder"):
+            return (Capsule if kind == "capsule" else Cylinder)(
                 _finite(d, "radius", where),
                 _finite(d, "half_length", where),
                 _array(d, "center", where, (3,)),
                 _array(d, "rotation", where, (3, 3)),
             )
+        if kind == "ellipsoid":
+            return Ellipsoid(
+                _array(d, "radii", where, (3,)),
+                _array(d, "center", where, (3,)),
+                _array(d, "rotation", where, (3, 3)),
+            )
+        if kind == "plane":
+            return HalfSpace(_array(d, "point", where, (3,)), _array(d, "rotation", where, (3, 3)))
         if kind == "mesh":
             return ConvexMesh(_array(d, "vertices", where, (None, 3)))
         if kind == "compound":
@@ -256,7 +300,7 @@ def shape_from_dict(d: Any, where: str) -> Shape:
             raise
         raise CorpusFormatError(f"{where}: {e}") from None
     raise CorpusFormatError(
-        f"{where}.kind: unknown shape kind {kind!r}; expected box, sphere, capsule, mesh or compound."
+        f"{where}.kind: unknown shape kind {kind!r}; expected one of {list(SHAPE_KINDS)}."
     )
 
 
@@ -464,6 +508,9 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
             shape_from_dict(o, f"{where}.obstacles[{j}]")
             for j, o in enumerate(_get(d, "obstacles", where, list))
         )
+        body = shape_from_dict(_get(d, "body", where, dict), f"{where}.body")
+        if isinstance(body, HalfSpace):  # (a compound refuses one itself)
+            raise CorpusFormatError(f"{where}.body: expected a bounded shape, got a plane.")
         truth = _truth(_get(d, "truth", where, dict), f"{where}.truth")
         check_truth(truth, motion.domain, klass, tolerance, where)
         cases.append(
@@ -473,7 +520,7 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
                 klass=klass,
                 scheme=scheme,
                 motion=motion,
-                body=shape_from_dict(_get(d, "body", where, dict), f"{where}.body"),
+                body=body,
                 obstacles=obstacles,
                 truth=truth,
                 tags=tuple(_get(d, "tags", where, list)),

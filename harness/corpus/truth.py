@@ -12,6 +12,13 @@ Two geometries cover most families:
   is at a candidate point of its pieces (breakpoints, quadratic vertices, crossings) and
   its first crossing of 0 is found by bisection on the decreasing branch. For boxes the
   penetration depth (minimum translation distance) is ``min_j (e_j - |q_j - c_j|)``.
+- **A cylinder translated past an axis-aligned box** (:func:`cylinder_translation_truth`),
+  its axis along world axis k. The Minkowski sum of the box and the cylinder is a product
+  ``I × (R ⊕ disc)``: an interval along k (the box's half extent plus the half length)
+  times the box's rectangle across k grown by the radius, whose signed distance is exact
+  (:func:`cylinder_box_signed_distance`); it is convex along the path, so its minimum is
+  found by a ternary search (its value to round-off) and its first crossing of 0 by
+  bisection on the decreasing branch.
 - **Rotation about a fixed axis next to a plane face** (:func:`rotation_truth`). A body
   point ``u`` (relative to the pivot) turned by φ about the unit axis k has height
   ``n.R(φ)u = α + β cos φ + γ sin φ`` over a face with normal n; the body's reach is the
@@ -33,6 +40,8 @@ __all__ = [
     "RotationTruth",
     "TranslationTruth",
     "aabb_signed_distance",
+    "cylinder_box_signed_distance",
+    "cylinder_translation_truth",
     "rotation_truth",
     "sinusoid_terms",
     "translation_truth",
@@ -112,6 +121,65 @@ def translation_truth(
     vals = np.array([f(s) for s in s_all])
     i = int(np.argmin(vals))
     dmin, smin = float(vals[i]), float(s_all[i])
+    if dmin > 0:
+        return TranslationTruth(dmin, smin, math.nan, math.nan)
+    s_in = 0.0 if f(0.0) <= 0 else brentq(f, 0.0, smin, xtol=ROOT_XTOL)
+    s_out = 1.0 if f(1.0) <= 0 else brentq(f, smin, 1.0, xtol=ROOT_XTOL)
+    return TranslationTruth(dmin, smin, float(s_in), float(s_out))
+
+
+def cylinder_box_signed_distance(
+    q: np.ndarray, c: np.ndarray, e: np.ndarray, axis: int, half_length: float, radius: float
+) -> float:
+    """Signed distance between the box [c - e, c + e] and a cylinder centred at q (3,)
+    whose axis is world axis `axis`: the signed distance from q to their Minkowski sum
+    ``A × B``, A the interval of half length ``e_k + half_length`` along k and B the
+    rectangle of half extents ``e_j`` (j != k) grown by `radius`. For a product of convex
+    sets it is ``hypot(max(sd_A, 0), max(sd_B, 0))`` outside and ``max(sd_A, sd_B)``
+    inside; ``sd_B`` is the rectangle's signed distance minus the radius (exact for a set
+    grown by a disc)."""
+    d = np.abs(np.asarray(q, dtype=float) - c) - e
+    sd_a = float(d[axis]) - half_length
+    across = np.delete(d, axis)
+    rect = float(across.max()) if np.all(across <= 0) else float(np.hypot(*np.maximum(across, 0)))
+    sd_b = rect - radius
+    if sd_a > 0 or sd_b > 0:
+        return float(np.hypot(max(sd_a, 0.0), max(sd_b, 0.0)))
+    return max(sd_a, sd_b)
+
+
+def cylinder_translation_truth(
+    q0: np.ndarray,
+    q1: np.ndarray,
+    c: np.ndarray,
+    e: np.ndarray,
+    axis: int,
+    half_length: float,
+    radius: float,
+) -> TranslationTruth:
+    """Min over s in [0, 1] of :func:`cylinder_box_signed_distance` along the cylinder
+    centre's path q(s) = q0 + s (q1 - q0), and its contact window. The function is convex
+    in s (a signed distance to a convex set along a line), so a ternary search finds its
+    minimum's value to round-off (its place, where the function is flat, to about the
+    square root of that), and the window's ends are bisected on the monotone branches on
+    either side of it."""
+    q0, q1, c, e = (np.asarray(x, dtype=float) for x in (q0, q1, c, e))
+    dq = q1 - q0
+
+    def f(s: float) -> float:
+        return cylinder_box_signed_distance(q0 + s * dq, c, e, axis, half_length, radius)
+
+    a, b = 0.0, 1.0
+    while b - a > 4 * math.ulp(1.0):
+        m1, m2 = a + (b - a) / 3, b - (b - a) / 3
+        if f(m1) <= f(m2):
+            b = m2
+        else:
+            a = m1
+    cands = [0.0, a, b, 1.0]
+    vals = [f(s) for s in cands]
+    i = int(np.argmin(vals))
+    dmin, smin = float(vals[i]), cands[i]
     if dmin > 0:
         return TranslationTruth(dmin, smin, math.nan, math.nan)
     s_in = 0.0 if f(0.0) <= 0 else brentq(f, 0.0, smin, xtol=ROOT_XTOL)
