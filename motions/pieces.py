@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._checks import as_count
 from .bernstein import bezier_eval, bezier_product, de_casteljau_split
 from .errors import DegenerateMotionError
 
@@ -214,6 +215,8 @@ class BezierPieces:
                 unproven sign after `max_depth` halvings. The error has attributes
                 ``owner`` and ``time``.
         """
+        max_depth = as_count(max_depth, "max_depth", 0, 60)  # (2^-60: below a double's
+        # resolution of a piece's time interval)
         if np.all(self.ctrl[:, :, 3, 3] > self.error[:, W_BLOCK][:, None]):
             return self  # the common case: every weight already provably positive
         table = self.take(np.arange(len(self)))

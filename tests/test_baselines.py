@@ -153,6 +153,57 @@ def test_rotation_spline_rates_are_world_frame(built):
     np.testing.assert_allclose(m.angular_velocity(x), vee(rd @ np.swapaxes(r, 1, 2)), atol=FD_TOL)
 
 
+def test_rotation_spline_meets_its_keyframes_or_is_refused():
+    """scipy's RotationSpline solves for its rates iteratively, and on uneven time steps the
+    solve can diverge: a review's keyframes (turns ~0.3 rad, steps from 4e-3 to 5) were
+    missed by 1.25 in a matrix entry without a word, and other times ended in a raw scipy
+    error at a keyframe. Over 150 such sets every built spline meets its keyframes, and
+    the others are refused by name."""
+    q = np.array(
+        [
+            [1, 0, 0, 0],
+            [0.989948380650907, -0.12824181828784337, -0.02437796313617001, 0.05442384222201124],
+            [0.9779367364943644, 0.17268079030371875, 0.11627510649852209, -0.01735464443867456],
+            [0.920389075763759, 0.3427699731020683, 0.09909731242524984, -0.159913781221111],
+            [0.9072281139906361, 0.41651909034772683, 0.05129431424235636, -0.02859877422726353],
+            [0.9325868773534779, 0.344466312889295, 0.06538734269077258, 0.08572730538389156],
+        ]
+    )
+    t = np.array(
+        [
+            0,
+            3.8817782987397133e-03,
+            5.7226351251554201e-03,
+            0.535223689854152,
+            5.50051299494498,
+            6.97783105652752,
+        ]
+    )
+    with pytest.raises(
+        motions.MotionError, match=r"RotationSpline did not converge.*keyframe 5 by 1\."
+    ):
+        motions.build("rotation-spline", q, np.zeros((6, 3)), t)
+    rng = np.random.default_rng(12)
+    refused = built = 0
+    for _ in range(150):
+        n = int(rng.integers(4, 9))
+        chain = [Rotation.identity()]  # turns of ~0.3 rad between keyframes
+        for step in Rotation.from_rotvec(rng.normal(size=(n - 1, 3)) * 0.3 / np.sqrt(3)):
+            chain.append(step * chain[-1])
+        rots = Rotation.concatenate(chain)
+        times = np.concatenate([[0.0], np.cumsum(10 ** rng.uniform(-3, 1, n - 1))])
+        qs = rots.as_quat(scalar_first=True)
+        try:
+            m = motions.build("rotation-spline", qs, np.zeros((n, 3)), times)
+        except motions.MotionError as e:
+            assert "RotationSpline did not converge" in str(e)
+            refused += 1
+            continue
+        built += 1
+        np.testing.assert_allclose(m.pose(times)[0], rots.as_matrix(), atol=1e-9)
+    assert refused >= 1 and built >= 100, (refused, built)
+
+
 def test_squad_and_bezier_are_c1_in_time_with_uneven_spacing(built):
     *_, ms = built
     for s in ("squad", "bezier-slerp"):
@@ -198,6 +249,17 @@ def test_duplicate_and_antipodal_keyframes():
     for s in motions.SCHEMES:
         with pytest.raises(ValueError, match="identical"):
             motions.build(s, q2, p2)
+
+
+def test_squads_refusal_names_its_segment_to_full_precision():
+    # keyframes alternating with a half turn: squad is undefined between them; the times
+    # of a short segment were printed to 6 digits, "t = 1 to 1"
+    q = np.array([[1, 0, 0, 0], [0, 0, 0, 1], [1, 0, 0, 0], [0, 0, 0, 1], [1, 0, 0, 0]], float)
+    p = np.cumsum(np.ones((5, 3)), axis=0)
+    with pytest.raises(
+        motions.DegenerateMotionError, match=r"1 and 2 \(t = 1\.0 to 1\.000000001\)"
+    ):
+        motions.build("squad", q, p, [0.0, 1.0, 1.000000001, 3.0, 4.0])
 
 
 def test_identical_rotations_pure_translation():
@@ -247,6 +309,22 @@ def test_speed_bound_is_never_below_sampled_speed(seed, scheme, a, b, radius):
     speed = np.linalg.norm(v + np.cross(w, -radius * d), axis=1)
     assert np.all(speed <= bound), f"{scheme}: sampled {speed.max()} > bound {bound}"
     del wn
+
+
+@pytest.mark.parametrize("scheme", BOUNDED)
+def test_speed_bound_at_a_keyframe_covers_both_sides(scheme):
+    """A bound over one instant at a keyframe covers the speed on either side of it: a C⁰
+    motion's speed jumps there (slerp's bound at a knot was the right segment's alone,
+    1.70 where the left limit moves a point at 3.30, a review found)."""
+    q, p = demo_keyframes(6, seed=3)
+    m = motions.build(scheme, q, p)
+    for k in m.keyframe_times[1:-1]:
+        bound = m.speed_bound(k, k, 1.0)
+        for x in (np.nextafter(k, -np.inf), np.nextafter(k, np.inf)):
+            v, w = m.velocity(x), m.angular_velocity(x)
+            # the fastest point within radius 1: |v| + |w| when it moves along v
+            fastest = float(np.linalg.norm(v) + np.linalg.norm(w))
+            assert fastest <= bound, (scheme, k, x, fastest, bound)
 
 
 @pytest.mark.parametrize("scheme", UNBOUNDED)

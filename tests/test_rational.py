@@ -589,3 +589,16 @@ def test_a_motions_arrays_are_read_only_and_shared_by_its_piece_table():
         table = BezierPieces.from_motion(x)
         assert np.shares_memory(table.ctrl, x.ctrl)
         assert np.array_equal(table.positive().ctrl, x.ctrl)
+
+
+def test_positive_refuses_a_bad_max_depth():
+    # (a negative depth was accepted where every weight is already positive, and left
+    # nothing to split with where one is not)
+    from motions.demo import demo_keyframes
+    from motions.pieces import BezierPieces
+
+    table = BezierPieces.from_motion(motions.interpolate(*demo_keyframes(4, seed=2)))
+    for bad, err in ((-1, ValueError), (61, ValueError), (2.0, TypeError), (True, TypeError)):
+        with pytest.raises(err, match=r"`max_depth` to be an integer in \[0, 60\]"):
+            table.positive(max_depth=bad)
+    assert table.positive(max_depth=0) is table
