@@ -192,6 +192,36 @@ def test_single_queries_of_growing_sizes_equal_the_batch():
         assert len(img) <= 2 * data + 4096, (len(img), data)
 
 
+def test_single_queries_alternating_degrees_replay_their_launches(monkeypatch):
+    # a query's launch is recorded once per arena pair and scratch size: queries that
+    # alternate between a cubic and a degree-9 motion (the corpus's rational and
+    # rational-bezier cases) recorded it anew each time, ~0.1 ms of a ~0.2 ms query; the
+    # replays give the batch's certificates
+    from harness.certification import device
+
+    q, p = demo_keyframes(5, seed=6)
+    ms = [motions.interpolate(q, p), motions.RationalMotion.from_preimage(1, [0, 0, 1, 1], q[:2])]
+    ms += [
+        motions.interpolate(q, p + 0.01),
+        motions.RationalMotion.from_preimage(1, [0, 0, 1, 1], q[1:3]),
+    ]
+    assert len({m.degree for m in ms}) == 2
+    bodies = [Sphere(0.05)] * len(ms)
+    obstacles = [[Sphere(0.2, center=m.pose(0.5 * sum(m.domain))[1] + 0.1)] for m in ms]
+    batch = {b: certify_many(ms, bodies, obstacles, bound=b) for b in ("hull", "lipschitz")}
+    for i in range(len(ms)):  # (each size first: their launches recorded)
+        for b in batch:
+            certify(ms[i], bodies[i], obstacles[i], bound=b)
+    made = []
+    real = device._Recorded
+    monkeypatch.setattr(device, "_Recorded", lambda *a: made.append(a) or real(*a))
+    for _ in range(3):
+        for i in range(len(ms)):
+            for b in batch:
+                assert _same(certify(ms[i], bodies[i], obstacles[i], bound=b), batch[b][i])
+    assert len(made) == 0, f"{len(made)} launches recorded anew"
+
+
 def test_arenas_past_their_cap_are_dropped_with_their_launches(monkeypatch):
     # a mix of size classes makes an arena each: past MAX_ARENAS of a name those are dropped, with
     # the launches recorded on their arrays (which held them alive); queries after that

@@ -325,16 +325,30 @@ def _kernel_run(kernel_name, ms, bodies, obst, o, samples=None) -> tuple[Outcome
             stride,
             n,
             work,
-            buf.scratch("st_ctrl", (lanes, 1, kmax, 4, 4), np.float64, wp.mat44d),
-            buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
-            buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
+            *_scratch(buf, kernel_name, lanes, kmax),
             buf.out("out_t", (n, 5), np.float64, wp.float64)[1],
             buf.out("out_n", (n, OUT_N), np.int32, wp.int32)[1],
         ]
         kernel = K._advance if kernel_name == "advance" else K._sample
-        buf.launch(kernel, args, lanes, tag=launch_tag(arrays, n))
+        buf.launch(kernel, args, lanes, tag=launch_tag(arrays, n, (kmax,)))
         outs.append(Outcome(buf.fetch("out_t", n), buf.fetch("out_n", n)))
     return Outcome.concat(outs), time.perf_counter() - start
+
+
+def _scratch(buf, kernel_name: str, lanes: int, kmax: int) -> list:
+    """The stepping kernels' per-lane scratch (a piece's control matrices, its images),
+    one set per lane count and K, kept: single queries alternating between degrees
+    replay their launches instead of recording them anew."""
+    wp = warp()
+
+    def make() -> list:
+        return [
+            buf.scratch("st_ctrl", (lanes, 1, kmax, 4, 4), np.float64, wp.mat44d),
+            buf.scratch("pre_m", (lanes, kmax + 1, 3, 3), np.float64, wp.mat33d),
+            buf.scratch("pre_c", (lanes, kmax + 1, 3), np.float64, wp.vec3d),
+        ]
+
+    return buf.scratch_set((kernel_name, lanes, kmax), make)
 
 
 # ----------------------------------------------------------------------------- lipschitz

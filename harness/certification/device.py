@@ -341,7 +341,13 @@ class Buffers:
         sizes) and kept: a single query asks for the same ones every time."""
         hit = self._sets.get(key)
         if hit is None:
-            if len(self._sets) >= 32:
+            if len(self._sets) >= 32:  # (with the launches recorded on them)
+                held = {id(a) for xs in self._sets.values() for a in xs}
+                self._launches = {
+                    k: r
+                    for k, r in self._launches.items()
+                    if not any(id(a) in held for a in r.args)
+                }
                 self._sets.clear()
             hit = self._sets[key] = make()
         return hit
@@ -394,6 +400,8 @@ class Buffers:
                         )
                     )  # fmt: skip
             rec = _Recorded(cmds, list(args), [None] * len(cmds))
+            if len(self._launches) >= MAX_LAUNCHES:  # (bounded: they hold their arrays)
+                self._launches.clear()
             self._launches[key] = rec
         elif changed:
             for i in changed:
@@ -407,6 +415,12 @@ class Buffers:
             run_lanes(len(cmds), lambda i: _run(cmds, runs, i))
         if not cpu:
             wp.synchronize_device(self.device)
+
+
+MAX_LAUNCHES = 256
+"""Recorded launches a certifier's buffers keep (one per kernel, lane count and tag: a
+single query's tag names its arenas and scratch sizes); past that, all are recorded anew
+as they come."""
 
 
 class Arena:
