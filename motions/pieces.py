@@ -220,8 +220,9 @@ class BezierPieces:
         if np.all(self.ctrl[:, :, 3, 3] > self.error[:, W_BLOCK][:, None]):
             return self  # the common case: every weight already provably positive
         table = self.take(np.arange(len(self)))
-        done: list[tuple[BezierPieces, np.ndarray]] = []
+        done: list[tuple[BezierPieces, np.ndarray, np.ndarray, int]] = []
         row = np.arange(len(table))  # the input row each piece descends from
+        pos = np.zeros(len(table), dtype=np.int64)  # its place in the row: pos / 2^level
         for level in range(max_depth + 1):
             w = table.ctrl[:, :, 3, 3]
             e = table.error[:, W_BLOCK][:, None]
@@ -229,10 +230,10 @@ class BezierPieces:
             if np.any(neg):
                 table.ctrl[neg] *= -1.0
             ok = neg | np.all(w > e, axis=1)
-            done.append((table.take(ok), row[ok]))
+            done.append((table.take(ok), row[ok], pos[ok], level))
             if ok.all():
                 break
-            table, row = table.take(~ok), row[~ok]
+            table, row, pos = table.take(~ok), row[~ok], pos[~ok]
             _check_sign(table, names)
             if level == max_depth:
                 i = int(np.argmax(table.depth))
@@ -246,9 +247,13 @@ class BezierPieces:
                 )
             table = table.halve()
             row = np.repeat(row, 2)
-        out = BezierPieces.concat([t for t, _ in done])
-        # sub-pieces of one row are disjoint dyadic intervals: their t0 orders them
-        return out.take(np.lexsort((out.t0, np.concatenate([r for _, r in done]))))
+            pos = _pair(2 * pos, 2 * pos + 1)  # (halve's order: left, right of each)
+        out = BezierPieces.concat([t for t, *_ in done])
+        # sub-pieces of one row are disjoint dyadic intervals: ordered by their place in
+        # the row (their t0, rounded, can tie on a domain a few doubles long far from 0)
+        last = done[-1][3]
+        place = np.concatenate([x << (last - level) for _, _, x, level in done])
+        return out.take(np.lexsort((place, np.concatenate([r for _, r, *_ in done]))))
 
 
 _FIELDS = ("ctrl", "t0", "t1", "owner", "segment", "depth", "error")

@@ -602,3 +602,27 @@ def test_positive_refuses_a_bad_max_depth():
         with pytest.raises(err, match=r"`max_depth` to be an integer in \[0, 60\]"):
             table.positive(max_depth=bad)
     assert table.positive(max_depth=0) is table
+
+
+def test_positive_pieces_stay_in_time_order_on_a_domain_a_few_doubles_long():
+    # far from t = 0 a domain of 1e-6 is ~60 doubles: halving times round, sub-pieces of a
+    # weight dip share their t0, and the order by t0 kept them in the order they were
+    # split in (a review found neighbouring rows that did not join: weights ending at
+    # 0.0269 followed by a piece starting at 0.987)
+    from motions.pieces import BezierPieces
+
+    q = np.array(
+        [
+            [21.82789483, -24.60873124, -8.8448078, 18.90411562],
+            [-37.80815331, 42.72795623, 15.3953761, -32.77880256],
+        ]
+    )
+    for start in (0.0, 1e5, 1e9):
+        m = RationalMotion.from_preimage(1, [start, start, start + 1e-6, start + 1e-6], q)
+        table = BezierPieces.from_motion(m).positive()
+        assert len(table) > 5 and table.depth.max() >= 8  # (split deep into the dip)
+        ends, starts = table.ctrl[:-1, -1], table.ctrl[1:, 0]
+        sign = np.sign(ends[:, 3, 3] * starts[:, 3, 3])[:, None, None]
+        # each piece starts where the one before it ends (de Casteljau keeps that point)
+        assert np.array_equal(ends, sign * starts), start
+        assert np.all(np.diff(table.t0) >= 0) and np.all(table.t0 <= table.t1)
