@@ -81,7 +81,10 @@ def _sample(corpus, n, seed):
 def test_truth_against_exact_distances(corpus):
     """Independent of the analytic formulas: the harness's float64 GJK at 4001 poses.
     No pose is closer than a free case's clearance and the closest comes near it; no pose
-    before a collision's toi_lo intersects and the pose at its toi touches."""
+    before a collision's toi_lo intersects and the pose at its toi touches. (GJK's bracket
+    is exact for polytopes, spheres and capsules; on a cylinder's round side it stops
+    within its gap, so there a pose's distance is only known to lie in [lo, hi]: the
+    cylinder family's own test checks it exactly.)"""
     for c in _sample(corpus, 40, 1):
         t = np.linspace(*c.motion.domain, GRID)
         lo, hi, _ = sample_distances(c.motion, c.body, list(c.obstacles), t, "gjk")
@@ -90,7 +93,8 @@ def test_truth_against_exact_distances(corpus):
         if c.truth.verdict == "free":
             v = c.motion.speed_bound(*c.motion.domain, c.body.bounding_radius)
             step = (t[1] - t[0]) * v
-            assert lo.min() >= c.truth.distance - tol, c.id
+            exact = "cylinder" not in c.tags
+            assert (lo if exact else hi).min() >= c.truth.distance - tol, c.id
             assert hi.min() <= c.truth.distance + step + tol, c.id
         else:
             before = t < c.truth.toi_lo - 1e-12 * (t[-1] - t[0])
@@ -204,15 +208,16 @@ def test_cylinder_family_truth_against_distances():
     the two shapes' support functions along the coordinate axes, the directions out of
     the box's edges and 20,000 random ones (none smaller than the stated depth, and one
     equal to it); the minimum and the contact times as in the other families' checks, and
-    both cylinder orientations (its end or its rim leading) and all three geometries
-    present."""
+    all four geometries present, its roundness deciding the minimum in some (the minimum
+    of its bounding prism differs)."""
     cases = generate(seed=0, size=1.0, families=["cylinder"])
-    assert Counter(c.klass for c in cases) == {k: 20 for k in CLASSES}
-    assert {g for c in cases for g in c.tags} >= {"thin-wall", "short-window", "last-instant"}
+    assert Counter(c.klass for c in cases) == {k: 30 for k in CLASSES}
+    geometries = {"side-edge", "thin-wall", "short-window", "last-instant"}
+    assert {g for c in cases for g in c.tags} >= geometries
     rng = np.random.default_rng(5)
     dirs = rng.normal(size=(20_000, 3))
     dirs = np.concatenate([np.eye(3), -np.eye(3), dirs / np.linalg.norm(dirs, axis=1)[:, None]])
-    leading = set()
+    round_matters = 0
     for c in cases:
         (obst,) = c.obstacles
         t = np.linspace(*c.motion.domain, 1001)
@@ -228,21 +233,29 @@ def test_cylinder_family_truth_against_distances():
                 moved.center, obst.center, obst.half_extents, axis, moved.half_length, moved.radius
             )
             sds.append(sd)
-            if sd > 0:
-                assert hi[i] == pytest.approx(sd, abs=tol) and lo[i] <= sd + tol, (c.id, t[i])
+            if sd > 0:  # (GJK on a round side stops within its gap: a bracket, 1e-6 wide)
+                assert lo[i] - tol <= sd <= hi[i] + tol, (c.id, t[i], lo[i], sd, hi[i])
+                assert hi[i] - lo[i] <= 1e-6 * scale, (c.id, t[i], lo[i], hi[i])
                 continue
             assert hi[i] <= tol, (c.id, t[i])
             d = np.abs(moved.center - obst.center) - obst.half_extents
             edge = np.where(
                 np.arange(3) == axis, 0.0, np.maximum(d, 0) * np.sign(moved.center - obst.center)
             )
-            extra = [edge / np.linalg.norm(edge)] if np.any(edge) else []
+            # (from the body towards the box, as _overlaps reads its directions)
+            extra = [-edge / np.linalg.norm(edge)] if np.any(edge) else []
             ov = _overlaps(moved, obst, np.concatenate([dirs, *[e[None] for e in extra]]))
             assert ov.min() >= -sd - tol, (c.id, t[i], ov.min(), sd)  # none shallower
             best = _overlaps(moved, obst, np.concatenate([dirs[:6], *[e[None] for e in extra]]))
             assert best.min() <= -sd + tol, (c.id, t[i], best.min(), sd)  # one as deep
-        travel = (pos[-1] - pos[0]) / np.linalg.norm(pos[-1] - pos[0])
-        leading.add("end" if abs(rot[0] @ c.body.axis @ travel) > 0.5 else "rim")
+        if c.scheme == "rational":  # its bounding prism's minimum (a box's: exact)
+            start, end = (c.body.transformed(rot[i], pos[i]) for i in (0, -1))
+            h = np.full(3, start.radius)
+            h[int(np.argmax(np.abs(start.axis)))] = start.half_length
+            prism = translation_truth(
+                start.center, end.center, obst.center, obst.half_extents + h, 0
+            )
+            round_matters += abs(prism.distance - c.truth.distance) > 1e-6
         sds = np.array(sds)
         step = (t[1] - t[0]) * c.motion.speed_bound(*c.motion.domain, c.body.bounding_radius)
         assert sds.min() >= c.truth.distance - tol, c.id  # no pose below the minimum
@@ -258,26 +271,9 @@ def test_cylinder_family_truth_against_distances():
                 )
                 <= tol
             ), c.id
-    assert leading == {"end", "rim"}
-
-
-def test_cylinder_depths_against_coal():
-    """The cylinder family's stated depths against coal's signed distance (EPA) at 2001
-    poses: MuJoCo's own cylinder-box depths are shallower than the exact ones (2.6 mm for
-    8.4 mm in a case of this family), so coal is the independent reference here."""
-    coal = pytest.importorskip("coal")
-    from .helpers import coal_distance
-
-    cases = [c for c in generate(seed=0, size=1.0, families=["cylinder"]) if c.truth.distance < 0]
-    for c in cases[::3]:
-        t = np.linspace(*c.motion.domain, 2001)
-        rot, pos = c.motion.pose(t)
-        d = np.array(
-            [coal_distance(coal, c.body, rot[i], pos[i], c.obstacles[0]) for i in range(len(t))]
-        )
-        step = (t[1] - t[0]) * c.motion.speed_bound(*c.motion.domain, c.body.bounding_radius)
-        assert d.min() >= c.truth.distance - 1e-7, c.id
-        assert d.min() <= c.truth.distance + step + 1e-7, c.id
+    # (against a face a cylinder is its bounding prism: the side-edge configurations are
+    # where its roundness decides, a review found the others alone never did)
+    assert round_matters >= 4, round_matters
 
 
 def test_rotation_truth_closed_form():
@@ -439,7 +435,7 @@ def test_every_shape_kind_round_trips(tmp_path, corpus):
         dataclasses.replace(base, id=f"made-{i}", body=b, obstacles=(*base.obstacles, o))
         for i, (b, o) in enumerate(
             [(shapes[0], HalfSpace([0, 0, -5.0], rotation=rot)), (shapes[1], shapes[0])]
-            + [(shapes[2], shapes[1])]
+            + [(shapes[2], shapes[1]), (shapes[1], HalfSpace([1.0, 2, 3], half=7.0))]
         )
     ]
     path = export(made, tmp_path / "a")
@@ -465,8 +461,23 @@ def test_every_shape_kind_round_trips(tmp_path, corpus):
         load(_write(tmp_path, bad))
     bad = json.loads(json.dumps(doc))
     bad["cases"][2]["body"]["parts"].append(plane)
-    with pytest.raises(CorpusFormatError, match=r"cases\[2\].*body.*HalfSpace"):
+    with pytest.raises(CorpusFormatError, match=r"cases\[2\].*body\.parts\[2\]: .*got a plane"):
         load(_write(tmp_path, bad))
+    # numpy reads "0.01" and true as numbers; the schema does not, nor does the loader
+    for value in (["0.01", 0.02, 0.03], [True, 0.02, 0.03], [[0.01], 0.02, 0.03]):
+        bad = json.loads(json.dumps(doc))
+        bad["cases"][1]["body"]["radii"] = value
+        with pytest.raises(CorpusFormatError, match=r"cases\[1\].*body\.radii: expected numbers"):
+            load(_write(tmp_path, bad))
+    bad = json.loads(json.dumps(doc))
+    del bad["cases"][0]["body"]["center"]
+    with pytest.raises(CorpusFormatError, match=r"cases\[0\].*body: missing key `center`"):
+        load(_write(tmp_path, bad))
+    # a plane's cube size (not part of its set) is kept when it is not the default
+    assert doc["cases"][3]["obstacles"][-1]["half"] == 7.0 and "half" not in plane
+    with pytest.raises(ValueError, match=r"made-0.*bounded body, got a plane"):
+        export([dataclasses.replace(made[0], body=HalfSpace([0, 0, 0]))], tmp_path / "c")
+    assert not (tmp_path / "c" / "corpus.json").exists()
     bad = json.loads(json.dumps(doc))
     bad["cases"][1]["body"]["radii"] = [0.01, -0.02, 0.03]
     with pytest.raises(CorpusFormatError, match=r"cases\[1\].*body.*radii"):
@@ -583,6 +594,16 @@ def test_corpus_study_end_to_end(tmp_path):
     report = write_report(tmp_path / "out").read_text()
     assert "Rigid-motion CCD corpus" in report and "figures/corpus.png" in report
     assert (tmp_path / "out" / "figures" / "corpus.svg").exists()
+    # the cases are configurations realised in several schemes, and the report says how many
+    configs = _configurations(df)
+    assert 4 <= len(configs) < cases
+    assert f"The cases realise {len(configs)} geometric configurations" in report
+
+
+def _configurations(df) -> set:
+    """The configurations (FAMILY-NNN) of the study's cases (ids FAMILY-NNN-SCHEME), read
+    by the family each row names."""
+    return {k[: len(f) + 4] for k, f in zip(df["keyframes"], df["scene"], strict=True)}
 
 
 def test_corpus_suite_errors_name_the_key(tmp_path):

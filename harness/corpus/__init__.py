@@ -5,7 +5,8 @@ schemes, exportable as a versioned data file (:mod:`harness.corpus.io`).
 Families: thin walls (0.1-4 mm), short contact windows, contact only at the last instant,
 long capsules past box edges, spins in place and 180° swings next to a face, a long capsule
 swinging past a box edge, far-from-origin coordinates, Darboux/elliptic motions, cylinders
-with their flat end or rim leading; tagged with the FCL hazards they exercise.
+with their curved side past a box edge or their flat end or side against a face; tagged
+with the FCL hazards they exercise.
 """
 
 from __future__ import annotations

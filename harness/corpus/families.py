@@ -154,7 +154,7 @@ def _axis_body(rng, kind: str, thin: tuple, lateral: tuple, r0: np.ndarray, perm
     if kind == "sphere":
         rad = rng.uniform(*thin)
         return Sphere(rad, center=c_body), r0 @ c_body, np.zeros(3), rad
-    if kind == "cylinder":  # (along any axis: its flat end or its rim meets the face)
+    if kind == "cylinder":  # (along any axis: its flat end or its flat side meets the face)
         rad, half = rng.uniform(*thin), rng.uniform(*thin)
         axis_local = int(rng.integers(0, 3))
         world_axis = perm @ np.eye(3)[axis_local]
@@ -554,10 +554,82 @@ def _far_translation(rng, family, index, klass):
 
 
 def _cylinder_translation(rng, family, index, klass):
-    """A cylinder (MuJoCo's cylinder geom: robot links and fingers) moving past a box, its
-    flat end or its rim leading, in one of the translation geometries."""
-    geometry = str(rng.choice(["thin-wall", "short-window", "last-instant"]))
+    """A cylinder (MuJoCo's cylinder geom: robot links and fingers) moving past a box: in
+    half the configurations its curved side passes an edge of the box parallel to its
+    axis (:func:`_cylinder_side_edge`: the only contacts where the cylinder's roundness
+    matters, a review found: against a face it is its bounding prism), in the others its
+    flat end or flat side meets a face, in one of the translation geometries."""
+    geometry = str(
+        rng.choice(["side-edge", "thin-wall", "side-edge", "short-window", "last-instant"])
+    )
+    if geometry == "side-edge":
+        return _cylinder_side_edge(rng, family, index, klass)
     return _translation_config(rng, family, index, klass, geometry, kinds=("cylinder",))
+
+
+def _cylinder_side_edge(rng, family: str, index: int, klass: str) -> list[Case]:
+    """A cylinder whose curved side passes an edge of an axis-aligned box parallel to its
+    axis, in a local frame turned by a random axis-aligned rotation: either sliding along
+    its axis past the edge, or crossing the edge's corner in the plane across it. The
+    closest approach is where the box's rectangle across the axis, grown by the radius,
+    is round: ``(rad + target)`` from the corner along an angle phi in (0.15, 1.42) rad."""
+    perm = _signed_permutation(rng)
+    r0 = _random_rotation(rng)
+    q0 = quat_from_matrix(r0)
+    target = _target(rng, klass)
+    rad, half = rng.uniform(2e-3, 2e-2), rng.uniform(5e-3, 5e-2)
+    along = bool(rng.random() < 0.5)  # sliding along the axis, else across it
+    obs_e = rng.uniform(0.01, 0.2, 3)
+    phi = rng.uniform(0.15, 1.42)
+    out = rad + target
+    if along:  # axis and travel along local x; the edge at (y, z) = (e_y, e_z)
+        axis_local = 0
+        y, z = obs_e[1] + out * math.cos(phi), obs_e[2] + out * math.sin(phi)
+        reach = obs_e[0] + half
+        a = np.array([-reach - rng.uniform(0.02, 0.5), y, z])
+        b = np.array([reach + rng.uniform(0.02, 0.5), y, z])
+    else:  # axis along local z (the box longer than the cylinder); travel in the xy plane
+        axis_local = 2
+        obs_e[2] = half + rng.uniform(0.01, 0.2)
+        n = np.array([math.cos(phi), math.sin(phi)])
+        passing = obs_e[:2] + out * n
+        d = np.array([-n[1], n[0]]) * (1.0 if rng.random() < 0.5 else -1.0)
+        length = _loguniform(rng, 0.05, 1.0)
+        start = passing - d * length * rng.uniform(0.3, 0.7)
+        z = rng.uniform(-1, 1) * (obs_e[2] - half) * 0.5
+        a = np.array([*start, z])
+        b = np.array([*(start + d * length), z])
+    c_body = rng.normal(size=3) * 0.01
+    world_axis = perm @ np.eye(3)[axis_local]
+    rot = _frame(world_axis)[:, [1, 2, 0]]  # third column (cylinder z) = world_axis
+    body = Cylinder(rad, half, center=c_body, rotation=r0.T @ rot)
+    cw = r0 @ c_body
+    p0, p1 = perm @ a - cw, perm @ b - cw
+    obstacle = Box(np.abs(perm) @ obs_e)
+    axis = int(np.argmax(np.abs(world_axis)))
+    tt = cylinder_translation_truth(
+        p0 + cw, p1 + cw, obstacle.center, obstacle.half_extents, axis, half, rad
+    )
+    speed = float(np.linalg.norm(p1 - p0))
+    reals = translation_motions(q0, p0, p1, speed * rng.uniform(0.5, 2.0), rng)
+    tags = ["translation", "cylinder", "side-edge"]
+
+    def truth_of(r: Realisation) -> Truth:
+        proof = (
+            "analytic: straight translation of an axis-aligned cylinder past an edge of an"
+            " axis-aligned box parallel to its axis; the convex signed distance to their"
+            " Minkowski sum (an interval times a rectangle grown by a disc, exact), its"
+            " minimum by ternary search and the contact window by bisection on its monotone"
+            " branches"
+        )
+        if tt.distance > 0:
+            return Truth(
+                "free", tt.distance, math.inf, math.inf, math.inf, math.nan, "analytic", proof
+            )
+        t_in, t_out = r.time_of(tt.s_in), r.time_of(tt.s_out)
+        return Truth("collision", tt.distance, t_in, t_in, t_in, t_out - t_in, "analytic", proof)
+
+    return _cases(family, index, reals, body, [obstacle], truth_of, tags)
 
 
 def _far_rotation(rng, family, index, klass):
@@ -578,5 +650,5 @@ FAMILIES = {
     "far-translation": (_far_translation, ("free", "collision", "grazing"), 3),
     "far-rotation": (_far_rotation, ("free", "collision", "grazing"), 2),
     "darboux": (_darboux_config, ("free", "collision", "grazing"), 5),
-    "cylinder": (_cylinder_translation, ("free", "collision", "grazing"), 4),
+    "cylinder": (_cylinder_translation, ("free", "collision", "grazing"), 6),
 }  # fmt: skip

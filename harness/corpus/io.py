@@ -94,6 +94,8 @@ def _num(x: float) -> float | None:
     return None if not math.isfinite(x) else x
 
 
+PLANE_HALF = 1e3
+"""A plane record's default ``half`` (:class:`~harness.shapes.HalfSpace`'s)."""
 SHAPE_KINDS = ("box", "sphere", "capsule", "cylinder", "ellipsoid", "plane", "mesh", "compound")
 """The shape records of the format (docs/corpus_format.md "Shapes")."""
 
@@ -101,7 +103,9 @@ SHAPE_KINDS = ("box", "sphere", "capsule", "cylinder", "ellipsoid", "plane", "me
 def shape_to_dict(s: Shape) -> dict:
     if isinstance(s, HalfSpace):  # (before Box: the half-space, not the cube that holds
         # the part of it a query can reach, which the engine enlarges as a motion needs)
-        return {"kind": "plane", "point": s.point.tolist(), "rotation": s.rotation.tolist()}
+        out = {"kind": "plane", "point": s.point.tolist(), "rotation": s.rotation.tolist()}
+        half = float(s.half_extents[0])
+        return out if half == PLANE_HALF else {**out, "half": half}
     if isinstance(s, Box):
         return {
             "kind": "box",
@@ -147,6 +151,8 @@ def shape_to_dict(s: Shape) -> dict:
 
 
 def case_to_dict(c: Case) -> dict:
+    if isinstance(c.body, HalfSpace):  # (a file load refuses)
+        raise ValueError(f"Case {c.id!r}: expected a bounded body, got a plane (HalfSpace).")
     if isinstance(c.motion, RationalMotion):
         breaks, ctrl = c.motion.bezier_form()
         motion = {"type": "bezier", "breaks": breaks.tolist(), "ctrl": ctrl.tolist()}
@@ -248,10 +254,14 @@ def _finite(d: Any, key: str, where: str) -> float:
 
 
 def _array(d: Any, key: str, where: str, shape: tuple) -> np.ndarray:
+    v = _get(d, key, where)  # (outside the try: its own message names the missing key)
     try:
-        a = np.array(_get(d, key, where), dtype=float)
+        a = np.array(v, dtype=float)
     except (TypeError, ValueError):
         raise CorpusFormatError(f"{where}.{key}: expected numbers of shape {shape}.") from None
+    bad = _not_a_number(v)
+    if bad is not None:  # (numpy reads "0.5" and true as numbers: the schema does not)
+        raise CorpusFormatError(f"{where}.{key}: expected numbers, got {bad!r}.")
     if a.ndim != len(shape) or any(
         s is not None and s != n for s, n in zip(shape, a.shape, strict=True)
     ):
@@ -260,6 +270,19 @@ def _array(d: Any, key: str, where: str, shape: tuple) -> np.ndarray:
         bad = float(a[~np.isfinite(a)][0])
         raise CorpusFormatError(f"{where}.{key}: expected finite numbers, got {bad!r}.")
     return a
+
+
+def _not_a_number(v: Any) -> Any:
+    """The first entry of the nested lists `v` that is not a JSON number (a string or a
+    boolean), else None."""
+    stack = [v]
+    while stack:
+        x = stack.pop()
+        if isinstance(x, list):
+            stack.extend(x)
+        elif isinstance(x, bool) or not isinstance(x, int | float):
+            return x
+    return None
 
 
 def shape_from_dict(d: Any, where: str) -> Shape:
@@ -287,14 +310,23 @@ def shape_from_dict(d: Any, where: str) -> Shape:
                 _array(d, "rotation", where, (3, 3)),
             )
         if kind == "plane":
-            return HalfSpace(_array(d, "point", where, (3,)), _array(d, "rotation", where, (3, 3)))
+            half = _finite(d, "half", where) if "half" in d else PLANE_HALF
+            return HalfSpace(
+                _array(d, "point", where, (3,)), _array(d, "rotation", where, (3, 3)), half
+            )
         if kind == "mesh":
             return ConvexMesh(_array(d, "vertices", where, (None, 3)))
         if kind == "compound":
-            parts = _get(d, "parts", where, list)
-            return Compound(
-                [shape_from_dict(p, f"{where}.parts[{i}]") for i, p in enumerate(parts)]
-            )
+            parts = [
+                shape_from_dict(p, f"{where}.parts[{i}]")
+                for i, p in enumerate(_get(d, "parts", where, list))
+            ]
+            for i, p in enumerate(parts):
+                if isinstance(p, HalfSpace):
+                    raise CorpusFormatError(
+                        f"{where}.parts[{i}]: expected a bounded shape, got a plane."
+                    )
+            return Compound(parts)
     except (ValueError, TypeError) as e:
         if isinstance(e, CorpusFormatError):
             raise

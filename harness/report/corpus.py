@@ -193,13 +193,17 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
         return
     cases = cor["keyframes"].nunique()
     klass = cor.drop_duplicates("keyframes")["klass"].value_counts().to_dict()
+    # a case id is FAMILY-NNN-SCHEME[-step]: one configuration in several schemes
+    configs = cor["keyframes"].str.extract(r"^(.*?-\d{3})-", expand=False).nunique()
     doc.h("Rigid-motion CCD corpus")
     doc.p(
         f"{cases} cases with analytic truth ({', '.join(f'{k}: {v}' for k, v in sorted(klass.items()))};"
         " grazing = |distance| below the 1 mm tolerance), each run by every method that can represent its"
         " motion. A false negative is a 'free' answer on a case whose truth is collision; a false positive"
         " a 'collision' answer on a case whose truth is free; denominators count the applicable cases with"
-        " that truth. External tools' answers are their own claims (certified = no)."
+        f" that truth. The cases realise {configs} geometric configurations, each in every scheme that"
+        " traces its poses exactly: a method's answers on one configuration's schemes are not"
+        " independent trials. External tools' answers are their own claims (certified = no)."
     )
     summary = corpus_summary(cor)
     doc.table(
@@ -212,9 +216,10 @@ def corpus_section(doc, df: pd.DataFrame, plt) -> None:
         " allocations inside Warp, FCL or ipctk. Each method is timed over the cases it applies to, so"
         " two methods' times are over different case sets where their applicable counts differ. ipctk"
         " runs as its line search is built to: it reports an impact once a distance falls below 20 %"
-        " of its value at the query's start (conservative_rescaling 0.8), and spheres and capsules are"
-        " icosphere hulls within the tolerance, so its false positives are near passes (see the"
-        " grazing class below); harness/comparators/ipctk.py gives its settings.",
+        " of its value at the query's start (conservative_rescaling 0.8), and spheres, capsules and"
+        " ellipsoids are icosphere hulls and cylinders circumscribed prisms within the tolerance, so"
+        " its false positives are near passes (see the grazing class below);"
+        " harness/comparators/ipctk.py gives its settings.",
         "corpus_methods",
         data=summary,
     )
