@@ -279,17 +279,24 @@ def _translation_config(
     if offset:
         tags.append("far")
 
+    proof = (
+        "analytic: straight translation against an axis-aligned box; exact minimum of the"
+        " convex signed distance to the Minkowski box (candidate points), contact window"
+        " by bisection on its monotone branches"
+        if kind != "cylinder"
+        else "analytic: straight translation of an axis-aligned cylinder against an"
+        " axis-aligned box; the convex signed distance to their Minkowski sum (an"
+        " interval times a rectangle grown by a disc, exact), its minimum by ternary"
+        " search and the contact window by bisection on its monotone branches"
+    )
+    return _cases(family, index, reals, body, [obstacle], _translation_truth_of(tt, proof), tags)
+
+
+def _translation_truth_of(tt, proof: str):
+    """A realisation's truth from a translation's (:class:`.truth.TranslationTruth`): its
+    contact window's path parameters at the realisation's times."""
+
     def truth_of(r: Realisation) -> Truth:
-        proof = (
-            "analytic: straight translation against an axis-aligned box; exact minimum of the"
-            " convex signed distance to the Minkowski box (candidate points), contact window"
-            " by bisection on its monotone branches"
-            if kind != "cylinder"
-            else "analytic: straight translation of an axis-aligned cylinder against an"
-            " axis-aligned box; the convex signed distance to their Minkowski sum (an"
-            " interval times a rectangle grown by a disc, exact), its minimum by ternary"
-            " search and the contact window by bisection on its monotone branches"
-        )
         if tt.distance > 0:
             return Truth(
                 "free", tt.distance, math.inf, math.inf, math.inf, math.nan, "analytic", proof
@@ -297,7 +304,7 @@ def _translation_config(
         t_in, t_out = r.time_of(tt.s_in), r.time_of(tt.s_out)
         return Truth("collision", tt.distance, t_in, t_in, t_in, t_out - t_in, "analytic", proof)
 
-    return _cases(family, index, reals, body, [obstacle], truth_of, tags)
+    return truth_of
 
 
 # ----------------------------------------------------------------------------- rotation
@@ -612,24 +619,15 @@ def _cylinder_side_edge(rng, family: str, index: int, klass: str) -> list[Case]:
     )
     speed = float(np.linalg.norm(p1 - p0))
     reals = translation_motions(q0, p0, p1, speed * rng.uniform(0.5, 2.0), rng)
+    proof = (
+        "analytic: straight translation of an axis-aligned cylinder past an edge of an"
+        " axis-aligned box parallel to its axis; the convex signed distance to their"
+        " Minkowski sum (an interval times a rectangle grown by a disc, exact), its"
+        " minimum by ternary search and the contact window by bisection on its monotone"
+        " branches"
+    )
     tags = ["translation", "cylinder", "side-edge"]
-
-    def truth_of(r: Realisation) -> Truth:
-        proof = (
-            "analytic: straight translation of an axis-aligned cylinder past an edge of an"
-            " axis-aligned box parallel to its axis; the convex signed distance to their"
-            " Minkowski sum (an interval times a rectangle grown by a disc, exact), its"
-            " minimum by ternary search and the contact window by bisection on its monotone"
-            " branches"
-        )
-        if tt.distance > 0:
-            return Truth(
-                "free", tt.distance, math.inf, math.inf, math.inf, math.nan, "analytic", proof
-            )
-        t_in, t_out = r.time_of(tt.s_in), r.time_of(tt.s_out)
-        return Truth("collision", tt.distance, t_in, t_in, t_in, t_out - t_in, "analytic", proof)
-
-    return _cases(family, index, reals, body, [obstacle], truth_of, tags)
+    return _cases(family, index, reals, body, [obstacle], _translation_truth_of(tt, proof), tags)
 
 
 def _far_rotation(rng, family, index, klass):

@@ -273,8 +273,8 @@ def _array(d: Any, key: str, where: str, shape: tuple) -> np.ndarray:
 
 
 def _not_a_number(v: Any) -> Any:
-    """The first entry of the nested lists `v` that is not a JSON number (a string or a
-    boolean), else None."""
+    """An entry of the nested lists `v` that is not a JSON number (a string, a boolean, a
+    null or an object), else None."""
     stack = [v]
     while stack:
         x = stack.pop()
