@@ -496,15 +496,22 @@ class CumulativeBSplineMotion(_JetRotationMotion):
 # --------------------------------------------------------------------------- scipy RotationSpline
 ROTATION_SPLINE_TOL = 1e-9
 """Largest miss of a keyframe's rotation matrix entry that scipy's RotationSpline may have
-(its rates are solved to 1e-9 rad/s; the schemes built here meet keyframes to ~1e-11)."""
+(its cubics meet their keyframes by construction, to round-off of their coefficients;
+the schemes built here meet keyframes to ~1e-11)."""
+RATE_BLOWUP = 10.0
+"""A RotationSpline whose angular rate between keyframes exceeds this multiple of the
+largest mean rate of a keyframe step (its turn over its time) is refused as diverged: on
+190 sets of random and uneven keyframes the converged ones stayed within 1.5 of it, the
+diverged one reached 6e9."""
 
 
 class RotationSplineMotion(KeyframeMotion):
-    """``scipy.spatial.transform.RotationSpline`` (non-rational; C² only to its iterative
-    solve's tolerance: :func:`motions.smoothness` reads C¹ for 19 of 40 sets of 8 random
-    rotations at unit scale, angular-acceleration jumps up to 1.6e-4 of their size); its
-    body-frame rates are turned into world-frame ones, ``ω = R rate`` and ``ω' = R
-    accel``. A spline that misses its keyframes is refused (:meth:`_check_keyframes`)."""
+    """``scipy.spatial.transform.RotationSpline`` (non-rational; C² only where scipy's
+    iterative solve for its rates converges, which it stops after 10 iterations without a
+    word: :func:`motions.smoothness` reads C¹ for 19 of 40 sets of 8 random rotations at
+    unit scale); its body-frame rates are turned into world-frame ones, ``ω = R rate``
+    and ``ω' = R accel``. A spline whose solve diverged is refused
+    (:meth:`_check_keyframes`)."""
 
     scheme = "rotation-spline"
 
@@ -526,30 +533,47 @@ class RotationSplineMotion(KeyframeMotion):
         self._check_keyframes(q, t)
 
     def _check_keyframes(self, q: np.ndarray, t: np.ndarray) -> None:
-        """Refuse a spline that misses its keyframes: scipy's iterative solve for the rates
-        does not always converge (keyframes 0.3 rad apart at times 0, 3.9e-3, 5.7e-3, 0.54,
-        5.5, 7.0 missed the last by 1.25 in a matrix entry, silently; other times gave
-        coefficients of 7e193 and a raw scipy error at a keyframe)."""
-        want = Rotation.from_quat(q, scalar_first=True).as_matrix()
+        """Refuse a spline whose solve for the rates diverged. scipy builds each segment's
+        cubic to meet its keyframes whatever rates it solved for, and stops its solve
+        after 10 iterations without saying whether it converged: a diverged solve shows as
+        rates far above what the keyframes' turns need (2.4e12 rad per time unit where
+        the turns between keyframes need at most 374, read as C0 by :func:`smoothness`),
+        and, once its coefficients are large enough for round-off to cancel the cubic's
+        match, as missed keyframes (keyframes 0.3 rad apart at times 0, 3.9e-3, 5.7e-3,
+        0.54, 5.5, 7.0: the last missed by 1.25 in a matrix entry, silently; other times
+        gave coefficients of 7e193 and a raw scipy error at a keyframe)."""
+        want = Rotation.from_quat(q, scalar_first=True)
+        steps = (want[:-1].inv() * want[1:]).magnitude() / np.diff(t)
+        u = np.linspace(0.0, 1.0, 33)[:, None]
+        between = (t[:-1] + u * np.diff(t)).ravel()
         with np.errstate(all="ignore"):
             finite = np.isfinite(self._spline.interpolator.c).all()
             try:
                 got = self._spline(t).as_matrix() if finite else None
+                rate = float(np.linalg.norm(self._spline(between, 1), axis=1).max())
             except ValueError:  # (scipy: "Found zero norm quaternions")
                 got = None
-        miss = np.inf if got is None else np.abs(got - want).max(axis=(1, 2))
-        worst = int(np.argmax(miss)) if got is not None else None
-        if got is None or not miss[worst] <= ROTATION_SPLINE_TOL:
-            where = (
-                "its coefficients overflow"
-                if got is None
-                else f"it misses keyframe {worst} by {float(miss[worst]):.3g} in a rotation entry"
-            )
-            raise MotionError(
-                f"scipy's RotationSpline did not converge on these keyframes ({where}):"
-                " its solve for the angular rates diverges on some uneven time steps; use"
-                " another scheme, or times spaced more evenly."
-            )
+        if got is None:
+            where = "its coefficients overflow"
+        else:
+            miss = np.abs(got - want.as_matrix()).max(axis=(1, 2))
+            worst = int(np.argmax(miss))
+            need = float(steps.max())
+            where = None
+            if not miss[worst] <= ROTATION_SPLINE_TOL:
+                where = f"it misses keyframe {worst} by {float(miss[worst]):.3g} in a rotation entry"
+            elif not rate <= RATE_BLOWUP * need + 1e-12 / float(np.diff(t).min()):
+                where = (
+                    f"its angular rate reaches {rate:.3g} rad per time unit where the turns"
+                    f" between keyframes need at most {need:.3g}"
+                )
+            if where is None:
+                return
+        raise MotionError(
+            f"scipy's RotationSpline did not converge on these keyframes ({where}): its"
+            " solve for the angular rates diverges on some uneven time steps; use another"
+            " scheme, or `times` spaced more evenly."
+        )
 
     def _rotation(self, t, order):
         tn = (t - self._t0) / self._span

@@ -198,6 +198,13 @@ _usable: int | None = None
 MAX_ARENAS = 32
 """Arenas of one name kept per :class:`Buffers` (size classes); past this many, those
 are dropped and made again as queries ask (a single query's then costs ~14 µs more)."""
+MAX_SCRATCH_SETS = 32
+"""Scratch sets (:meth:`Buffers.scratch_set`: one per kernel, lane count and sizes) a
+certifier's buffers keep; past that, all are made anew as they come."""
+MAX_LAUNCHES = 256
+"""Recorded launches a certifier's buffers keep (one per kernel, lane count and tag: a
+single query's tag names its arenas and scratch sizes); past that, all are recorded anew
+as they come."""
 
 
 class Buffers:
@@ -302,10 +309,7 @@ class Buffers:
         and 40 MB for one owner in an adversarial mix). By name, so that a query's arenas
         of other names, taken before, stay kept."""
         gone = [k for k in self._arenas if k[0] == name]
-        held = {id(a) for k in gone for a in self._arenas[k].arrays.values()}
-        self._launches = {
-            k: r for k, r in self._launches.items() if not any(id(a) in held for a in r.args)
-        }
+        self._drop_launches_on({id(a) for k in gone for a in self._arenas[k].arrays.values()})
         for k in gone:
             del self._arenas[k]
         self.packed = self.shapes_one = None
@@ -341,16 +345,18 @@ class Buffers:
         sizes) and kept: a single query asks for the same ones every time."""
         hit = self._sets.get(key)
         if hit is None:
-            if len(self._sets) >= 32:  # (with the launches recorded on them)
-                held = {id(a) for xs in self._sets.values() for a in xs}
-                self._launches = {
-                    k: r
-                    for k, r in self._launches.items()
-                    if not any(id(a) in held for a in r.args)
-                }
+            if len(self._sets) >= MAX_SCRATCH_SETS:  # (with the launches recorded on them)
+                self._drop_launches_on({id(a) for xs in self._sets.values() for a in xs})
                 self._sets.clear()
             hit = self._sets[key] = make()
         return hit
+
+    def _drop_launches_on(self, held: set[int]) -> None:
+        """Forget the recorded launches whose arguments include an array of `held` (ids):
+        they hold those arrays alive."""
+        self._launches = {
+            k: r for k, r in self._launches.items() if not any(id(a) in held for a in r.args)
+        }
 
     def out(self, name: str, shape: tuple, np_dtype, wp_dtype):
         host, arr = self._get(name, shape, np_dtype, wp_dtype)
@@ -415,12 +421,6 @@ class Buffers:
             run_lanes(len(cmds), lambda i: _run(cmds, runs, i))
         if not cpu:
             wp.synchronize_device(self.device)
-
-
-MAX_LAUNCHES = 256
-"""Recorded launches a certifier's buffers keep (one per kernel, lane count and tag: a
-single query's tag names its arenas and scratch sizes); past that, all are recorded anew
-as they come."""
 
 
 class Arena:

@@ -40,6 +40,7 @@ import numpy as np
 
 import motions
 from motions import RationalMotion
+from motions._checks import short
 
 from ..errors import HarnessError
 from ..shapes import (
@@ -152,7 +153,7 @@ def shape_to_dict(s: Shape) -> dict:
 
 def case_to_dict(c: Case) -> dict:
     if isinstance(c.body, HalfSpace):  # (a file load refuses)
-        raise ValueError(f"Case {c.id!r}: expected a bounded body, got a plane (HalfSpace).")
+        raise ValueError(f"Case {c.id!r}: expected a bounded `body`, got a plane (HalfSpace).")
     if isinstance(c.motion, RationalMotion):
         breaks, ctrl = c.motion.bezier_form()
         motion = {"type": "bezier", "breaks": breaks.tolist(), "ctrl": ctrl.tolist()}
@@ -248,8 +249,12 @@ def _finite(d: Any, key: str, where: str) -> float:
     """A finite number (JSON's NaN and Infinity, which Python's json reads, are refused;
     so is true/false, which Python counts as an int)."""
     v = _get(d, key, where)
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-        raise CorpusFormatError(f"{where}.{key}: expected a finite number, got {v!r}.")
+    try:  # (a JSON integer of 400 digits does not fit a float)
+        ok = not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v)
+    except OverflowError:
+        ok = False
+    if not ok:
+        raise CorpusFormatError(f"{where}.{key}: expected a finite number, got {short(v)}.")
     return float(v)
 
 
@@ -257,11 +262,11 @@ def _array(d: Any, key: str, where: str, shape: tuple) -> np.ndarray:
     v = _get(d, key, where)  # (outside the try: its own message names the missing key)
     try:
         a = np.array(v, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # (JSON integers may have 400 digits)
         raise CorpusFormatError(f"{where}.{key}: expected numbers of shape {shape}.") from None
     bad = _not_a_number(v)
     if bad is not None:  # (numpy reads "0.5" and true as numbers: the schema does not)
-        raise CorpusFormatError(f"{where}.{key}: expected numbers, got {bad!r}.")
+        raise CorpusFormatError(f"{where}.{key}: expected numbers, got {short(bad)}.")
     if a.ndim != len(shape) or any(
         s is not None and s != n for s, n in zip(shape, a.shape, strict=True)
     ):

@@ -117,10 +117,16 @@ def translation_truth(
             s = -float(lin0 @ lin1) / den
             if a < s < b:
                 cands.add(s)
-    s_all = np.array(sorted(s for s in cands if 0.0 <= s <= 1.0))
-    vals = np.array([f(s) for s in s_all])
+    return _truth_at(f, sorted(s for s in cands if 0.0 <= s <= 1.0))
+
+
+def _truth_at(f, cands) -> TranslationTruth:
+    """The truth of a path whose convex signed distance `f` (of s in [0, 1]) is least at
+    one of the parameters `cands`: that minimum, and where it is <= 0 the contact window
+    bisected on the monotone branches either side of it."""
+    vals = [f(s) for s in cands]
     i = int(np.argmin(vals))
-    dmin, smin = float(vals[i]), float(s_all[i])
+    dmin, smin = float(vals[i]), float(cands[i])
     if dmin > 0:
         return TranslationTruth(dmin, smin, math.nan, math.nan)
     s_in = 0.0 if f(0.0) <= 0 else brentq(f, 0.0, smin, xtol=ROOT_XTOL)
@@ -176,15 +182,7 @@ def cylinder_translation_truth(
             b = m2
         else:
             a = m1
-    cands = [0.0, a, b, 1.0]
-    vals = [f(s) for s in cands]
-    i = int(np.argmin(vals))
-    dmin, smin = float(vals[i]), cands[i]
-    if dmin > 0:
-        return TranslationTruth(dmin, smin, math.nan, math.nan)
-    s_in = 0.0 if f(0.0) <= 0 else brentq(f, 0.0, smin, xtol=ROOT_XTOL)
-    s_out = 1.0 if f(1.0) <= 0 else brentq(f, smin, 1.0, xtol=ROOT_XTOL)
-    return TranslationTruth(dmin, smin, float(s_in), float(s_out))
+    return _truth_at(f, [0.0, a, b, 1.0])
 
 
 # ----------------------------------------------------------------------------- rotation
