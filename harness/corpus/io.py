@@ -116,17 +116,9 @@ def shape_to_dict(s: Shape) -> dict:
         }
     if isinstance(s, Sphere):
         return {"kind": "sphere", "radius": s.radius, "center": s.center.tolist()}
-    if isinstance(s, Capsule):
+    if isinstance(s, Capsule | Cylinder):  # (the same fields: a segment or a disc swept)
         return {
-            "kind": "capsule",
-            "radius": s.radius,
-            "half_length": s.half_length,
-            "center": s.center.tolist(),
-            "rotation": s.rotation.tolist(),
-        }
-    if isinstance(s, Cylinder):
-        return {
-            "kind": "cylinder",
+            "kind": s.kind,
             "radius": s.radius,
             "half_length": s.half_length,
             "center": s.center.tolist(),
