@@ -10,6 +10,7 @@ from collections import Counter
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import harness
@@ -605,6 +606,12 @@ def test_corpus_study_end_to_end(tmp_path):
     configs = _configurations(df)
     assert 4 <= len(configs) < cases
     assert f"The cases realise {len(configs)} geometric configurations" in report
+    # each method's first-contact times against the truth's: a proof is never late
+    toi = pd.read_csv(tmp_path / "out" / "tables" / "corpus_toi_error.csv").set_index("method")
+    hits = df[(df["truth"] == "collision") & (df["verdict"] == "collision")]
+    assert toi["n"].to_dict() == hits.groupby("bound").size().to_dict()
+    assert toi.loc[["hull", "lipschitz"], "late"].eq(0).all()
+    assert "A proof's toi_lo never lies after the true contact: 0 row(s)" in report
 
 
 def _configurations(df) -> set:

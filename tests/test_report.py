@@ -1604,7 +1604,7 @@ def test_a_repairs_success_is_keeping_the_requested_clearance():
     assert "refused 3" in line["value"]
 
 
-def test_motions_that_start_in_contact_stay_out_of_the_toi_figure(tmp_path):
+def test_motions_that_start_in_contact_stay_out_of_thetoi_figure(tmp_path):
     """A new user's trial: a random keyframe set started inside the table; every method's
     toi_lo was then the start, a TOI error of 0 counted as accuracy."""
     import matplotlib
@@ -1613,7 +1613,7 @@ def test_motions_that_start_in_contact_stay_out_of_the_toi_figure(tmp_path):
     import matplotlib.pyplot as plt
 
     from harness.report.document import Document
-    from harness.report.sections import _toi_figure
+    from harness.report.sections import toi_figure
 
     def row(bound, err, start):
         # the truth's bracket of the first contact: [0.9985, 1.0]
@@ -1632,7 +1632,7 @@ def test_motions_that_start_in_contact_stay_out_of_the_toi_figure(tmp_path):
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(Document, "figure", figure)
-        _toi_figure(Document(tmp_path), pd.DataFrame(rows), plt)
+        toi_figure(Document(tmp_path), pd.DataFrame(rows), plt)
     ((labels, caption),) = seen
     # lipschitz's only row left out; fcl's late one kept
     assert [t.get_text() for t in labels] == ["fcl\nn=1", "hull\nn=1"]
