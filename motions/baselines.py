@@ -511,7 +511,7 @@ class RotationSplineMotion(KeyframeMotion):
     word: :func:`motions.smoothness` reads C¹ for 19 of 40 sets of 8 random rotations at
     unit scale); its body-frame rates are turned into world-frame ones, ``ω = R rate``
     and ``ω' = R accel``. A spline whose solve diverged is refused
-    (:meth:`_check_keyframes`)."""
+    (:meth:`_check_converged`)."""
 
     scheme = "rotation-spline"
 
@@ -530,9 +530,9 @@ class RotationSplineMotion(KeyframeMotion):
             t = (t - self._t0) / span
             t[-1] = 1.0
         self._spline = RotationSpline(t, Rotation.from_quat(q, scalar_first=True))
-        self._check_keyframes(q, t)
+        self._check_converged(q, t)
 
-    def _check_keyframes(self, q: np.ndarray, t: np.ndarray) -> None:
+    def _check_converged(self, q: np.ndarray, t: np.ndarray) -> None:
         """Refuse a spline whose solve for the rates diverged. scipy builds each segment's
         cubic to meet its keyframes whatever rates it solved for, and stops its solve
         after 10 iterations without saying whether it converged: a diverged solve shows as
@@ -561,7 +561,9 @@ class RotationSplineMotion(KeyframeMotion):
             need = float(steps.max())
             where = None
             if not miss[worst] <= ROTATION_SPLINE_TOL:
-                where = f"it misses keyframe {worst} by {float(miss[worst]):.3g} in a rotation entry"
+                where = (
+                    f"it misses keyframe {worst} by {float(miss[worst]):.3g} in a rotation entry"
+                )
             elif not rate <= RATE_BLOWUP * need + 1e-12 / float(np.diff(t).min()):
                 where = (
                     f"its angular rate reaches {rate:.3g} rad per time unit where the turns"

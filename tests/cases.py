@@ -412,8 +412,23 @@ def _with_shape(random_shape, h, family, name):
     return make
 
 
-def _with_cylinder(family, name):
-    return _with_shape(random_cylinder, cylinder_h, family, name)
+def _shape_families(prefix, random_shape, h, own_axis_kind) -> dict:
+    """The families every round shape of ours has: a body `random_shape(rng)` (truth from
+    closed form `h`) past a face, through a thin wall and past a face 1e4 away, and one
+    of `own_axis_kind` spinning about its own axis (it sweeps itself)."""
+
+    def far(rng, k, body):
+        return face_translation(rng, k, offset=1e4, body=body)
+
+    return {
+        **{
+            f"{prefix}-{name}": _with_shape(random_shape, h, family, f"{prefix}-{name}")
+            for name, family in (("face", face_translation), ("wall", thin_wall), ("far", far))
+        },
+        f"{prefix}-own-axis": lambda rng, k: capsule_own_axis(
+            rng, k, kind=own_axis_kind, shortest=0.02, turn=1.8, family=f"{prefix}-own-axis"
+        ),
+    }
 
 
 def post(rng, klass):
@@ -445,14 +460,7 @@ def post(rng, klass):
 
 
 CYLINDER_FAMILIES = {
-    "cyl-face": _with_cylinder(face_translation, "cyl-face"),
-    "cyl-wall": _with_cylinder(thin_wall, "cyl-wall"),
-    "cyl-far": _with_cylinder(
-        lambda rng, k, body: face_translation(rng, k, offset=1e4, body=body), "cyl-far"
-    ),
-    "cyl-own-axis": lambda rng, k: capsule_own_axis(
-        rng, k, kind=Cylinder, shortest=0.02, turn=1.8, family="cyl-own-axis"
-    ),
+    **_shape_families("cyl", random_cylinder, cylinder_h, Cylinder),
     "cyl-post": post,
 }
 
@@ -480,10 +488,6 @@ def random_ellipsoid(rng, center=True) -> Ellipsoid:
         radii[rng.integers(3)] = 0.002
     c = rng.normal(size=3) * 0.05 if center else np.zeros(3)
     return Ellipsoid(radii, center=c, rotation=random_rotation(rng))
-
-
-def _with_ellipsoid(family, name):
-    return _with_shape(random_ellipsoid, ellipsoid_h, family, name)
 
 
 def _spheroid(r, half):
@@ -533,14 +537,7 @@ def ellipsoid_pass(rng, klass):
 
 
 ELLIPSOID_FAMILIES = {
-    "ell-face": _with_ellipsoid(face_translation, "ell-face"),
-    "ell-wall": _with_ellipsoid(thin_wall, "ell-wall"),
-    "ell-far": _with_ellipsoid(
-        lambda rng, k, body: face_translation(rng, k, offset=1e4, body=body), "ell-far"
-    ),
-    "ell-own-axis": lambda rng, k: capsule_own_axis(
-        rng, k, kind=_spheroid, shortest=0.02, turn=1.8, family="ell-own-axis"
-    ),
+    **_shape_families("ell", random_ellipsoid, ellipsoid_h, _spheroid),
     "ell-spin": ellipsoid_spin,
     "ell-weights": lambda rng, k: ellipsoid_spin(rng, k, long_way=True),
     "ell-pass": ellipsoid_pass,

@@ -136,22 +136,30 @@ def _truth_at(f, cands) -> TranslationTruth:
 
 def cylinder_box_signed_distance(
     q: np.ndarray, c: np.ndarray, e: np.ndarray, axis: int, half_length: float, radius: float
-) -> float:
-    """Signed distance between the box [c - e, c + e] and a cylinder centred at q (3,)
-    whose axis is world axis `axis`: the signed distance from q to their Minkowski sum
-    ``A × B``, A the interval of half length ``e_k + half_length`` along k and B the
-    rectangle of half extents ``e_j`` (j != k) grown by `radius`. For a product of convex
-    sets it is ``hypot(max(sd_A, 0), max(sd_B, 0))`` outside and ``max(sd_A, sd_B)``
-    inside; ``sd_B`` is the rectangle's signed distance minus the radius (exact for a set
-    grown by a disc)."""
-    d = np.abs(np.asarray(q, dtype=float) - c) - e
-    sd_a = float(d[axis]) - half_length
-    across = np.delete(d, axis)
-    rect = float(across.max()) if np.all(across <= 0) else float(np.hypot(*np.maximum(across, 0)))
+) -> float | np.ndarray:
+    """Signed distance between the box [c - e, c + e] and a cylinder centred at q (3,) or
+    at each of q (..., 3), whose axis is world axis `axis`: the signed distance from q to
+    their Minkowski sum ``A × B``, A the interval of half length ``e_k + half_length``
+    along k and B the rectangle of half extents ``e_j`` (j != k) grown by `radius`. For a
+    product of convex sets it is ``hypot(max(sd_A, 0), max(sd_B, 0))`` outside and
+    ``max(sd_A, sd_B)`` inside; ``sd_B`` is the rectangle's signed distance minus the
+    radius (exact for a set grown by a disc)."""
+    q = np.asarray(q, dtype=float)
+    d = np.abs(q - c) - e
+    sd_a = d[..., axis] - half_length
+    across = np.delete(d, axis, axis=-1)
+    rect = np.where(
+        (across <= 0).all(axis=-1),
+        across.max(axis=-1),
+        np.hypot(*np.moveaxis(np.maximum(across, 0), -1, 0)),
+    )
     sd_b = rect - radius
-    if sd_a > 0 or sd_b > 0:
-        return float(np.hypot(max(sd_a, 0.0), max(sd_b, 0.0)))
-    return max(sd_a, sd_b)
+    out = np.where(
+        (sd_a > 0) | (sd_b > 0),
+        np.hypot(np.maximum(sd_a, 0.0), np.maximum(sd_b, 0.0)),
+        np.maximum(sd_a, sd_b),
+    )
+    return float(out) if q.ndim == 1 else out
 
 
 def cylinder_translation_truth(
