@@ -63,7 +63,7 @@ def test_product_elevation_derivative(rng):
     )
 
 
-@pytest.mark.parametrize("k", [1, 2, 3, 5])
+@pytest.mark.parametrize("k", [1, 2, 3, 5, 9])
 def test_bspline_extraction_matches_scipy(k, rng):
     t = np.cumsum(rng.random(12) + 0.05)
     s = make_interp_spline(t, rng.normal(size=(12, 4)), k=k)
@@ -74,3 +74,7 @@ def test_bspline_extraction_matches_scipy(k, rng):
     for i in range(breaks.size - 1):
         x = breaks[i] + U * (breaks[i + 1] - breaks[i])
         np.testing.assert_allclose(bezier_eval(pieces[i], U), s(x), atol=1e-12)
+    # coefficients of more dimensions (a preimage's (4,), a matrix's (4, 4)) are taken
+    # entry by entry: the same pieces as their flattened form
+    square = bspline_bezier_pieces(s.t, s.c.reshape(12, 2, 2), k, breaks)
+    np.testing.assert_array_equal(square.reshape(pieces.shape), pieces)
