@@ -13,6 +13,7 @@ import inspect
 import math
 import operator
 import os
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -78,7 +79,9 @@ class Certificate:
             included (Lipschitz: distance evaluations; sampling: samples).
         pose_tests: exact distance evaluations of poses.
         depth: deepest subdivision level reached.
-        seconds: wall time (for a batch: its share by nodes, :func:`time_shares`).
+        seconds: wall time of the call, from its start to the assembly of its
+            certificates: validation, packing and the kernels (for a batch: its share by
+            nodes, :func:`time_shares`).
         certified: whether `free` and `toi_lo` are proofs.
         bound: the query method.
         tolerance: the length tolerance used.
@@ -530,7 +533,9 @@ def certify_many(
     tools' claims (``certified=False``), and a motion a tool cannot represent exactly gets
     a :class:`harness.comparators.NotApplicable` ("n/a" with the reason) in its place.
     """
+    start = time.perf_counter()
     o = check_options(bound, tolerance, max_depth, samples, max_nodes, threads, device, max_iter)
+    o["start"] = start  # (a certificate's `seconds` count the whole call)
     if comparator_options is not None and o["bound"] not in ("fcl", "ipctk"):
         # (it was ignored, as `samples` with another bound was)
         raise QueryError(
@@ -581,21 +586,39 @@ def engine(ms, bodies, obst, o: dict, *, table: bool = False) -> Any:
             threads=o["threads"],
             device=o["device"],
         )
+        start = o.get("start")
         if table:
             from .table import assemble_table
 
-            return assemble_table(out, elapsed, o["bound"], o["tol"], motions=ms, obstacles=obst)
+            return assemble_table(
+                out, elapsed, o["bound"], o["tol"], motions=ms, obstacles=obst, start=start
+            )
         return assemble(
-            out, elapsed, o["bound"], o["tol"], certified=True, motions=ms, obstacles=obst
-        )
+            out, elapsed, o["bound"], o["tol"], certified=True, motions=ms, obstacles=obst,
+            start=start,
+        )  # fmt: skip
     from .advance import advance_many, sample_many
 
     many = advance_many if o["bound"] == "lipschitz" else sample_many
-    certs = many(ms, bodies, obst, o)
+    certs = whole_call(many(ms, bodies, obst, o), o)
     if table:
         from .table import from_certificates
 
         return from_certificates(certs, o["bound"], o["tol"])
+    return certs
+
+
+def whole_call(certs: list[Certificate], o: dict) -> list[Certificate]:
+    """`certs` (made by `lipschitz` or `sampled`, whose `seconds` count their stepping
+    alone) with `seconds` scaled to share the whole call's time (from ``o["start"]``, set
+    by the public functions) in the same proportions; equally where they sum to 0."""
+    if "start" not in o or not certs:
+        return certs
+    total = time.perf_counter() - o["start"]
+    got = math.fsum(c.seconds for c in certs)
+    for c in certs:
+        share = c.seconds * (total / got) if got > 0 else total / len(certs)
+        object.__setattr__(c, "seconds", share)
     return certs
 
 
@@ -702,20 +725,30 @@ def time_shares(elapsed: float, nodes: np.ndarray) -> np.ndarray:
 
 
 def assemble(
-    out, elapsed: float, bound: str, tol: float, *, certified, motions, obstacles
+    out,
+    elapsed: float,
+    bound: str,
+    tol: float,
+    *,
+    certified,
+    motions,
+    obstacles,
+    start: float | None = None,
 ) -> list[Certificate]:
     """Certificates from per-motion outcome arrays (see :class:`.refine.Outcome`) of
     `motions` (their domains are read where a time needs clamping to one) and their
     `obstacles` (lists, whose parts the outcomes' obstacle columns number).
 
     `certified` is a bool or a per-motion bool array (sampling proves some and not others).
+    `elapsed` seconds are shared among the certificates by their nodes; with `start` (a
+    ``time.perf_counter()`` reading) the time from it to the end of this assembly instead.
     """
     t, c = out.t, out.c
     n = len(c)
     if n == 1:  # a single query: its two rows as lists (numpy calls on one row cost
         # more than the work: ~40 % of this function)
         tl, cl = t.tolist(), c.tolist()
-        seconds = [elapsed]  # (time_shares of one motion)
+        seconds = [1.0 if start is not None else elapsed]  # (time_shares of one motion)
         rows = [cl[0][:3]]
         more = [0] if any(cl[0][4:7]) else []
         special = [0] if tl[0][1] <= BIG or cl[0][3] != 0 else []
@@ -723,7 +756,7 @@ def assemble(
         sp_why = [cl[0][3]] if special else []
         lo_sp, ob_sp = _reported_one(tl[0], cl[0], motions[0], obstacles) if special else ([], [])
     else:
-        seconds = time_shares(elapsed, c[:, 0]).tolist()
+        seconds = time_shares(1.0 if start is not None else elapsed, c[:, 0]).tolist()
         rows = c[:, :3].tolist()
         more = np.flatnonzero(c[:, 4:7].any(axis=1)).tolist()
         at = np.flatnonzero((t[:, 1] <= BIG) | (c[:, 3] != 0))
@@ -771,4 +804,8 @@ def assemble(
                 d["witness_time"], d["witness_distance"] = ti[2], ti[3]
         if ob >= 0:
             d["obstacle"] = ob
+    if start is not None:  # (the shares were fractions: now of the call's whole time)
+        total = time.perf_counter() - start
+        for c_, f in zip(res, seconds, strict=True):
+            c_.__dict__["seconds"] = f * total
     return res
