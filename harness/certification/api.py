@@ -86,7 +86,8 @@ class Certificate:
         bound: the query method.
         tolerance: the length tolerance used.
         witness_time, witness_distance: for "tolerance", the pose time and an upper
-            bound of its exact distance (NaN otherwise). For "hull"/"aabb" the bound is
+            bound of its exact distance; for "depth" or "budget", those of a pose within
+            `tolerance` where another piece found one (NaN otherwise). For "hull"/"aabb" the bound is
             below `tolerance`; "lipschitz" and "sampled" also stop at a pose whose
             distance they cannot prove above 0 (its lower bound, widened by the pose's
             round-off, reaches 0), whose upper bound can exceed `tolerance`.
