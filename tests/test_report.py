@@ -76,6 +76,12 @@ def synthetic_rows() -> list[dict]:
                             toi_error=-(10.0 ** -(k + 3))
                             if verdict == truth == "collision"
                             else np.nan,
+                            # the methods' own brackets [toi_lo, toi_hi]: 4 % of the
+                            # duration for the hull, 0.2 % for the others
+                            toi_lo=1.0 if verdict == "collision" else np.inf,
+                            toi_hi=(1.08 if bound == "hull" else 1.004)
+                            if verdict == "collision"
+                            else np.inf,
                             duration=2.0,
                             nodes=10 + k,
                             continuity="C2",
@@ -374,6 +380,8 @@ def test_toi_error_table_gives_the_figures_numbers(written):
     # hull's error is 5e-4 too, not the median of its 8
     assert (t["n_common"] == 4).all()
     np.testing.assert_allclose(t["median_abs_error_common_fraction"], 5e-4)
+    np.testing.assert_allclose(t.loc["hull", "median_bracket_fraction"], 0.04)
+    np.testing.assert_allclose(t.loc[["lipschitz", "sampled"], "median_bracket_fraction"], 0.002)
 
 
 def test_scaling_marks_censored_data_and_fits_only_measured_series(written):
