@@ -1,6 +1,6 @@
 """MuJoCo's cylinder geoms (harness.Cylinder): the support function in closed form, and
 certified queries over cylinder bodies and obstacles against analytic truth, MuJoCo and
-coal (tests/cases.py, "cylinders")."""
+the tests' own closed-form distance oracle (tests/helpers.py; tests/cases.py, "cylinders")."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from harness import Box, Cylinder, clearance
 from harness.comparators._common import cylinder_points
 
 from .cases import TOL, cylinder_h, make_cylinder_cases, random_cylinder
-from .helpers import check_turning_against_coal
+from .helpers import check_turning_against_closed_forms
 from .test_certify import check_clearance_brackets, check_model_keyframes, check_shape_cases
 
 
@@ -125,9 +125,8 @@ def test_the_comparators_read_a_cylinder(bound):
     assert got == ["free", "collision"]
 
 
-def test_turning_cylinders_against_coals_distances(rng):
+def test_turning_cylinders_against_closed_form_distances(rng):
     # random C2 motions (rotations too) of cylinders among boxes and cylinders
-    coal = pytest.importorskip("coal")
 
     def obstacles(rng, pos):
         return [
@@ -137,7 +136,7 @@ def test_turning_cylinders_against_coals_distances(rng):
             ),
         ]
 
-    check_turning_against_coal(coal, rng, random_cylinder, obstacles, seed0=300)
+    check_turning_against_closed_forms(rng, random_cylinder, obstacles, seed0=300)
 
 
 def test_a_path_is_moved_off_a_cylinder_post(tmp_path):

@@ -1,6 +1,6 @@
 """MuJoCo's ellipsoid geoms (harness.Ellipsoid): the support function in closed form, and
 certified queries over ellipsoid bodies and obstacles against analytic truth, MuJoCo and
-coal (tests/cases.py, "ellipsoids")."""
+the tests' own closed-form distance oracle (tests/helpers.py; tests/cases.py, "ellipsoids")."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from harness import Box, Ellipsoid, clearance
 from harness.comparators._common import core_of
 
 from .cases import TOL, ellipsoid_h, make_ellipsoid_cases, random_ellipsoid
-from .helpers import check_turning_against_coal
+from .helpers import check_turning_against_closed_forms
 from .test_certify import check_clearance_brackets, check_model_keyframes, check_shape_cases
 
 
@@ -148,9 +148,8 @@ def test_fcl_refuses_an_ellipsoid():
     assert "no collision function for ellipsoids" in got[0].reason
 
 
-def test_turning_ellipsoids_against_coals_distances(rng):
+def test_turning_ellipsoids_against_closed_form_distances(rng):
     # random C2 motions (rotations too) of ellipsoids among boxes and ellipsoids
-    coal = pytest.importorskip("coal")
 
     def obstacles(rng, pos):
         return [
@@ -162,7 +161,7 @@ def test_turning_ellipsoids_against_coals_distances(rng):
             ),
         ]
 
-    check_turning_against_coal(coal, rng, random_ellipsoid, obstacles, seed0=400)
+    check_turning_against_closed_forms(rng, random_ellipsoid, obstacles, seed0=400)
 
 
 def test_a_path_is_moved_off_an_ellipsoid():
