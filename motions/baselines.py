@@ -432,8 +432,9 @@ class CumulativeBSplineMotion(_JetRotationMotion):
             raise MotionError(
                 f"The cumulative B-spline cannot be made to meet the keyframes (Newton from them"
                 f" stalled at residual {res0:.3g}; continuation in the size of their turns reached"
-                f" {s:.0%} of them within {total} iterations): this scheme's nonlinear"
-                " interpolation problem has no reachable solution for these keyframes and times."
+                f" {s:.0%} of them within {total} iterations): its solver found no solution of"
+                " this scheme's nonlinear interpolation problem for these keyframes and times,"
+                " which does not show that none exists."
             )
         return c, total, res
 

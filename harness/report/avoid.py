@@ -171,14 +171,19 @@ def _window(before, after) -> tuple[float, float]:
     return max(before.domain[0], a - pad), min(before.domain[1], b + pad)
 
 
-def _swept(ax, motion, body, color, label, axes, window):
+def _swept(ax, motion, body, color, label, axes, window, style="-"):
     t = np.linspace(*window, 40)
     pts = body.sample_points(48)
     world = motion.transform(pts, t)  # (T, V, 3)
     i, j = axes
     ax.scatter(world[..., i].ravel(), world[..., j].ravel(), s=1, color=color, alpha=0.15)
     path = motion.pose(np.linspace(*window, 400))[1]
-    ax.plot(path[:, i], path[:, j], color=color, lw=1.2, label=label)
+    # (a trial could not see the path before repair under the repaired ones: each path
+    # has its own line style, the one before drawn on top)
+    ax.plot(
+        path[:, i], path[:, j], style, color=color, lw=2.0 if style == "--" else 1.2,
+        label=label, zorder=3 if style == "--" else 2,
+    )  # fmt: skip
 
 
 def repair_section(doc, df: pd.DataFrame, plt) -> None:
@@ -216,25 +221,48 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
     if ex is not None:
         case, r, s = ex
         win = _window(case.motion, r.motion)
-        fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
-        for ax, (i, j) in zip(axes, [(0, 1), (0, 2)], strict=True):
+        fig, axes = plt.subplots(1, 3, figsize=(14, 4.5))
+        for ax, (i, j) in zip(axes[:2], [(0, 1), (0, 2)], strict=True):
             for o in case.obstacles:
                 p = o.sample_points(400)
                 ax.scatter(p[:, i], p[:, j], s=2, color="k", alpha=0.4)
-            _swept(ax, case.motion, case.body, "tab:red", "before (collides)", (i, j), win)
+            _swept(ax, case.motion, case.body, "tab:red", "before (collides)", (i, j), win, "--")
             _swept(ax, r.motion, case.body, "tab:green", "certified repair", (i, j), win)
             if s.sampled_free:
-                _swept(ax, s.motion, case.body, "tab:blue", "sampled repair", (i, j), win)
+                _swept(ax, s.motion, case.body, "tab:blue", "sampled repair", (i, j), win, ":")
             ax.set_xlabel("xyz"[i] + " (m)")
             ax.set_ylabel("xyz"[j] + " (m)")
             ax.set_aspect("equal", adjustable="datalim")
         axes[0].legend(fontsize=7)
+        # how far each repair moved the origin from where it was, over the whole motion
+        t = np.linspace(*case.motion.domain, 800)
+        p0 = case.motion.pose(t)[1]
+        axes[2].plot(
+            t,
+            np.linalg.norm(r.motion.pose(t)[1] - p0, axis=1) * 1e3,
+            color="tab:green",
+            label="certified repair",
+        )
+        if s.sampled_free and s.motion.domain == case.motion.domain:
+            axes[2].plot(
+                t,
+                np.linalg.norm(s.motion.pose(t)[1] - p0, axis=1) * 1e3,
+                ":",
+                color="tab:blue",
+                label="sampled repair",
+            )
+        axes[2].axvspan(*win, color="0.9", zorder=0)
+        axes[2].set_xlabel("t")
+        axes[2].set_ylabel("origin moved (mm)")
+        axes[2].legend(fontsize=7)
         doc.figure(
             fig,
             "repair_before_after",
             "Swept path of a colliding motion before and after repair, where the repair moved it"
-            " (origin path as a line, body boundary points at 40 times as dots; obstacles"
-            f" black): the certified repair moved {r.moved.control_times.size} control positions by"
+            " (origin path as a line, dashed before repair, body boundary points at 40 times as"
+            " dots; obstacles black), and right, how far each repair moved the origin over the"
+            " whole motion (the window drawn left shaded): the certified repair moved"
+            f" {r.moved.control_times.size} control positions by"
             f" at most {r.moved.max_deviation * 1e3:.1f} mm, keeping rotation and keyframes.",
         )
     fig, ax = plt.subplots(figsize=(7, 3.2))
