@@ -1534,6 +1534,23 @@ def test_a_repair_summary_counts_rows_from_before_the_scenes_as_colliding():
     assert set(s["scene"]) == {"seeded cases"}
 
 
+def test_a_smaller_detour_at_a_larger_clearance_is_pointed_out():
+    # a new user's trial: the certified repair moved a gripper's path 0.123 m at clearance
+    # 0 and 0.103 m at 1 cm, and the report said nothing of it
+    from harness.report.avoid import shrinking_detours
+
+    def row(case, c, dev, status="repaired", method="certified"):
+        return {"scene": "repair", "keyframes": "random", "case": case, "tolerance": 1e-3,
+                "clearance": c, "max_deviation": dev, "status": status, "method": method}  # fmt: skip
+
+    rows = [row(0, 0.0, 0.123), row(0, 0.01, 0.103), row(1, 0.0, 0.05), row(1, 0.01, 0.06)]
+    rows += [row(2, 0.0, 0.2), row(2, 0.01, 0.1995)]  # (within 1 mm: not counted)
+    rows += [row(3, 0.0, 0.3, method="sampled"), row(3, 0.01, 0.1, method="sampled")]
+    got = shrinking_detours(pd.DataFrame(rows))
+    assert got.startswith("In 1 of the 3 motions"), got
+    assert shrinking_detours(pd.DataFrame(rows[2:])) == ""
+
+
 def test_scene_labels_of_files_at_the_root_keep_one_slash():
     from harness.report.sections import scene_labels
 
