@@ -245,7 +245,7 @@ def check_turning_against_closed_forms(rng, make_body, make_obstacles, seed0: in
     times and checked by :func:`distance_bracket`: no free verdict where a sample is
     proven to penetrate (and `toi_lo` no later), no clearance above the samples' proven
     upper bound, a collision's pose not proven clear; at least 5 of each verdict, and the
-    oracle's brackets of separated samples tight to 1e-7."""
+    oracle's brackets of separated samples tight to 1e-6."""
     from collections import Counter
 
     import harness
@@ -283,22 +283,31 @@ def check_turning_against_closed_forms(rng, make_body, make_obstacles, seed0: in
                 widths.append(hi_j - lo_j)
         assert cl.lower <= best + 1e-9, (i, cl, best)
 
-        # the first sample proven to penetrate (in time order among those that may): a
-        # point deep in both, tried where the best separating direction says, else the
-        # optimiser's on the first few
-        def overlap(j, r=r, x=x, body=body, obst=obst, sep=sep):
-            return min(
+        # the earliest sample proven to penetrate. Samples whose lower bound is >= 0 are
+        # proven clear; of the others, a point deep in both is tried where the best
+        # separating direction says, else the optimiser's: on the first 16 of them and 16
+        # more spread in time, then by bisection back from the first proven (a review found the first
+        # proven sample 0.03-1.7 s after the contact on most motions when only the first
+        # few were given to the optimiser: a toi_lo 0.0156 late, or a free verdict on a
+        # motion 2 cm deep, passed)
+        def proven(j, r=r, x=x, body=body, obst=obst, sep=sep):
+            cheap = min(
                 proven_overlap(Posed(body, r[j], x[j]), Posed(o), s_[1][j])
                 for o, s_ in zip(obst, sep, strict=True)
             )
+            return cheap < -1e-9 or bracket(j)[1] < -1e-9
 
         maybe = np.flatnonzero(lo < 0)
-        pen = next((t[j] for j in maybe[:200] if overlap(j) < -1e-9), None)
-        pen = (
-            pen
-            if pen is not None or not maybe.size
-            else next((t[j] for j in maybe[:5] if bracket(j)[1] < -1e-9), None)
-        )
+        step = max(1, len(maybe) // 16)
+        tried = [*range(min(16, len(maybe))), *range(16, len(maybe), step)]
+        first = next((n for n, k in enumerate(tried) if proven(maybe[k])), None)
+        pen = None
+        if first is not None:  # (back to the candidate tried before it, not proven)
+            below, above = (tried[first - 1], tried[first]) if first else (0, 0)
+            while above - below > 1:
+                mid = (below + above) // 2
+                below, above = (below, mid) if proven(maybe[mid]) else (mid, above)
+            pen = t[maybe[above]]
         if pen is not None:
             assert cert.verdict == "collision", (i, cert, pen)
             assert cert.toi_lo <= pen + 1e-12, (i, cert, pen)
@@ -306,4 +315,4 @@ def check_turning_against_closed_forms(rng, make_body, make_obstacles, seed0: in
             rh, xh = m.pose(cert.toi_hi)
             assert bracket(0, rh[None], xh[None])[0] <= 1e-9, (i, cert)
     assert seen["free"] >= 5 and seen["collision"] >= 5, seen
-    assert widths and max(widths) <= 1e-7, max(widths)
+    assert widths and max(widths) <= 1e-6, max(widths)

@@ -1670,6 +1670,38 @@ def test_motions_that_start_in_contact_stay_out_of_thetoi_figure(tmp_path):
     assert "1 row(s) whose toi_lo lies inside the bracket" in caption
 
 
+def test_the_toi_table_gives_no_bracket_for_a_tools_single_contact_time(tmp_path):
+    # a review: the comparators report toi_lo = toi_hi (one contact time, their claim):
+    # their bracket read 0, next to the proofs' widths, as a perfect one
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from harness.report.document import Document
+    from harness.report.sections import toi_figure
+
+    def row(bound, proof, lo, hi):
+        return {"study": "corpus", "truth": "collision", "verdict": "collision", "bound": bound,
+                "proof": proof, "toi_error": lo - 1.0, "toi_lo": lo, "toi_hi": hi,
+                "duration": 2.0, "toi_true": 1.0, "toi_true_lo": 0.9985}  # fmt: skip
+
+    rows = [row("hull", True, 0.99, 1.05), row("lipschitz", True, 0.999, 1.001)]
+    rows += [row("fcl", False, 1.0, 1.0), row("ipctk", False, 0.998, 0.998)]
+    tables = {}
+
+    def table(self, df, caption, name=None, *, data=None):
+        tables[name] = data
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Document, "table", table)
+        mp.setattr(Document, "figure", lambda self, fig, *a: plt.close(fig))
+        toi_figure(Document(tmp_path), pd.DataFrame(rows), plt, proofs_only=False)
+    t = tables["toi_error"].set_index("method")["median_bracket_fraction"]
+    np.testing.assert_allclose(t[["hull", "lipschitz"]], [0.03, 0.001])
+    assert t[["fcl", "ipctk"]].isna().all()
+
+
 def test_the_truth_says_when_a_motion_starts_in_contact():
     from types import SimpleNamespace
 
