@@ -79,18 +79,18 @@ class Certificate:
             included (Lipschitz: distance evaluations; sampling: samples).
         pose_tests: exact distance evaluations of poses.
         depth: deepest subdivision level reached.
-        seconds: wall time of the call, from its start to the assembly of its
-            certificates: validation, packing and the kernels (for a batch: its share by
-            nodes, :func:`time_shares`).
+        seconds: wall time of the call, from its start to the end of its certificates'
+            assembly: validation, packing, the kernels and the certificates (for a batch:
+            its share by nodes, :func:`time_shares`).
         certified: whether `free` and `toi_lo` are proofs.
         bound: the query method.
         tolerance: the length tolerance used.
         witness_time, witness_distance: for "tolerance", the pose time and an upper
             bound of its exact distance; for "depth" or "budget", those of a pose within
-            `tolerance` where another piece found one (NaN otherwise). For "hull"/"aabb" the bound is
-            below `tolerance`; "lipschitz" and "sampled" also stop at a pose whose
-            distance they cannot prove above 0 (its lower bound, widened by the pose's
-            round-off, reaches 0), whose upper bound can exceed `tolerance`.
+            `tolerance` where another piece found one (NaN otherwise). For "hull"/"aabb"
+            the bound is below `tolerance`; "lipschitz" and "sampled" also stop at a pose
+            whose distance they cannot prove above 0 (its lower bound, widened by the
+            pose's round-off, reaches 0), whose upper bound can exceed `tolerance`.
         unresolved: counts of unresolved pieces by reason.
         clearance: ground truth only: proven lower bound on the distance over the whole
             motion (when free), else NaN.
