@@ -239,6 +239,46 @@ def distance_bracket(a: Posed, b: Posed) -> tuple[float, float]:
     return lo, (-2.0 * t if t > 0 else hi)
 
 
+def _pose_bracket(body, rot, pos, obst) -> tuple[float, float]:
+    """:func:`distance_bracket` of `body` posed by (rot, pos) and its nearest obstacle."""
+    got = [distance_bracket(Posed(body, rot, pos), Posed(o)) for o in obst]
+    return min(g[0] for g in got), min(g[1] for g in got)
+
+
+def _proven_inside(body, rot, pos, obst, dirs) -> bool:
+    """Whether `body` posed by (rot, pos) is proven to penetrate an obstacle by more than
+    1e-9: a point deep in both where each obstacle's best separating direction (`dirs`,
+    one per obstacle) says, else the optimiser's."""
+    posed = Posed(body, rot, pos)
+    cheap = min(proven_overlap(posed, Posed(o), n) for o, n in zip(obst, dirs, strict=True))
+    return cheap < -1e-9 or _pose_bracket(body, rot, pos, obst)[1] < -1e-9
+
+
+def _earliest_penetration(t, maybe, body, r, x, obst, dirs) -> float | None:
+    """The time of the earliest sample of `maybe` (indices into the times `t` whose poses
+    are (r, x), increasing: the samples not proven clear) proven to penetrate
+    (:func:`_proven_inside`, directions `dirs` (T, obstacles, 3)), or None: tried on the
+    first 16 and on 16 more spread in time, then by bisection back from the first proven
+    one. (A review found the first proven sample 0.03-1.7 s after the contact on most
+    motions when only the first few reached the optimiser: a toi_lo 0.0156 late, or a free
+    verdict on a motion 2 cm deep, passed.)"""
+
+    def proven(k):
+        j = maybe[k]
+        return _proven_inside(body, r[j], x[j], obst, dirs[j])
+
+    step = max(1, len(maybe) // 16)
+    tried = [*range(min(16, len(maybe))), *range(16, len(maybe), step)]
+    first = next((n for n, k in enumerate(tried) if proven(k)), None)
+    if first is None:
+        return None
+    below, above = (tried[first - 1], tried[first]) if first else (0, 0)  # (below: not proven)
+    while above - below > 1:
+        mid = (below + above) // 2
+        below, above = (below, mid) if proven(mid) else (mid, above)
+    return t[maybe[above]]
+
+
 def check_turning_against_closed_forms(rng, make_body, make_obstacles, seed0: int) -> None:
     """30 random C2 motions (rotations too) of `make_body(rng)` among
     `make_obstacles(rng, pos)` (placed about a pose of the motion), sampled at 1,501
@@ -266,53 +306,26 @@ def check_turning_against_closed_forms(rng, make_body, make_obstacles, seed0: in
         cert = harness.certify(m, body, obst, tolerance=1e-3)
         cl = harness.clearance(m, body, obst, tolerance=1e-4)
         seen[cert.verdict] += 1
-
-        def bracket(j, rr=r, xx=x, body=body, obst=obst):
-            got = [distance_bracket(Posed(body, rr[j], xx[j]), Posed(o)) for o in obst]
-            return min(g[0] for g in got), min(g[1] for g in got)
-
         # the samples' smallest distance, from above: every sample whose lower bound is
         # below the best upper bound so far (the closest first)
         best = np.inf
         for j in np.argsort(lo, kind="stable")[:10]:
             if lo[j] >= best:
                 break
-            lo_j, hi_j = bracket(j)
+            lo_j, hi_j = _pose_bracket(body, r[j], x[j], obst)
             best = min(best, hi_j)
             if hi_j > 1e-6:
                 widths.append(hi_j - lo_j)
         assert cl.lower <= best + 1e-9, (i, cl, best)
-
-        # the earliest sample proven to penetrate. Samples whose lower bound is >= 0 are
-        # proven clear; of the others, a point deep in both is tried where the best
-        # separating direction says, else the optimiser's: on the first 16 of them and 16
-        # more spread in time, then by bisection back from the first proven (a review found the first
-        # proven sample 0.03-1.7 s after the contact on most motions when only the first
-        # few were given to the optimiser: a toi_lo 0.0156 late, or a free verdict on a
-        # motion 2 cm deep, passed)
-        def proven(j, r=r, x=x, body=body, obst=obst, sep=sep):
-            cheap = min(
-                proven_overlap(Posed(body, r[j], x[j]), Posed(o), s_[1][j])
-                for o, s_ in zip(obst, sep, strict=True)
-            )
-            return cheap < -1e-9 or bracket(j)[1] < -1e-9
-
-        maybe = np.flatnonzero(lo < 0)
-        step = max(1, len(maybe) // 16)
-        tried = [*range(min(16, len(maybe))), *range(16, len(maybe), step)]
-        first = next((n for n, k in enumerate(tried) if proven(maybe[k])), None)
-        pen = None
-        if first is not None:  # (back to the candidate tried before it, not proven)
-            below, above = (tried[first - 1], tried[first]) if first else (0, 0)
-            while above - below > 1:
-                mid = (below + above) // 2
-                below, above = (below, mid) if proven(maybe[mid]) else (mid, above)
-            pen = t[maybe[above]]
+        # the earliest sample proven to penetrate (those whose lower bound is >= 0 are
+        # proven clear)
+        dirs = np.stack([s_[1] for s_ in sep], axis=1)
+        pen = _earliest_penetration(t, np.flatnonzero(lo < 0), body, r, x, obst, dirs)
         if pen is not None:
             assert cert.verdict == "collision", (i, cert, pen)
             assert cert.toi_lo <= pen + 1e-12, (i, cert, pen)
         if cert.verdict == "collision":
             rh, xh = m.pose(cert.toi_hi)
-            assert bracket(0, rh[None], xh[None])[0] <= 1e-9, (i, cert)
+            assert _pose_bracket(body, rh, xh, obst)[0] <= 1e-9, (i, cert)
     assert seen["free"] >= 5 and seen["collision"] >= 5, seen
     assert widths and max(widths) <= 1e-6, max(widths)

@@ -308,8 +308,7 @@ def toi_figure(
     own = (own / dur if relative else own).where(lambda x: np.isfinite(x))
     # (the external tools, whose answers are no proofs, report one contact time, not a
     # bracket: a review read their 0 as a perfect one)
-    tool = column(both, "proof", None).map(lambda v: v is not None and not pd.isna(v) and not v)
-    own = own.where(~tool.astype(bool))
+    own = own.where(~column(both, "proof", True).isin([False]))
     data, labels, rows = [], [], []  # (the boxes, and the same numbers as a table below)
     slack = (late_slack * dur if relative else pd.Series(late_slack, index=err.index)).to_numpy()
     for b in bounds:
