@@ -83,7 +83,7 @@ def _seconds(value: Any, name: str, default: float) -> float:
         raise TypeError(f"Expected `{name}` to be a number of seconds, got {short(value)}.")
     x = float(value)
     if not math.isfinite(x) or x <= 0:
-        raise ValueError(f"Expected `{name}` > 0 (seconds), got {x!r}.")
+        raise ValueError(f"Expected `{name}` to be a finite number of seconds > 0, got {x!r}.")
     return x
 
 

@@ -394,7 +394,9 @@ def ground_truth(
     obst = obstacle_lists(obstacles, 1)[0]
     res = as_float(resolution, "resolution")
     if not math.isfinite(res) or res <= 0:
-        raise ValueError(f"Expected `resolution` > 0 (a length), got {short(resolution)}.")
+        raise ValueError(
+            f"Expected `resolution` to be a finite length > 0, got {short(resolution)}."
+        )
     max_samples = as_count(max_samples, "max_samples", 1, 2**62)
     warn_no_obstacles([obst], 1)
     obst = cover_half_spaces([motion], [body], [obst])[0]

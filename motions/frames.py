@@ -354,7 +354,7 @@ class SweepSurface:
         """
         tol = as_float(tolerance, "tolerance")
         if not np.isfinite(tol) or tol <= 0:
-            raise ValueError(f"Expected `tolerance` > 0, got {short(tolerance)}.")
+            raise ValueError(f"Expected `tolerance` to be finite and > 0, got {short(tolerance)}.")
         if isinstance(max_vertices, bool) or not isinstance(max_vertices, int | np.integer):
             raise TypeError(f"Expected `max_vertices` to be an integer, got {short(max_vertices)}.")
         if max_vertices < 9:

@@ -153,9 +153,11 @@ def test_bad_input():
     rng = np.random.default_rng(0)
     case = colliding_cases(1, seed=3)[0]
     m, body, obst = case.motion, case.body, case.obstacles
-    with pytest.raises(RepairError, match="`clearance` >= 0"):
+    with pytest.raises(RepairError, match=r"`clearance` to be a finite length >= 0, got -0\.01"):
         repair(m, body, obst, clearance=-0.01)
-    with pytest.raises(RepairError, match="`tolerance` > 0"):
+    with pytest.raises(RepairError, match=r"`clearance` to be a finite length >= 0, got inf\."):
+        repair(m, body, obst, clearance=float("inf"))
+    with pytest.raises(RepairError, match=r"`tolerance` to be a finite length > 0, got 0\.0"):
         repair(m, body, obst, tolerance=0.0)
     with pytest.raises(TypeError, match="`clearance`"):
         repair(m, body, obst, clearance="1 mm")

@@ -156,10 +156,14 @@ def _check(motion, body, obstacles, tolerance, clearance_) -> tuple:
     obst = as_obstacles(obstacles)  # (none: the input is clear, and returned)
     tol = _number(tolerance, "tolerance")
     if not math.isfinite(tol) or tol <= 0:
-        raise RepairError(f"Expected `tolerance` > 0 (a length), got {short(tolerance)}.")
+        raise RepairError(
+            f"Expected `tolerance` to be a finite length > 0, got {short(tolerance)}."
+        )
     c = _number(clearance_, "clearance")
     if not math.isfinite(c) or c < 0:
-        raise RepairError(f"Expected `clearance` >= 0 (a length), got {short(clearance_)}.")
+        raise RepairError(
+            f"Expected `clearance` to be a finite length >= 0, got {short(clearance_)}."
+        )
     return motion, body, obst, tol, c
 
 

@@ -184,7 +184,9 @@ def _check_options(bound, tolerance, max_depth, samples, max_nodes, threads, dev
     except OverflowError:  # a Python integer beyond the doubles (10**400)
         tol = math.inf
     if not math.isfinite(tol) or tol <= 0:
-        raise QueryError(f"Expected `tolerance` > 0 (a length in scene units), got {tol!r}.")
+        raise QueryError(
+            f"Expected `tolerance` to be a finite length > 0 (in scene units), got {tol!r}."
+        )
     if samples is not None and bound != "sampled":
         # (it was ignored: a user asking lipschitz for 10 samples got its own steps)
         raise QueryError(f"`samples` is an option of bound='sampled' only, got bound={bound!r}.")

@@ -53,10 +53,11 @@ def check_times(motion, t: np.ndarray) -> None:
 
 
 def check_pieces(motion, t: np.ndarray, values: np.ndarray, positions: np.ndarray) -> None:
-    """Refuse a motion whose pieces' times `t` are out of range (:func:`check_times`),
-    whose piece data `values` are not all finite, or whose `positions` (the control
-    positions of its origin) exceed :data:`~harness.shapes.MAX_LENGTH` in magnitude."""
-    check_times(motion, t)
+    """Refuse a motion whose piece data `values` are not all finite, whose `positions` (the
+    control positions of its origin) exceed :data:`~harness.shapes.MAX_LENGTH` in
+    magnitude, or whose pieces' times `t` are out of range (:func:`check_times`), in this
+    order: positions too large come with times too large where the times are the
+    keyframes' chord lengths, and the positions are then what to scale."""
     if not np.isfinite(values).all():
         raise MotionScaleError(
             "Expected the motion's Bézier pieces to be finite, got NaN or infinite entries"
@@ -71,3 +72,4 @@ def check_pieces(motion, t: np.ndarray, values: np.ndarray, positions: np.ndarra
             f" {size:.3g}.",
             motion,
         )
+    check_times(motion, t)
