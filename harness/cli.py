@@ -423,10 +423,10 @@ def _duration(text: str, option: str) -> float:
             f" number with the unit s, ms or us (5ms), got {_clip(text)}."
         )
     if not unit and value >= 1:  # (a trial's `--min-time 5`, meant as the 5 ms default,
-        # left every group of its runs ungated)
+        # held every group of its runs only to 3x)
         raise UsageError(
             f"Expected `{option}` with a unit from 1 s on (5ms, 5s), got {_clip(text)}: a"
-            " bare number is seconds, and so long a floor leaves most groups ungated."
+            " bare number is seconds, and so long a floor holds most groups only to 3x."
         )
     return value
 
@@ -812,8 +812,8 @@ def parser() -> argparse.ArgumentParser:
         help="compare two runs (or pytest-benchmark JSON files); exit 1 on a significant"
         " slowdown above the threshold or an accuracy regression",
     )
-    c.add_argument("base")
-    c.add_argument("new")
+    c.add_argument("base", help="the base: a run folder or a pytest-benchmark JSON file")
+    c.add_argument("new", help="the new side, of the same kind as BASE")
     c.add_argument(
         "--time-threshold",
         default="75%",

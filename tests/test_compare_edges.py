@@ -419,6 +419,13 @@ def test_fp_threshold_must_be_a_whole_number(tmp_path, capsys):
         )
     twin = str(shutil.copytree(base, tmp_path / "twin"))
     assert _cli(capsys, "compare", base, twin, "--fp-threshold", "2").returncode == 0
+    # one that could never fail, as large as the queries the runs share, is refused (a CI
+    # trial's 99999999999999999999 was accepted)
+    shared = len(pd.read_parquet(Path(base) / "results.parquet"))
+    assert _cli(capsys, "compare", base, twin, "--fp-threshold", str(shared - 1)).returncode == 0
+    for text in (str(shared), "99999999999999999999"):
+        r = _cli(capsys, "compare", base, twin, "--fp-threshold", text)
+        _one_line_error(r, f"below the {shared} queries the runs share, got {text}")
 
 
 def test_the_false_free_line_says_how_many_are_certified(tmp_path, capsys):

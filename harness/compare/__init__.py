@@ -209,7 +209,8 @@ def compare(
             do not.
     """
     thr = _check_threshold(time_threshold, "time_threshold", most=MAX_TIME_THRESHOLD)
-    fpt = int(_check_threshold(fp_threshold, "fp_threshold", integer=True))
+    _check_threshold(fp_threshold, "fp_threshold", integer=True)
+    fpt = int(fp_threshold)  # (not through the float: 99999999999999999999 stays itself)
     ut = _check_threshold(unknown_threshold, "unknown_threshold", most=1.0, below=True)
     floor = _check_duration(min_time)
     if timer not in TIMERS:

@@ -202,6 +202,12 @@ def _compare_runs(
     keys = sorted(kb & kn)
     if not keys:
         raise CompareError("The runs share no case.")
+    if fp_threshold >= len(keys):  # (a CI trial's --fp-threshold 99999999999999999999 passed)
+        raise CompareError(
+            f"Expected `fp_threshold` (--fp-threshold) below the {len(keys)} queries the runs"
+            f" share, got {fp_threshold}: a gate that lets every query become a false"
+            " collision could never fail."
+        )
     bi = base.set_index("_key").loc[keys]
     ni = new.set_index("_key").loc[keys]
     out = Comparison()
