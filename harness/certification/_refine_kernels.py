@@ -171,8 +171,14 @@ def _prepare(
     out.ok = 1
     out.margin = F0
     out.scale = F0
-    lo = wp.vec3d(HUGE, HUGE, HUGE)
-    hi = wp.vec3d(-HUGE, -HUGE, -HUGE)
+    # the box as six scalars: as vectors (wp.min of vec3d) a node's preparation took 274
+    # ns where it takes 161 (K = 10, one lane, the same bits)
+    lo0 = HUGE
+    lo1 = HUGE
+    lo2 = HUGE
+    hi0 = -HUGE
+    hi1 = -HUGE
+    hi2 = -HUGE
     ma = F0
     mb = F0
     mw = F0
@@ -206,27 +212,24 @@ def _prepare(
                 r0 = wp.vec3d(mm[0, 0], mm[0, 1], mm[0, 2])
                 r1 = wp.vec3d(mm[1, 0], mm[1, 1], mm[1, 2])
                 r2 = wp.vec3d(mm[2, 0], mm[2, 1], mm[2, 2])
-                up = cc + wp.vec3d(
-                    _local_h(part, verts, r0, 0),
-                    _local_h(part, verts, r1, 0),
-                    _local_h(part, verts, r2, 0),
-                )
-                dn = cc - wp.vec3d(
-                    _local_h(part, verts, -r0, 0),
-                    _local_h(part, verts, -r1, 0),
-                    _local_h(part, verts, -r2, 0),
-                )
-                lo = wp.min(lo, dn)
-                hi = wp.max(hi, up)
+                lo0 = wp.min(lo0, cc[0] - _local_h(part, verts, -r0, 0))
+                lo1 = wp.min(lo1, cc[1] - _local_h(part, verts, -r1, 0))
+                lo2 = wp.min(lo2, cc[2] - _local_h(part, verts, -r2, 0))
+                hi0 = wp.max(hi0, cc[0] + _local_h(part, verts, r0, 0))
+                hi1 = wp.max(hi1, cc[1] + _local_h(part, verts, r1, 0))
+                hi2 = wp.max(hi2, cc[2] + _local_h(part, verts, r2, 0))
             else:
                 rad = part.rloc * amag * inv
-                ball = wp.vec3d(rad, rad, rad)
-                lo = wp.min(lo, cc - ball)
-                hi = wp.max(hi, cc + ball)
+                lo0 = wp.min(lo0, cc[0] - rad)
+                lo1 = wp.min(lo1, cc[1] - rad)
+                lo2 = wp.min(lo2, cc[2] - rad)
+                hi0 = wp.max(hi0, cc[0] + rad)
+                hi1 = wp.max(hi1, cc[1] + rad)
+                hi2 = wp.max(hi2, cc[2] + rad)
         i += 1
     out.mag = wp.vec3d(ma, mb, mw)
-    out.lo = lo
-    out.hi = hi
+    out.lo = wp.vec3d(lo0, lo1, lo2)
+    out.hi = wp.vec3d(hi0, hi1, hi2)
     # the margin's own few roundings (relative): widen it by as much
     out.margin = out.margin * (F1 + GAMMA_C)
     if out.ok == 0:
