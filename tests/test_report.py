@@ -1609,12 +1609,14 @@ def test_a_repairs_success_is_keeping_the_requested_clearance():
     assert m["claimed_all"] == m["truly_free"] + m["still_collides"] + 1  # (+ the unknown)
     # the success rate is over the repairable: the undecided repairable claims leave it
     assert m["success_rate"] == pytest.approx(keep / (11 - 3))
+    assert (m["success_kept"], m["success_decided"]) == (keep, 11 - 3)
     (line,) = [x for x in headline(pd.DataFrame(rows + more)) if "sampled repair" in x["figure"]]
     assert "still collide 1, below clearance 2" in line["value"]
     assert (
         "of its 12 claims the ground truth proves 10 free, 6 of them with the clearance kept,"
-        " and cannot decide 3 (whether free, or whether the clearance is kept)" in line["basis"]
-    )
+        " 2 below it and 2 within the truth's resolution of it (undecided), 1 colliding, and"
+        " cannot decide 1 (whether free)" in line["basis"]
+    )  # (10 + 1 + 1 = 12: every claim counted once)
     # without a clearance asked for, undecided means undecided whether free, nothing more
     (line,) = [
         x
@@ -1665,9 +1667,24 @@ def test_motions_that_start_in_contact_stay_out_of_thetoi_figure(tmp_path):
     assert "1 row(s) had toi_lo later" in caption
     # hull's toi_lo 0.999 lies inside the truth's bracket, fcl's 1.4 above it
     assert (
-        "median width 0.00075 (90th percentile 0.00075, largest 0.00075) of the duration" in caption
+        "median width 0.00075 (90th percentile 0.00075, largest 0.00075; 2 row(s)) of the"
+        " duration" in caption
     )
     assert "1 row(s) whose toi_lo lies inside the bracket" in caption
+    # (an audit) each motion's bracket once: three methods' rows of a motion of width 0.001
+    # and one of a motion of width 0.003 have median 0.001 by rows, 0.002 by motions
+    seen.clear()
+    rows = [
+        dict(row(b, -1e-3, False), scene="s", scheme="rational", keyframes=k, toi_true_lo=lo)
+        for b, k, lo in [("hull", "a", 0.998), ("aabb", "a", 0.998), ("lipschitz", "a", 0.998),
+                         ("hull", "b", 0.994)]
+    ]  # fmt: skip
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Document, "figure", figure)
+        toi_figure(Document(tmp_path), pd.DataFrame(rows), plt)
+    ((_, caption),) = seen
+    assert "median width 0.002 (90th percentile" in caption, caption
+    assert "largest 0.003; 2 motion(s)) of the duration" in caption, caption
 
 
 def test_the_toi_table_gives_no_bracket_for_a_tools_single_contact_time(tmp_path):

@@ -352,6 +352,11 @@ def test_repair_and_headline_numbers(report):
     done = rep[(rep["clearance"] == 4e-3) & (rep["method"] == "certified")]
     assert line["refused"] == (done["status"] != "repaired").sum()
     _close(line["max_deviation_m"], done["max_deviation"].max())
+    fixed = done[done["status"] == "repaired"]["cpu_seconds"]
+    _close(line["median_cpu_ms_repaired"], fixed.median() * 1e3)
+    # its success rate from its own numerator and denominator (an audit could not rebuild it)
+    row = summary.loc[(4e-3, "certified")]
+    _close(row["success_rate"], row["success_kept"] / row["success_decided"])
 
 
 def test_a_table_refuses_csv_columns_that_are_not_snake_case(tmp_path):

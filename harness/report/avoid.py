@@ -65,12 +65,18 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
                 "success_rate": float((rep_judged == "keeps").sum() / decided)
                 if decided
                 else math.nan,
+                # (its numerator and denominator: a researcher's audit could not rebuild it
+                # from the counts over all claims below)
+                "success_kept": int((rep_judged == "keeps").sum()),
+                "success_decided": decided,
                 "claimed_all": len(done),
                 "truly_free": int(judged.isin(("keeps", "below", "band")).sum()),
                 "keeps_clearance": int((judged == "keeps").sum()),
                 "below_clearance": int((judged == "below").sum()),
                 "still_collides": int((judged == "collides").sum()),
                 "truth_undecided": int(judged.isin(("unknown", "band")).sum()),
+                # of those, proven free but within the truth's resolution of the clearance
+                "clearance_undecided": int((judged == "band").sum()),
                 "median_deviation_m": _median(done["max_deviation"]),
                 "max_deviation_m": float(done["max_deviation"].max()) if len(done) else math.nan,
                 "median_rounds": _median(done["iterations"]),
@@ -227,9 +233,9 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
         " one of: still_collides; truly_free, of those keeps_clearance (the truth's proven"
         " minimum distance at least the requested clearance) or below_clearance (proven"
         " closer than requested) or neither (that minimum within the truth's resolution below"
-        " the clearance); or truth_undecided (those neither, and the claims whose collision"
+        " the clearance: clearance_undecided); or truth_undecided (those neither, and the claims whose collision"
         " the truth cannot decide: a clearance under its resolution or more than 5 M samples"
-        " needed). success_rate = the repairable claims that keep the clearance / (repairable"
+        " needed). success_rate = success_kept / success_decided: the repairable claims that keep the clearance over (repairable"
         " minus the repairable claims the truth cannot decide); a certified repair's claim is"
         " proven by its certificate either way. Tolerance and clearance in metres; deviation (the"
         " origin path's largest move, m), rounds and CPU time are over the repaired motions;"
@@ -277,7 +283,7 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
                 label="sampled repair",
             )
         axes[2].axvspan(*win, color="0.9", zorder=0)
-        axes[2].set_xlabel("t")
+        axes[2].set_xlabel("t (s)")
         axes[2].set_ylabel("origin moved (mm)")
         axes[2].legend(fontsize=7)
         doc.figure(
@@ -297,6 +303,8 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
     samp = sampled.get("truth_clearance", pd.Series(dtype=float))
     samp_true = samp.dropna()
     collided = int(sampled.get("still_collides", pd.Series(dtype=bool)).fillna(False).sum())
+    # (an audit: the results whose truth is unknown were neither drawn nor counted)
+    undecided = len(sampled) - len(samp_true) - collided
     bins = np.linspace(-0.005, max(0.05, float(np.nanmax([cert.max() if len(cert) else 0, 0]))), 40)
     ax.hist(
         cert.clip(upper=bins[-1]),
@@ -308,7 +316,8 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
         samp_true.clip(upper=bins[-1]),
         bins,
         alpha=0.6,
-        label=f"sampled repair: proven clearance of the result (n={len(samp_true)}; {collided} still collide)",
+        label=f"sampled repair: proven clearance of the result (n={len(samp_true)}; {collided} still"
+        f" collide{f', {undecided} undecided' if undecided else ''})",
     )
     ax.set_xlabel("minimum clearance over the motion (m)")
     ax.set_ylabel("motions")
@@ -320,5 +329,5 @@ def repair_section(doc, df: pd.DataFrame, plt) -> None:
         " repair's proven lower bound (one result per case, clearance and tolerance) against the"
         " proven clearance (ground truth) of the sampled repair's free results (one per case and"
         " clearance: it takes no tolerance); sampled results that still collide have no"
-        " clearance and are counted in the legend.",
+        " clearance, nor those whose truth cannot decide, and both are counted in the legend.",
     )

@@ -172,6 +172,7 @@ def _false_free_line(figure: str, r: dict, basis: str) -> HeadlineLine:
 REPAIR_COUNTS = (
     "motions", "colliding", "repairable", "claimed", "claimed_all", "truly_free",
     "keeps_clearance", "below_clearance", "still_collides", "truth_undecided",
+    "clearance_undecided",
 )  # fmt: skip
 """The counts of a repair summary row that its headline line carries."""
 
@@ -199,16 +200,22 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
         refused = int(r["motions"]) - int(r["claimed_all"])
         # (a trial found "confirms 1 free (0 keep the clearance) and cannot decide 1" hard
         # to parse: say of which the clearance is kept, and what undecided means)
+        # (an audit read "proves 130 free ... and cannot decide 45 (whether free, or whether
+        # the clearance is kept)" where all 45 were among the 130 free: say which is which)
+        band = int(r.get("clearance_undecided", 0))
         keeps = (
-            f", {r['keeps_clearance']} of them with the clearance kept"
+            f", {r['keeps_clearance']} of them with the clearance kept,"
+            f" {r['below_clearance']} below it and {band} within the truth's resolution of it"
+            " (undecided)"
             if float(r["clearance"]) > 0
             else ""
         )
+        unknown = int(r["truth_undecided"]) - band
         # (every count over its claims, claimed_all; `claimed` is the repairable ones')
         checked = (
             f"of its {r['claimed_all']} claims the ground truth proves {r['truly_free']}"
-            f" free{keeps}, and cannot decide {r['truth_undecided']} (whether free"
-            f"{', or whether the clearance is kept' if keeps else ''})"
+            f" free{keeps}, {r['still_collides']} colliding, and cannot decide {unknown}"
+            " (whether free)"
         )
         if r["method"] == "certified":
             value = (
@@ -234,6 +241,16 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
             if int(r["claimed_all"])
             else "no motion repaired: no path moved"
         )
+        # (an audit: what a repair costs was in the table only, so `rsmbench across` could
+        # not show its drift between runs)
+        cpu = [float(r["median_cpu_ms_repaired"]), float(r["median_cpu_ms_refused"])]
+        costs = [
+            f"{c:.3g} ms CPU {what}"
+            for c, what in zip(cpu, ("a repair", "a refusal"), strict=True)
+            if not math.isnan(c)
+        ]
+        if costs:
+            spread += "; median " + ", ".join(costs)
         numbers = {
             "tolerance_m": float(r["tolerance"]),
             "clearance_m": float(r["clearance"]),
@@ -241,6 +258,8 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
             "refused": refused,
             "median_deviation_m": float(r["median_deviation_m"]),
             "max_deviation_m": float(r["max_deviation_m"]),
+            "median_cpu_ms_repaired": cpu[0],
+            "median_cpu_ms_refused": cpu[1],
         }
         out.append(
             HeadlineLine(
