@@ -498,3 +498,58 @@ def test_a_rows_note_is_cut_at_a_word():
     # a word that ends right before the limit is kept whole
     exact = "x" * (NOTE_CHARS - 1) + " tail of the text"
     assert note(exact) == "x" * (NOTE_CHARS - 1) + "…"
+
+
+def test_a_worker_running_other_code_is_refused(tiny):
+    # a trial's Dask worker imported another installed copy of rsmbench and the run
+    # mixed two codes without a word: each unit carries the run's code digest
+    from harness.run.orchestrate import OtherCodeError, _run_unit
+    from harness.timing import code_digest
+
+    suite = load_suite(tiny)
+    case = expand(suite)[0]
+    with pytest.raises(OtherCodeError, match=rf"other rsmbench code \(code {code_digest()}\)"):
+        _run_unit([case], suite, 3, None, "0" * 16)
+    ((done, rows),) = _run_unit([case], suite, 3, None, code_digest())  # (the same code: runs)
+    assert done == case and rows
+
+
+@pytest.mark.slow
+def test_a_dask_run_that_loses_its_scheduler_or_its_workers_says_so_in_one_line(
+    tiny, tmp_path, monkeypatch
+):
+    # a trial: the scheduler stopped mid-run gave a traceback (a cancelled future), and a
+    # cluster whose only worker died (it could not import rsmbench) left the run waiting
+    # for ever
+    distributed = pytest.importorskip("distributed")
+    from harness.run import orchestrate
+    from harness.run.journal import RunError
+
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as cluster:
+        out = tmp_path / "scheduler"
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "harness.cli", "run", str(tiny), "--out", str(out),
+             "--quiet", "--scheduler", cluster.scheduler_address],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        )  # fmt: skip
+        journal = out / "rows.jsonl"
+        deadline = time.time() + 300
+        while time.time() < deadline and not (journal.exists() and journal.read_text()):
+            time.sleep(0.05)
+        cluster.close()
+        _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 2, err
+    assert "Lost the Dask scheduler" in err and "run the same command again" in err, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    # a cluster whose workers are gone (none here; the start's own wait for one let pass)
+    monkeypatch.setattr(orchestrate, "NO_WORKERS", 1.0)
+    monkeypatch.setattr(orchestrate, "WORKERS_EVERY", 0.2)
+    monkeypatch.setattr(distributed.Client, "wait_for_workers", lambda *a, **k: None)
+    with distributed.LocalCluster(n_workers=0, dashboard_address=":0") as cluster:
+        with pytest.raises(RunError, match=r"has had no worker for 1 s.*resume"):
+            run_suite(
+                load_suite(tiny), tmp_path / "workers", scheduler=cluster.scheduler_address,
+                progress=False,
+            )  # fmt: skip

@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import logging
 import math
 import os
 import re
@@ -57,6 +58,14 @@ TIMING_NOTE = (
 )
 META_EVERY = 5.0  # seconds between meta.json updates: the wall time a killed run can lose
 POLL = 0.05  # seconds between looks at running units (and at Ctrl-C)
+NO_WORKERS = 60.0
+"""Seconds a Dask run waits with no worker in its cluster before it stops (a worker that
+cannot import rsmbench dies before its first task, and the run waited for ever: a trial)."""
+WORKERS_EVERY = 2.0  # seconds between looks at the cluster's workers
+
+
+class OtherCodeError(RunError):
+    """A worker runs other rsmbench code than the run that sent it its cases."""
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -499,10 +508,13 @@ _STOP_EVENT = None  # local worker processes: set by the parent on Ctrl-C
 
 
 def _run_unit(
-    unit: list[dict], suite: Suite, seed: int, stop_event: str | None
+    unit: list[dict], suite: Suite, seed: int, stop_event: str | None, code: str | None = None
 ) -> list[tuple[dict, list[dict]]]:
     """Run one unit in a worker process (local pool or Dask); stops between cases when
-    the run is being stopped. `stop_event` names the Dask event of this run."""
+    the run is being stopped. `stop_event` names the Dask event of this run; `code` is the
+    run's :func:`~harness.timing.code_digest`, which the worker's own must equal (a Dask
+    worker imports what its environment has installed: a trial's ran other code, and the
+    run said nothing)."""
     if stop_event is not None:
         from distributed import Event, get_worker
 
@@ -516,6 +528,12 @@ def _run_unit(
 
         def stopping() -> bool:
             return _STOP_EVENT is not None and _STOP_EVENT.is_set()
+
+    if code is not None and code_digest() != code:
+        raise OtherCodeError(
+            f"The Dask worker {where} runs other rsmbench code (code {code_digest()}) than"
+            f" this run (code {code}): install this code in the workers' environment."
+        )
 
     out = []
     with _WORKER_LOCK:
@@ -678,6 +696,8 @@ def _on_dask(
     leg: dict,
 ) -> Iterator[tuple[dict, list[dict]]]:
     try:
+        from concurrent.futures import CancelledError  # (Dask's FutureCancelledError is one)
+
         from distributed import Client, Event, KilledWorker
     except ImportError:
         raise RunError(
@@ -685,65 +705,111 @@ def _on_dask(
             " 'dask[distributed]'."
         ) from None
     where = scheduler_target(scheduler)
-    try:
-        client = Client(**where, timeout="20s", set_as_default=False)
-    except (OSError, TimeoutError, ValueError) as e:
-        raise RunError(f"Cannot reach the Dask scheduler {scheduler!r}: {e}") from None
-    running: set = set()
-    try:
+    # the client's own log of a lost scheduler ("Failed to reconnect ... closing client")
+    # would come before the run's one line saying so
+    with _log_level("distributed.client", logging.CRITICAL):
         try:
-            client.wait_for_workers(1, timeout=60)
-        except TimeoutError:
-            raise RunError(f"The Dask scheduler {scheduler!r} has no workers.") from None
-        from distributed.comm import get_address_host
+            client = Client(**where, timeout="20s", set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as e:
+            raise RunError(f"Cannot reach the Dask scheduler {scheduler!r}: {e}") from None
+        running: set = set()
+        try:
+            try:
+                client.wait_for_workers(1, timeout=60)
+            except TimeoutError:
+                raise RunError(f"The Dask scheduler {scheduler!r} has no workers.") from None
+            from distributed.comm import get_address_host
 
-        nthreads = client.nthreads()
-        leg["workers"] = {
-            addr: {"host": get_address_host(addr), "nthreads": n} for addr, n in nthreads.items()
-        }
-        window = max(1, sum(nthreads.values()))
-        name = f"rsmbench-stop-{uuid.uuid4().hex}"
-        event = Event(name, client=client)
-        pending = iter(work)
+            nthreads = client.nthreads()
+            leg["workers"] = {
+                addr: {"host": get_address_host(addr), "nthreads": n}
+                for addr, n in nthreads.items()
+            }
+            window = max(1, sum(nthreads.values()))
+            name = f"rsmbench-stop-{uuid.uuid4().hex}"
+            event = Event(name, client=client)
+            pending = iter(work)
 
-        def submit() -> None:
-            unit = next(pending, None)
-            if unit is not None:
-                key = f"rsmbench-{unit[0]['study']}-{unit[0]['case_id']}-{uuid.uuid4().hex[:8]}"
-                running.add(client.submit(_run_unit, unit, suite, seed, name, key=key, pure=False))
+            code = code_digest()
+            resume = "Every finished case is journalled: run the same command again to resume."
 
-        for _ in range(window):  # one unit per worker thread: what runs is what was sent
-            submit()
-        signalled = False
-        while running:
-            finished = [f for f in running if f.done()]
-            if stop.requested and not signalled:
-                event.set()
-                signalled = True
-            if not finished:
-                time.sleep(POLL)
-                continue
-            for fut in finished:
-                running.discard(fut)
-                try:
-                    results = fut.result()
-                except KilledWorker as e:
-                    raise RunError(
-                        f"A Dask worker died running {_unit_name(fut)} ({e}). Every finished"
-                        " case is journalled: run the same command again to resume."
-                    ) from None
-                except ImportError as e:
-                    raise RunError(
-                        f"The Dask workers cannot import rsmbench ({e}): install it in the"
-                        " workers' environment."
-                    ) from None
-                yield from results
-                if not stop.requested:
-                    submit()
+            def submit() -> None:
+                unit = next(pending, None)
+                if unit is not None:
+                    key = f"rsmbench-{unit[0]['study']}-{unit[0]['case_id']}-{uuid.uuid4().hex[:8]}"
+                    running.add(
+                        client.submit(_run_unit, unit, suite, seed, name, code, key=key, pure=False)
+                    )
+
+            for _ in range(window):  # one unit per worker thread: what runs is what was sent
+                submit()
+            signalled = False
+            looked = time.monotonic()
+            alone_since = None  # since when the cluster has had no worker
+            while running:
+                finished = [f for f in running if f.done()]
+                if stop.requested and not signalled:
+                    event.set()
+                    signalled = True
+                if not finished:
+                    if time.monotonic() - looked >= WORKERS_EVERY:
+                        looked = time.monotonic()
+                        try:
+                            alone = not client.nthreads()
+                        except (OSError, TimeoutError) as e:  # (gone: CommClosedError)
+                            why = " ".join(str(e).split())
+                            raise RunError(
+                                f"Lost the Dask scheduler {scheduler!r} ({why}). {resume}"
+                            ) from None
+                        alone_since = (alone_since or looked) if alone else None
+                        if alone_since is not None and looked - alone_since >= NO_WORKERS:
+                            raise RunError(
+                                f"The Dask cluster {scheduler!r} has had no worker for"
+                                f" {NO_WORKERS:g} s: its workers died or left (a worker that cannot"
+                                " import rsmbench dies before its first case: see the workers'"
+                                f" logs). {resume}"
+                            )
+                    time.sleep(POLL)
+                    continue
+                for fut in finished:
+                    running.discard(fut)
+                    try:
+                        results = fut.result()
+                    except KilledWorker as e:
+                        raise RunError(
+                            f"A Dask worker died running {_unit_name(fut)} ({e}). {resume}"
+                        ) from None
+                    except ImportError as e:
+                        raise RunError(
+                            f"The Dask workers cannot import rsmbench ({e}): install it in the"
+                            " workers' environment."
+                        ) from None
+                    except OtherCodeError as e:  # (its message says what and where)
+                        raise RunError(str(e)) from None
+                    except CancelledError as e:  # the scheduler lost (a trial's traceback)
+                        why = " ".join(str(e).split())  # (Dask's reason spans lines)
+                        raise RunError(
+                            f"Lost the Dask scheduler {scheduler!r} ({why}). {resume}"
+                        ) from None
+                    yield from results
+                    if not stop.requested:
+                        submit()
+        finally:
+            if running:
+                client.cancel(list(running))
+            client.close()
+
+
+@contextlib.contextmanager
+def _log_level(name: str, level: int) -> Iterator[None]:
+    """The logger `name` at `level` inside, its own level restored after."""
+    logger = logging.getLogger(name)
+    was = logger.level
+    logger.setLevel(level)
+    try:
+        yield
     finally:
-        if running:
-            client.cancel(list(running))
-        client.close()
+        logger.setLevel(was)
 
 
 def _unit_name(fut) -> str:
