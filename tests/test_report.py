@@ -2029,3 +2029,21 @@ def test_a_ratio_verdict_names_its_coverage_and_needs_three_rounds_a_side():
     _, lo, hi, level = ratio_of_medians_interval([1.0, 1.1], [1.3, 1.4])
     assert lo > 1 and cheaper_text(lo, hi, level) == "too few rounds to tell"
     assert coverage_text(0.6875) == "≥68.7%" and coverage_text(0.5) == "≥50%"
+
+
+def test_a_repair_headline_of_rows_without_a_measured_clearance_says_so():
+    # a review: rows of older code have no truth_clearance, and at a clearance > 0 every
+    # free claim read "within the truth's resolution of it", a clearance never measured
+    rows = [
+        {"study": "repair", "tolerance": 1e-3, "clearance": 4e-3, "method": "sampled",
+         "case": i, "repairable": True, "status": "repaired", "truth": truth,
+         "max_deviation": 0.1, "iterations": 1, "cpu_seconds": 0.01, "seconds": 0.01,
+         "samples": 64}
+        for i, truth in enumerate(["free", "free", "collision"])
+    ]  # fmt: skip
+    (line,) = [x for x in headline(pd.DataFrame(rows)) if "sampled repair" in x["figure"]]
+    assert (
+        "proves 2 free, 0 of them with the clearance kept, 0 below it and 2 whose clearance"
+        " the truth did not measure (a run of older code), 1 colliding, and cannot decide 0"
+        in line["basis"]
+    ), line["basis"]

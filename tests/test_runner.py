@@ -8,6 +8,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -543,13 +544,46 @@ def test_a_dask_run_that_loses_its_scheduler_or_its_workers_says_so_in_one_line(
     assert proc.returncode == 2, err
     assert "Lost the Dask scheduler" in err and "run the same command again" in err, err
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+
+    def stopped(out: Path, address: str) -> BaseException | None:
+        """What run_suite raised, in a thread of its own: a watchdog that fails would
+        otherwise hang the test suite (a review)."""
+        got: list = [None]
+
+        def go():
+            try:
+                run_suite(load_suite(tiny), out, scheduler=address, progress=False)
+            except BaseException as e:  # (handed to the test)
+                got[0] = e
+
+        t = threading.Thread(target=go, daemon=True)
+        t.start()
+        t.join(timeout=120)
+        assert not t.is_alive(), "the run should have stopped"
+        return got[0]
+
     # a cluster whose workers are gone (none here; the start's own wait for one let pass)
     monkeypatch.setattr(orchestrate, "NO_WORKERS", 1.0)
     monkeypatch.setattr(orchestrate, "WORKERS_EVERY", 0.2)
-    monkeypatch.setattr(distributed.Client, "wait_for_workers", lambda *a, **k: None)
-    with distributed.LocalCluster(n_workers=0, dashboard_address=":0") as cluster:
-        with pytest.raises(RunError, match=r"has had no worker for 1 s.*resume"):
-            run_suite(
-                load_suite(tiny), tmp_path / "workers", scheduler=cluster.scheduler_address,
-                progress=False,
-            )  # fmt: skip
+    with monkeypatch.context() as mp:
+        mp.setattr(distributed.Client, "wait_for_workers", lambda *a, **k: None)
+        with distributed.LocalCluster(n_workers=0, dashboard_address=":0") as cluster:
+            e = stopped(tmp_path / "workers", cluster.scheduler_address)
+    assert isinstance(e, RunError) and "has had no worker for 1 s" in str(e), e
+    assert "run the same command again to resume" in str(e)
+    # a worker that runs other code than the client (here: the client's digest made other,
+    # in this process only) is refused before any case runs
+    real, client_pid = orchestrate.code_digest, os.getpid()
+    monkeypatch.setattr(
+        orchestrate, "code_digest", lambda: "0" * 16 if os.getpid() == client_pid else real()
+    )
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as cluster:
+        e = stopped(tmp_path / "code", cluster.scheduler_address)
+    assert isinstance(e, RunError), e
+    assert f"runs other rsmbench code (code {real()}) than this run (code {'0' * 16})" in str(e)
+    assert (
+        not (tmp_path / "code" / "rows.jsonl").exists()
+        or not (tmp_path / "code" / "rows.jsonl").read_text()
+    )

@@ -202,11 +202,13 @@ def _compare_runs(
     keys = sorted(kb & kn)
     if not keys:
         raise CompareError("The runs share no case.")
-    if fp_threshold >= len(keys):  # (a CI trial's --fp-threshold 99999999999999999999 passed)
+    # (a CI trial's --fp-threshold 99999999999999999999 passed; the base's rows, not those
+    # the runs share: a new run cut short is a missing-rows regression, not a usage error)
+    if fp_threshold >= len(base):
         raise CompareError(
-            f"Expected `fp_threshold` (--fp-threshold) below the {len(keys)} queries the runs"
-            f" share, got {fp_threshold}: a gate that lets every query become a false"
-            " collision could never fail."
+            f"Expected `fp_threshold` (--fp-threshold) below the {len(base)} rows of the base"
+            f" run, got {fp_threshold}: its false-collision gate, which lets that many queries"
+            " become false collisions, could never fail."
         )
     bi = base.set_index("_key").loc[keys]
     ni = new.set_index("_key").loc[keys]

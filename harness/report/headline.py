@@ -203,10 +203,16 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
         # (an audit read "proves 130 free ... and cannot decide 45 (whether free, or whether
         # the clearance is kept)" where all 45 were among the 130 free: say which is which)
         band = int(r.get("clearance_undecided", 0))
+        # (rows from before the truth measured a clearance leave every free claim so: a
+        # review read "within the truth's resolution" of a clearance never measured)
+        undecided = (
+            "within the truth's resolution of it (undecided)"
+            if "truth_clearance" in rep
+            else "whose clearance the truth did not measure (a run of older code)"
+        )
         keeps = (
             f", {r['keeps_clearance']} of them with the clearance kept,"
-            f" {r['below_clearance']} below it and {band} within the truth's resolution of it"
-            " (undecided)"
+            f" {r['below_clearance']} below it and {band} {undecided}"
             if float(r["clearance"]) > 0
             else ""
         )

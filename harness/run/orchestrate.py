@@ -58,7 +58,7 @@ TIMING_NOTE = (
 )
 META_EVERY = 5.0  # seconds between meta.json updates: the wall time a killed run can lose
 POLL = 0.05  # seconds between looks at running units (and at Ctrl-C)
-NO_WORKERS = 60.0
+NO_WORKERS = 120.0
 """Seconds a Dask run waits with no worker in its cluster before it stops (a worker that
 cannot import rsmbench dies before its first task, and the run waited for ever: a trial)."""
 WORKERS_EVERY = 2.0  # seconds between looks at the cluster's workers
@@ -732,6 +732,21 @@ def _on_dask(
 
             code = code_digest()
             resume = "Every finished case is journalled: run the same command again to resume."
+            # the workers there now run this code (a review: an older copy's _run_unit, which
+            # takes no digest, ended the run in a TypeError); later ones check each unit
+            try:
+                theirs = client.run(code_digest)
+            except ImportError as e:
+                raise RunError(
+                    f"The Dask workers cannot import rsmbench ({e}): install it in the"
+                    " workers' environment."
+                ) from None
+            for addr, digest in sorted(theirs.items()):
+                if digest != code:
+                    raise RunError(
+                        f"The Dask worker {addr} runs other rsmbench code (code {digest}) than"
+                        f" this run (code {code}): install this code in the workers' environment."
+                    )
 
             def submit() -> None:
                 unit = next(pending, None)
@@ -746,6 +761,7 @@ def _on_dask(
             signalled = False
             looked = time.monotonic()
             alone_since = None  # since when the cluster has had no worker
+            failed = 0  # looks at the workers in a row that could not reach the scheduler
             while running:
                 finished = [f for f in running if f.done()]
                 if stop.requested and not signalled:
@@ -756,7 +772,11 @@ def _on_dask(
                         looked = time.monotonic()
                         try:
                             alone = not client.nthreads()
+                            failed = 0
                         except (OSError, TimeoutError) as e:  # (gone: CommClosedError)
+                            failed += 1
+                            if failed < 2:  # (one look may fail on a healthy cluster)
+                                continue
                             why = " ".join(str(e).split())
                             raise RunError(
                                 f"Lost the Dask scheduler {scheduler!r} ({why}). {resume}"
