@@ -587,3 +587,32 @@ def test_a_dask_run_that_loses_its_scheduler_or_its_workers_says_so_in_one_line(
         not (tmp_path / "code" / "rows.jsonl").exists()
         or not (tmp_path / "code" / "rows.jsonl").read_text()
     )
+    # a worker that cannot import rsmbench cannot load the check's function, and Dask
+    # answers with a bare Exception naming the error (a reread: the check then ended the
+    # run in a traceback); here the function fails to load on the worker alone
+    monkeypatch.setattr(orchestrate, "code_digest", _Unloadable(client_pid, real))
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as cluster:
+        e = stopped(tmp_path / "import", cluster.scheduler_address)
+    assert isinstance(e, RunError), e
+    assert "The Dask workers cannot run rsmbench" in str(e) and "No module named" in str(e), e
+
+
+def _unload(client_pid: int, real):
+    """Unpickling a :class:`_Unloadable` outside the process `client_pid` fails as loading
+    a function of a package a worker cannot import does."""
+    if os.getpid() != client_pid:
+        raise ModuleNotFoundError("No module named 'harness'")
+    return _Unloadable(client_pid, real)
+
+
+class _Unloadable:
+    def __init__(self, client_pid: int, real):
+        self.client_pid, self.real = client_pid, real
+
+    def __call__(self) -> str:
+        return self.real()
+
+    def __reduce__(self):
+        return _unload, (self.client_pid, self.real)

@@ -736,9 +736,11 @@ def _on_dask(
             # takes no digest, ended the run in a TypeError); later ones check each unit
             try:
                 theirs = client.run(code_digest)
-            except ImportError as e:
+            except Exception as e:  # (a worker's error comes back as a bare Exception
+                # naming it: "ModuleNotFoundError(\"No module named 'harness'\")")
+                why = " ".join(str(e).split())
                 raise RunError(
-                    f"The Dask workers cannot import rsmbench ({e}): install it in the"
+                    f"The Dask workers cannot run rsmbench ({why}): install it in the"
                     " workers' environment."
                 ) from None
             for addr, digest in sorted(theirs.items()):
