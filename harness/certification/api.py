@@ -617,11 +617,17 @@ def whole_call(certs: list[Certificate], o: dict) -> list[Certificate]:
     by the public functions) in the same proportions; equally where they sum to 0."""
     if "start" not in o or not certs:
         return certs
-    total = time.perf_counter() - o["start"]
     got = math.fsum(c.seconds for c in certs)
-    for c in certs:
-        share = c.seconds * (total / got) if got > 0 else total / len(certs)
-        object.__setattr__(c, "seconds", share)
+    shares = [c.seconds / got for c in certs] if got > 0 else [1.0 / len(certs)] * len(certs)
+    return spread_call_time(certs, shares, o["start"])
+
+
+def spread_call_time(certs: list[Certificate], shares: list[float], start: float) -> list:
+    """`certs` with `seconds` their `shares` (fractions summing to 1) of the time from
+    `start` (a ``time.perf_counter()`` reading at the public call's start) to now."""
+    total = time.perf_counter() - start
+    for c, f in zip(certs, shares, strict=True):
+        c.__dict__["seconds"] = f * total
     return certs
 
 
@@ -808,7 +814,5 @@ def assemble(
         if ob >= 0:
             d["obstacle"] = ob
     if start is not None:  # (the shares were fractions: now of the call's whole time)
-        total = time.perf_counter() - start
-        for c_, f in zip(res, seconds, strict=True):
-            c_.__dict__["seconds"] = f * total
+        spread_call_time(res, seconds, start)
     return res

@@ -47,6 +47,7 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
         judged = _judged(done, c)  # each claim: collides, keeps, below, band or unknown
         rep_judged = judged[done["repairable"]]
         decided = len(ok) - int(rep_judged.isin(("unknown", "band")).sum())
+        kept = int((rep_judged == "keeps").sum())
         row = dict(zip(keys, key, strict=True))
         if "scene" in row:  # the seeded cases, or a scene's keyframes (a user's own file)
             row["scene"] = "seeded cases" if row["scene"] == SEEDED else labels[str(row["scene"])]
@@ -62,12 +63,10 @@ def _summary(rep: pd.DataFrame) -> pd.DataFrame:
                 "colliding": int((before == "collision").sum()),
                 "repairable": len(ok),
                 "claimed": int((ok["status"] == "repaired").sum()),
-                "success_rate": float((rep_judged == "keeps").sum() / decided)
-                if decided
-                else math.nan,
+                "success_rate": kept / decided if decided else math.nan,
                 # (its numerator and denominator: a researcher's audit could not rebuild it
                 # from the counts over all claims below)
-                "success_kept": int((rep_judged == "keeps").sum()),
+                "success_kept": kept,
                 "success_decided": decided,
                 "claimed_all": len(done),
                 "truly_free": int(judged.isin(("keeps", "below", "band")).sum()),

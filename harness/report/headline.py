@@ -202,7 +202,7 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
         # to parse: say of which the clearance is kept, and what undecided means)
         # (an audit read "proves 130 free ... and cannot decide 45 (whether free, or whether
         # the clearance is kept)" where all 45 were among the 130 free: say which is which)
-        band = int(r.get("clearance_undecided", 0))
+        band = int(r["clearance_undecided"])
         # (rows from before the truth measured a clearance leave every free claim so: a
         # review read "within the truth's resolution" of a clearance never measured)
         undecided = (

@@ -272,16 +272,19 @@ def toi_figure(
     lo_t, hi_t = numeric(both, "toi_true_lo"), numeric(both, "toi_true")
     width = (hi_t - lo_t) / dur if relative else hi_t - lo_t
     inside = int((((hi_t + err) > lo_t) & (err <= 0)).sum())  # toi_lo = toi_true + error
-    # each motion's bracket once, not once per method that answered it (an audit: the
-    # median of 6 rows of 2 motions read 2e-9 where the motions' is 4e-9)
-    ident = [k for k in ("study_index", "scene", "scheme", "keyframes") if k in both]
-    if "keyframes" in ident:
-        width = width[~both[ident].astype(str).duplicated().to_numpy()]
+    # the motions (scene, keyframes, scheme, tolerance): each one's truth bracket is
+    # counted once, not once per method that answered it (an audit: the median of 6 rows
+    # of 2 motions read 2e-9 where the motions' is 4e-9), and below, the motions every
+    # bound answered
+    keys = [k for k in ("scene", "keyframes", "scheme", "tolerance") if k in both]
+    ident = both[keys].astype(str).agg("|".join, axis=1) if keys else None
+    if "keyframes" in keys:
+        width = width[~ident.duplicated().to_numpy()]
     bracket = (
         f" The ground truth brackets the first contact in [toi_true_lo, toi_true], of median"
         f" width {float(width.median()):.2g} (90th percentile {float(width.quantile(0.9)):.2g},"
         f" largest {float(width.max()):.2g}; {len(width)}"
-        f" {'motion(s)' if 'keyframes' in ident else 'row(s)'})"
+        f" {'motion(s)' if 'keyframes' in keys else 'row(s)'})"
         f"{'' if relative else ' parameter units'}"
         f"{' of the duration' if relative else ''}: errors below that are not resolved, and"
         f" {inside} row(s) whose toi_lo lies inside the bracket are checked against its upper"
@@ -302,8 +305,6 @@ def toi_figure(
     )
     # like for like beside the pooled figures: the motions every bound answered (an audit:
     # the rows pool different motions per bound)
-    keys = [k for k in ("scene", "keyframes", "scheme", "tolerance") if k in both]
-    ident = both[keys].astype(str).agg("|".join, axis=1) if keys else None
     common = (
         set.intersection(*(set(ident[both["bound"] == b]) for b in bounds))
         if ident is not None and len(bounds) > 1

@@ -68,6 +68,20 @@ class OtherCodeError(RunError):
     """A worker runs other rsmbench code than the run that sent it its cases."""
 
 
+def _other_code(worker: str, theirs: str, ours: str) -> str:
+    return (
+        f"The Dask worker {worker} runs other rsmbench code (code {theirs}) than this run"
+        f" (code {ours}): install this code in the workers' environment."
+    )
+
+
+def _cannot_run(e: BaseException) -> RunError:
+    why = " ".join(str(e).split())  # (a worker's error can span lines)
+    return RunError(
+        f"The Dask workers cannot run rsmbench ({why}): install it in the workers' environment."
+    )
+
+
 class RunInterrupted(KeyboardInterrupt):
     """Ctrl-C stopped the run after the cases in progress; every finished case is
     journalled and the same call (or command) resumes."""
@@ -530,10 +544,7 @@ def _run_unit(
             return _STOP_EVENT is not None and _STOP_EVENT.is_set()
 
     if code is not None and code_digest() != code:
-        raise OtherCodeError(
-            f"The Dask worker {where} runs other rsmbench code (code {code_digest()}) than"
-            f" this run (code {code}): install this code in the workers' environment."
-        )
+        raise OtherCodeError(_other_code(where, code_digest(), code))
 
     out = []
     with _WORKER_LOCK:
@@ -738,17 +749,10 @@ def _on_dask(
                 theirs = client.run(code_digest)
             except Exception as e:  # (a worker's error comes back as a bare Exception
                 # naming it: "ModuleNotFoundError(\"No module named 'harness'\")")
-                why = " ".join(str(e).split())
-                raise RunError(
-                    f"The Dask workers cannot run rsmbench ({why}): install it in the"
-                    " workers' environment."
-                ) from None
+                raise _cannot_run(e) from None
             for addr, digest in sorted(theirs.items()):
                 if digest != code:
-                    raise RunError(
-                        f"The Dask worker {addr} runs other rsmbench code (code {digest}) than"
-                        f" this run (code {code}): install this code in the workers' environment."
-                    )
+                    raise RunError(_other_code(addr, digest, code))
 
             def submit() -> None:
                 unit = next(pending, None)
@@ -802,10 +806,7 @@ def _on_dask(
                             f"A Dask worker died running {_unit_name(fut)} ({e}). {resume}"
                         ) from None
                     except ImportError as e:
-                        raise RunError(
-                            f"The Dask workers cannot import rsmbench ({e}): install it in the"
-                            " workers' environment."
-                        ) from None
+                        raise _cannot_run(e) from None
                     except OtherCodeError as e:  # (its message says what and where)
                         raise RunError(str(e)) from None
                     except CancelledError as e:  # the scheduler lost (a trial's traceback)
