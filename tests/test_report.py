@@ -1061,6 +1061,16 @@ def test_a_report_refuses_another_runs_folder_and_a_second_writer(tmp_path):
     with OutputLock(run), pytest.raises(OutputLocked, match="in use by another rsmbench run"):
         write_report(run)
     assert not (run / "report.md").exists()
+    # a first run still writing its folder (no results table yet) is named, not denied
+    first = tmp_path / "first"
+    first.mkdir()
+    with (
+        OutputLock(first),
+        pytest.raises(ReportError, match=r"no results.parquet yet: a run is writing it \(pid "),
+    ):
+        write_report(first)
+    with pytest.raises(ReportError, match=r"no results\.parquet; run `rsmbench run` into it first"):
+        write_report(first)
 
 
 def _repair_rows(tol: float, clearance: float) -> list[dict]:

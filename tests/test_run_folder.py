@@ -212,8 +212,13 @@ def test_lock_in_process(tmp_path):
             OutputLocked, match=rf"in use by another rsmbench run \(pid {os.getpid()} "
         ):
             OutputLock(tmp_path).acquire()
+        assert OutputLock(tmp_path).holder().startswith(f"pid {os.getpid()} on host ")
     # released: a lock file naming a run that is gone does not block
     assert (tmp_path / ".lock").exists()
+    assert OutputLock(tmp_path).holder() is None
+    # a killed run's text stays in the file, its lock gone: nobody holds it
+    (tmp_path / ".lock").write_text("pid 1 on host gone since 2026-01-01T00:00:00+00:00")
+    assert OutputLock(tmp_path).holder() is None
     with OutputLock(tmp_path) as again:
         assert again.fd is not None
 

@@ -83,6 +83,12 @@ def _read_run(run: Path) -> tuple[pd.DataFrame, dict]:
             " with results.parquet)."
         )
     if not table.exists():
+        holder = OutputLock(run).holder()
+        if holder:  # a first run still going: its table is written when it ends
+            raise ReportError(
+                f"{run} has no results.parquet yet: a run is writing it ({holder}); report"
+                " it when that run ends."
+            )
         raise ReportError(f"{run} has no results.parquet; run `rsmbench run` into it first.")
     try:
         df = pd.read_parquet(table)

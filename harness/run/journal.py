@@ -107,6 +107,29 @@ class OutputLock:
         os.pwrite(fd, text.encode(), 0)
         self.fd = fd
 
+    def holder(self) -> str | None:
+        """Who holds the lock now (the text it wrote), or None when no run holds it.
+
+        Probed with a shared lock taken and dropped at once, and only when a holder's text
+        is there (a run that ended emptied it; a killed run's text stays, its lock gone).
+        """
+        try:
+            fd = os.open(self.path, os.O_RDONLY)
+        except OSError:
+            return None
+        try:
+            text = os.pread(fd, 1024, 0).decode(errors="replace").strip()
+            if not text or fcntl is None:
+                return None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+            except OSError as e:
+                return text if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES) else None
+            fcntl.flock(fd, fcntl.LOCK_UN)
+            return None
+        finally:
+            os.close(fd)
+
     def release(self) -> None:
         # The file stays: removing it would let a run that opened it just before lock a
         # file nobody else sees.
