@@ -546,21 +546,7 @@ def test_a_dask_run_that_loses_its_scheduler_or_its_workers_says_so_in_one_line(
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
 
     def stopped(out: Path, address: str) -> BaseException | None:
-        """What run_suite raised, in a thread of its own: a watchdog that fails would
-        otherwise hang the test suite (a review)."""
-        got: list = [None]
-
-        def go():
-            try:
-                run_suite(load_suite(tiny), out, scheduler=address, progress=False)
-            except BaseException as e:  # (handed to the test)
-                got[0] = e
-
-        t = threading.Thread(target=go, daemon=True)
-        t.start()
-        t.join(timeout=120)
-        assert not t.is_alive(), "the run should have stopped"
-        return got[0]
+        return _stopped(tiny, out, address)
 
     # a cluster whose workers are gone (none here; the start's own wait for one let pass)
     monkeypatch.setattr(orchestrate, "NO_WORKERS", 1.0)
@@ -597,6 +583,110 @@ def test_a_dask_run_that_loses_its_scheduler_or_its_workers_says_so_in_one_line(
         e = stopped(tmp_path / "import", cluster.scheduler_address)
     assert isinstance(e, RunError), e
     assert "The Dask workers cannot run rsmbench" in str(e) and "No module named" in str(e), e
+
+
+def _stopped(suite: Path, out: Path, address: str, during=None) -> BaseException | None:
+    """What run_suite raised (None: it ended), in a thread of its own: a watchdog that
+    fails would otherwise hang the test suite (a review). `during()` runs meanwhile."""
+    got: list = [None]
+
+    def go():
+        try:
+            run_suite(load_suite(suite), out, scheduler=address, progress=False)
+        except BaseException as e:  # (handed to the test)
+            got[0] = e
+
+    t = threading.Thread(target=go, daemon=True)
+    t.start()
+    if during is not None:
+        during()
+    t.join(timeout=120)
+    assert not t.is_alive(), "the run should have stopped"
+    return got[0]
+
+
+@pytest.mark.slow
+def test_a_worker_that_joins_later_is_checked_and_recorded(tiny, tmp_path, monkeypatch):
+    # a worker that joined after the run's start with an older rsmbench (whose _run_unit
+    # takes no code digest) ended the run in that TypeError's traceback (stop 40's note);
+    # meta.json listed only the workers there at the start
+    distributed = pytest.importorskip("distributed")
+    from harness.run import orchestrate
+    from harness.run.journal import RunError
+
+    real, client_pid = orchestrate.code_digest, os.getpid()
+    monkeypatch.setattr(orchestrate, "WORKERS_EVERY", 0.2)
+    flag = tmp_path / "older"
+    # here the worker fails as an older copy does, and runs other code from then on
+    monkeypatch.setattr(orchestrate, "_run_unit", _OlderCopy(flag))
+    monkeypatch.setattr(orchestrate, "code_digest", _DigestAfter(client_pid, flag, real))
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as cluster:
+        e = _stopped(tiny, tmp_path / "older-run", cluster.scheduler_address)
+        assert isinstance(e, RunError), e
+        assert "runs other rsmbench code (code " + "0" * 16 in str(e), e
+        # the same failure with the same code everywhere is the case's own error
+        flag.unlink()
+        monkeypatch.setattr(orchestrate, "code_digest", real)
+        e = _stopped(tiny, tmp_path / "same-code", cluster.scheduler_address)
+        assert isinstance(e, TypeError) and "positional arguments" in str(e), e
+
+    monkeypatch.setattr(orchestrate, "_run_unit", _Slow(1.0))
+    monkeypatch.setattr(orchestrate, "code_digest", real)
+    out = tmp_path / "joined"
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+    ) as cluster:
+        first = set(cluster.scheduler_info["workers"])
+
+        def join():  # a second worker, once the run is going
+            deadline = time.time() + 60
+            while time.time() < deadline and not (out / "rows.jsonl").exists():
+                time.sleep(0.05)
+            cluster.scale(2)
+            cluster.wait_for_workers(2, timeout=60)
+
+        assert _stopped(tiny, out, cluster.scheduler_address, during=join) is None
+        joined = set(cluster.scheduler_info["workers"]) - first
+    meta = json.loads((out / "meta.json").read_text())
+    assert len(joined) == 1 and set(meta["legs"][-1]["workers"]) == first | joined
+
+
+class _OlderCopy:
+    """A unit that fails on the worker as an older copy's did, leaving `flag` behind."""
+
+    def __init__(self, flag: Path):
+        self.flag = flag
+
+    def __call__(self, *args):
+        self.flag.touch()
+        raise TypeError("_run_unit() takes 4 positional arguments but 5 were given")
+
+
+class _DigestAfter:
+    """The real code digest, but another on a worker once `flag` exists."""
+
+    def __init__(self, client_pid: int, flag: Path, real):
+        self.client_pid, self.flag, self.real = client_pid, flag, real
+
+    def __call__(self) -> str:
+        other = os.getpid() != self.client_pid and self.flag.exists()
+        return "0" * 16 if other else self.real()
+
+
+class _Slow:
+    """A unit that takes at least `seconds` (so that a run lasts while a worker joins); it
+    runs the worker's own, unpatched unit."""
+
+    def __init__(self, seconds: float):
+        self.seconds = seconds
+
+    def __call__(self, *args):
+        from harness.run.orchestrate import _run_unit
+
+        time.sleep(self.seconds)
+        return _run_unit(*args)
 
 
 def _unload(client_pid: int, real):

@@ -745,14 +745,7 @@ def _on_dask(
             resume = "Every finished case is journalled: run the same command again to resume."
             # the workers there now run this code (a review: an older copy's _run_unit, which
             # takes no digest, ended the run in a TypeError); later ones check each unit
-            try:
-                theirs = client.run(code_digest)
-            except Exception as e:  # (a worker's error comes back as a bare Exception
-                # naming it: "ModuleNotFoundError(\"No module named 'harness'\")")
-                raise _cannot_run(e) from None
-            for addr, digest in sorted(theirs.items()):
-                if digest != code:
-                    raise RunError(_other_code(addr, digest, code))
+            _check_workers_code(client, code)
 
             def submit() -> None:
                 unit = next(pending, None)
@@ -777,7 +770,7 @@ def _on_dask(
                     if time.monotonic() - looked >= WORKERS_EVERY:
                         looked = time.monotonic()
                         try:
-                            alone = not client.nthreads()
+                            now = client.nthreads()
                             failed = 0
                         except (OSError, TimeoutError) as e:  # (gone: CommClosedError)
                             failed += 1
@@ -787,6 +780,11 @@ def _on_dask(
                             raise RunError(
                                 f"Lost the Dask scheduler {scheduler!r} ({why}). {resume}"
                             ) from None
+                        for addr, n in now.items():  # a worker that joined later ran cases too
+                            leg["workers"].setdefault(
+                                addr, {"host": get_address_host(addr), "nthreads": n}
+                            )
+                        alone = not now
                         alone_since = (alone_since or looked) if alone else None
                         if alone_since is not None and looked - alone_since >= NO_WORKERS:
                             raise RunError(
@@ -814,6 +812,12 @@ def _on_dask(
                         raise RunError(
                             f"Lost the Dask scheduler {scheduler!r} ({why}). {resume}"
                         ) from None
+                    except Exception:
+                        # a worker that joined later with an older rsmbench fails before its
+                        # own check (its _run_unit takes no digest: a TypeError); when some
+                        # worker's code is other, that is said, else the error is the case's
+                        _check_workers_code(client, code)
+                        raise
                     yield from results
                     if not stop.requested:
                         submit()
@@ -821,6 +825,19 @@ def _on_dask(
             if running:
                 client.cancel(list(running))
             client.close()
+
+
+def _check_workers_code(client, code: str) -> None:
+    """Refuse a cluster with a worker that runs other rsmbench code than `code`, or that
+    cannot run rsmbench (:class:`RunError`)."""
+    try:
+        theirs = client.run(code_digest)
+    except Exception as e:  # (a worker's error comes back as a bare Exception naming
+        # it: "ModuleNotFoundError(\"No module named 'harness'\")")
+        raise _cannot_run(e) from None
+    for addr, digest in sorted(theirs.items()):
+        if digest != code:
+            raise RunError(_other_code(addr, digest, code))
 
 
 @contextlib.contextmanager
