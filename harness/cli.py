@@ -141,7 +141,7 @@ def _describe_file(file: str, mocap_body: str | None) -> int:
                 hull = f", {len(shapes[i].vertices_)} on the hull" if shapes else ""
                 extra = f"  ({n} vertices{hull})"
             print(
-                f"    {model.geom(g).name or f'#{g}':16s} {kind(g):8s} body "
+                f"    {model.geom(g).name or f'#{g}':16s} {kind(g):9s} body "
                 f"{model.body(model.geom_bodyid[g]).name:16s} group {model.geom_group[g]}{extra}"
             )
     obst = obstacle_geoms(model)

@@ -220,9 +220,13 @@ def compile_file(path: str | os.PathLike) -> mujoco.MjModel:
     try:
         model = mujoco.MjModel.from_xml_path(str(p))
     except ValueError as e:
-        raise SceneError(
-            f"Cannot compile MJCF file {str(p)!r}: {' '.join(str(e).split())}"
-        ) from None
+        why = " ".join(str(e).split())
+        if "Error opening file" in why:  # (a trial: the relative path alone said not where)
+            why += (
+                f" (file names in it are relative to its folder {str(p.resolve().parent)!r}"
+                " and its <compiler> meshdir, texturedir or assetdir)"
+            )
+        raise SceneError(f"Cannot compile MJCF file {str(p)!r}: {why}") from None
     finally:
         mujoco.set_mju_user_warning(before)
     for msg in said:

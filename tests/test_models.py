@@ -3,6 +3,7 @@ certified, child bodies composed in, jointed children held at the reference conf
 
 from __future__ import annotations
 
+import re
 import shutil
 import warnings
 from pathlib import Path
@@ -401,7 +402,11 @@ def test_bad_files_get_named_errors(tmp_path):
         scenes.load(two, seed=3)
     xml = _copy_gripper(tmp_path)
     (xml.parent / "assets" / "gripper_finger.obj").unlink()
-    with pytest.raises(scenes.SceneError, match=r"Cannot compile MJCF file .*gripper_finger\.obj"):
+    with pytest.raises(
+        scenes.SceneError,
+        match=r"Cannot compile MJCF file .*gripper_finger\.obj.* relative to its folder "
+        + re.escape(repr(str(xml.parent.resolve()))),
+    ):
         scenes.load(xml)
     with pytest.raises(TypeError, match=r"`model` to be a mujoco\.MjModel"):
         body_from_model("slot", "mover")

@@ -203,9 +203,9 @@ def test_scenes_command_describes_a_file(tmp_path, capsys, monkeypatch):
         "6 geoms in its subtree (4 on child bodies); jointed children held at {'left_slide': -0.008}"
         in out
     )
-    assert "left_tip         box      body left_finger" in out
+    assert "left_tip         box       body left_finger" in out
     assert (
-        "palm_visual      mesh     body hand             group 2  (1338 vertices, 148 on the hull)"
+        "palm_visual      mesh      body hand             group 2  (1338 vertices, 148 on the hull)"
         in out
     )
     assert "keyframes: 5 at t = [0.0, 1.0, 2.0, 3.0, 4.0]" in out

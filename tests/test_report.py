@@ -1494,6 +1494,25 @@ def test_continuity_zero_and_missing_jumps_are_labelled_inside_the_axis(tmp_path
     plt.close(fig)
 
 
+def test_continuity_figure_with_every_jump_zero_or_missing_is_drawn(tmp_path):
+    """A trial's own scenes of two or three keyframes (no interior knot, or a cubic that is
+    one polynomial through three points) measure every acceleration jump exactly 0: the
+    log axis had nothing on it and matplotlib failed the whole report."""
+    from harness.report.document import Document, pyplot
+    from harness.report.motion_sections import continuity_section
+
+    rows = [
+        {"study": "certify", "scene": "s", "keyframes": "scene", "scheme": name,
+         "continuity": "C2", "jump_acceleration": a, "jump_angular_acceleration": a,
+         "jump_angular_velocity": 0.0, "invariance_world": 0.0, "invariance_body": 0.0}
+        for name, a in (("rational", 0.0), ("squad", 0.0), ("missing", np.nan))
+    ]  # fmt: skip
+    doc = Document(tmp_path)
+    continuity_section(doc, pd.DataFrame(rows), pyplot())
+    assert (tmp_path / "figures" / "continuity_jumps.png").stat().st_size > 0
+    assert "continuity_jumps.png" in "".join(doc.md)
+
+
 def test_the_machine_line_says_what_its_wall_time_covers():
     """A trial's report said 'total wall time 43 s' of a 52 s shell run: meta.json times
     the cases of each leg, not the start-up nor the report's drawing, and the line says so."""
