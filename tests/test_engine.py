@@ -18,7 +18,16 @@ import pytest
 
 import harness
 import motions
-from harness import Box, Capsule, Sphere, certify, certify_many, ground_truth, swept_aabbs
+from harness import (
+    Box,
+    Capsule,
+    Sphere,
+    certify,
+    certify_many,
+    clearance,
+    ground_truth,
+    swept_aabbs,
+)
 from harness.certification import DeviceError, QueryError
 from motions import DegenerateMotionError
 from motions.demo import demo_keyframes
@@ -662,14 +671,13 @@ def test_batch_shape_packing_gives_each_motion_its_shapes_rows():
         if trial % 3 == 0:
             obst = [[_random_shape(rng, int(k)) for k in rng.integers(0, 5, 3)] for _ in range(n)]
         bodies = [bpool[int(i)] for i in rng.integers(0, len(bpool), n)]
-        table, m_parts, m_obst, o_idx, n_obst = _pack_shapes_many(bodies, obst)
+        table, m_parts, m_obst, o_idx = _pack_shapes_many(bodies, obst)
         for j in range(n):
             # the motion's body parts, then its obstacles' parts, against each packed alone
             for lo_hi, shapes in ((m_parts[j], [bodies[j]]), (m_obst[j], obst[j])):
                 rows = np.arange(lo_hi[0], lo_hi[1])
                 if shapes is obst[j]:
                     rows = o_idx[rows]
-                    assert n_obst[j] == len(shapes)
                 want = ShapeTable.build(shapes)
                 assert len(rows) == len(want.records)
                 for a, b in zip(table.records[rows], want.records, strict=True):
@@ -719,6 +727,38 @@ def test_node_budget_is_never_exceeded(scene):
                 hit += 1
                 assert math.isfinite(c.toi_lo)
     assert hit > 0, "the budgets are small enough to bind"
+
+
+def test_node_budget_is_never_exceeded_by_a_motion_split_for_its_weight():
+    # a trial: keyframe times 0, 0.01, 5, 5.02, 12 make the positivity splitter cut two
+    # segments into 14 pieces, which counted as 12 nodes before any bound evaluation:
+    # max_nodes=1 reported 12 nodes. Nodes are the bound's evaluations, at most the budget
+    q = [[1, 0, 0, 0], [0.9, 0.4, 0, 0], [0.7, 0.5, 0.5, 0], [0.6, 0, 0.8, 0], [0.5, 0.5, 0.5, 0.5]]
+    p = [[0, 0, 0], [1, 0.5, 0], [2, 1, 0.5], [3, 0.5, 1], [4, 0, 1.0]]
+    m = motions.interpolate(q, p, [0.0, 0.01, 5.0, 5.02, 12.0])
+    assert len(m.positive_pieces()) - m.segments >= 10  # (what the test is about)
+    body = Box([0.2, 0.1, 0.05])
+    obst = [Box([0.05, 0.05, 0.05], center=[2.5, 0.75, 0.75]), Sphere(0.1, center=[0, 3, 0])]
+    # a contact, proven apart from the engine: a point of the body inside the box (its
+    # speed bound, 1.5e10 near the weight's dip, rules out a sampled ground truth)
+    hit = certify(m, body, obst).toi_hi
+    r, t = m.pose(hit)
+    grid = np.stack(np.meshgrid(*[np.linspace(-1, 1, 41)] * 3), -1).reshape(-1, 3)
+    pts = (grid * [0.2, 0.1, 0.05]) @ r.T + t
+    assert (np.abs(pts - [2.5, 0.75, 0.75]) < 0.05).all(axis=1).any()
+    binds = 0
+    for bound in ("hull", "aabb"):
+        full = certify(m, body, obst, bound=bound)
+        for budget in (1, 2, 5, 12, 30):
+            c = certify(m, body, obst, bound=bound, max_nodes=budget)
+            assert c.nodes <= budget, (bound, budget, c)
+            assert c.verdict != "free" and c.toi_lo <= hit, (bound, budget, c)
+            binds += c.reason == "budget"
+            assert c.nodes < budget or full.nodes >= budget  # (stops only when it must)
+    assert binds > 0
+    for budget in (1, 3, 20):
+        cl = clearance(m, body, [obst[1]], max_nodes=budget)
+        assert cl.nodes <= budget, (budget, cl)
 
 
 def test_budget_stop_keeps_a_sound_toi_lo(scene):

@@ -401,7 +401,6 @@ def _refine(
     m_pieces: wp.array(dtype=wp.vec2i),
     m_parts: wp.array(dtype=wp.vec2i),
     m_obst: wp.array(dtype=wp.vec2i),
-    m_nodes0: wp.array(dtype=wp.int32),
     o_idx: wp.array(dtype=wp.int32),
     shapes: wp.array(dtype=Shape),
     verts: wp.array(dtype=wp.vec3d),
@@ -448,7 +447,7 @@ def _refine(
     if stride == 0:
         m = _claim(work)
     while m < n_motions:
-        nodes = m_nodes0[m]
+        nodes = wp.int32(0)
         tests = wp.int32(0)
         deepest = wp.int32(0)
         toi_lo = HUGE
@@ -809,7 +808,6 @@ def _clearance(
     m_pieces: wp.array(dtype=wp.vec2i),
     m_parts: wp.array(dtype=wp.vec2i),
     m_obst: wp.array(dtype=wp.vec2i),
-    m_nodes0: wp.array(dtype=wp.int32),
     o_idx: wp.array(dtype=wp.int32),
     shapes: wp.array(dtype=Shape),
     verts: wp.array(dtype=wp.vec3d),
@@ -856,7 +854,7 @@ def _clearance(
     if stride == 0:
         m = _claim(work)
     while m < n_motions:
-        nodes = m_nodes0[m]
+        nodes = wp.int32(0)
         tests = wp.int32(0)
         deepest = wp.int32(0)
         up = HUGE

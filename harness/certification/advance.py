@@ -397,7 +397,7 @@ def _advance_host(ms, bodies, obst, speeds, o) -> list[Certificate]:
     per step, distances in one launch per step."""
     start = time.perf_counter()
     tol, max_nodes = o["tol"], o["max_nodes"]
-    table, m_parts, m_obst, o_idx, _ = pack_shapes(bodies, obst)
+    table, m_parts, m_obst, o_idx = pack_shapes(bodies, obst)
     mt, bp, op, pos = _tracks(m_parts, m_obst, o_idx)
     n_m = len(ms)
     lmax = max(len(k) for k, _ in speeds)
@@ -668,7 +668,7 @@ def _sample_host(ms, bodies, obst, o) -> list[Certificate]:
     chunks, stopping at the first intersecting sample. Not a proof."""
     start = time.perf_counter()
     tol = o["tol"]
-    table, m_parts, m_obst, o_idx, _ = pack_shapes(bodies, obst)
+    table, m_parts, m_obst, o_idx = pack_shapes(bodies, obst)
     nodes = np.zeros(len(ms), dtype=np.int64)
     results = []
     for i, m in enumerate(ms):

@@ -75,8 +75,8 @@ class Certificate:
         toi_hi: time of the first intersecting pose found (+inf if none), to within the
             round-off of halved times (`TIME_ULPS` ulps: where doubles are sparse, as near
             t = 1e6, the pose at the double itself may be clear).
-        nodes: bound evaluations of (segment piece, obstacle part), positivity splits
-            included (Lipschitz: distance evaluations; sampling: samples).
+        nodes: bound evaluations of (segment piece, obstacle part), at most ``max_nodes``
+            (Lipschitz: distance evaluations; sampling: samples).
         pose_tests: exact distance evaluations of poses.
         depth: deepest subdivision level reached.
         seconds: wall time of the call, from its start to the end of its certificates'

@@ -189,7 +189,10 @@ class Packed(NamedTuple):
     of its ``Reach`` record (:func:`piece_reach`). One table, so that a batch gathers its
     motions' in one pass (each pass over a thousand small arrays costs ~1 ms)."""
     extra: int
-    """Pieces beyond the motion's segments (the positivity splitter's)."""
+    """Pieces beyond the motion's segments (the positivity splitter's). Informative only:
+    they are not counted as nodes, which are the bound's evaluations (the budget
+    ``max_nodes`` counted them too, and a motion split into more pieces than it reported
+    more nodes than its budget: a trial)."""
     images: Images | None = None
     """The pieces laid out in a single query's :class:`.device.Arena`, per layout (filled
     by the first single query; None in a packing unpickled from another version), and
@@ -412,8 +415,8 @@ _shape_lock = threading.Lock()
 
 def pack_shapes(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     """Shape table of the distinct bodies and obstacles (by identity; a list shared by
-    several motions is packed once), and per motion its body-part range, obstacle-part
-    range into `o_idx`, and number of obstacles. Small batches reuse a recent packing
+    several motions is packed once), and per motion its body-part range and obstacle-part
+    range into `o_idx`. Small batches reuse a recent packing
     of the very same shape objects (shapes are immutable)."""
     if len(bodies) > 8:
         return _pack_shapes(bodies, obst)
@@ -473,8 +476,7 @@ def _pack_shapes_many(bodies: list[Shape], obst: list[list[Shape]]) -> tuple:
     )
     bix = index[:nb]
     m_parts = np.stack([off[bix], off[bix + 1]], axis=1).astype(np.int32)
-    n_obst = ls[lists_a + 1] - ls[lists_a]
-    return table, m_parts, m_obst, o_idx, n_obst
+    return table, m_parts, m_obst, o_idx
 
 
 def _distinct(items: list) -> tuple[list, np.ndarray, np.ndarray]:
@@ -511,7 +513,6 @@ def _pack_shapes_one(body: Shape, obst: list[Shape]) -> tuple:
         np.array([[off[0], off[1]]], dtype=np.int32),
         np.array([[0, len(o_idx)]], dtype=np.int32),
         np.array(o_idx, dtype=np.int32),
-        np.array([len(obst)], dtype=np.int64),
     )
 
 
@@ -543,8 +544,7 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         buf.packed = (refs, arrays, kmax)
         return arrays, kmax
     shaped = pack_shapes(bodies, obst)
-    n_obst = shaped[4]
-    ctrls, ks, rows, extra, _images = zip(*packs, strict=True)
+    ctrls, ks, rows = list(zip(*packs, strict=True))[:3]
     counts = np.fromiter(map(len, rows), dtype=np.int64, count=n)
     p_k = np.repeat(np.array(ks, dtype=np.int32), counts)
     table = np.concatenate(rows)
@@ -569,9 +569,6 @@ def pack_inputs(buf, packs, bodies, obst) -> tuple[dict, int]:
         "p_err": buf.put("p_err", table[:, 2:5], wp.vec3d),
         "p_reach": buf.put_records("p_reach", table[:, 5:], _kernels().Reach),
         "m_pieces": buf.put("m_pieces", np.stack([bounds[:-1], bounds[1:]], axis=1), wp.vec2i),
-        "m_nodes0": buf.put(
-            "m_nodes0", (np.asarray(extra) * np.maximum(1, n_obst)).astype(np.int32), wp.int32
-        ),
         **_put_shapes(buf, shaped),
     }
     kmax = int(np.abs(p_k).max())
@@ -600,7 +597,6 @@ def _one_spec() -> tuple:
             ("p_start", np.int32, wp.int32, ()),
             ("p_k", np.int32, wp.int32, ()),
             ("m_pieces", np.int32, wp.vec2i, (2,)),
-            ("m_nodes0", np.int32, wp.int32, ()),
             ("p_t", np.float64, wp.vec2d, (2,)),
             ("p_err", np.float64, wp.vec3d, (3,)),
             ("p_reach", record_dtype(reach), reach, ()),
@@ -616,16 +612,14 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
     query's packing cost more than its kernel). On the CPU the pieces' inputs are one
     copy of their image in the buffers' arena, made by the motion's first single query
     and kept on its packing."""
-    ctrl, k, rows, extra = pack[:4]
+    ctrl, k, rows = pack[:3]
     shaped = pack_shapes(bodies, obst)
-    nodes0 = extra * max(1, int(shaped[4][0]))
     if not buf.cpu:  # (the device's copy of the matrices)
         addr = np.array([buf.put("ctrl", ctrl, warp().mat44d).ptr], dtype=np.uint64)
         data = _one_inputs(pack, addr)
-        data["m_nodes0"] = np.array([nodes0], dtype=np.int32)
         return {**_put_each(buf, _one_spec(), data), **_put_shapes(buf, shaped)}, abs(k)
     n_pieces = len(rows)
-    arena = buf.arena("one", _one_spec(), (1, n_pieces, n_pieces, 1, 1, *[n_pieces] * 3))
+    arena = buf.arena("one", _one_spec(), (1, n_pieces, n_pieces, 1, *[n_pieces] * 3))
     images = pack.images if pack.images is not None else {}
     img = images.get(arena.key)
     if img is None:
@@ -633,14 +627,12 @@ def _pack_one(buf, pack: Packed, bodies, obst) -> tuple[dict, int]:
         images.clear()  # (one layout: a motion's size class is its own)
         images[arena.key] = img
     arena.write(img)
-    arena.views["m_nodes0"][0] = nodes0
     return {**arena.arrays, **_shapes_one(buf, shaped)}, abs(k)
 
 
 def _one_inputs(pack: Packed, addr: np.ndarray) -> dict:
     """A single motion's inputs by :func:`_one_spec`'s names, its matrices at `addr`
-    ((1,) uint64; ``m_nodes0``, which depends on the obstacles, zero; the reach records
-    as their float64 rows)."""
+    ((1,) uint64; the reach records as their float64 rows)."""
     k, rows = pack[1:3]
     n_pieces = len(rows)
     return {
@@ -648,7 +640,6 @@ def _one_inputs(pack: Packed, addr: np.ndarray) -> dict:
         "p_start": np.arange(0, n_pieces * abs(k), abs(k), dtype=np.int32),
         "p_k": np.full(n_pieces, k, dtype=np.int32),
         "m_pieces": np.array([[0, n_pieces]], dtype=np.int32),
-        "m_nodes0": np.zeros(1, dtype=np.int32),
         "p_t": rows[:, 0:2],
         "p_err": rows[:, 2:5],
         "p_reach": rows[:, 5:],
@@ -694,7 +685,7 @@ the packings alive (their identities key this)."""
 def _shape_inputs(shaped: tuple) -> dict:
     """The shape inputs of a packing from :func:`pack_shapes`, by :func:`_shapes_spec`'s
     names and in its order (``o_idx`` one padding entry where no obstacle has a part)."""
-    table, m_parts, m_obst, o_idx, _n_obst = shaped
+    table, m_parts, m_obst, o_idx = shaped
     return {
         "m_parts": m_parts,
         "m_obst": m_obst,
@@ -736,7 +727,7 @@ def _put_shapes(buf, shaped: tuple) -> dict:
 
 REFINE_INPUTS = (
     "m_ctrl", "p_start", "p_k", "p_t", "p_err", "p_reach", "m_pieces", "m_parts", "m_obst",
-    "m_nodes0", "o_idx", "shapes", "verts",
+    "o_idx", "shapes", "verts",
 )  # fmt: skip
 CLEARANCE_INPUTS = tuple(k for k in REFINE_INPUTS if k != "p_reach")
 """(the clearance kernel's broad phase needs a root's exact box for its lower bound: the
