@@ -403,7 +403,9 @@ def certify(
         tolerance: length (scene units): a pose closer than this ends refinement there.
         max_depth: subdivision depth limit ("hull"/"aabb"), at most 60.
         samples: poses for "sampled" (default: the fair grid, see :mod:`.advance`).
-        options: ``max_nodes`` (per motion), ``threads``, ``device``, ``max_iter``,
+        options: ``max_nodes`` (bound evaluations per motion, never exceeded, of "hull",
+            "aabb" and "lipschitz"; "sampled" takes `samples`, or its fair grid up to
+            :data:`MAX_SAMPLES`), ``threads``, ``device``, ``max_iter``,
             ``comparator_options``.
 
     Raises:
