@@ -25,6 +25,7 @@ import numpy as np
 
 from ._checks import as_count, as_flag, as_points, as_rng, short
 from ._spline import gauss_nodes
+from .errors import MotionError
 from .motion import Motion
 from .quaternion import quat_from_matrix, rotation_matrix
 from .schemes import build
@@ -284,7 +285,10 @@ def invariance_errors(
     """Max matrix difference after a change of world frame and of body orientation.
 
     Rebuilds the motion from moved keyframes (its :attr:`Motion.recipe`) and compares with
-    the moved motion at `samples` times. NaN when the motion has no recipe.
+    the moved motion at `samples` times. NaN when the motion has no recipe, and each NaN
+    where the scheme cannot build the moved keyframes (a :class:`MotionError`: an iterative
+    solve that meets the keyframes in one frame can fail in another; a trial's run ended
+    in that traceback).
     """
     samples = as_count(samples, "samples", 2, MAX_INVARIANCE_SAMPLES)
     recipe = motion.recipe
@@ -295,24 +299,36 @@ def invariance_errors(
     m0 = motion.matrix(t)
     rk = rotation_matrix(recipe.rotations)
     g_r, g_p = _random_transform(rng)
-    moved = build(
-        recipe.scheme,
-        quat_from_matrix(g_r @ rk),
-        recipe.positions @ g_r.T + g_p,
-        recipe.times,
-        **_moved_options(recipe.options, g_r),
-    )
     g = np.eye(4)
     g[:3, :3], g[:3, 3] = g_r, g_p
-    world = float(np.abs(moved.matrix(t) - g @ m0).max())
     b_r, _ = _random_transform(rng)
-    turned = build(
-        recipe.scheme, quat_from_matrix(rk @ b_r), recipe.positions, recipe.times, **recipe.options
-    )
     want = m0.copy()
     want[:, :3, :3] = m0[:, :3, :3] @ b_r
-    body = float(np.abs(turned.matrix(t) - want).max())
+    world = _rebuilt_error(
+        recipe.scheme,
+        (quat_from_matrix(g_r @ rk), recipe.positions @ g_r.T + g_p, recipe.times),
+        _moved_options(recipe.options, g_r),
+        t,
+        g @ m0,
+    )
+    body = _rebuilt_error(
+        recipe.scheme,
+        (quat_from_matrix(rk @ b_r), recipe.positions, recipe.times),
+        recipe.options,
+        t,
+        want,
+    )
     return world, body
+
+
+def _rebuilt_error(scheme: str, keyframes: tuple, options: dict, t, want) -> float:
+    """Max matrix difference at `t` between the scheme's motion through `keyframes` and
+    `want`; NaN when the scheme cannot build it."""
+    try:
+        rebuilt = build(scheme, *keyframes, **options)
+    except MotionError:
+        return float("nan")
+    return float(np.abs(rebuilt.matrix(t) - want).max())
 
 
 def smoothness(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import re
 
 import numpy as np
@@ -114,6 +115,21 @@ def test_invariance_errors_samples_are_checked():
         invariance_errors(m, samples=0)
     with pytest.raises(TypeError, match="`samples`"):
         invariance_errors(m, samples=2.5)
+
+
+def test_invariance_of_a_scheme_that_cannot_build_the_moved_keyframes_is_nan():
+    # a trial: two half turns about z in place; the cumulative B-spline meets these
+    # keyframes, but its solve stalls on them moved to the invariance test's frames, and
+    # that MotionError ended a whole run in a traceback
+    q, p, t = [[1, 0, 0, 0], [0, 0, 0, 1], [-1, 0, 0, 0]], np.zeros((3, 3)), [0.0, 1.0, 2.0]
+    m = motions.build("cumulative-bspline", q, p, t)
+    world, body = invariance_errors(m)
+    assert math.isnan(world) and math.isnan(body)
+    row = motions.smoothness(m)
+    assert row["continuity"] == "C2" and math.isnan(row["invariance_world"])
+    # a scheme that builds them has numbers (here not round-off: a half turn's way round
+    # is decided by the sign of a dot product that is 0 up to rounding in the moved frame)
+    assert np.isfinite(invariance_errors(motions.build("rational", q, p, t))).all()
 
 
 def test_sweep_surface_is_the_moved_profile(preimage, tmp_path):
