@@ -248,6 +248,24 @@ def test_repair_study_rows(tmp_path):
         kind.parse({"clearances": [-1.0]}, Path("s.toml"), "study[0]")
 
 
+def test_repair_study_rows_all_refused_have_every_column_the_report_reads():
+    # a trial: a clearance of 10 m, which no repair keeps: every row refused, and the run
+    # wrote a table without certified_clearance and max_deviation, which its own report
+    # then refused (exit 2, no report)
+    from pathlib import Path
+
+    from harness.report.data import STUDY_COLUMNS
+    from harness.run.studies import STUDIES, Context
+
+    kind = STUDIES["repair"]
+    st = kind.parse({"cases": 2, "clearances": [10.0]}, Path("s.toml"), "study[0]")
+    (case,) = kind.expand(st)
+    rows = kind.run({**case, "study": "repair"}, st, Context(None, 0))
+    assert rows and all(r["status"] == "refused" for r in rows)
+    table = set().union(*rows)  # (the results table's columns)
+    assert set(STUDY_COLUMNS["repair"]) <= table, set(STUDY_COLUMNS["repair"]) - table
+
+
 def test_a_floor_far_from_its_planes_origin_is_whole_to_both_repairs():
     # a plane from a model starts as a 1e3 cube under its origin; the repairs' distance
     # model kept that cube, so 5e3 away the sampled repair called a path through the floor

@@ -172,7 +172,16 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             )
             result = r.motion
         except RepairError as e:
-            row.update(status="refused", verdict="n/a", reason=note(str(e)), iterations=math.nan)
+            # (every row has the columns the report reads: a run whose repairs were all
+            # refused wrote a table without them, which its own report then refused)
+            row.update(
+                status="refused",
+                verdict="n/a",
+                reason=note(str(e)),
+                iterations=math.nan,
+                certified_clearance=math.nan,
+                max_deviation=math.nan,
+            )
             result = None
         row["seconds"], row["cpu_seconds"] = time.perf_counter() - w0, time.process_time() - c0
         if result is not None:
@@ -193,6 +202,7 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
             "iterations": s.iterations,
             "seconds": time.perf_counter() - w0,
             "cpu_seconds": time.process_time() - c0,
+            "max_deviation": math.nan,
         }
         if s.sampled_free:
             row["max_deviation"] = _deviation(k.motion, s.motion)
