@@ -426,6 +426,32 @@ def test_scaling_table_gives_the_fit_interval(tmp_path):
     assert "-1 to -1" in shown or "−1 to −1" in shown, shown
 
 
+def test_scaling_says_which_costs_of_0_it_cannot_draw(tmp_path):
+    """A trial: adaptive subdivision cleared every pair before any bound evaluation at large
+    δ (cost 0), and the method was missing from the figure and both tables without a word;
+    with every cost 0 the whole section was missing."""
+    from harness.report.document import pyplot
+    from harness.report.sections import scaling_section
+
+    rows = [
+        dict(study="scaling", method=m, delta=d, cost=c, censored=False, verdicts="free")
+        for d in (1e-1, 1.0, 10.0)
+        for m, c in (("uniform sampling", 10 / d), ("adaptive subdivision (hull)", 0.0))
+    ]
+    doc = Document(tmp_path / "some")
+    scaling_section(doc, pd.DataFrame(rows), pyplot())
+    shown = "\n".join(doc.md)
+    assert (
+        "costs of 0" in shown and "adaptive subdivision (hull) at δ = 100, 1000, 10000 mm" in shown
+    )
+    t = pd.read_csv(tmp_path / "some" / "tables" / "scaling_slopes.csv")
+    assert list(t["method"]) == ["uniform sampling"]
+    doc = Document(tmp_path / "none")
+    scaling_section(doc, pd.DataFrame([r for r in rows if r["cost"] == 0]), pyplot())
+    shown = "\n".join(doc.md)
+    assert "Every cost is 0" in shown and "Cost against resolution" in shown
+
+
 def test_slope_interval_from_the_residuals():
     from harness.report import slope_intervals
 

@@ -619,11 +619,24 @@ def _cost_figure(doc: Document, costs: pd.DataFrame, plt) -> None:
 
 
 def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
-    sc = study_rows(df, "scaling")
-    sc = sc[numeric(sc, "cost") > 0] if len(sc) else sc
-    if not len(sc):
+    rows = study_rows(df, "scaling")
+    if not len(rows):
         return
     doc.h("Cost against resolution")
+    sc = rows[numeric(rows, "cost") > 0]
+    # (a trial: a method whose cost was 0, every pair cleared before any evaluation, was
+    # missing from the figure and both tables without a word)
+    zero = rows[numeric(rows, "cost") == 0]
+    unseen = "; ".join(
+        f"{method} at δ = {', '.join(f'{d * 1e3:g}' for d in sorted(g['delta'].astype(float)))} mm"
+        for method, g in zero.groupby("method")
+    )
+    if not len(sc):
+        doc.p(
+            "Every cost is 0 (" + unseen + "): every pair was cleared before any evaluation,"
+            " so there is nothing to draw on logarithmic axes nor a slope to fit."
+        )
+        return
     slopes = scaling_slopes(sc)
     intervals = slope_intervals(sc)
     fig, ax = plt.subplots(figsize=(6, 4))
@@ -705,6 +718,11 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
             "; open triangles are censored, on a dotted line where every point is (uniform"
             " subdivision stopped at its depth cap without clearing, so the cost shown is a"
             " lower bound)"
+        )
+    if unseen:
+        caption.append(
+            f". Not drawn, nor in the tables or fits below, the costs of 0 (every pair cleared"
+            f" before any evaluation, which log axes cannot show): {unseen}"
         )
     doc.figure(fig, "scaling", "".join(caption) + ".")
     doc.table(
