@@ -1196,10 +1196,16 @@ def test_studies_that_differ_only_in_a_setting_are_told_apart(written):
     assert "Pooled" not in written[0].read_text()
     df["study_index"] = 0
     slot = df[(df["study"] == "certify") & (df["scene"] == "slot")]
-    swept = slot.assign(study_index=1, nodes=slot["nodes"] * 2)
+    swept = slot.assign(study_index=1, nodes=slot["nodes"] * 2, max_depth=30)
     other = df[df["study"] == "workload"].assign(study_index=2, tolerance=5e-2)
-    both = pd.concat([df, swept, other], ignore_index=True)
-    assert pooled_studies(both) == ["study[0] and study[1] (certify)"]
+    both = pd.concat([df.assign(max_depth=24), swept, other], ignore_index=True)
+    assert pooled_studies(both) == ["study[0] and study[1] (certify: `max_depth` differs)"]
+    # (a trial: the sentence named max_depth, max_nodes, ... whatever the studies' setting)
+    two = pd.concat([df.assign(max_depth=24), swept.assign(max_depth=24, dt=0.01, rounds=3)])
+    assert pooled_studies(two) == ["study[0] and study[1] (certify: `rounds` and `dt` differ)"]
+    assert pooled_studies(pd.concat([df, slot.assign(study_index=1)])) == [
+        "study[0] and study[1] (certify: a setting the rows do not hold differs)"
+    ]
     labels = method_labels(both)
     pooled = both["study"].eq("certify") & both["scene"].eq("slot")
     assert labels[pooled & both["study_index"].eq(1)].str.endswith(" (study[1])").all()

@@ -244,8 +244,9 @@ def _draw(df: pd.DataFrame, meta: dict, dest: Path) -> None:
             "Pooled studies: "
             + "; ".join(pooled)
             + ": their rows have the same identity (scene, keyframes, scheme, bound, tolerance,"
-            " clearance, ...) and differ only in settings the tables do not group by"
-            " (`max_depth`, `max_nodes`, `samples`, `truth_resolution`, `rounds`). The"
+            " clearance, ...) and differ only in the settings named, which the tables do not"
+            " group by (a scaling study's `pairs` are summed over, so its figure and slopes"
+            " then mix counts over different numbers of pairs). The"
             " certification accuracy tables label their methods with the study, each"
             " workload study has its own section and cost rows; the other tables pool them."
             " Tell them apart"

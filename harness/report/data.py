@@ -190,10 +190,21 @@ def pooled_counts(df: pd.DataFrame) -> pd.Series:
     return df.groupby(cols, dropna=False, sort=False)["study_index"].transform("nunique")
 
 
+SETTINGS = (
+    "max_depth", "max_nodes", "samples", "truth_resolution", "rounds", "pairs", "dt", "seed",
+    "chunk_pairs", "labels",
+)  # fmt: skip
+"""Row columns that hold a study's settings rather than a case's identity or a
+measurement: what pooled studies can differ in."""
+
+
 def pooled_studies(df: pd.DataFrame) -> list[str]:
-    """'study[1] and study[2] (certify)' for each set of [[study]] entries whose rows share
-    their identity columns (a sweep of a setting the tables do not group by): they would
-    pool them. Runs written before rows carried ``study_index`` have nothing to tell."""
+    """'study[1] and study[2] (certify: `max_depth` differs)' for each set of [[study]]
+    entries whose rows share their identity columns (a sweep of a setting the tables do
+    not group by): they would pool them. The settings named are the :data:`SETTINGS`
+    columns whose value differs between those studies (none named: they differ in one the
+    rows do not hold). Runs written before rows carried ``study_index`` have nothing to
+    tell."""
     n = pooled_counts(df)
     shared = df[n > 1]
     out = []
@@ -201,7 +212,15 @@ def pooled_studies(df: pd.DataFrame) -> list[str]:
         if kind == "startup":  # (a first call per study and bound: rows of their own)
             continue
         ids = sorted({int(i) for i in g["study_index"].dropna()})
-        out.append(" and ".join(f"study[{i}]" for i in ids) + f" ({kind})")
+        # (a trial: two scaling studies of 1 and 2 motions, two simulate studies of two
+        # control steps, were said to differ only in max_depth, max_nodes, ...)
+        by = g.groupby("study_index")
+        differ = [c for c in SETTINGS if c in g and by[c].first().nunique(dropna=False) > 1]
+        what = " and ".join(f"`{c}`" for c in differ) or "a setting the rows do not hold"
+        out.append(
+            " and ".join(f"study[{i}]" for i in ids)
+            + f" ({kind}: {what} {'differ' if len(differ) > 1 else 'differs'})"
+        )
     return out
 
 

@@ -67,6 +67,9 @@ def run(case: dict, st: dict, ctx: Context) -> list[dict]:
     df = simulate(sc, m, dt=st["dt"])
     row["record_seconds"] = time.perf_counter() - t0
     row["steps"] = len(df)
+    # the control step (the model's timestep when the study gives none): two studies that
+    # differ only in it are pooled by the tables, and the report names it
+    row["dt"] = float(sc.model.opt.timestep) if st["dt"] is None else st["dt"]
     timed = repeat(lambda: simulate(sc, m, dt=st["dt"], record=False), rounds=st["rounds"])
     row.update(timed.columns())
     row["seconds"] = row["wall_median"]
