@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import inspect
 import os
+import re
 import tomllib
 import warnings
 from dataclasses import dataclass, field
@@ -221,7 +222,8 @@ def compile_file(path: str | os.PathLike) -> mujoco.MjModel:
         model = mujoco.MjModel.from_xml_path(str(p))
     except ValueError as e:
         why = " ".join(str(e).split())
-        if "Error opening file" in why:  # (a trial: the relative path alone said not where)
+        opened = re.search(r"Error opening file '([^']*)'", why)
+        if opened and not Path(opened[1]).is_absolute():  # (a trial: the path alone said not where)
             why += (
                 f" (file names in it are relative to its folder {str(p.resolve().parent)!r}"
                 " and its <compiler> meshdir, texturedir or assetdir)"

@@ -1084,7 +1084,7 @@ def test_a_report_refuses_another_runs_folder_and_a_second_writer(tmp_path):
     with pytest.raises(ReportError, match="holds another run's results"):
         write_report(run, out=other)
     assert not (other / "report.md").exists()
-    with OutputLock(run), pytest.raises(OutputLocked, match="in use by another rsmbench run"):
+    with OutputLock(run), pytest.raises(OutputLocked, match="in use by another rsmbench process"):
         write_report(run)
     assert not (run / "report.md").exists()
     # a first run still writing its folder (no results table yet) is named, not denied
@@ -1096,6 +1096,12 @@ def test_a_report_refuses_another_runs_folder_and_a_second_writer(tmp_path):
     ):
         write_report(first)
     with pytest.raises(ReportError, match=r"no results\.parquet; run `rsmbench run` into it first"):
+        write_report(first)
+    # a report held there (`rsmbench report RUN --out FIRST`) is not a run (a review)
+    with (
+        OutputLock(first, "writing a report"),
+        pytest.raises(ReportError, match=r"no results\.parquet; run `rsmbench run` into it first"),
+    ):
         write_report(first)
 
 

@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -209,18 +210,55 @@ def test_lock_in_process(tmp_path):
     with OutputLock(tmp_path) as held:
         assert held.fd is not None
         with pytest.raises(
-            OutputLocked, match=rf"in use by another rsmbench run \(pid {os.getpid()} "
+            OutputLocked, match=rf"in use by another rsmbench process \(pid {os.getpid()} "
         ):
             OutputLock(tmp_path).acquire()
-        assert OutputLock(tmp_path).holder().startswith(f"pid {os.getpid()} on host ")
+        who = OutputLock(tmp_path).holder()
+        assert who.startswith(f"pid {os.getpid()} on host ") and who.endswith(", running a suite")
     # released: a lock file naming a run that is gone does not block
     assert (tmp_path / ".lock").exists()
     assert OutputLock(tmp_path).holder() is None
-    # a killed run's text stays in the file, its lock gone: nobody holds it
-    (tmp_path / ".lock").write_text("pid 1 on host gone since 2026-01-01T00:00:00+00:00")
+    # a killed run's text stays in the file, its lock gone: on this host its pid is gone
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    text = f"pid {gone.pid} on host {socket.gethostname()} since 2026-01-01T00:00:00+00:00"
+    (tmp_path / ".lock").write_text(text + ", running a suite")
     assert OutputLock(tmp_path).holder() is None
+    # on another host it cannot be told: the text is taken at its word
+    (tmp_path / ".lock").write_text("pid 1 on host elsewhere.example since 2026, running a suite")
+    assert OutputLock(tmp_path).holder().startswith("pid 1 on host elsewhere.example")
     with OutputLock(tmp_path) as again:
         assert again.fd is not None
+
+
+def test_reading_the_lock_holder_never_makes_a_run_fail(tmp_path):
+    # a review: the holder was probed with a shared flock, and a run starting at that
+    # moment into a folder whose killed run's text remained was refused (112 of 2,000)
+    (tmp_path / ".lock").write_text("pid 1 on host elsewhere.example since 2026, running a suite")
+    stop = tmp_path / "stop"
+    reader = subprocess.Popen(
+        [sys.executable, "-c", READER, str(tmp_path), str(stop)], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert reader.stdout.readline().strip() == "reading"
+        for _ in range(3000):
+            with OutputLock(tmp_path):
+                pass
+            (tmp_path / ".lock").write_text("pid 1 on host elsewhere.example since 2026, x")
+    finally:
+        stop.touch()
+        reader.wait(timeout=60)
+
+
+READER = """
+import sys, pathlib
+from harness.run.journal import OutputLock
+folder, stop = pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[2])
+print("reading", flush=True)
+while not stop.exists():
+    for _ in range(50):
+        OutputLock(folder).holder()
+"""
 
 
 def test_ctrl_c_stops_after_the_case_and_says_how_to_resume(mini, tmp_path):

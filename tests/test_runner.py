@@ -606,87 +606,101 @@ def _stopped(suite: Path, out: Path, address: str, during=None) -> BaseException
 
 
 @pytest.mark.slow
-def test_a_worker_that_joins_later_is_checked_and_recorded(tiny, tmp_path, monkeypatch):
+def test_a_worker_that_joins_later_is_checked_used_and_recorded(tiny, tmp_path, monkeypatch):
     # a worker that joined after the run's start with an older rsmbench (whose _run_unit
     # takes no code digest) ended the run in that TypeError's traceback (stop 40's note);
-    # meta.json listed only the workers there at the start
+    # meta.json listed only the workers there at the start; and a review found that no
+    # more units ran at once than the cluster had threads at the start (a dask-jobqueue
+    # cluster grows while its jobs start)
     distributed = pytest.importorskip("distributed")
     from harness.run import orchestrate
     from harness.run.journal import RunError
 
-    real, client_pid = orchestrate.code_digest, os.getpid()
     monkeypatch.setattr(orchestrate, "WORKERS_EVERY", 0.2)
-    flag = tmp_path / "older"
-    # here the worker fails as an older copy does, and runs other code from then on
-    monkeypatch.setattr(orchestrate, "_run_unit", _OlderCopy(flag))
-    monkeypatch.setattr(orchestrate, "code_digest", _DigestAfter(client_pid, flag, real))
+    log = tmp_path / "units.log"  # (when each unit starts and ends, from the workers)
+    monkeypatch.setattr(orchestrate, "_run_unit", _Unit(1.0, log))  # (lasts while one joins)
+    monkeypatch.setattr(orchestrate, "code_digest", _Digest(orchestrate.code_digest))
+    monkeypatch.delenv(_OLDER, raising=False)
+
+    def run(out: Path, older: bool) -> tuple[BaseException | None, set, set]:
+        """A run on a cluster of one worker, joined by a second once the run is going
+        (`older`: one that runs an older rsmbench, as a worker started with _OLDER set
+        does here); what it raised, the first workers and the joined one."""
+        with distributed.LocalCluster(
+            n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster:
+            first = set(cluster.scheduler_info["workers"])
+
+            def join():
+                deadline = time.time() + 60
+                while time.time() < deadline and not (out / "rows.jsonl").exists():
+                    time.sleep(0.05)
+                with monkeypatch.context() as mp:  # (the new worker's process inherits it)
+                    if older:
+                        mp.setenv(_OLDER, "1")
+                    cluster.scale(2)
+                    cluster.wait_for_workers(2, timeout=60)
+
+            e = _stopped(tiny, out, cluster.scheduler_address, during=join)
+            return e, first, set(cluster.scheduler_info["workers"]) - first
+
+    e, first, joined = run(tmp_path / "older", older=True)
+    assert isinstance(e, RunError) and len(joined) == 1, e
+    assert f"The Dask worker {joined.pop()} runs other rsmbench code (code {'0' * 16})" in str(e)
+    log.unlink(missing_ok=True)  # (that run's last unit was cut short: no end)
+    e, first, joined = run(tmp_path / "joined", older=False)
+    assert e is None and len(joined) == 1
+    meta = json.loads((tmp_path / "joined" / "meta.json").read_text())
+    assert set(meta["legs"][-1]["workers"]) == first | joined
+    df = pd.read_parquet(tmp_path / "joined" / "results.parquet")
+    assert joined <= set(df["worker"]), set(df["worker"])  # (it ran cases)
+    # two units at once once it joined (window 1 ran them one after the other)
+    steps = sorted((float(t), int(d)) for t, d in map(str.split, log.read_text().splitlines()))
+    assert max(np.cumsum([d for _, d in steps])) >= 2, steps
+    # the same failure with the same code everywhere is the case's own error
+    monkeypatch.setenv(_OLDER, "1")
+    monkeypatch.setattr(orchestrate, "code_digest", orchestrate.code_digest.real)
     with distributed.LocalCluster(
         n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
     ) as cluster:
-        e = _stopped(tiny, tmp_path / "older-run", cluster.scheduler_address)
-        assert isinstance(e, RunError), e
-        assert "runs other rsmbench code (code " + "0" * 16 in str(e), e
-        # the same failure with the same code everywhere is the case's own error
-        flag.unlink()
-        monkeypatch.setattr(orchestrate, "code_digest", real)
-        e = _stopped(tiny, tmp_path / "same-code", cluster.scheduler_address)
-        assert isinstance(e, TypeError) and "positional arguments" in str(e), e
-
-    monkeypatch.setattr(orchestrate, "_run_unit", _Slow(1.0))
-    monkeypatch.setattr(orchestrate, "code_digest", real)
-    out = tmp_path / "joined"
-    with distributed.LocalCluster(
-        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0"
-    ) as cluster:
-        first = set(cluster.scheduler_info["workers"])
-
-        def join():  # a second worker, once the run is going
-            deadline = time.time() + 60
-            while time.time() < deadline and not (out / "rows.jsonl").exists():
-                time.sleep(0.05)
-            cluster.scale(2)
-            cluster.wait_for_workers(2, timeout=60)
-
-        assert _stopped(tiny, out, cluster.scheduler_address, during=join) is None
-        joined = set(cluster.scheduler_info["workers"]) - first
-    meta = json.loads((out / "meta.json").read_text())
-    assert len(joined) == 1 and set(meta["legs"][-1]["workers"]) == first | joined
+        e = _stopped(tiny, tmp_path / "same", cluster.scheduler_address)
+    assert isinstance(e, TypeError) and "positional arguments" in str(e), e
 
 
-class _OlderCopy:
-    """A unit that fails on the worker as an older copy's did, leaving `flag` behind."""
-
-    def __init__(self, flag: Path):
-        self.flag = flag
-
-    def __call__(self, *args):
-        self.flag.touch()
-        raise TypeError("_run_unit() takes 4 positional arguments but 5 were given")
+_OLDER = "RSMBENCH_TEST_OLDER_WORKER"
+"""Set in a Dask worker's environment: it runs as an older rsmbench copy (:class:`_Unit`,
+:class:`_Digest`)."""
 
 
-class _DigestAfter:
-    """The real code digest, but another on a worker once `flag` exists."""
+class _Unit:
+    """The worker's own unit after `seconds`, or, in a worker whose environment has
+    :data:`_OLDER`, the TypeError of an older copy's unit, which takes no code digest."""
 
-    def __init__(self, client_pid: int, flag: Path, real):
-        self.client_pid, self.flag, self.real = client_pid, flag, real
-
-    def __call__(self) -> str:
-        other = os.getpid() != self.client_pid and self.flag.exists()
-        return "0" * 16 if other else self.real()
-
-
-class _Slow:
-    """A unit that takes at least `seconds` (so that a run lasts while a worker joins); it
-    runs the worker's own, unpatched unit."""
-
-    def __init__(self, seconds: float):
-        self.seconds = seconds
+    def __init__(self, seconds: float, log: Path):
+        self.seconds, self.log = seconds, log
 
     def __call__(self, *args):
         from harness.run.orchestrate import _run_unit
 
+        if os.environ.get(_OLDER):
+            raise TypeError("_run_unit() takes 4 positional arguments but 5 were given")
+        with self.log.open("a") as f:
+            f.write(f"{time.time()} 1\n")
         time.sleep(self.seconds)
-        return _run_unit(*args)
+        out = _run_unit(*args)
+        with self.log.open("a") as f:
+            f.write(f"{time.time()} -1\n")
+        return out
+
+
+class _Digest:
+    """The code digest, another one in a worker whose environment has :data:`_OLDER`."""
+
+    def __init__(self, real):
+        self.real = real
+
+    def __call__(self) -> str:
+        return "0" * 16 if os.environ.get(_OLDER) else self.real()
 
 
 def _unload(client_pid: int, real):

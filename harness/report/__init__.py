@@ -84,7 +84,8 @@ def _read_run(run: Path) -> tuple[pd.DataFrame, dict]:
         )
     if not table.exists():
         holder = OutputLock(run).holder()
-        if holder:  # a first run still going: its table is written when it ends
+        if holder and holder.endswith(", running a suite"):  # a first run still going
+            # (its table is written when it ends)
             raise ReportError(
                 f"{run} has no results.parquet yet: a run is writing it ({holder}); report"
                 " it when that run ends."
@@ -158,7 +159,7 @@ def write_report(
         dest.mkdir(parents=True, exist_ok=True)
         if not lock:
             return _write(df, meta, dest)
-        with OutputLock(dest):
+        with OutputLock(dest, "writing a report"):
             return _write(df, meta, dest)
     except PermissionError as e:
         raise ReportError(

@@ -15,6 +15,7 @@ import json
 import math
 import os
 import platform
+import re
 import socket
 import subprocess
 import sys
@@ -71,10 +72,11 @@ class OutputLock:
     The file's text names the holder for the message a second run prints.
     """
 
-    def __init__(self, folder: Path):
+    def __init__(self, folder: Path, doing: str = "running a suite"):
         self.folder = Path(folder)
         self.path = self.folder / ".lock"
         self.fd: int | None = None
+        self.doing = doing  # (what the holder's text says it does)
 
     def acquire(self) -> None:
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -88,7 +90,7 @@ class OutputLock:
             os.close(fd)
             if busy:
                 raise OutputLocked(
-                    f"Output folder {str(self.folder)!r} is in use by another rsmbench run"
+                    f"Output folder {str(self.folder)!r} is in use by another rsmbench process"
                     f" ({holder or 'its pid is not written yet'}); wait for it to finish, or"
                     " write to another --out folder."
                 ) from None
@@ -101,34 +103,30 @@ class OutputLock:
             return
         text = (
             f"pid {os.getpid()} on host {socket.gethostname()} since"
-            f" {datetime.now(UTC).isoformat(timespec='seconds')}"
+            f" {datetime.now(UTC).isoformat(timespec='seconds')}, {self.doing}"
         )
         os.ftruncate(fd, 0)
         os.pwrite(fd, text.encode(), 0)
         self.fd = fd
 
     def holder(self) -> str | None:
-        """Who holds the lock now (the text it wrote), or None when no run holds it.
+        """Who holds the lock, by the text it wrote, or None when nobody seems to.
 
-        Probed with a shared lock taken and dropped at once, and only when a holder's text
-        is there (a run that ended emptied it; a killed run's text stays, its lock gone).
+        Read only, never locked (a review: probing with a shared lock made a run that
+        started at that moment fail). A holder that ended emptied the text; a killed one's
+        stays, so on this host the text counts only while its pid lives; on another host
+        it cannot be told and counts.
         """
         try:
-            fd = os.open(self.path, os.O_RDONLY)
+            text = self.path.read_text(errors="replace").strip()
         except OSError:
             return None
-        try:
-            text = os.pread(fd, 1024, 0).decode(errors="replace").strip()
-            if not text or fcntl is None:
-                return None
-            try:
-                fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-            except OSError as e:
-                return text if e.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES) else None
-            fcntl.flock(fd, fcntl.LOCK_UN)
+        found = re.match(r"pid (\d+) on host (\S+) ", text)
+        if found is None:
             return None
-        finally:
-            os.close(fd)
+        if found[2] == socket.gethostname() and not _alive(int(found[1])):
+            return None
+        return text
 
     def release(self) -> None:
         # The file stays: removing it would let a run that opened it just before lock a
@@ -144,6 +142,19 @@ class OutputLock:
 
     def __exit__(self, *exc) -> None:
         self.release()
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process `pid` runs on this host."""
+    if pid <= 0:  # (0 and -1 would signal groups)
+        return False
+    try:
+        os.kill(pid, 0)
+    except PermissionError:  # another user's
+        return True
+    except (ProcessLookupError, OverflowError):  # gone; a pid no system has
+        return False
+    return True
 
 
 # ----------------------------------------------------------------------------- journal

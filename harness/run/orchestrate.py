@@ -747,16 +747,19 @@ def _on_dask(
             # takes no digest, ended the run in a TypeError); later ones check each unit
             _check_workers_code(client, code)
 
-            def submit() -> None:
-                unit = next(pending, None)
-                if unit is not None:
+            def top_up() -> None:
+                """Units sent until one runs per worker thread (what runs is what was
+                sent), or none is left."""
+                while len(running) < window and not stop.requested:
+                    unit = next(pending, None)
+                    if unit is None:
+                        return
                     key = f"rsmbench-{unit[0]['study']}-{unit[0]['case_id']}-{uuid.uuid4().hex[:8]}"
                     running.add(
                         client.submit(_run_unit, unit, suite, seed, name, code, key=key, pure=False)
                     )
 
-            for _ in range(window):  # one unit per worker thread: what runs is what was sent
-                submit()
+            top_up()
             signalled = False
             looked = time.monotonic()
             alone_since = None  # since when the cluster has had no worker
@@ -780,10 +783,14 @@ def _on_dask(
                             raise RunError(
                                 f"Lost the Dask scheduler {scheduler!r} ({why}). {resume}"
                             ) from None
-                        for addr, n in now.items():  # a worker that joined later ran cases too
+                        for addr, n in now.items():  # workers that joined later run cases too
                             leg["workers"].setdefault(
                                 addr, {"host": get_address_host(addr), "nthreads": n}
                             )
+                        # (a cluster that grows, as dask-jobqueue's do while their jobs
+                        # start, ran no more units at once than it had threads at the start)
+                        window = max(window, sum(now.values()))
+                        top_up()
                         alone = not now
                         alone_since = (alone_since or looked) if alone else None
                         if alone_since is not None and looked - alone_since >= NO_WORKERS:
@@ -816,24 +823,27 @@ def _on_dask(
                         # a worker that joined later with an older rsmbench fails before its
                         # own check (its _run_unit takes no digest: a TypeError); when some
                         # worker's code is other, that is said, else the error is the case's
-                        _check_workers_code(client, code)
+                        _check_workers_code(client, code, strict=False)
                         raise
                     yield from results
-                    if not stop.requested:
-                        submit()
+                    top_up()
         finally:
             if running:
                 client.cancel(list(running))
             client.close()
 
 
-def _check_workers_code(client, code: str) -> None:
+def _check_workers_code(client, code: str, strict: bool = True) -> None:
     """Refuse a cluster with a worker that runs other rsmbench code than `code`, or that
-    cannot run rsmbench (:class:`RunError`)."""
+    cannot run rsmbench (:class:`RunError`). Not `strict`: only the workers that answer
+    are checked, and a cluster that cannot answer (going away) passes, so that the
+    caller's own error stands (a review: a lost scheduler read "install rsmbench")."""
     try:
-        theirs = client.run(code_digest)
+        theirs = client.run(code_digest, on_error="raise" if strict else "ignore")
     except Exception as e:  # (a worker's error comes back as a bare Exception naming
         # it: "ModuleNotFoundError(\"No module named 'harness'\")")
+        if not strict:
+            return
         raise _cannot_run(e) from None
     for addr, digest in sorted(theirs.items()):
         if digest != code:
