@@ -1105,6 +1105,26 @@ def test_a_report_refuses_another_runs_folder_and_a_second_writer(tmp_path):
         write_report(first)
 
 
+def test_a_certify_study_none_of_whose_combinations_applies_says_so(tmp_path):
+    # a trial: squad, rotation-spline and bezier-slerp with hull and lipschitz wrote an
+    # empty accuracy table in every format (`|  |` in report.md, a 1-byte CSV)
+    from harness.report.document import Document, pyplot
+    from harness.report.sections import certify_section
+
+    rows = [
+        {"study": "certify", "scene": "s", "keyframes": "scene", "scheme": scheme, "bound": b,
+         "tolerance": 1e-3, "reason": "no rational control structure", "verdict": "n/a",
+         "truth": "unproven", "repeat": 0}
+        for scheme in ("squad", "rotation-spline") for b in ("hull", "lipschitz")
+    ]  # fmt: skip
+    doc = Document(tmp_path)
+    certify_section(doc, pd.DataFrame(rows), pyplot())
+    shown = "\n".join(doc.md)
+    assert "No scheme/bound combination of the study applies" in shown
+    assert not (tmp_path / "tables" / "accuracy_by_method.csv").exists()
+    assert len(pd.read_csv(tmp_path / "tables" / "not_applicable.csv")) == 4
+
+
 def _repair_rows(tol: float, clearance: float) -> list[dict]:
     # two repaired motions (CPU 0.1 s, moved 0.1 and 0.3 m) and four refused (1 ms) per
     # method: the medians over repaired motions differ from those over all of them

@@ -79,6 +79,17 @@ def _per_scene_display(per: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+def _accuracy_table(doc: Document, overall: list, apart: str) -> None:
+    """The accuracy-by-method table of the (method, :func:`rates`) pairs `overall`."""
+    doc.table(
+        pd.DataFrame([_accuracy_row(m, r) for m, r in overall]),
+        "Per scheme/bound over every scene, keyframe set and tolerance of the study, each query once (a study's repeats time it again, and are not counted again): verdict counts; false free out of the rows whose proven truth is collision; false collision out of those proven free. The ground truth is dense exact distances (MuJoCo mj_geomDistance) plus the Lipschitz margin of a proven speed bound; schemes without one have truth `unproven`, counted apart."
+        + apart,
+        "accuracy_by_method",
+        data=pd.DataFrame([{"method": m, **rate_numbers(r)} for m, r in overall]),
+    )
+
+
 def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
     cert = study_rows(df, "certify")
     if not len(cert):
@@ -99,13 +110,13 @@ def certify_section(doc: Document, df: pd.DataFrame, plt) -> None:
         if left
         else ""
     )
-    doc.table(
-        pd.DataFrame([_accuracy_row(m, r) for m, r in overall]),
-        "Per scheme/bound over every scene, keyframe set and tolerance of the study, each query once (a study's repeats time it again, and are not counted again): verdict counts; false free out of the rows whose proven truth is collision; false collision out of those proven free. The ground truth is dense exact distances (MuJoCo mj_geomDistance) plus the Lipschitz margin of a proven speed bound; schemes without one have truth `unproven`, counted apart."
-        + apart,
-        "accuracy_by_method",
-        data=pd.DataFrame([{"method": m, **rate_numbers(r)} for m, r in overall]),
-    )
+    if not overall:  # (a trial: an empty table in every format, `|  |` in report.md)
+        doc.p(
+            "No scheme/bound combination of the study applies to its motions: each is listed"
+            " in the not-applicable table below, with the reason."
+        )
+    else:
+        _accuracy_table(doc, overall, apart)
     _rate_figure(doc, cert, plt)
     per = []
     keys = ["scene", "tolerance", "method"]
