@@ -51,6 +51,24 @@ def test_each_number_per_run_with_its_spread_across_runs(tmp_path):
     assert len(got.about) == 5 and "seed 0" in got.about[1]
 
 
+def test_runs_without_headline_figures_are_refused(tmp_path):
+    # a trial: two runs of a scaling study alone printed a table of its header, exit 0
+    runs = []
+    for n, started in (("a", "2026-01-01T00:00:00"), ("b", "2026-01-02T00:00:00")):
+        folder = tmp_path / n
+        folder.mkdir()
+        rows = [{"study": "scaling", "method": "uniform sampling", "delta": d, "cost": 10 / d}
+                for d in (0.01, 0.03)]  # fmt: skip
+        pd.DataFrame(rows).to_parquet(folder / "results.parquet", index=False)
+        (folder / "meta.json").write_text(
+            json.dumps({**META, "code_digest": "c0de", "started": started})
+        )
+        runs.append(folder)
+    with pytest.raises(ReportError, match=r"no headline figures .*\(their studies: scaling\)"):
+        across(runs)
+    assert main(["across", *map(str, runs)]) == 2
+
+
 def test_runs_of_another_suite_or_code_or_the_same_run_twice_are_refused(tmp_path):
     a = _run(tmp_path / "a")
     with pytest.raises(ReportError, match="at least two run folders, got 1"):

@@ -111,6 +111,13 @@ def across(runs: Sequence[str | Path]) -> Across:
         nums = headline_numbers(headline_lines(df, meta))
         per_run.append(nums.set_index(["figure", "quantity"])["value"].rename(name))
     order = list(dict.fromkeys(k for s in per_run for k in s.index))
+    if not order:  # (a trial: a table of its header alone, and exit 0)
+        studies = sorted({str(k) for _, df, _ in read for k in df["study"].unique()} - {"startup"})
+        raise ReportError(
+            f"The runs have no headline figures to set side by side (their studies: "
+            f"{', '.join(studies) or 'none'}); compare their reports, or `rsmbench compare`"
+            " two of them."
+        )
     wide = pd.concat(per_run, axis=1).reindex(order)
     values = wide.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
     present = np.isfinite(values)
