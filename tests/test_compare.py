@@ -837,6 +837,9 @@ def test_interleaved_benchmarks_are_gated_per_contender(tmp_path, capsys):
     assert status["t.py::test_x_interleaved [ours, CPU]"] == "regression", res.text()
     assert status["t.py::test_x_interleaved [scipy, CPU]"] in ("ok", "faster")
     assert status["t.py::test_x_interleaved"].startswith("not gated: 1 timing sample")
+    # (a bootstrap of one round is no 95 % interval: none is given, nor printed)
+    (one,) = [t for t in res.timing if t.name == "t.py::test_x_interleaved"]
+    assert np.isnan(one.lo) and np.isnan(one.hi) and np.isfinite(one.ratio)
     bad = doc(1.0)
     bad["benchmarks"][0]["extra_info"]["ours_cpu_rounds"] = [0.1, "x"]
     b.write_text(json.dumps(bad))

@@ -253,6 +253,9 @@ def _decide(
         thr, note = SMALL_GROUP_SLOWDOWN - 1.0, f"below {_fmt_s(low)}: at {SMALL_GROUP_SLOWDOWN:g}x"
     if min(samples) < MIN_ROUNDS:
         status = f"not gated: {min(samples)} timing sample(s) < {MIN_ROUNDS}"
+        # (a trial: the bootstrap of 1 round printed [1.048, 1.048], of 3 the extreme
+        # ratios, both under the column "95% interval": no such coverage)
+        lo = hi = math.nan
     elif mb < TIMER_RESOLUTION:
         status = f"not gated: base {_fmt_s(mb)} < {_fmt_s(TIMER_RESOLUTION)}"
     elif mn < TIMER_RESOLUTION:
