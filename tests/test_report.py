@@ -1758,6 +1758,11 @@ def test_motions_that_start_in_contact_stay_out_of_thetoi_figure(tmp_path):
         " duration" in caption
     )
     assert "1 row(s) whose toi_lo lies inside the bracket" in caption
+    # every collision starting in contact: none is left, not none there (a trial)
+    doc = Document(tmp_path)
+    toi_figure(doc, pd.DataFrame([row("hull", 0.0, True), row("aabb", 0.0, True)]), plt)
+    said = "\n".join(doc.md)
+    assert "No collision case with a proven truth left: no TOI-error figure. 2 row(s)" in said
     # (an audit) each motion's bracket once: three methods' rows of a motion of width 0.001
     # and one of a motion of width 0.003 have median 0.001 by rows, 0.002 by motions
     seen.clear()

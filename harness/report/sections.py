@@ -272,7 +272,8 @@ def toi_figure(
     )
     if not len(both):
         doc.p(
-            f"(No collision case with a proven truth: no TOI-error figure.{left_out} {late}"
+            f"(No collision case with a proven truth{' left' if started else ''}: no TOI-error"
+            f" figure.{left_out} {late}"
             " row(s) had toi_lo later than the ground truth's earliest pose proven to intersect (toi_true).)"
         )
         return
