@@ -1811,6 +1811,29 @@ def test_the_toi_table_gives_no_bracket_for_a_tools_single_contact_time(tmp_path
     assert t[["fcl", "ipctk"]].isna().all()
 
 
+def test_toi_common_motions_are_of_one_study_and_absent_for_one_bound(tmp_path):
+    # a trial: two pooled studies, the hull in both and sampled in one, gave hull "n common
+    # 2" and sampled 1 under "the same motions in every row"; one bound gave "n common 0"
+    from harness.report.document import Document, pyplot
+    from harness.report.sections import toi_figure
+
+    def row(bound, err, study):
+        return {"study": "certify", "truth": "collision", "verdict": "collision",
+                "bound": bound, "toi_error": err, "duration": 2.0, "scene": "s",
+                "keyframes": "scene", "scheme": "rational", "tolerance": 1e-3,
+                "toi_true": 1.0, "toi_true_lo": 0.9985, "study_index": study}  # fmt: skip
+
+    rows = [row("hull", -1e-3, 0), row("hull", -2e-3, 1), row("sampled", -4e-3, 1)]
+    toi_figure(Document(tmp_path / "two"), pd.DataFrame(rows), pyplot())
+    t = pd.read_csv(tmp_path / "two" / "tables" / "toi_error.csv").set_index("method")
+    assert t.loc["hull", "n"] == 2 and list(t["n_common"]) == [1, 1]
+    np.testing.assert_allclose(t.loc["hull", "median_abs_error_common_fraction"], 1e-3)
+    doc = Document(tmp_path / "one")
+    toi_figure(doc, pd.DataFrame(rows[:2]), pyplot())
+    t = pd.read_csv(tmp_path / "one" / "tables" / "toi_error.csv")
+    assert "n_common" not in t and "'common'" not in "\n".join(doc.md)
+
+
 def test_the_truth_says_when_a_motion_starts_in_contact():
     from types import SimpleNamespace
 

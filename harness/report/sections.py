@@ -317,9 +317,16 @@ def toi_figure(
     )
     # like for like beside the pooled figures: the motions every bound answered (an audit:
     # the rows pool different motions per bound)
+    # (and of one study: a trial's pooled studies gave the hull 2 common rows of a motion
+    # that sampled, in one of them only, answered once, under "the same motions")
+    mine_of = (
+        ident + "|" + both["study_index"].astype(str)
+        if ident is not None and "study_index" in both
+        else ident
+    )
     common = (
-        set.intersection(*(set(ident[both["bound"] == b]) for b in bounds))
-        if ident is not None and len(bounds) > 1
+        set.intersection(*(set(mine_of[both["bound"] == b]) for b in bounds))
+        if mine_of is not None and len(bounds) > 1
         else set()
     )
     # each method's own bracket of the first contact, [toi_lo, toi_hi] (a trial read the
@@ -336,7 +343,7 @@ def toi_figure(
         v, e = mag[mine].to_numpy(dtype=float), err[mine].to_numpy(dtype=float) - slack[mine]
         exact = int((v <= TOI_FLOOR).sum())
         shared = (
-            mag[mine & ident.isin(common).to_numpy()].to_numpy(dtype=float)
+            mag[mine & mine_of.isin(common).to_numpy()].to_numpy(dtype=float)
             if common
             else np.array([])
         )
@@ -387,10 +394,19 @@ def toi_figure(
     )
     # the figure's numbers as a table (a researcher's trial: a paper quotes n, median, max)
     unit = "fraction of the duration" if relative else "parameter units"
+    common_text = (
+        " 'common': over the motions (scene, keyframes, scheme, tolerance; and study, where"
+        " several pool) that every bound here answered with a collision whose truth is"
+        " proven, the same motions in every row (– where none are shared)."
+        if len(bounds) > 1
+        else ""
+    )
     t = pd.DataFrame(rows)
+    if len(bounds) == 1:  # (nothing to share: a trial read "n common 0" as a finding)
+        t = t.drop(columns=["n common", "median |error| common"])
     doc.table(
         t,
-        f"The time-of-contact errors of the figure above, per bound: |toi_lo − toi_true| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's earliest pose proven to intersect (toi_true){f' by more than {late_slack:g} of the duration' if late_slack else ''} (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''} 'common': over the motions (scene, keyframes, scheme, tolerance) that every bound here answered with a collision whose truth is proven, the same motions in every row (– where none are shared). 'median bracket': the median width of the method's own bracket of the first contact, [toi_lo, toi_hi] (toi_hi: a pose it found intersecting), as a {unit} (– where it gives none, as the external tools, which report one contact time); the hull's ends with the subdivision piece whose end pose intersects, which can be far wider than toi_lo's error where the motion moves fast.{bracket}{left_out}",
+        f"The time-of-contact errors of the figure above, per bound: |toi_lo − toi_true| as a {unit} ('exact': at most {TOI_FLOOR:g}); 'late': rows whose toi_lo lies after the ground truth's earliest pose proven to intersect (toi_true){f' by more than {late_slack:g} of the duration' if late_slack else ''} (a certified bound has none).{f' Each row pools the schemes its bound answers, so the rows are not the same motions: {pooled}.' if pooled else ''}{common_text} 'median bracket': the median width of the method's own bracket of the first contact, [toi_lo, toi_hi] (toi_hi: a pose it found intersecting), as a {unit} (– where it gives none, as the external tools, which report one contact time); the hull's ends with the subdivision piece whose end pose intersects, which can be far wider than toi_lo's error where the motion moves fast.{bracket}{left_out}",
         name,
         data=t.rename(
             columns={
