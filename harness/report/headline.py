@@ -357,6 +357,16 @@ def _paired_text(paired: tuple[int, float] | None) -> str:
     )
 
 
+def _left_unknown(h: pd.Series) -> str:
+    """'; unknown on 2/3 pairs (...)' where the hull's timed pairs were not all decided (a
+    trial: its cost line read as the price of answers it did not give), else ''."""
+    u = h.get("_unknown")
+    if u is None or not u[0]:
+        return ""
+    why = f", reasons: {u[2]}" if u[2] else ""
+    return f"; unknown on {u[0]}/{u[1]} pairs (a lower bound of the cost of deciding them{why})"
+
+
 def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
     """Per workload and mode: the hull's cost per pair, then every other method's cost as
     a ratio to it (batch against batch, single queries against single queries)."""
@@ -389,7 +399,8 @@ def _workload_headline(df: pd.DataFrame, meta: dict) -> list[HeadlineLine]:
             HeadlineLine(
                 figure=f"hull cost per pair, {what.get(mode, mode)}{which}",
                 value=f"{fmt_time(h['cpu_us_per_pair'] * 1e-6)} CPU ({fmt_time(h['wall_us_per_pair'] * 1e-6)} wall)"
-                + _disagreeing(h),
+                + _disagreeing(h)
+                + _left_unknown(h),
                 spread=f"CPU IQR {us_span(h['cpu_us_q1'], h['cpu_us_q3'])}, {ci_name(h['ci_level'])} {us_span(h['cpu_us_ci_lo'], h['cpu_us_ci_hi'])}, {h['rounds']} round{'' if h['rounds'] == 1 else 's'}",
                 basis=work,
                 numbers={
