@@ -353,7 +353,8 @@ def smoothness(
     Returns:
         dict with ``scheme``, ``continuity`` ("C0"/"C1"/"C2"), ``continuity_order``, the
         largest jump of each quantity at the smallest offset (``jump_velocity`` ...) and
-        at the knots themselves (``knot_jump_velocity`` ...: :func:`limit_jumps`),
+        at the knots themselves (``knot_jump_velocity`` ...: :func:`limit_jumps`); a
+        motion without an interior knot has none of these (None, and NaN jumps),
         ``angular_acceleration_energy`` ∫|ω'|², ``jerk_energy`` ∫|p'''|², ``peak_angular_velocity``,
         ``peak_vertex_speed``, ``invariance_world``, ``invariance_body`` and, for schemes that
         solve iteratively, ``solve_iterations`` and ``solve_seconds``.
@@ -365,17 +366,20 @@ def smoothness(
     pts = _body_points(body)
     t0 = time.perf_counter()
     jumps = knot_jumps(motion, offsets)
-    order = continuity_order(jumps)
+    # no interior knot (two keyframes): nothing measured, no class (a trial: every scheme,
+    # slerp's C⁰ ones too, read C2 with jumps of 0 on such motions)
+    knotted = jumps["velocity"].shape[0] > 0
+    order = continuity_order(jumps) if knotted else None
     row: dict[str, Any] = {
         "scheme": motion.scheme,
-        "continuity": f"C{order}",
+        "continuity": f"C{order}" if knotted else None,
         "continuity_order": order,
     }
     for q in QUANTITIES:
         j = jumps[q]
-        row[f"jump_{q}"] = float(j[:, -1].max()) if j.size else 0.0
+        row[f"jump_{q}"] = float(j[:, -1].max()) if knotted else float("nan")
         lim = limit_jumps(jumps[q + "_diff"], jumps["offsets"])
-        row[f"knot_jump_{q}"] = float(lim.max()) if lim.size else 0.0
+        row[f"knot_jump_{q}"] = float(lim.max()) if knotted else float("nan")
     knots = motion.knots
     xg, wg = gauss_nodes(knots, ENERGY_NODES)
     # Jerk by a central difference of the analytic acceleration at interior Gauss points;

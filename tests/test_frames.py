@@ -117,6 +117,21 @@ def test_invariance_errors_samples_are_checked():
         invariance_errors(m, samples=2.5)
 
 
+def test_a_motion_without_an_interior_knot_has_no_continuity_class():
+    # a trial: two keyframes gave every scheme class C2 and jumps of 0, slerp's C⁰ too
+    q, p = [[1, 0, 0, 0], [0.8, 0.6, 0, 0]], [[0, 0, 0], [1, 0, 0]]
+    for scheme in ("rational", "sclerp", "slerp-linear"):
+        row = motions.smoothness(motions.build(scheme, q, p, [0.0, 1.0]))
+        assert row["continuity"] is None and row["continuity_order"] is None, scheme
+        assert math.isnan(row["knot_jump_velocity"]) and math.isnan(row["jump_acceleration"])
+        assert np.isfinite(row["invariance_world"])
+    # with an interior knot the class is measured: sclerp's corners are C0
+    q3, p3 = [*q, [0.6, 0.0, 0.8, 0]], [*p, [1, 1, 0]]
+    assert (
+        motions.smoothness(motions.build("sclerp", q3, p3, [0.0, 1.0, 2.0]))["continuity"] == "C0"
+    )
+
+
 def test_invariance_of_a_scheme_that_cannot_build_the_moved_keyframes_is_nan():
     # a trial: two half turns about z in place; the cumulative B-spline meets these
     # keyframes, but its solve stalls on them moved to the invariance test's frames, and

@@ -1588,6 +1588,26 @@ def test_continuity_figure_with_every_jump_zero_or_missing_is_drawn(tmp_path):
     assert "continuity_jumps.png" in "".join(doc.md)
 
 
+def test_continuity_table_leaves_out_motions_without_an_interior_knot_and_says_so(tmp_path):
+    from harness.report.document import Document, pyplot
+    from harness.report.motion_sections import continuity_section
+
+    def row(keyframes, continuity, a):
+        return {"study": "certify", "scene": "s", "keyframes": keyframes, "scheme": "sclerp",
+                "continuity": continuity, "jump_acceleration": a, "jump_angular_acceleration": a,
+                "jump_angular_velocity": a, "invariance_world": 0.0, "invariance_body": 0.0}  # fmt: skip
+
+    rows = [row("scene", "C0", 1.0), row("random-0", None, np.nan)]
+    doc = Document(tmp_path / "mixed")
+    continuity_section(doc, pd.DataFrame(rows), pyplot())
+    t = pd.read_csv(tmp_path / "mixed" / "tables" / "continuity.csv")
+    assert list(t["continuity_class"]) == ["C0"]
+    assert "1 motion(s) without an interior knot" in "\n".join(doc.md)
+    doc = Document(tmp_path / "none")
+    continuity_section(doc, pd.DataFrame(rows[1:]), pyplot())
+    assert "No motion of the run has an interior knot" in "\n".join(doc.md)
+
+
 def test_the_machine_line_says_what_its_wall_time_covers():
     """A trial's report said 'total wall time 43 s' of a 52 s shell run: meta.json times
     the cases of each leg, not the start-up nor the report's drawing, and the line says so."""

@@ -39,8 +39,15 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     if not len(src) or "continuity" not in src:
         return
     doc.h("Continuity measured at the knots")
+    # motions without an interior knot have no class (their invariance was measured)
+    knotless = src["continuity"].isna() & numeric(src, "invariance_world").notna()
+    n_knotless = len(src[knotless].drop_duplicates(["scene", "keyframes", "scheme"]))
     src = src.dropna(subset=["continuity"]).drop_duplicates(["scene", "keyframes", "scheme"])
     if not len(src):
+        doc.p(
+            "No motion of the run has an interior knot (two keyframes each), so there is no"
+            " continuity to measure."
+        )
         return
     # the jumps at the knots themselves (runs from before them, or resumed across them:
     # at the smallest offset, where a C² scheme "jumps" by the offset times its jerk, the
@@ -73,6 +80,12 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
             "body-frame invariance error": g["invariance_body"].max(),
         }
     ).reset_index()
+    knotless_text = (
+        f" {n_knotless} motion(s) without an interior knot (two keyframes) have no class"
+        " and are not in this table."
+        if n_knotless
+        else ""
+    )
     where = (
         "the largest one-sided jumps at the knots themselves, |f(k+) − f(k−)| (the differences at the three smallest offsets extrapolated to offset 0: a derivative that a scheme keeps continuous in closed form shows round-off, about 1e-12 of its size; a scheme solved iteratively shows what its solve leaves, which can be rated continuous)"
         if at_knot
@@ -80,7 +93,8 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     )
     doc.table(
         t,
-        f"Measured continuity class (a derivative counts as continuous when its jump at a knot, extrapolated to the knot from offsets of 1e-3 to 1e-5 of the shorter knot interval, is below {JUMP_FLOOR:g} of its size over the two intervals around the knot, at least the next lower derivative's size over the longer interval, plus its round-off and the extrapolation's own error estimate) and {where}, {'over the scene keyframes only, whose times are seconds (m/s², rad/s², rad/s, m/s; – for a scheme with none): random keyframe sets are timed by chord length, per metre of parameter, and the class alone pools them with the scene keyframes, since a class does not depend on the timing' if len(scene_kf) else 'per unit of the motion parameter (random keyframe sets, timed by chord length: m/m², rad/m²)'}; invariance: largest matrix difference after moving the world frame or turning the body (– where the scheme cannot build the moved keyframes: its solve fails there). A scheme's class is that of its worst motion: scipy's RotationSpline is C² only where its iterative solve converges (10 iterations, to 1e-9 rad/s), and with very uneven keyframe times it measures C¹ or C⁰, which is what it computes.",
+        f"Measured continuity class (a derivative counts as continuous when its jump at a knot, extrapolated to the knot from offsets of 1e-3 to 1e-5 of the shorter knot interval, is below {JUMP_FLOOR:g} of its size over the two intervals around the knot, at least the next lower derivative's size over the longer interval, plus its round-off and the extrapolation's own error estimate) and {where}, {'over the scene keyframes only, whose times are seconds (m/s², rad/s², rad/s, m/s; – for a scheme with none): random keyframe sets are timed by chord length, per metre of parameter, and the class alone pools them with the scene keyframes, since a class does not depend on the timing' if len(scene_kf) else 'per unit of the motion parameter (random keyframe sets, timed by chord length: m/m², rad/m²)'}; invariance: largest matrix difference after moving the world frame or turning the body (– where the scheme cannot build the moved keyframes: its solve fails there). A scheme's class is that of its worst motion: scipy's RotationSpline is C² only where its iterative solve converges (10 iterations, to 1e-9 rad/s), and with very uneven keyframe times it measures C¹ or C⁰, which is what it computes."
+        + knotless_text,
         "continuity",
         data=t.rename(columns=CONTINUITY_COLUMNS),
     )
