@@ -39,7 +39,7 @@ def _schemes() -> int:
     for r in rows:
         it = "" if np.isnan(r["solve_iterations"]) else str(int(r["solve_iterations"]))
         print(
-            f"{r['scheme']:20s} {r['continuity']:>10s} {r['invariance_world']:11.1e} {r['invariance_body']:11.1e} {r['speed_bound']:>12s} {it:>11s}"
+            f"{r['scheme']:20s} {r['continuity'] or '–':>10s} {r['invariance_world']:11.1e} {r['invariance_body']:11.1e} {r['speed_bound']:>12s} {it:>11s}"
         )
     print("\ncontinuity measured from one-sided jumps at knots, chordal (non-uniform) times;")
     print("invariance: max matrix difference after moving the world frame / turning the body.")

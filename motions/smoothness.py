@@ -238,8 +238,11 @@ def _at_zero(diffs: np.ndarray, offs: np.ndarray, *, line: bool) -> np.ndarray:
     return np.linalg.norm(np.einsum("koc,o->kc", diffs[:, -3:], w), axis=-1)
 
 
-def continuity_order(jumps: dict[str, np.ndarray]) -> int:
-    """Measured continuity class: 2 (C²), 1 (C¹) or 0 (C⁰) from :func:`knot_jumps` output."""
+def continuity_order(jumps: dict[str, np.ndarray]) -> int | None:
+    """Measured continuity class: 2 (C²), 1 (C¹) or 0 (C⁰) from :func:`knot_jumps` output;
+    None without an interior knot (nothing measured)."""
+    if jumps["velocity"].shape[0] == 0:
+        return None
     c = {q: _continuous(jumps, q) for q in QUANTITIES}
     if not (np.all(c["velocity"]) and np.all(c["angular_velocity"])):
         return 0
@@ -368,8 +371,8 @@ def smoothness(
     jumps = knot_jumps(motion, offsets)
     # no interior knot (two keyframes): nothing measured, no class (a trial: every scheme,
     # slerp's C⁰ ones too, read C2 with jumps of 0 on such motions)
-    knotted = jumps["velocity"].shape[0] > 0
-    order = continuity_order(jumps) if knotted else None
+    order = continuity_order(jumps)
+    knotted = order is not None
     row: dict[str, Any] = {
         "scheme": motion.scheme,
         "continuity": f"C{order}" if knotted else None,

@@ -12,7 +12,7 @@ import pytest
 from scipy.interpolate import BSpline, make_interp_spline
 
 import motions
-from motions.smoothness import invariance_errors
+from motions.smoothness import continuity_order, invariance_errors, knot_jumps
 
 
 @pytest.fixture
@@ -125,11 +125,25 @@ def test_a_motion_without_an_interior_knot_has_no_continuity_class():
         assert row["continuity"] is None and row["continuity_order"] is None, scheme
         assert math.isnan(row["knot_jump_velocity"]) and math.isnan(row["jump_acceleration"])
         assert np.isfinite(row["invariance_world"])
+        m = motions.build(scheme, q, p, [0.0, 1.0])
+        assert continuity_order(knot_jumps(m)) is None
     # with an interior knot the class is measured: sclerp's corners are C0
     q3, p3 = [*q, [0.6, 0.0, 0.8, 0]], [*p, [1, 1, 0]]
     assert (
         motions.smoothness(motions.build("sclerp", q3, p3, [0.0, 1.0, 2.0]))["continuity"] == "C0"
     )
+
+
+def test_the_schemes_command_prints_a_row_without_a_class(monkeypatch, capsys):
+    # a review: a knotless row's continuity None broke the printer's format
+    import harness.cli
+    import motions.demo
+
+    row = {"scheme": "slerp", "continuity": None, "invariance_world": 0.0,
+           "invariance_body": 0.0, "speed_bound": "proven", "solve_iterations": math.nan}  # fmt: skip
+    monkeypatch.setattr(motions.demo, "scheme_table", lambda: [row])
+    assert harness.cli.main(["schemes"]) == 0
+    assert capsys.readouterr().out.splitlines()[2].split()[:2] == ["slerp", "–"]
 
 
 def test_invariance_of_a_scheme_that_cannot_build_the_moved_keyframes_is_nan():

@@ -446,6 +446,9 @@ def test_scaling_says_which_costs_of_0_it_cannot_draw(tmp_path):
     )
     t = pd.read_csv(tmp_path / "some" / "tables" / "scaling_slopes.csv")
     assert list(t["method"]) == ["uniform sampling"]
+    doc = Document(tmp_path / "twice")  # (two pooled studies: each δ named once)
+    scaling_section(doc, pd.DataFrame(rows + [r for r in rows if r["cost"] == 0]), pyplot())
+    assert "(hull) at δ = 100, 1000, 10000 mm" in "\n".join(doc.md)
     doc = Document(tmp_path / "none")
     scaling_section(doc, pd.DataFrame([r for r in rows if r["cost"] == 0]), pyplot())
     shown = "\n".join(doc.md)
@@ -1249,6 +1252,18 @@ def test_studies_that_differ_only_in_a_setting_are_told_apart(written):
     assert pooled_studies(pd.concat([df, slot.assign(study_index=1)])) == [
         "study[0] and study[1] (certify: a setting the rows do not hold differs)"
     ]
+    # two pooled sets of one kind are named apart, each with its own difference (a review)
+    cube = df[(df["study"] == "certify") & (df["scene"] == "cube_keyframes")]
+    sets = pd.concat([
+        slot.assign(study_index=0, max_depth=10, rounds=5),
+        slot.assign(study_index=1, max_depth=10, rounds=3),
+        cube.assign(study_index=2, max_depth=20, rounds=5),
+        cube.assign(study_index=3, max_depth=20, rounds=3),
+    ])  # fmt: skip
+    assert pooled_studies(sets) == [
+        "study[0] and study[1] (certify: `rounds` differs)",
+        "study[2] and study[3] (certify: `rounds` differs)",
+    ]
     labels = method_labels(both)
     pooled = both["study"].eq("certify") & both["scene"].eq("slot")
     assert labels[pooled & both["study_index"].eq(1)].str.endswith(" (study[1])").all()
@@ -1595,9 +1610,11 @@ def test_continuity_table_leaves_out_motions_without_an_interior_knot_and_says_s
     def row(keyframes, continuity, a):
         return {"study": "certify", "scene": "s", "keyframes": keyframes, "scheme": "sclerp",
                 "continuity": continuity, "jump_acceleration": a, "jump_angular_acceleration": a,
-                "jump_angular_velocity": a, "invariance_world": 0.0, "invariance_body": 0.0}  # fmt: skip
+                "jump_angular_velocity": a, "invariance_world": 0.0, "invariance_body": 0.0,
+                "jerk_energy": 1.0}  # fmt: skip
 
-    rows = [row("scene", "C0", 1.0), row("random-0", None, np.nan)]
+    # (the knotless one's invariance NaN: a scheme that cannot rebuild it moved)
+    rows = [row("scene", "C0", 1.0), {**row("random-0", None, np.nan), "invariance_world": np.nan}]
     doc = Document(tmp_path / "mixed")
     continuity_section(doc, pd.DataFrame(rows), pyplot())
     t = pd.read_csv(tmp_path / "mixed" / "tables" / "continuity.csv")
@@ -1865,6 +1882,11 @@ def test_toi_common_motions_are_of_one_study_and_absent_for_one_bound(tmp_path):
     t = pd.read_csv(tmp_path / "two" / "tables" / "toi_error.csv").set_index("method")
     assert t.loc["hull", "n"] == 2 and list(t["n_common"]) == [1, 1]
     np.testing.assert_allclose(t.loc["hull", "median_abs_error_common_fraction"], 1e-3)
+    # studies that do not pool (each bound its own study) share their motions (a review)
+    apart = [row("hull", -1e-3, 0), row("lipschitz", -2e-3, 1)]
+    toi_figure(Document(tmp_path / "apart"), pd.DataFrame(apart), pyplot())
+    t = pd.read_csv(tmp_path / "apart" / "tables" / "toi_error.csv")
+    assert list(t["n_common"]) == [1, 1]
     doc = Document(tmp_path / "one")
     toi_figure(doc, pd.DataFrame(rows[:2]), pyplot())
     t = pd.read_csv(tmp_path / "one" / "tables" / "toi_error.csv")

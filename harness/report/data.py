@@ -207,8 +207,16 @@ def pooled_studies(df: pd.DataFrame) -> list[str]:
     tell."""
     n = pooled_counts(df)
     shared = df[n > 1]
+    if not len(shared):
+        return []
+    # each pooled set: the studies that share an identity (a review: two sets of one kind
+    # were named as one, with the settings that differ between the sets)
+    cols = [c for c in IDENTITY if c in shared]
+    sets = shared.groupby(cols, dropna=False, sort=False)["study_index"].transform(
+        lambda v: ",".join(map(str, sorted({int(i) for i in v.dropna()})))
+    )
     out = []
-    for kind, g in shared.groupby("study", sort=True):
+    for (kind, _), g in shared.groupby(["study", sets], sort=True):
         if kind == "startup":  # (a first call per study and bound: rows of their own)
             continue
         ids = sorted({int(i) for i in g["study_index"].dropna()})

@@ -39,8 +39,8 @@ def continuity_section(doc: Document, df: pd.DataFrame, plt) -> None:
     if not len(src) or "continuity" not in src:
         return
     doc.h("Continuity measured at the knots")
-    # motions without an interior knot have no class (their invariance was measured)
-    knotless = src["continuity"].isna() & numeric(src, "invariance_world").notna()
+    # motions without an interior knot have no class (their other figures were measured)
+    knotless = src["continuity"].isna() & numeric(src, "jerk_energy").notna()
     n_knotless = len(src[knotless].drop_duplicates(["scene", "keyframes", "scheme"]))
     src = src.dropna(subset=["continuity"]).drop_duplicates(["scene", "keyframes", "scheme"])
     if not len(src):

@@ -19,6 +19,7 @@ from .data import (
     implementation_of,
     method_labels,
     numeric,
+    pooled_counts,
     rate_numbers,
     rates,
     ratio_cells,
@@ -321,7 +322,7 @@ def toi_figure(
     # that sampled, in one of them only, answered once, under "the same motions")
     mine_of = (
         ident + "|" + both["study_index"].astype(str)
-        if ident is not None and "study_index" in both
+        if ident is not None and (pooled_counts(both) > 1).any()
         else ident
     )
     common = (
@@ -656,7 +657,7 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
     # missing from the figure and both tables without a word)
     zero = rows[numeric(rows, "cost") == 0]
     unseen = "; ".join(
-        f"{method} at δ = {', '.join(f'{d * 1e3:g}' for d in sorted(g['delta'].astype(float)))} mm"
+        f"{method} at δ = {', '.join(f'{d * 1e3:g}' for d in sorted(set(g['delta'].astype(float))))} mm"
         for method, g in zero.groupby("method")
     )
     if not len(sc):
