@@ -2221,3 +2221,8 @@ def test_a_repair_headline_of_rows_without_a_measured_clearance_says_so():
         " the truth did not measure (a run of older code), 1 colliding, and cannot decide 0"
         in line["basis"]
     ), line["basis"]
+    # a run whose repairs were all refused has no truth_clearance either, and no claim: no
+    # older code to blame (a trial)
+    refused = [{**r, "status": "refused", "truth": None, "max_deviation": np.nan} for r in rows]
+    (line,) = [x for x in headline(pd.DataFrame(refused)) if "sampled repair" in x["figure"]]
+    assert "older code" not in line["basis"] and "of its 0 claims" in line["basis"], line

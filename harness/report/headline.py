@@ -207,7 +207,7 @@ def _repair_headline(df: pd.DataFrame) -> list[HeadlineLine]:
         # review read "within the truth's resolution" of a clearance never measured)
         undecided = (
             "within the truth's resolution of it (undecided)"
-            if "truth_clearance" in rep
+            if "truth_clearance" in rep or not int(r["claimed_all"])  # (no claim to measure)
             else "whose clearance the truth did not measure (a run of older code)"
         )
         keeps = (
