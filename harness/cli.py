@@ -614,6 +614,9 @@ def _corpus(args) -> int:
             raise UsageError(
                 f"Unknown family in `--families` {args.families!r}; expected some of {list(FAMILIES)}."
             )
+        twice = sorted({f for f in fams or () if fams.count(f) > 1})
+        if twice:  # (a trial: generate's ValueError, a traceback)
+            raise UsageError(f"Expected each family once in `--families`, got {twice} twice.")
         cases = generate(args.seed, args.size, fams)
         gen = {"seed": args.seed, "size": args.size, "families": fams or "all"}
         path = export(cases, args.path, gen)

@@ -732,6 +732,24 @@ def test_a_truth_that_contradicts_itself_is_refused(tmp_path, capsys, small_expo
         assert len(err) == 1 and where in err[0] and field in err[0], (edit, err)
 
 
+def test_a_case_without_obstacles_or_not_an_object_is_refused(tmp_path, capsys, small_export):
+    # a trial: a case with no obstacle whose truth said 'free, distance 0.05' passed
+    # `corpus check`, and a suite then counted every method's free as right; a case given
+    # as a string was said to miss its `id`
+    from harness.cli import main
+
+    doc, _ = small_export
+    broken = json.loads(json.dumps(doc))
+    broken["cases"][0]["obstacles"] = []
+    with pytest.raises(CorpusFormatError, match=r"cases\[0\] .*obstacles: expected at least one"):
+        load(_write(tmp_path, broken))
+    assert main(["corpus", "check", _write(tmp_path, broken)]) == 2
+    capsys.readouterr()
+    broken["cases"][0] = "spin-000"
+    with pytest.raises(CorpusFormatError, match=r"cases\[0\]: expected an object, got str"):
+        load(_write(tmp_path, broken))
+
+
 def test_every_shipped_corpus_truth_is_consistent(tmp_path, capsys, corpus):
     # the checks above refuse none of the cases the built-in suites run or export
     from harness.cli import main
@@ -748,7 +766,8 @@ def test_an_empty_family_selection_is_refused(tmp_path, capsys):
     # no case at all, silently; a string was read letter by letter
     from harness.cli import main
 
-    for value in ("", " "):
+    # (a trial: a family named twice ended in generate's ValueError, a traceback)
+    for value in ("", " ", "cylinder,cylinder"):
         assert main(["corpus", "export", str(tmp_path / "e"), "--families", value]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "`--families`" in err[0], err

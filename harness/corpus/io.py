@@ -229,7 +229,9 @@ def export(cases: list[Case], folder: str | os.PathLike, generator: dict | None 
 
 # ----------------------------------------------------------------------------- reading
 def _get(d: Any, key: str, where: str, kind: type | tuple = object) -> Any:
-    if not isinstance(d, dict) or key not in d:
+    if not isinstance(d, dict):  # (a trial: a case given as a string read "missing key")
+        raise CorpusFormatError(f"{where}: expected an object, got {type(d).__name__}.")
+    if key not in d:
         raise CorpusFormatError(f"{where}: missing key `{key}`.")
     v = d[key]
     if kind is not object and not isinstance(v, kind):
@@ -537,6 +539,11 @@ def load(path: str | os.PathLike) -> tuple[dict, list[Case]]:
             shape_from_dict(o, f"{where}.obstacles[{j}]")
             for j, o in enumerate(_get(d, "obstacles", where, list))
         )
+        if not obstacles:  # (a trial: its truth's finite distance, to nothing, was taken)
+            raise CorpusFormatError(
+                f"{where}.obstacles: expected at least one obstacle (the truth's distance is"
+                " to them), got none."
+            )
         body = shape_from_dict(_get(d, "body", where, dict), f"{where}.body")
         if isinstance(body, HalfSpace):  # (a compound refuses one itself)
             raise CorpusFormatError(f"{where}.body: expected a bounded shape, got a plane.")
