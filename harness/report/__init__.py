@@ -84,7 +84,7 @@ def _read_run(run: Path) -> tuple[pd.DataFrame, dict]:
         )
     if not table.exists():
         holder = OutputLock(run).holder()
-        if holder and holder.endswith(", running a suite"):  # a first run still going
+        if holder and holder.endswith(f", {OutputLock.RUNNING}"):  # a first run still going
             # (its table is written when it ends)
             raise ReportError(
                 f"{run} has no results.parquet yet: a run is writing it ({holder}); report"

@@ -652,10 +652,11 @@ def scaling_section(doc: Document, df: pd.DataFrame, plt) -> None:
     if not len(rows):
         return
     doc.h("Cost against resolution")
-    sc = rows[numeric(rows, "cost") > 0]
+    cost = numeric(rows, "cost")
+    sc = rows[cost > 0]
     # (a trial: a method whose cost was 0, every pair cleared before any evaluation, was
     # missing from the figure and both tables without a word)
-    zero = rows[numeric(rows, "cost") == 0]
+    zero = rows[cost == 0]
     unseen = "; ".join(
         f"{method} at δ = {', '.join(f'{d * 1e3:g}' for d in sorted(set(g['delta'].astype(float))))} mm"
         for method, g in zero.groupby("method")

@@ -72,7 +72,10 @@ class OutputLock:
     The file's text names the holder for the message a second run prints.
     """
 
-    def __init__(self, folder: Path, doing: str = "running a suite"):
+    RUNNING = "running a suite"
+    """What a run's holder text says it does (``doing``); a report says another."""
+
+    def __init__(self, folder: Path, doing: str = RUNNING):
         self.folder = Path(folder)
         self.path = self.folder / ".lock"
         self.fd: int | None = None

@@ -75,11 +75,23 @@ def _other_code(worker: str, theirs: str, ours: str) -> str:
     )
 
 
+def _one_line(e: BaseException) -> str:
+    """An error's text on one line (a worker's error, Dask's reasons, can span lines)."""
+    return " ".join(str(e).split())
+
+
 def _cannot_run(e: BaseException) -> RunError:
-    why = " ".join(str(e).split())  # (a worker's error can span lines)
     return RunError(
-        f"The Dask workers cannot run rsmbench ({why}): install it in the workers' environment."
+        f"The Dask workers cannot run rsmbench ({_one_line(e)}): install it in the workers'"
+        " environment."
     )
+
+
+RESUME = "Every finished case is journalled: run the same command again to resume."
+
+
+def _lost(scheduler: str, e: BaseException) -> RunError:
+    return RunError(f"Lost the Dask scheduler {scheduler!r} ({_one_line(e)}). {RESUME}")
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -742,7 +754,6 @@ def _on_dask(
             pending = iter(work)
 
             code = code_digest()
-            resume = "Every finished case is journalled: run the same command again to resume."
             # the workers there now run this code (a review: an older copy's _run_unit, which
             # takes no digest, ended the run in a TypeError); later ones check each unit
             _check_workers_code(client, code)
@@ -779,10 +790,7 @@ def _on_dask(
                             failed += 1
                             if failed < 2:  # (one look may fail on a healthy cluster)
                                 continue
-                            why = " ".join(str(e).split())
-                            raise RunError(
-                                f"Lost the Dask scheduler {scheduler!r} ({why}). {resume}"
-                            ) from None
+                            raise _lost(scheduler, e) from None
                         for addr, n in now.items():  # workers that joined later run cases too
                             leg["workers"].setdefault(
                                 addr, {"host": get_address_host(addr), "nthreads": n}
@@ -798,7 +806,7 @@ def _on_dask(
                                 f"The Dask cluster {scheduler!r} has had no worker for"
                                 f" {NO_WORKERS:g} s: its workers died or left (a worker that cannot"
                                 " import rsmbench dies before its first case: see the workers'"
-                                f" logs). {resume}"
+                                f" logs). {RESUME}"
                             )
                     time.sleep(POLL)
                     continue
@@ -808,17 +816,14 @@ def _on_dask(
                         results = fut.result()
                     except KilledWorker as e:
                         raise RunError(
-                            f"A Dask worker died running {_unit_name(fut)} ({e}). {resume}"
+                            f"A Dask worker died running {_unit_name(fut)} ({e}). {RESUME}"
                         ) from None
                     except ImportError as e:
                         raise _cannot_run(e) from None
                     except OtherCodeError as e:  # (its message says what and where)
                         raise RunError(str(e)) from None
                     except CancelledError as e:  # the scheduler lost (a trial's traceback)
-                        why = " ".join(str(e).split())  # (Dask's reason spans lines)
-                        raise RunError(
-                            f"Lost the Dask scheduler {scheduler!r} ({why}). {resume}"
-                        ) from None
+                        raise _lost(scheduler, e) from None
                     except Exception:
                         # a worker that joined later with an older rsmbench fails before its
                         # own check (its _run_unit takes no digest: a TypeError); when some
